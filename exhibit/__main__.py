@@ -1,0 +1,3 @@
+from exhibit.cli import main
+
+raise SystemExit(main())

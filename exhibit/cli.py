@@ -1,0 +1,62 @@
+"""The `exhibit` command: one subcommand per module in exhibit.commands, each with its own help.
+
+A command module provides HELP (one line), add_arguments(parser) and run(args) -> exit code.
+ExhibitError becomes a one-line message and exit code 2; nothing else reaches the user as a traceback
+unless EXHIBIT_DEBUG=1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import os
+import sys
+
+from exhibit import __version__
+from exhibit.errors import ExhibitError
+
+# name -> module under exhibit.commands; the order is the order of `exhibit --help`.
+COMMANDS = {
+    "sweep": "sweep",
+}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="exhibit",
+        description="Surfaces living in four-dimensional space: a museum exhibit after "
+        "Hoffmann & Zhou, 'Visualization of Surfaces in Four-Dimensional Space'.",
+    )
+    parser.add_argument("--version", action="version", version=f"exhibit {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", title="commands")
+    for name, module_name in COMMANDS.items():
+        module = importlib.import_module(f"exhibit.commands.{module_name}")
+        cmd = sub.add_parser(name, help=module.HELP, description=module.HELP)
+        module.add_arguments(cmd)
+        cmd.set_defaults(_run=module.run)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return 2
+    try:
+        return int(args._run(args) or 0)
+    except ExhibitError as exc:
+        print(f"exhibit {args.command}: error: {exc}", file=sys.stderr)
+        return exc.exit_code
+    except KeyboardInterrupt:
+        return 130
+    except Exception as exc:  # last line of defence: one line for people, traceback on request
+        if os.environ.get("EXHIBIT_DEBUG") == "1":
+            raise
+        print(f"exhibit {args.command}: internal error: {type(exc).__name__}: {exc} "
+              "(set EXHIBIT_DEBUG=1 for a traceback)", file=sys.stderr)
+        return 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
