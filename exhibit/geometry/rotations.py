@@ -32,8 +32,9 @@ import math
 
 import numpy as np
 
-#: Relative size below which the two components that define an angle count as zero (gimbal lock).
-GIMBAL_TOLERANCE = 1e-12
+#: Size (relative to the column) below which the two components that define an angle count as
+#: zero: gimbal lock. A few ulps, so only rounding noise is dropped, never a real rotation.
+GIMBAL_TOLERANCE = 1e-14
 #: Largest |AᵀA - I| accepted by matrix_to_euler before it refuses the input as not a rotation.
 ORTHONORMAL_TOLERANCE = 1e-6
 
@@ -118,6 +119,8 @@ def _strip_last_axis(vector: np.ndarray) -> list[float]:
             theta = 0.0  # gimbal lock: this angle is free; later angles carry the rotation
         elif k == 1:
             theta = math.atan2(-a, b)  # full range (-π, π]
+            if theta <= -math.pi:  # atan2(-0.0, b < 0) gives -π; the range ends at +π
+                theta = math.pi
         else:
             theta = math.atan2(-abs(a), b)  # a is a norm (>= 0 up to rounding): range [-π, 0]
         c, s = math.cos(theta), math.sin(theta)
