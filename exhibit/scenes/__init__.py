@@ -1,0 +1,49 @@
+"""The exhibit's scenes, registered by name, and the paper's figures as (scene, preset) pairs."""
+
+from __future__ import annotations
+
+from exhibit.errors import ExhibitError
+from exhibit.scenes.base import Parameter, Preset, Scene
+from exhibit.scenes import hopf
+
+_REGISTRY: dict[str, Scene] = {}
+
+
+def register(scene: Scene) -> Scene:
+    if scene.name in _REGISTRY:
+        raise ValueError(f"scene {scene.name!r} is registered twice")
+    _REGISTRY[scene.name] = scene
+    return scene
+
+
+def names() -> list[str]:
+    return sorted(_REGISTRY)
+
+
+def get(name: str) -> Scene:
+    try:
+        return _REGISTRY[name]
+    except KeyError:
+        raise ExhibitError(f"no scene named {name!r} (scenes: {', '.join(names())})") from None
+
+
+#: The paper's figures: number -> (scene, preset).
+FIGURES: dict[int, tuple[str, str]] = {
+    6: ("hopf", "figure-6"),
+    7: ("hopf", "figure-7"),
+    8: ("hopf", "figure-8"),
+}
+
+
+def figure(number: int) -> tuple[Scene, Preset]:
+    if number not in FIGURES:
+        known = ", ".join(str(n) for n in sorted(FIGURES))
+        raise ExhibitError(f"no figure {number} (figures: {known})")
+    scene_name, preset_name = FIGURES[number]
+    scene = get(scene_name)
+    return scene, scene.preset(preset_name)
+
+
+register(hopf.SCENE)
+
+__all__ = ["FIGURES", "Parameter", "Preset", "Scene", "figure", "get", "names", "register"]

@@ -1,0 +1,92 @@
+"""What a scene is: a named, parameterised recipe for a Mesh4D, with words for visitors and
+preset views. Scenes know nothing of GL or devices."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+from exhibit.errors import ExhibitError
+from exhibit.geometry.view import ViewState
+from exhibit.surfaces.mesh import Mesh4D
+
+
+@dataclass(frozen=True)
+class Parameter:
+    name: str
+    default: float
+    minimum: float = -math.inf
+    maximum: float = math.inf
+    help: str = ""
+
+    def to_json(self) -> dict:
+        def finite(v):
+            return v if math.isfinite(v) else None
+        return {"name": self.name, "default": self.default, "minimum": finite(self.minimum),
+                "maximum": finite(self.maximum), "help": self.help}
+
+
+@dataclass(frozen=True)
+class Preset:
+    """A named view of a scene (e.g. one of the paper's figures), with parameter overrides."""
+
+    name: str
+    view: ViewState
+    params: Mapping[str, float] = field(default_factory=dict)
+    caption: str = ""
+
+
+@dataclass(frozen=True)
+class Scene:
+    name: str
+    title: str
+    caption: str
+    parameters: tuple[Parameter, ...]
+    build_mesh: Callable[[dict, int], Mesh4D]
+    view: ViewState = field(default_factory=ViewState)
+    presets: tuple[Preset, ...] = ()
+    #: Names of the four coordinates (e.g. x, y, u, v for the offset pipes; x, y, z, t for collisions).
+    axes: tuple[str, str, str, str] = ("x", "y", "z", "w")
+    default_resolution: int = 64
+
+    def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
+        """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""
+        values = {p.name: float(p.default) for p in self.parameters}
+        known = {p.name: p for p in self.parameters}
+        for key, raw in (overrides or {}).items():
+            if key not in known:
+                names = ", ".join(known) or "none"
+                raise ExhibitError(f"scene {self.name!r} has no parameter {key!r} "
+                                   f"(parameters: {names})")
+            try:
+                value = float(raw)
+            except (TypeError, ValueError):
+                raise ExhibitError(f"parameter {key}={raw!r} of scene {self.name!r} "
+                                   "is not a number") from None
+            p = known[key]
+            if not (math.isfinite(value) and p.minimum <= value <= p.maximum):
+                raise ExhibitError(f"parameter {key}={raw} of scene {self.name!r} must lie in "
+                                   f"[{p.minimum}, {p.maximum}]")
+            values[key] = value
+        return values
+
+    def preset(self, name: str) -> Preset:
+        for preset in self.presets:
+            if preset.name == name:
+                return preset
+        names = ", ".join(p.name for p in self.presets) or "none"
+        raise ExhibitError(f"scene {self.name!r} has no preset {name!r} (presets: {names})")
+
+    def build(self, overrides: Mapping[str, object] | None = None,
+              resolution: int | None = None) -> Mesh4D:
+        resolution = int(resolution or self.default_resolution)
+        if resolution < 4:
+            raise ExhibitError(f"resolution must be at least 4, got {resolution}")
+        return self.build_mesh(self.resolve(overrides), resolution)
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "title": self.title, "caption": self.caption,
+                "axes": list(self.axes),
+                "parameters": [p.to_json() for p in self.parameters],
+                "presets": [p.name for p in self.presets]}
