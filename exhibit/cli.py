@@ -18,6 +18,7 @@ from exhibit.errors import ExhibitError
 # name -> module under exhibit.commands; the order is the order of `exhibit --help`.
 COMMANDS = {
     "sweep": "sweep",
+    "bench": "bench",
 }
 
 
