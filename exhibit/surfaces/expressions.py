@@ -1,0 +1,283 @@
+"""Scalar functions of R^4 given as formulas: parsed safely, differentiated symbolically (sympy),
+evaluated vectorised (numpy) and bounded on boxes (interval arithmetic) for the polygonizer.
+
+Curators write f1, f2 in TOML scene files, so the parser accepts only arithmetic: numbers, the
+four coordinates, the scene's parameters, + - * / ^ (** works too), and a short list
+of functions. Nothing is ever passed to eval: the text goes through Python's ast parser and each
+node is translated by hand into a sympy expression, or rejected with its column.
+"""
+
+from __future__ import annotations
+
+import ast
+import math
+from dataclasses import dataclass
+from typing import Mapping, Sequence
+
+import numpy as np
+import sympy
+
+FUNCTIONS = {
+    "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "exp": sympy.exp, "log": sympy.log,
+    "sqrt": sympy.sqrt, "abs": sympy.Abs, "sinh": sympy.sinh, "cosh": sympy.cosh,
+    "tanh": sympy.tanh, "atan": sympy.atan,
+}
+CONSTANTS = {"pi": sympy.pi, "e": sympy.E}
+MAX_LENGTH = 2000
+MAX_EXPONENT = 64
+
+
+class ExpressionError(ValueError):
+    """A formula that cannot be accepted; the message names the column and the reason."""
+
+
+def parse_expression(text: str, variables: Sequence[str],
+                     parameters: Mapping[str, float] | None = None) -> sympy.Expr:
+    """Translate ``text`` into a sympy expression in ``variables`` with parameters substituted."""
+    parameters = dict(parameters or {})
+    if not isinstance(text, str) or not text.strip():
+        raise ExpressionError("the formula is empty")
+    if len(text) > MAX_LENGTH:
+        raise ExpressionError(f"the formula is longer than {MAX_LENGTH} characters")
+    try:
+        # '^' means power, as curators write it; as text '**' it also gets the power's precedence.
+        tree = ast.parse(text.strip().replace("^", "**"), mode="eval")
+    except SyntaxError as exc:
+        raise ExpressionError(f"syntax error at column {exc.offset}: {exc.msg}") from None
+    symbols = {name: sympy.Symbol(name, real=True) for name in variables}
+    clash = set(symbols) & (set(parameters) | set(FUNCTIONS) | set(CONSTANTS))
+    if clash:
+        raise ExpressionError(f"names used twice: {', '.join(sorted(clash))}")
+
+    def fail(node, reason):
+        raise ExpressionError(f"column {getattr(node, 'col_offset', 0) + 1}: {reason}")
+
+    def number(value, node):
+        if not math.isfinite(value) or abs(value) > 1e12:
+            fail(node, f"number {value!r} is out of range")
+        if float(value).is_integer() and abs(value) <= 10**6:
+            return sympy.Integer(int(value))
+        return sympy.Float(value)
+
+    def visit(node):
+        if isinstance(node, ast.Expression):
+            return visit(node.body)
+        if isinstance(node, ast.Constant):
+            if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
+                fail(node, f"{node.value!r} is not a number")
+            return number(node.value, node)
+        if isinstance(node, ast.Name):
+            if node.id in symbols:
+                return symbols[node.id]
+            if node.id in parameters:
+                return number(float(parameters[node.id]), node)
+            if node.id in CONSTANTS:
+                return CONSTANTS[node.id]
+            known = ", ".join(list(symbols) + sorted(parameters) + sorted(CONSTANTS))
+            fail(node, f"unknown name {node.id!r} (known: {known})")
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
+            operand = visit(node.operand)
+            return -operand if isinstance(node.op, ast.USub) else operand
+        if isinstance(node, ast.BinOp):
+            left, right = visit(node.left), visit(node.right)
+            op = node.op
+            if isinstance(op, ast.Add):
+                return left + right
+            if isinstance(op, ast.Sub):
+                return left - right
+            if isinstance(op, ast.Mult):
+                return left * right
+            if isinstance(op, ast.Div):
+                if right == 0:
+                    fail(node, "division by zero")
+                return left / right
+            if isinstance(op, ast.Pow):
+                if right.is_number and abs(float(right)) > MAX_EXPONENT:
+                    fail(node, f"exponent {right} is larger than {MAX_EXPONENT}")
+                return left**right
+            fail(node, f"operator {type(op).__name__} is not allowed (use + - * / ^ or **)")
+        if isinstance(node, ast.Call):
+            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
+                name = getattr(node.func, "id", "this")
+                fail(node, f"function {name!r} is not allowed (allowed: {', '.join(FUNCTIONS)})")
+            if node.keywords or len(node.args) != 1:
+                fail(node, f"{node.func.id} takes exactly one argument")
+            return FUNCTIONS[node.func.id](visit(node.args[0]))
+        fail(node, f"{type(node).__name__} is not allowed in a formula")
+
+    expression = visit(tree)
+    if not isinstance(expression, sympy.Expr):
+        raise ExpressionError("the formula is not a number-valued expression")
+    return expression
+
+
+# ---------------------------------------------------------------------------- interval arithmetic
+
+def _outward(lo, hi):
+    """Round the bounds outward by one ulp so floating point never shrinks an enclosure."""
+    return np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+
+
+def _mul(a, b):
+    products = np.stack([a[0] * b[0], a[0] * b[1], a[1] * b[0], a[1] * b[1]])
+    products = np.nan_to_num(products, nan=0.0)  # 0 * inf: the bound is 0 there
+    return _outward(products.min(axis=0), products.max(axis=0))
+
+
+def _integer_power(a, n: int):
+    lo, hi = a
+    if n == 0:
+        return np.ones_like(lo), np.ones_like(hi)
+    if n < 0:
+        return _reciprocal(_integer_power(a, -n))
+    plo, phi = lo**n, hi**n
+    if n % 2:  # odd: monotone
+        return _outward(plo, phi)
+    contains_zero = (lo <= 0) & (hi >= 0)
+    low = np.where(contains_zero, 0.0, np.minimum(plo, phi))
+    return _outward(low, np.maximum(plo, phi))
+
+
+def _reciprocal(a):
+    lo, hi = a
+    spans_zero = (lo <= 0) & (hi >= 0)
+    with np.errstate(divide="ignore"):
+        rlo, rhi = 1.0 / hi, 1.0 / lo
+    return (np.where(spans_zero, -np.inf, rlo), np.where(spans_zero, np.inf, rhi))
+
+
+def _monotone(function, a, domain_lo=-np.inf):
+    lo = np.maximum(a[0], domain_lo)
+    hi = np.maximum(a[1], domain_lo)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return _outward(function(lo), function(hi))
+
+
+def _periodic_extremes(lo, hi, phase):
+    """Whether lo..hi contains a point phase + 2πk (where sin or cos peaks)."""
+    k = np.ceil((lo - phase) / (2 * np.pi))
+    return phase + 2 * np.pi * k <= hi
+
+
+def _sin(a):
+    lo, hi = a
+    wide = (hi - lo) >= 2 * np.pi
+    slo, shi = np.sin(lo), np.sin(hi)
+    low = np.where(_periodic_extremes(lo, hi, -np.pi / 2) | wide, -1.0, np.minimum(slo, shi))
+    high = np.where(_periodic_extremes(lo, hi, np.pi / 2) | wide, 1.0, np.maximum(slo, shi))
+    return _outward(low, high)
+
+
+def _abs(a):
+    lo, hi = a
+    contains_zero = (lo <= 0) & (hi >= 0)
+    low = np.where(contains_zero, 0.0, np.minimum(np.abs(lo), np.abs(hi)))
+    return low, np.maximum(np.abs(lo), np.abs(hi))
+
+
+def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], lo: np.ndarray,
+                    hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Enclosure of expression over boxes [lo, hi] (shape (N, 4)): the natural interval extension.
+
+    Every value the expression takes in a box lies within the returned bounds (never a box with a
+    zero pruned); the bounds may be loose.
+    """
+    index = {symbol: i for i, symbol in enumerate(variables)}
+    count = lo.shape[0]
+    cache: dict = {}
+
+    def visit(e):
+        if e in cache:
+            return cache[e]
+        if e in index:
+            result = (lo[:, index[e]], hi[:, index[e]])
+        elif e.is_number:
+            value = float(e)
+            result = _outward(np.full(count, value), np.full(count, value))
+        elif isinstance(e, sympy.Add):
+            parts = [visit(arg) for arg in e.args]
+            result = _outward(sum(p[0] for p in parts), sum(p[1] for p in parts))
+        elif isinstance(e, sympy.Mul):
+            parts = [visit(arg) for arg in e.args]
+            result = parts[0]
+            for part in parts[1:]:
+                result = _mul(result, part)
+        elif isinstance(e, sympy.Pow):
+            base, exponent = e.args
+            if exponent.is_Integer:
+                result = _integer_power(visit(base), int(exponent))
+            elif exponent == sympy.Rational(1, 2):
+                result = _monotone(np.sqrt, visit(base), 0.0)
+            elif exponent.is_number:
+                p = float(exponent)
+                b = visit(base)
+                result = _monotone(lambda x: x**p, b, 0.0) if p > 0 else \
+                    _reciprocal(_monotone(lambda x: x ** (-p), b, 0.0))
+            else:  # x**y = exp(y log x)
+                result = visit(sympy.exp(exponent * sympy.log(base)))
+        elif isinstance(e, sympy.sin):
+            result = _sin(visit(e.args[0]))
+        elif isinstance(e, sympy.cos):
+            inner = visit(e.args[0])
+            result = _sin((inner[0] + np.pi / 2, inner[1] + np.pi / 2))
+        elif isinstance(e, sympy.exp):
+            result = _monotone(np.exp, visit(e.args[0]))
+        elif isinstance(e, sympy.log):
+            result = _monotone(np.log, visit(e.args[0]), 0.0)
+        elif isinstance(e, sympy.Abs):
+            result = _abs(visit(e.args[0]))
+        elif isinstance(e, (sympy.sinh, sympy.tanh, sympy.atan)):
+            function = {sympy.sinh: np.sinh, sympy.tanh: np.tanh, sympy.atan: np.arctan}[e.func]
+            result = _monotone(function, visit(e.args[0]))
+        elif isinstance(e, sympy.cosh):
+            result = _monotone(np.cosh, _abs(visit(e.args[0])))
+        else:  # tan and anything exotic: no useful bound, never prune on it
+            result = (np.full(count, -np.inf), np.full(count, np.inf))
+        cache[e] = result
+        return result
+
+    low, high = visit(expression)
+    return np.nan_to_num(low, nan=-np.inf), np.nan_to_num(high, nan=np.inf)
+
+
+# ---------------------------------------------------------------------------- compiled functions
+
+@dataclass
+class ScalarField:
+    """f: R^4 -> R with its gradient, vectorised, and box bounds for pruning."""
+
+    expression: sympy.Expr
+    symbols: tuple[sympy.Symbol, ...]
+
+    def __post_init__(self) -> None:
+        self.gradient_expressions = [sympy.diff(self.expression, s) for s in self.symbols]
+        self._value = sympy.lambdify(self.symbols, self.expression, modules="numpy")
+        self._gradient = [sympy.lambdify(self.symbols, g, modules="numpy")
+                          for g in self.gradient_expressions]
+
+    def value(self, points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=float)
+        out = self._value(*np.moveaxis(points, -1, 0))
+        return np.broadcast_to(np.asarray(out, dtype=float), points.shape[:-1]).copy()
+
+    def gradient(self, points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=float)
+        coords = np.moveaxis(points, -1, 0)
+        parts = [np.broadcast_to(np.asarray(g(*coords), dtype=float), points.shape[:-1])
+                 for g in self._gradient]
+        return np.stack(parts, axis=-1)
+
+    def bounds(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return interval_bounds(self.expression, self.symbols, lo, hi)
+
+
+def compile_field(text_or_expression, variables: Sequence[str],
+                  parameters: Mapping[str, float] | None = None) -> ScalarField:
+    """A ScalarField from a formula string (parsed safely) or a sympy expression."""
+    if isinstance(text_or_expression, str):
+        expression = parse_expression(text_or_expression, variables, parameters)
+    else:
+        expression = sympy.sympify(text_or_expression).subs(
+            {sympy.Symbol(k, real=True): v for k, v in (parameters or {}).items()})
+    symbols = tuple(sympy.Symbol(name, real=True) for name in variables)
+    return ScalarField(expression, symbols)

@@ -1,0 +1,268 @@
+"""Polygonizing implicit 2-surfaces f1 = f2 = 0 in a box of R^4, with cost that follows the output.
+
+1. Prune coarse-to-fine: a box is split into 16 children only while interval bounds say both f1
+   and f2 may vanish in it (bounds are conservative, so no box holding a zero is ever dropped).
+   Only about n² of the n⁴ cells survive. The grid is shifted by a random fraction of a cell
+   (seeded, so builds are repeatable) so no grid vertex or face sits exactly on a special point.
+2. Extract dual quads: in 4D the surface meets the grid's 2-faces (squares) in isolated points.
+   Each square is split along its Kuhn diagonal into two triangles; on a triangle the linear
+   interpolant of (f1, f2) vanishes at most once, decided exactly by a lexicographic perturbation
+   (F - (ε, ε²)), so every 3-face of the grid is crossed an even number of times and the mesh
+   closes. A square crossed an odd number of times yields one quad joining the vertices of the
+   four cells around it.
+3. Place each cell's vertex at the mean of its crossings, then Newton-project it onto the surface
+   with the minimum-norm step x <- x - Jᵀ(JJᵀ)⁻¹F. Where σ_min(J)/σ_max(J) is tiny the point is
+   singular: it keeps its piecewise-linear position and is reported.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from exhibit.surfaces.expressions import ScalarField
+from exhibit.surfaces.mesh import Material, Surface
+from exhibit.surfaces.singular import find_singular_points
+
+#: σ_min/σ_max of the Jacobian below which a vertex counts as a singular point.
+SINGULAR_RATIO = 1e-6
+NEWTON_ITERATIONS = 40
+#: Newton stops once max(|f1|, |f2|) at a vertex is below this (relative to the gradient size).
+NEWTON_TOLERANCE = 1e-13
+
+_PAIRS = list(itertools.combinations(range(4), 2))  # the 6 coordinate planes of a square
+_OTHERS = [tuple(d for d in range(4) if d not in pair) for pair in _PAIRS]
+_CHILD_OFFSETS = np.array(list(itertools.product((0, 1), repeat=4)), dtype=np.int64)
+_BITS = 15  # bits per integer grid coordinate in packed keys (grids up to 32768 cells)
+
+
+@dataclass
+class PolygonizeStats:
+    resolution: int
+    cells: int = 0
+    boxes_tested: int = 0
+    squares: int = 0
+    crossings: int = 0
+    singular_points: int = 0
+    unconverged: int = 0
+    max_residual: float = 0.0
+    seconds: float = 0.0
+    levels: list[int] = field(default_factory=list)
+
+
+@dataclass
+class ImplicitResult:
+    surface: Surface
+    stats: PolygonizeStats
+    singular_positions: np.ndarray
+
+
+def _pack(coords: np.ndarray, extra: np.ndarray | None = None) -> np.ndarray:
+    key = np.zeros(len(coords), dtype=np.int64)
+    for d in range(coords.shape[1]):
+        key = (key << _BITS) | coords[:, d].astype(np.int64)
+    if extra is not None:
+        key = (key << 3) | extra.astype(np.int64)
+    return key
+
+
+def _evaluate(f1: ScalarField, f2: ScalarField, points: np.ndarray) -> np.ndarray:
+    return np.stack([f1.value(points), f2.value(points)], axis=-1)
+
+
+def _prune(f1, f2, origin, h, size, domain_lo, domain_hi, stats, progress) -> np.ndarray:
+    """Integer coordinates of the unit cells whose closed boxes may hold a zero of (f1, f2)."""
+    boxes = np.zeros((1, 4), dtype=np.int64)
+    scale = size
+    while True:
+        lo = origin + boxes * (scale * h)
+        hi = lo + scale * h
+        inside = np.all((hi >= domain_lo) & (lo <= domain_hi), axis=1)
+        lo1, hi1 = f1.bounds(lo, hi)
+        lo2, hi2 = f2.bounds(lo, hi)
+        keep = inside & (lo1 <= 0) & (hi1 >= 0) & (lo2 <= 0) & (hi2 >= 0)
+        stats.boxes_tested += len(boxes)
+        boxes = boxes[keep]
+        stats.levels.append(len(boxes))
+        if progress:
+            progress(f"pruning: {len(boxes)} boxes of side {scale}")
+        if scale == 1 or len(boxes) == 0:
+            return boxes
+        boxes = (2 * boxes[:, None, :] + _CHILD_OFFSETS[None, :, :]).reshape(-1, 4)
+        scale //= 2
+
+
+def _labelled(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """For triangles with (f1, f2) at their corners, shape (T, 3, 2): whether the perturbed linear
+    interpolant vanishes inside, and the barycentric coordinates of the unperturbed zero.
+
+    Solves [1 1 1; F1; F2] λ = (1, ε, ε²): λ is positive for all small ε > 0 exactly when each row
+    of the inverse matrix is lexicographically positive. Computed with the adjugate so the test is
+    the same floating-point arithmetic wherever a triangle appears.
+    """
+    m = np.empty(values.shape[:1] + (3, 3))
+    m[:, 0, :] = 1.0
+    m[:, 1, :] = values[:, :, 0]
+    m[:, 2, :] = values[:, :, 1]
+    adj = np.empty_like(m)  # adj[i, j] = cofactor(j, i)
+    for i in range(3):
+        for j in range(3):
+            rows = [r for r in range(3) if r != j]
+            cols = [c for c in range(3) if c != i]
+            minor = (m[:, rows[0], cols[0]] * m[:, rows[1], cols[1]]
+                     - m[:, rows[0], cols[1]] * m[:, rows[1], cols[0]])
+            adj[:, i, j] = minor if (i + j) % 2 == 0 else -minor
+    det = np.einsum("tj,tj->t", m[:, 0, :], adj[:, :, 0])
+    sign = np.sign(det)[:, None, None]
+    signed = adj * sign  # rows of inverse * |det|
+    # lexicographic positivity of each row (first nonzero entry > 0)
+    first_nonzero = np.argmax(signed != 0, axis=2)
+    lead = np.take_along_axis(signed, first_nonzero[..., None], axis=2)[..., 0]
+    positive = np.all(lead > 0, axis=1) & (det != 0)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bary = adj[:, :, 0] / det[:, None]
+    bary = np.clip(np.nan_to_num(bary), 0.0, 1.0)
+    bary /= np.maximum(bary.sum(axis=1, keepdims=True), 1e-300)
+    return positive, bary
+
+
+def _newton(f1, f2, points, h_max, stats):
+    """Project points onto f1 = f2 = 0; return positions and the singular mask."""
+    x = points.copy()
+    start = points.copy()
+    singular = np.zeros(len(x), dtype=bool)
+    active = np.ones(len(x), dtype=bool)
+    for _ in range(NEWTON_ITERATIONS):
+        if not active.any():
+            break
+        idx = np.nonzero(active)[0]
+        xa = x[idx]
+        values = _evaluate(f1, f2, xa)
+        jac = np.stack([f1.gradient(xa), f2.gradient(xa)], axis=1)  # (A, 2, 4)
+        gram = jac @ np.transpose(jac, (0, 2, 1))  # (A, 2, 2)
+        eig = np.linalg.eigvalsh(gram)
+        ratio = np.sqrt(np.maximum(eig[:, 0], 0.0) / np.maximum(eig[:, 1], 1e-300))
+        is_singular = ratio < SINGULAR_RATIO
+        scale = np.sqrt(np.maximum(eig[:, 1], 1e-300))
+        done = np.max(np.abs(values), axis=1) <= NEWTON_TOLERANCE * np.maximum(scale, 1.0)
+        singular[idx[is_singular]] = True
+        ok = ~is_singular & ~done
+        if ok.any():
+            g = gram[ok]
+            step = np.einsum("aki,ak->ai", jac[ok], np.linalg.solve(g, values[ok][..., None])[..., 0])
+            x[idx[ok]] = xa[ok] - step
+        active[idx[is_singular | done]] = False
+    # Singular or runaway vertices keep their piecewise-linear position.
+    runaway = np.linalg.norm(x - start, axis=1) > 2.0 * h_max
+    stats.unconverged = int(np.sum(active & ~singular)) + int(np.sum(runaway & ~singular))
+    x[singular | runaway] = start[singular | runaway]
+    return x, singular
+
+
+def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi,
+               resolution: int, material: Material | None = None, seed: int = 0,
+               progress: Callable[[str], None] | None = None) -> ImplicitResult:
+    """Mesh {f1 = f2 = 0} within the box [domain_lo, domain_hi] at ``resolution`` cells per axis."""
+    started = time.perf_counter()
+    domain_lo = np.asarray(domain_lo, dtype=float)
+    domain_hi = np.asarray(domain_hi, dtype=float)
+    if domain_lo.shape != (4,) or domain_hi.shape != (4,) or np.any(domain_hi <= domain_lo):
+        raise ValueError(f"{name}: the box must have 4 increasing intervals")
+    if resolution < 2:
+        raise ValueError(f"{name}: resolution must be at least 2")
+    stats = PolygonizeStats(resolution=resolution)
+    h = (domain_hi - domain_lo) / resolution
+    shift = np.random.default_rng(seed).uniform(0.05, 0.95, size=4)
+    origin = domain_lo - shift * h  # the grid covers the box with one extra (partial) cell
+    size = 1 << math.ceil(math.log2(resolution + 1))
+    cells = _prune(f1, f2, origin, h, size, domain_lo, domain_hi, stats, progress)
+    stats.cells = len(cells)
+    empty = Surface(name, np.zeros((0, 4)), np.zeros((0, 2, 4)), np.zeros((0, 3)),
+                    material or Material())
+    if len(cells) == 0:
+        stats.seconds = time.perf_counter() - started
+        return ImplicitResult(empty, stats, np.zeros((0, 4)))
+
+    # Every square (2-face) of every surviving cell: base corner + which plane, deduplicated.
+    bases, planes = [], []
+    for p, (d1, d2) in enumerate(_OTHERS):
+        for i, j in itertools.product((0, 1), repeat=2):
+            offset = np.zeros(4, dtype=np.int64)
+            offset[d1], offset[d2] = i, j
+            bases.append(cells + offset)
+            planes.append(np.full(len(cells), p))
+    bases = np.concatenate(bases)
+    planes = np.concatenate(planes)
+    _, first = np.unique(_pack(bases, planes), return_index=True)
+    bases, planes = bases[first], planes[first]
+    stats.squares = len(bases)
+
+    # Corners v00, v10, v11, v01 of each square, evaluated once per grid vertex.
+    e = np.eye(4, dtype=np.int64)
+    pair = np.array(_PAIRS)[planes]
+    ea, eb = e[pair[:, 0]], e[pair[:, 1]]
+    corners = np.stack([bases, bases + ea, bases + ea + eb, bases + eb], axis=1)  # (S, 4, 4)
+    flat = corners.reshape(-1, 4)
+    keys, inverse = np.unique(_pack(flat), return_inverse=True)
+    unique_vertices = flat[np.unique(inverse, return_index=True)[1]]
+    values = _evaluate(f1, f2, origin + unique_vertices * h)[inverse.reshape(-1)].reshape(-1, 4, 2)
+    positions = origin + corners * h
+
+    # The two Kuhn triangles (v00, v10, v11) and (v00, v01, v11).
+    tri_index = np.array([[0, 1, 2], [0, 3, 2]])
+    crossed = np.zeros(len(bases), dtype=np.int64)
+    point_sum = np.zeros((len(bases), 4))
+    for tri in tri_index:
+        hit, bary = _labelled(values[:, tri, :])
+        crossed += hit
+        point_sum[hit] += np.einsum("sk,ski->si", bary[hit], positions[hit][:, tri, :])
+    odd = crossed % 2 == 1
+    stats.crossings = int(odd.sum())
+    if not odd.any():
+        stats.seconds = time.perf_counter() - started
+        return ImplicitResult(empty, stats, np.zeros((0, 4)))
+    crossing_points = point_sum[odd] / crossed[odd][:, None]
+
+    # The four cells around each crossed square, in cyclic order, and their vertices.
+    others = np.array(_OTHERS)[planes[odd]]
+    ed1, ed2 = e[others[:, 0]], e[others[:, 1]]
+    base = bases[odd]
+    ring = np.stack([base, base - ed1, base - ed1 - ed2, base - ed2], axis=1)  # (Q, 4, 4)
+    cell_keys, cell_index = np.unique(_pack(ring.reshape(-1, 4) + 1), return_inverse=True)
+    cell_index = cell_index.reshape(-1, 4)
+    vertex_count = len(cell_keys)
+    sums = np.zeros((vertex_count, 4))
+    counts = np.zeros(vertex_count)
+    np.add.at(sums, cell_index.ravel(), np.repeat(crossing_points, 4, axis=0))
+    np.add.at(counts, cell_index.ravel(), 1.0)
+    initial = sums / counts[:, None]
+
+    vertices, singular = _newton(f1, f2, initial, float(h.max()), stats)
+
+    # Split each quad along its shorter diagonal.
+    a, b, c, d = (cell_index[:, k] for k in range(4))
+    ac = np.linalg.norm(vertices[a] - vertices[c], axis=1)
+    bd = np.linalg.norm(vertices[b] - vertices[d], axis=1)
+    use_ac = ac <= bd
+    triangles = np.concatenate([
+        np.where(use_ac[:, None], np.stack([a, b, c], 1), np.stack([a, b, d], 1)),
+        np.where(use_ac[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1)),
+    ])
+
+    n1, n2 = f1.gradient(vertices), f2.gradient(vertices)
+    surface = Surface.from_normals(name, vertices, n1, n2, triangles, material)
+    surface.singular = singular
+    residual = np.max(np.abs(_evaluate(f1, f2, vertices[~singular])), axis=1) \
+        if np.any(~singular) else np.zeros(1)
+    stats.max_residual = float(residual.max()) if len(residual) else 0.0
+    if progress:
+        progress("searching for singular points")
+    singular_points = find_singular_points(f1, f2, vertices, float(h.max()))
+    stats.singular_points = len(singular_points)
+    stats.seconds = time.perf_counter() - started
+    return ImplicitResult(surface, stats, singular_points)

@@ -1,0 +1,82 @@
+"""Singular points of f1 = f2 = 0: where ∇f1 and ∇f2 are dependent and the surface may pinch,
+cross itself or end in a cusp (the paper's circle of singular points on the cusp's offset pipe).
+
+Mesh vertices only come near such points, so they are found by a search: from the vertices
+where the Jacobian is worst conditioned, Gauss-Newton drives f1, f2 and all six 2x2 minors of the
+Jacobian (rank < 2 exactly when they all vanish) to zero together.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import sympy
+
+from exhibit.surfaces.expressions import ScalarField
+
+#: Vertices whose σ_min/σ_max is below this multiple of the cell size start a search.
+SEED_RATIO_PER_CELL = 4.0
+ITERATIONS = 30
+TOLERANCE = 1e-10
+
+
+def jacobian_ratio(f1: ScalarField, f2: ScalarField, points: np.ndarray) -> np.ndarray:
+    """σ_min/σ_max of the 2x4 Jacobian at each point (0 at singular points)."""
+    jac = np.stack([f1.gradient(points), f2.gradient(points)], axis=1)
+    sv = np.linalg.svd(jac, compute_uv=False)
+    return np.where(sv[:, 0] > 0, sv[:, 1] / np.maximum(sv[:, 0], 1e-300), 0.0)
+
+
+class _SingularSystem:
+    """F(x) = (f1, f2, minors of J) with its symbolic Jacobian, lambdified once."""
+
+    def __init__(self, f1: ScalarField, f2: ScalarField):
+        g1, g2 = f1.gradient_expressions, f2.gradient_expressions
+        minors = [g1[i] * g2[j] - g1[j] * g2[i] for i, j in itertools.combinations(range(4), 2)]
+        equations = [f1.expression, f2.expression] + minors
+        symbols = f1.symbols
+        self._f = [sympy.lambdify(symbols, e, "numpy") for e in equations]
+        self._j = [[sympy.lambdify(symbols, sympy.diff(e, s), "numpy") for s in symbols]
+                   for e in equations]
+
+    def residual(self, x):
+        c = x.T
+        return np.stack([np.broadcast_to(np.asarray(f(*c), float), x.shape[:1]) for f in self._f], 1)
+
+    def jacobian(self, x):
+        c = x.T
+        return np.stack([np.stack([np.broadcast_to(np.asarray(d(*c), float), x.shape[:1])
+                                   for d in row], 1) for row in self._j], 1)
+
+
+def find_singular_points(f1: ScalarField, f2: ScalarField, vertices: np.ndarray,
+                         cell_size: float) -> np.ndarray:
+    """Singular points near the given mesh vertices (deduplicated to cell_size/4), shape (K, 4)."""
+    if len(vertices) == 0:
+        return np.zeros((0, 4))
+    ratio = jacobian_ratio(f1, f2, vertices)
+    seeds = vertices[ratio < SEED_RATIO_PER_CELL * cell_size]
+    if len(seeds) == 0:
+        return np.zeros((0, 4))
+    system = _SingularSystem(f1, f2)
+    x = seeds.copy()
+    for _ in range(ITERATIONS):
+        r = system.residual(x)
+        j = system.jacobian(x)
+        # Gauss-Newton: solve (JᵀJ + μI) δ = Jᵀr with a tiny damping for rank-deficient J.
+        jtj = np.einsum("aki,akj->aij", j, j)
+        jtr = np.einsum("aki,ak->ai", j, r)
+        mu = 1e-12 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] * np.eye(4)
+        delta = np.linalg.solve(jtj + mu + 1e-300 * np.eye(4), jtr[..., None])[..., 0]
+        x = x - delta
+    r = system.residual(x)
+    scale = 1.0 + np.abs(system.residual(seeds)).max(axis=1)
+    found = (np.abs(r).max(axis=1) <= TOLERANCE * scale) & \
+        (np.linalg.norm(x - seeds, axis=1) <= 3 * cell_size)
+    points = x[found]
+    if len(points) == 0:
+        return np.zeros((0, 4))
+    keys = np.round(points / (cell_size / 4)).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    return points[np.sort(first)]
