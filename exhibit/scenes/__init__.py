@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import Parameter, Preset, Scene
-from exhibit.scenes import hopf
+from exhibit.scenes import collision, hopf, offsets
 
 _REGISTRY: dict[str, Scene] = {}
 
@@ -32,6 +32,15 @@ FIGURES: dict[int, tuple[str, str]] = {
     6: ("hopf", "figure-6"),
     7: ("hopf", "figure-7"),
     8: ("hopf", "figure-8"),
+    9: ("offset-parabola", "figure-9"),
+    10: ("offset-parabola", "figure-10"),
+    11: ("offset-cusp", "figure-11"),
+    12: ("offset-cusp", "figure-12"),
+    13: ("offset-cusp-traced", "figure-13"),
+    14: ("offset-cusp-traced", "figure-14"),
+    15: ("collision", "figure-15"),
+    16: ("collision", "figure-16"),
+    17: ("collision", "figure-17"),
 }
 
 
@@ -44,6 +53,7 @@ def figure(number: int) -> tuple[Scene, Preset]:
     return scene, scene.preset(preset_name)
 
 
-register(hopf.SCENE)
+for _scene in (hopf.SCENE, offsets.PARABOLA, offsets.CUSP, offsets.TRACED, collision.SCENE):
+    register(_scene)
 
 __all__ = ["FIGURES", "Parameter", "Preset", "Scene", "figure", "get", "names", "register"]

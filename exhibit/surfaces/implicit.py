@@ -131,8 +131,13 @@ def _labelled(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return positive, bary
 
 
-def _newton(f1, f2, points, h_max, stats):
-    """Project points onto f1 = f2 = 0; return positions and the singular mask."""
+def project_onto(fields, points: np.ndarray, max_move: float):
+    """Newton-project points onto {f = 0 for f in fields} with the minimum-norm step
+    x <- x - Jᵀ(JJᵀ)⁻¹F (k fields, k <= 4).
+
+    Returns (positions, singular, unconverged): where σ_min/σ_max of J falls below
+    SINGULAR_RATIO, or a point would move more than ``max_move``, it keeps its start position.
+    """
     x = points.copy()
     start = points.copy()
     singular = np.zeros(len(x), dtype=bool)
@@ -142,26 +147,24 @@ def _newton(f1, f2, points, h_max, stats):
             break
         idx = np.nonzero(active)[0]
         xa = x[idx]
-        values = _evaluate(f1, f2, xa)
-        jac = np.stack([f1.gradient(xa), f2.gradient(xa)], axis=1)  # (A, 2, 4)
-        gram = jac @ np.transpose(jac, (0, 2, 1))  # (A, 2, 2)
+        values = np.stack([f.value(xa) for f in fields], axis=-1)  # (A, k)
+        jac = np.stack([f.gradient(xa) for f in fields], axis=1)  # (A, k, 4)
+        gram = jac @ np.transpose(jac, (0, 2, 1))  # (A, k, k)
         eig = np.linalg.eigvalsh(gram)
-        ratio = np.sqrt(np.maximum(eig[:, 0], 0.0) / np.maximum(eig[:, 1], 1e-300))
+        ratio = np.sqrt(np.maximum(eig[:, 0], 0.0) / np.maximum(eig[:, -1], 1e-300))
         is_singular = ratio < SINGULAR_RATIO
-        scale = np.sqrt(np.maximum(eig[:, 1], 1e-300))
+        scale = np.sqrt(np.maximum(eig[:, -1], 1e-300))
         done = np.max(np.abs(values), axis=1) <= NEWTON_TOLERANCE * np.maximum(scale, 1.0)
         singular[idx[is_singular]] = True
         ok = ~is_singular & ~done
         if ok.any():
-            g = gram[ok]
-            step = np.einsum("aki,ak->ai", jac[ok], np.linalg.solve(g, values[ok][..., None])[..., 0])
-            x[idx[ok]] = xa[ok] - step
+            solved = np.linalg.solve(gram[ok], values[ok][..., None])[..., 0]
+            x[idx[ok]] = xa[ok] - np.einsum("aki,ak->ai", jac[ok], solved)
         active[idx[is_singular | done]] = False
-    # Singular or runaway vertices keep their piecewise-linear position.
-    runaway = np.linalg.norm(x - start, axis=1) > 2.0 * h_max
-    stats.unconverged = int(np.sum(active & ~singular)) + int(np.sum(runaway & ~singular))
+    runaway = np.linalg.norm(x - start, axis=1) > max_move
+    unconverged = (active | runaway) & ~singular
     x[singular | runaway] = start[singular | runaway]
-    return x, singular
+    return x, singular, unconverged
 
 
 def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi,
@@ -242,7 +245,8 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     np.add.at(counts, cell_index.ravel(), 1.0)
     initial = sums / counts[:, None]
 
-    vertices, singular = _newton(f1, f2, initial, float(h.max()), stats)
+    vertices, singular, unconverged = project_onto((f1, f2), initial, 2.0 * float(h.max()))
+    stats.unconverged = int(unconverged.sum())
 
     # Split each quad along its shorter diagonal.
     a, b, c, d = (cell_index[:, k] for k in range(4))
