@@ -34,6 +34,7 @@
 
 static avr_t *avr;
 static int master_fd = -1;
+static double sim_seconds(void);
 static double speed = 1.0;
 static int running, quitting;
 
@@ -49,8 +50,15 @@ static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param)
     (void)irq, (void)param;
     uint8_t b = (uint8_t)value;
     /* Non-blocking: with nobody reading, the pty fills and bytes are lost, like on a wire. */
-    if (write(master_fd, &b, 1) < 0 && errno != EAGAIN)
+    static int dropping;
+    if (write(master_fd, &b, 1) == 1) {
+        dropping = 0;
+    } else if (errno != EAGAIN) {
         perror("harness: pty write");
+    } else if (!dropping) {
+        dropping = 1; /* once per burst: the log says where a reader fell behind */
+        fprintf(stderr, "harness: pty full, dropping bytes at %.3f s\n", sim_seconds());
+    }
 }
 
 static void uart_xon_hook(struct avr_irq_t *irq, uint32_t value, void *param)

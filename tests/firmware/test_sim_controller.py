@@ -1,0 +1,327 @@
+"""Firmware in the loop: the built controller .elf runs in simavr (firmware/sim/harness.c), which
+drives its ADC pins and button pins and bridges its UART to a pseudo-terminal. The test opens that
+pty with pyserial, as the exhibit opens the real board, and decodes what arrives with
+exhibit.devices.protocol.
+
+Simulated time runs at SPEED times real time; every timing check uses the device's own clock
+(heartbeat uptime, axes t_ms), so a slow CI machine makes the test slower, not flaky."""
+
+from __future__ import annotations
+
+import queue
+import subprocess
+import threading
+import time
+
+import pytest
+
+from exhibit.devices import protocol as p
+
+from .conftest import require
+
+SPEED = 8
+VCC_MV = 5000
+REST_MV = 2500
+# Controller scaling constants (firmware/controller/config.h, documented in PROTOCOL.md).
+DEADZONE_C16, EDGE_C16, C16_MAX = 12 * 16, 16 * 16, 1023 * 16
+BUTTON_PINS = {1: 2, 2: 3, 3: 4, 4: 5}  # button -> PDn
+
+
+def c16(mv: int) -> int:
+    """What the 10-bit ADC reads for mv millivolts, in the firmware's 1/16-count unit."""
+    return mv * 1023 // VCC_MV * 16
+
+
+def expected_axis(mv: int, zero: int) -> int:
+    d = c16(mv) - zero
+    span = C16_MAX - zero if d >= 0 else zero
+    mag, rng = abs(d) - DEADZONE_C16, span - DEADZONE_C16 - EDGE_C16
+    out = 0 if mag <= 0 else min(p.AXIS_FULL_SCALE, round(mag * p.AXIS_FULL_SCALE / rng))
+    return out if d >= 0 else -out
+
+
+# One ADC count is about 68 units of the +-32767 scale; allow two for the ADC's rounding.
+AXIS_TOL = 2 * 16 * p.AXIS_FULL_SCALE // (C16_MAX // 2)
+
+
+class Sim:
+    """The harness process: commands on stdin, replies and reset notices on stdout."""
+
+    def __init__(self, harness, elf, log):
+        self.log = open(log, "w")
+        self.proc = subprocess.Popen([str(harness), "--speed", str(SPEED), str(elf)],
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                     stderr=self.log, text=True, bufsize=1)
+        self.replies: queue.Queue[str] = queue.Queue()
+        self.resets: list[float] = []  # simulated seconds
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+        line = self.replies.get(timeout=10)
+        assert line.startswith("pty "), line
+        self.pty = line.split(" ", 1)[1]
+
+    def _read(self):
+        for line in self.proc.stdout:
+            line = line.strip()
+            if line.startswith("reset at "):
+                self.resets.append(int(line.split()[-1]) / 1e6)
+            else:
+                self.replies.put(line)
+
+    def cmd(self, text: str) -> str:
+        self.proc.stdin.write(text + "\n")
+        self.proc.stdin.flush()
+        reply = self.replies.get(timeout=10)
+        assert reply.startswith("ok"), f"{text!r}: {reply}"
+        return reply
+
+    def adc(self, ch: int, mv: int):
+        self.cmd(f"adc {ch} {mv}")
+
+    def button(self, n: int, pressed: bool):
+        self.cmd(f"pin D {BUTTON_PINS[n]} {0 if pressed else 1}")  # active low
+
+    def sim_time(self) -> float:
+        return int(self.cmd("time").split()[-1]) / 1e6
+
+    def close(self):
+        if self.proc.poll() is None:
+            try:
+                self.cmd("quit")
+            except (AssertionError, BrokenPipeError, queue.Empty):
+                pass
+        try:
+            self.proc.wait(timeout=5)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self.proc.stdin.close()
+        self.proc.stdout.close()
+        self.log.close()
+
+
+class Host:
+    """The exhibit's side: the pty opened with pyserial, bytes through the StreamDecoder."""
+
+    def __init__(self, path):
+        import serial
+
+        self.port = serial.Serial(path, 115200, timeout=0.02)
+        self.decoder = p.StreamDecoder()
+        self.tracker = p.SequenceTracker()
+        self.frames: list[p.Frame] = []
+        self._unseen: list[p.Frame] = []  # decoded, not yet looked at by wait_for
+        self.seq = 0
+
+    def wait_for(self, pred, timeout=15.0, what="frame") -> p.Frame:
+        """Reads until a frame satisfying pred arrives (frames before it are kept in .frames)."""
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if not self._unseen:
+                self._unseen = [i for i in self.decoder.feed(self.port.read(4096))
+                                if isinstance(i, p.Frame)]
+            while self._unseen:
+                frame = self._unseen.pop(0)
+                self.tracker.update(frame)
+                self.frames.append(frame)
+                if pred(frame):
+                    return frame
+        raise AssertionError(f"no {what} within {timeout} s; decoder {self.decoder.summary()}, "
+                             f"last frames {self.frames[-3:]}")
+
+    def wait_type(self, cls, pred=lambda m: True, **kw):
+        return self.wait_for(lambda f: isinstance(f.message, cls) and pred(f.message),
+                             what=cls.__name__, **kw)
+
+    def collect(self, n, cls=None) -> list[p.Frame]:
+        start = len(self.frames)
+        self.wait_for(lambda f: len(self.frames) - start >= n and (cls is None or
+                      sum(isinstance(g.message, cls) for g in self.frames[start:]) >= n))
+        return [f for f in self.frames[start:] if cls is None or isinstance(f.message, cls)]
+
+    def send(self, msg: p.Message):
+        self.port.write(p.encode_frame(msg, self.seq))
+        self.seq += 1
+
+    def close(self):
+        self.port.close()
+
+
+@pytest.fixture(scope="module")
+def board(harness, avr_build, tmp_path_factory):
+    require("firmware-in-the-loop tests", [], "python3-serial (pyserial)")
+    sim = Sim(harness, avr_build / "controller" / "controller.elf",
+              tmp_path_factory.mktemp("sim") / "harness.log")
+    host = None
+    try:
+        for ch in range(6):
+            sim.adc(ch, REST_MV)
+        for b in BUTTON_PINS:
+            sim.button(b, False)
+        host = Host(sim.pty)  # opened before the CPU starts: the boot frames are seen
+        sim.cmd("run")
+        boot_cal = host.wait_type(p.Calibration)
+        yield sim, host, boot_cal
+    finally:
+        if host:
+            host.close()
+        sim.close()
+
+
+def rest(sim, host, mv=REST_MV):
+    """All sticks to mv, buttons released, and wait until the board is idle again."""
+    for ch in range(6):
+        sim.adc(ch, mv)
+    for b in BUTTON_PINS:
+        sim.button(b, False)
+    host.wait_type(p.Heartbeat)
+
+
+def settled_axes(host, pred=lambda a: True) -> p.Axes:
+    """The first axes frame after the filters settled (60 frames: (3/4)^60 of the step is left)."""
+    host.collect(60, p.Axes)
+    return host.wait_type(p.Axes, pred).message
+
+
+def test_boot_sends_hello_then_power_up_calibration(board):
+    sim, host, boot_cal = board
+    hello, cal = host.frames[0], host.frames[1]
+    assert (hello.seq, cal.seq) == (0, 1)
+    assert hello.message == p.Hello((1, 0, 0), 1, 6, 4, 100, 250, p.ResetCause.POWER_ON)
+    assert cal.message is boot_cal.message
+    assert cal.message.reason is p.CalibrationReason.POWER_UP
+    assert cal.message.eeprom_mask == 0  # the EEPROM holds no record yet
+    assert all(abs(z - c16(REST_MV)) <= 16 for z in cal.message.zeros)
+    assert host.decoder.rejected == 0
+
+
+def test_idle_heartbeat_every_250_ms_and_nothing_else(board):
+    sim, host, _ = board
+    rest(sim, host)
+    start = len(host.frames)
+    beats = host.collect(4, p.Heartbeat)
+    assert all(isinstance(f.message, p.Heartbeat) for f in host.frames[start:])
+    gaps = [b.message.uptime_ms - a.message.uptime_ms for a, b in zip(beats, beats[1:])]
+    assert gaps == [250, 250, 250]
+    assert [b.seq for b in beats] == [(beats[0].seq + i) & 0xFF for i in range(4)]
+
+
+def test_axes_follow_the_injected_voltages(board):
+    sim, host, boot_cal = board
+    rest(sim, host)
+    zeros = boot_cal.message.zeros
+    volts = [4000, 1000, REST_MV + 30, 500, VCC_MV, 2000]  # axis 2 stays inside the dead zone
+    for ch, mv in enumerate(volts):
+        sim.adc(ch, mv)
+    axes = settled_axes(host)
+    want = [expected_axis(mv, z) for mv, z in zip(volts, zeros)]
+    assert axes.axes[2] == 0 and axes.axes[4] == p.AXIS_FULL_SCALE
+    assert all(abs(a - w) <= AXIS_TOL for a, w in zip(axes.axes, want)), (axes.axes, want)
+    assert want[0] > 15000 and want[3] < -25000  # the check above is not vacuous
+
+    # 100 Hz by the device clock, no frame lost on the way
+    frames = host.collect(20, p.Axes)
+    assert {(b.message.t_ms - a.message.t_ms) & 0xFFFF for a, b in zip(frames, frames[1:])} == {10}
+    assert all((b.seq - a.seq) & 0xFF == 1 for a, b in zip(frames, frames[1:]))
+    assert host.tracker.lost == 0 and host.decoder.rejected == 0
+
+
+def test_release_lingers_with_zeros_then_heartbeats(board):
+    sim, host, _ = board
+    rest(sim, host)
+    sim.adc(0, 4500)
+    host.wait_type(p.Axes, lambda a: a.axes[0] > 20000)
+    sim.adc(0, REST_MV)
+    start = len(host.frames)
+    beat = host.wait_type(p.Heartbeat)
+    after = host.frames[start:-1]
+    last_moving = max(i for i, f in enumerate(after) if any(f.message.axes))
+    zeros = after[last_moving + 1 :]
+    assert len(zeros) == 50  # LINGER_MS / 10 ms of all-zero frames: the host sees the release
+    assert all(f.message.axes == (0,) * 6 for f in zeros)
+    assert (beat.message.uptime_ms - zeros[-1].message.t_ms) & 0xFFFF == 250
+
+
+def test_buttons_are_debounced_and_reported(board):
+    sim, host, _ = board
+    rest(sim, host)
+    sim.button(3, True)
+    pressed = host.wait_type(p.Axes, lambda a: a.buttons)
+    assert pressed.message.buttons == 0b0100 and pressed.message.axes == (0,) * 6
+    sim.button(3, False)
+    host.wait_type(p.Axes, lambda a: a.buttons == 0)
+    host.wait_type(p.Heartbeat)  # back to idle: a pressed button alone kept it active
+
+
+def test_host_commands_and_receive_counters(board):
+    sim, host, _ = board
+    rest(sim, host)
+    before = host.wait_type(p.Heartbeat).message
+    host.send(p.HelloRequest())
+    hello = host.wait_type(p.Hello).message
+    assert hello.reset_cause == p.ResetCause.POWER_ON and hello.firmware == (1, 0, 0)
+    bad = bytearray(p.encode_frame(p.HelloRequest(), 9))
+    bad[2] ^= 0x01
+    host.port.write(b"\x13\x37\x00" + bytes(bad) + p.encode_raw(p.MsgType.HEARTBEAT, 1, b"", version=9))
+    after = host.wait_type(p.Heartbeat, lambda h: h.rx_rejected >= before.rx_rejected + 3).message
+    assert after.rx_ok == before.rx_ok + 1 and after.rx_rejected == before.rx_rejected + 3
+
+
+def test_host_calibration_survives_a_watchdog_reset(board):
+    """Calibrate at an off-centre rest, then hang the firmware with the stick held: the watchdog
+    resets it, it says so in its hello, and keeps the stored zero for the held axis only."""
+    sim, host, boot_cal = board
+    rest(sim, host)
+    sim.adc(0, 2700)
+    host.wait_type(p.Axes)
+    settled_axes(host)
+    host.send(p.Calibrate())
+    cal = host.wait_type(p.Calibration, lambda c: c.reason is p.CalibrationReason.HOST).message
+    assert abs(cal.zeros[0] - c16(2700)) <= 16 and cal.eeprom_mask == 0
+    assert cal.zeros[1:] == boot_cal.message.zeros[1:]
+    host.wait_type(p.Heartbeat)  # 2.7 V is the new rest: the board goes idle
+
+    sim.adc(0, 4000)  # a visitor holds the stick ...
+    held = settled_axes(host).axes[0]
+    assert abs(held - expected_axis(4000, cal.zeros[0])) <= AXIS_TOL
+
+    frames_before, t_cmd = len(host.frames), sim.sim_time()
+    host.send(p.WatchdogTest())  # ... while the firmware hangs
+    hello = host.wait_type(p.Hello)
+    assert hello.seq == 0 and hello.message.reset_cause == p.ResetCause.WATCHDOG
+    assert len(sim.resets) == 1 and 0.2 <= sim.resets[0] - t_cmd <= 0.35  # WDTO_250MS
+    boot = host.wait_type(p.Calibration).message
+    assert boot.reason is p.CalibrationReason.POWER_UP
+    assert boot.eeprom_mask == 0b000001  # axis 0 held at power-up: stored zero kept
+    assert boot.zeros[0] == cal.zeros[0]
+    assert all(abs(z - c16(REST_MV)) <= 16 for z in boot.zeros[1:])
+    again = settled_axes(host).axes[0]
+    assert abs(again - held) <= AXIS_TOL  # same reading as before the reset
+    assert host.tracker.restarts == 1
+    assert all(not isinstance(f.message, p.Hello) or f is hello for f in host.frames[frames_before:])
+    # anything cut off by the reset was rejected, never accepted
+    assert host.decoder.rejected <= 1
+
+    sim.adc(0, REST_MV)  # leave the board calibrated at the common rest for the other tests
+    settled_axes(host)
+    host.send(p.Calibrate())
+    host.wait_type(p.Calibration, lambda c: c.reason is p.CalibrationReason.HOST)
+    host.wait_type(p.Heartbeat)
+
+
+def test_button_gesture_stores_the_zero(board):
+    sim, host, _ = board
+    rest(sim, host)
+    sim.adc(1, 2300)
+    settled_axes(host)
+    sim.button(1, True)
+    sim.button(2, True)
+    t0 = host.wait_type(p.Axes, lambda a: a.buttons == 0b11).message.t_ms
+    cal = host.wait_type(p.Calibration, timeout=30).message
+    t1 = host.wait_type(p.Axes).message.t_ms
+    assert cal.reason is p.CalibrationReason.BUTTONS
+    assert abs(cal.zeros[1] - c16(2300)) <= 16
+    assert 2990 <= (t1 - t0) & 0xFFFF <= 3030  # held 3 s
+    sim.button(1, False)
+    sim.button(2, False)
+    host.wait_type(p.Heartbeat)  # 2.3 V on axis 1 now reads as rest
