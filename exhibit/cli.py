@@ -18,6 +18,10 @@ from exhibit.errors import ExhibitError
 # name -> module under exhibit.commands; the order is the order of `exhibit --help`.
 COMMANDS = {
     "sweep": "sweep",
+    "scenes": "scenes",
+    "inspect": "inspect",
+    "collide": "collide",
+    "silhouette": "silhouette",
     "bench": "bench",
 }
 

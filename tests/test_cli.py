@@ -1,8 +1,6 @@
 """The `exhibit` command as a user meets it: help, version, one-line errors with exit code 2."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
@@ -10,19 +8,15 @@ from exhibit import __version__
 from exhibit.cli import COMMANDS, main
 
 
-def run_cli(*args):
-    return subprocess.run([sys.executable, "-m", "exhibit", *args], capture_output=True, text=True)
-
-
-def test_help_lists_every_subcommand():
-    result = run_cli("--help")
+def test_help_lists_every_subcommand(cli):
+    result = cli("--help")
     assert result.returncode == 0
     for name in COMMANDS:
         assert name in result.stdout
 
 
-def test_version():
-    result = run_cli("--version")
+def test_version(cli):
+    result = cli("--version")
     assert result.returncode == 0
     assert result.stdout.strip() == f"exhibit {__version__}"
 
@@ -37,8 +31,8 @@ def test_no_command_prints_help_and_exits_2(capsys):
     (["sweep", "--distances", "-1"], "must be positive"),
     (["sweep", "--samples", "2"], "at least 8"),
 ])
-def test_bad_arguments_give_one_line_and_exit_2(args, fragment):
-    result = run_cli(*args)
+def test_bad_arguments_give_one_line_and_exit_2(cli, args, fragment):
+    result = cli(*args)
     assert result.returncode == 2
     assert fragment in result.stderr
     assert "Traceback" not in result.stderr

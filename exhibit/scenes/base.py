@@ -90,3 +90,27 @@ class Scene:
                 "axes": list(self.axes),
                 "parameters": [p.to_json() for p in self.parameters],
                 "presets": [p.name for p in self.presets]}
+
+
+def parse_overrides(items: list[str] | None) -> dict[str, str]:
+    """`--param k=v` arguments as a dict (values are checked later by Scene.resolve)."""
+    overrides: dict[str, str] = {}
+    for item in items or []:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip() or not value.strip():
+            raise ExhibitError(f"--param expects NAME=VALUE, got {item!r}")
+        overrides[key.strip()] = value.strip()
+    return overrides
+
+
+def parse_resolution(text) -> int | None:
+    """`--resolution N`: None (the scene's default) or an integer from 4 to 1024."""
+    if text is None:
+        return None
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        raise ExhibitError(f"--resolution must be a whole number, got {text!r}") from None
+    if not 4 <= value <= 1024:
+        raise ExhibitError(f"--resolution must lie between 4 and 1024, got {value}")
+    return value

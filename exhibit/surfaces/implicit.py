@@ -25,6 +25,7 @@ from typing import Callable
 
 import numpy as np
 
+from exhibit.surfaces import progress as progress_line
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.mesh import Material, Surface
 from exhibit.surfaces.singular import find_singular_points
@@ -172,6 +173,9 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
                progress: Callable[[str], None] | None = None) -> ImplicitResult:
     """Mesh {f1 = f2 = 0} within the box [domain_lo, domain_hi] at ``resolution`` cells per axis."""
     started = time.perf_counter()
+    if progress is None:
+        def progress(message: str) -> None:
+            progress_line.report(f"{name}: {message}")
     domain_lo = np.asarray(domain_lo, dtype=float)
     domain_hi = np.asarray(domain_hi, dtype=float)
     if domain_lo.shape != (4,) or domain_hi.shape != (4,) or np.any(domain_hi <= domain_lo):
@@ -269,4 +273,7 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     singular_points = find_singular_points(f1, f2, vertices, float(h.max()))
     stats.singular_points = len(singular_points)
     stats.seconds = time.perf_counter() - started
+    surface.info = {"kind": "implicit", "max_residual": stats.max_residual,
+                    "singular_points": stats.singular_points, "seconds": stats.seconds,
+                    "resolution": resolution, "cells": stats.cells}
     return ImplicitResult(surface, stats, singular_points)

@@ -54,6 +54,8 @@ class Surface:
     triangles: np.ndarray  # (T, 3) int32
     material: Material = field(default_factory=Material)
     singular: np.ndarray | None = None  # (V,) bool
+    #: How the part was made (kind, max_residual, singular_points, seconds, ...), for `inspect`.
+    info: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 4)
@@ -160,7 +162,8 @@ class Mesh4D:
             arrays[f"s{i}_normals"] = s.normals
             arrays[f"s{i}_triangles"] = s.triangles
             arrays[f"s{i}_singular"] = s.singular
-            manifest["surfaces"].append({"name": s.name, "material": s.material.to_json()})
+            manifest["surfaces"].append({"name": s.name, "material": s.material.to_json(),
+                                         "info": s.info})
         for i, c in enumerate(self.curves):
             arrays[f"c{i}_points"] = c.points
             manifest["curves"].append({"name": c.name, "material": c.material.to_json(),
@@ -187,7 +190,7 @@ class Mesh4D:
                     mesh.surfaces.append(Surface(
                         s["name"], archive[f"s{i}_positions"], archive[f"s{i}_normals"],
                         archive[f"s{i}_triangles"], Material(**s["material"]),
-                        archive[f"s{i}_singular"]))
+                        archive[f"s{i}_singular"], dict(s.get("info", {}))))
                 for i, c in enumerate(manifest["curves"]):
                     mesh.curves.append(Curve(c["name"], archive[f"c{i}_points"],
                                              Material(**c["material"]), c["closed"]))

@@ -8,6 +8,7 @@ crack-free by construction: every edge belongs to the same grid line on both sid
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass
 from typing import Callable
 
@@ -98,6 +99,7 @@ def tessellate(name: str, function: PointFunction, s_interval: Interval, t_inter
                resolution: tuple[int, int], tangents: TangentFunction | None = None,
                material: Material | None = None, adaptive: bool = True) -> Surface:
     """A Surface sampling X(s, t) on a rows x cols grid; tangents analytic when given."""
+    started = time.perf_counter()
     rows, cols = resolution
     if rows < 2 or cols < 2:
         raise ValueError(f"{name}: resolution must be at least 2 x 2, got {rows} x {cols}")
@@ -116,5 +118,9 @@ def tessellate(name: str, function: PointFunction, s_interval: Interval, t_inter
     positions = function(S, T).reshape(-1, 4)
     t1, t2 = tangents(S, T)
     triangles = grid_triangles(rows, cols, s_interval.periodic, t_interval.periodic)
-    return Surface.from_tangents(name, positions, t1.reshape(-1, 4), t2.reshape(-1, 4), triangles,
-                                 material)
+    surface = Surface.from_tangents(name, positions, t1.reshape(-1, 4), t2.reshape(-1, 4),
+                                    triangles, material)
+    surface.info = {"kind": "parametric", "max_residual": None, "singular_points":
+                    int(surface.singular.sum()), "seconds": time.perf_counter() - started,
+                    "resolution": [rows, cols]}
+    return surface

@@ -1,0 +1,69 @@
+"""`exhibit scenes`, `inspect`, `collide` and `silhouette` as installers and curators use them."""
+
+import json
+
+import pytest
+
+from exhibit.cli import main
+from exhibit.scenes import collision
+
+
+def run_json(capsys, *args):
+    assert main(list(args)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_scenes_json_lists_names_titles_parameters(capsys):
+    listing = run_json(capsys, "scenes", "--json")["scenes"]
+    names = {s["name"] for s in listing}
+    assert {"hopf", "offset-parabola", "offset-cusp", "collision"} <= names
+    collision_entry = next(s for s in listing if s["name"] == "collision")
+    assert [p["name"] for p in collision_entry["parameters"]] == ["rc", "rs", "vc", "vs"]
+    assert all(s["title"] and s["caption"] for s in listing)
+
+
+def test_inspect_reports_every_key(capsys):
+    parts = run_json(capsys, "inspect", "collision", "--param", "rs=0.7", "--param", "vc=0.2",
+                     "--resolution", "16", "--json")["parts"]
+    keys = {"name", "kind", "vertices", "triangles", "components", "euler_characteristic",
+            "boundary_edges", "nonmanifold_edges", "max_residual", "singular_points", "seconds"}
+    assert set(parts[0]) == keys
+    assert parts[0]["components"] == 2 and parts[0]["euler_characteristic"] == 4
+    assert parts[0]["max_residual"] <= 1e-9 and parts[0]["boundary_edges"] == 0
+
+
+@pytest.mark.parametrize("figure, components", [(15, 1), (16, 2), (17, 1)])
+def test_collide_matches_the_paper_and_the_closed_form(capsys, figure, components):
+    p = collision.FIGURE_PARAMS[figure]
+    out = run_json(capsys, "collide", "--rc", str(p["rc"]), "--rs", str(p["rs"]),
+                   "--vc", str(p["vc"]), "--vs", str(p["vs"]), "--resolution", "24", "--json")
+    expected = collision.initial_colliding_point_closed_form(p)
+    for key in ("t", "x", "y", "z"):
+        assert out["colliding_point"][key] == pytest.approx(expected[key], abs=1e-8)
+    assert out["components"] == components
+
+
+def test_silhouette_json_gives_the_offset_curve(capsys):
+    out = run_json(capsys, "silhouette", "offset-parabola", "--along", "u,v", "--resolution", "20",
+                   "--json")
+    assert out["axes"] == ["x", "y", "u", "v"]
+    assert len(out["curves"]) >= 2
+    assert all(len(point) == 4 for curve in out["curves"] for point in curve)
+
+
+@pytest.mark.parametrize("args, fragment", [
+    (["inspect", "nowhere"], "no scene named 'nowhere'"),
+    (["inspect", "hopf", "--param", "radius=2"], "no parameter 'radius'"),
+    (["inspect", "hopf", "--param", "axis_length"], "NAME=VALUE"),
+    (["inspect", "hopf", "--resolution", "big"], "whole number"),
+    (["inspect", "collision", "--param", "rs=-1"], "must lie in"),
+    (["collide", "--rc", "1", "--rs", "x", "--vc", "0", "--vs", "1"], "--rs must be a number"),
+    (["collide", "--rc", "1", "--rs", "1", "--vc", "0", "--vs", "0"], "nothing moves"),
+    (["silhouette", "offset-parabola", "--along", "u,q"], "'q' is not an axis"),
+    (["silhouette", "offset-parabola", "--along", "u"], "two different axis names"),
+])
+def test_bad_input_gets_one_line_and_exit_2(cli, args, fragment):
+    result = cli(*args)
+    assert result.returncode == 2, result.stderr
+    assert fragment in result.stderr
+    assert "Traceback" not in result.stderr
