@@ -224,3 +224,18 @@ def test_codec_module_does_no_io():
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     imported |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module}
     assert imported <= {"__future__", "enum", "struct", "dataclasses", "typing"}, imported
+
+
+def test_protocol_md_examples_match_the_vectors(vectors):
+    """The worked examples and the HID descriptor printed in PROTOCOL.md are the vectors' bytes."""
+    import re
+
+    doc = (Path(p.__file__).resolve().parents[2] / "firmware" / "PROTOCOL.md").read_text()
+    wires = [bytes.fromhex(m) for m in re.findall(r"^wire:\s+([0-9a-f ]+)$", doc, re.M)]
+    assert wires == [p.encode_frame(p.HelloRequest(), 0),
+                     bytes.fromhex(vectors["frames"][0]["wire"])]
+    block = doc.split("## Report descriptor", 1)[1].split("```")[1]
+    desc = b"".join(bytes.fromhex(re.match(r"\s*((?:[0-9A-F]{2} )+)", line).group(1))
+                    for line in block.strip().splitlines())
+    assert desc.hex() == vectors["hid"]["report_descriptor"]
+    assert f"## Report descriptor ({len(desc)} bytes)" in doc
