@@ -23,6 +23,7 @@ COMMANDS = {
     "collide": "collide",
     "silhouette": "silhouette",
     "bench": "bench",
+    "render": "render",
 }
 
 

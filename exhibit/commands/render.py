@@ -1,0 +1,205 @@
+"""`exhibit render`: a scene or one of the paper's figures to a PNG, or an animation of the sensor
+approaching (frames in a folder, a GIF, or an MP4 through ffmpeg), on the headless EGL renderer."""
+
+from __future__ import annotations
+
+import math
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+from exhibit import scenes
+from exhibit.errors import ExhibitError
+
+HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
+MAX_PIXELS = 8192
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("scene", nargs="?", help="scene name (see `exhibit scenes`)")
+    parser.add_argument("--figure", type=str, metavar="N",
+                        help="render the paper's Figure N with the parameters it states")
+    parser.add_argument("--param", action="append", default=[], metavar="K=V",
+                        help="scene parameter (repeatable)")
+    parser.add_argument("--size", default="1280x720", metavar="WxH",
+                        help="image size in pixels (default: %(default)s)")
+    parser.add_argument("--angles", metavar="A1,...,A6",
+                        help="the six 4D Euler angles in degrees")
+    parser.add_argument("--sensor-distance", metavar="D|inf",
+                        help="sensor distance (inf = orthographic 4D -> 3D)")
+    parser.add_argument("--eye", metavar="AZ,INC", help="eye azimuth and incidence in degrees")
+    parser.add_argument("--resolution", type=str, metavar="N",
+                        help="mesh resolution (default: the scene's)")
+    parser.add_argument("--frames", type=str, metavar="N",
+                        help="render N frames of the sensor moving in from the view's distance "
+                             "to --sensor-to; --out is a folder, a .gif or an .mp4")
+    parser.add_argument("--sensor-to", default="2", metavar="D",
+                        help="final sensor distance of an animation (default: %(default)s)")
+    parser.add_argument("--samples", type=str, default="4", metavar="S",
+                        help="multisampling samples per pixel, 0 = off (default: %(default)s)")
+    parser.add_argument("--no-hud", action="store_true", help="no title, numbers or axes gizmo")
+    parser.add_argument("--no-silhouettes", action="store_true",
+                        help="do not draw the live Lemma 3 silhouettes and Lemma 2 points")
+    parser.add_argument("--depth-colour", action="store_true",
+                        help="colour surfaces by 4D depth (w after rotation)")
+    parser.add_argument("--out", required=True, metavar="FILE",
+                        help="output .png (or, with --frames, a folder, .gif or .mp4)")
+
+
+def _int(text: str, name: str, low: int, high: int) -> int:
+    try:
+        value = int(text)
+    except (TypeError, ValueError):
+        raise ExhibitError(f"{name}: {text!r} is not a whole number") from None
+    if not low <= value <= high:
+        raise ExhibitError(f"{name}: {value} must lie in [{low}, {high}]")
+    return value
+
+
+def _distance(text: str, name: str) -> float:
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise ExhibitError(f"{name}: {text!r} is not a number or inf") from None
+    if math.isnan(value) or value <= 0:
+        raise ExhibitError(f"{name}: {text!r} must be positive (or inf)")
+    return value
+
+
+def _floats(text: str, count: int, name: str) -> list[float]:
+    items = [item.strip() for item in text.split(",")]
+    if len(items) != count:
+        raise ExhibitError(f"{name}: expected {count} comma-separated numbers, got {len(items)}")
+    values = []
+    for item in items:
+        try:
+            value = float(item)
+        except ValueError:
+            raise ExhibitError(f"{name}: {item!r} is not a number") from None
+        if not math.isfinite(value):
+            raise ExhibitError(f"{name}: {item!r} must be finite")
+        values.append(value)
+    return values
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    parts = text.lower().split("x")
+    if len(parts) != 2:
+        raise ExhibitError(f"--size: {text!r} is not WIDTHxHEIGHT (e.g. 1280x720)")
+    return (_int(parts[0], "--size width", 16, MAX_PIXELS),
+            _int(parts[1], "--size height", 16, MAX_PIXELS))
+
+
+def parse_params(items: list[str]) -> dict[str, str]:
+    params = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ExhibitError(f"--param: {item!r} is not KEY=VALUE")
+        params[key.strip()] = value.strip()
+    return params
+
+
+def resolve(args):
+    """(scene, params, view, caption line) from the arguments; every problem is an ExhibitError."""
+    if args.figure is not None and args.scene:
+        raise ExhibitError("give a scene or --figure, not both")
+    if args.figure is not None:
+        scene, preset = scenes.figure(_int(args.figure, "--figure", 1, 99))
+        params = dict(preset.params)
+        view = preset.view
+        note = f"Figure {args.figure}. {preset.caption}".strip()
+    elif args.scene:
+        scene = scenes.get(args.scene)
+        params, view, note = {}, scene.view, ""
+    else:
+        raise ExhibitError("name a scene or give --figure N")
+    params.update(parse_params(args.param))
+    scene.resolve(params)  # reports unknown names and bad values before any GL work
+    changes = {}
+    if args.angles:
+        changes["angles"] = tuple(math.radians(a) for a in _floats(args.angles, 6, "--angles"))
+    if args.eye:
+        az, inc = _floats(args.eye, 2, "--eye")
+        changes["eye_azimuth"], changes["eye_incidence"] = math.radians(az), math.radians(inc)
+    if changes:
+        view = view.replace(**changes)
+    if args.sensor_distance is not None:
+        view = view.with_sensor_distance(_distance(args.sensor_distance, "--sensor-distance"))
+    return scene, params, view, note
+
+
+def run(args) -> int:
+    scene, params, view, note = resolve(args)
+    size = parse_size(args.size)
+    samples = _int(args.samples, "--samples", 0, 16)
+    resolution = (None if args.resolution is None
+                  else _int(args.resolution, "--resolution", 4, 2048))
+    frames = None if args.frames is None else _int(args.frames, "--frames", 1, 10000)
+    out = Path(args.out)
+    if frames is None:
+        if out.suffix.lower() != ".png":
+            raise ExhibitError(f"--out: {out} must end in .png (use --frames for animations)")
+        if not out.parent.is_dir():
+            raise ExhibitError(f"--out: folder {out.parent} does not exist")
+    kind = "folder"
+    if frames is not None:
+        kind = {".gif": "gif", ".mp4": "mp4"}.get(out.suffix.lower(), "folder")
+        if kind != "folder" and not out.parent.is_dir():
+            raise ExhibitError(f"--out: folder {out.parent} does not exist")
+        if kind == "folder" and out.exists() and not out.is_dir():
+            raise ExhibitError(f"--out: {out} exists and is not a folder")
+        if kind == "mp4" and shutil.which("ffmpeg") is None:
+            raise ExhibitError("--out: writing .mp4 needs ffmpeg on PATH (Debian: apt-get install "
+                               "ffmpeg); use a .gif or a folder instead")
+    end_r = 1.0 / _distance(args.sensor_to, "--sensor-to")
+
+    from exhibit.render import Headless, HudInfo, RenderOptions, save_png
+
+    options = RenderOptions(silhouettes=not args.no_silhouettes,
+                            pinch_points=not args.no_silhouettes,
+                            depth_colour=args.depth_colour, hud=not args.no_hud)
+    hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
+    mesh = scene.build(params, resolution)
+    headless = Headless()
+    try:
+        gpu = headless.renderer.upload(mesh)
+        if frames is None:
+            save_png(headless.image(gpu, view, size, options, hud, samples), out)
+            print(out)
+            return 0
+        images = []
+        for i in range(frames):
+            t = i / (frames - 1) if frames > 1 else 0.0
+            frame_view = view.replace(sensor_r=(1 - t) * view.sensor_r + t * end_r)
+            images.append(headless.image(gpu, frame_view, size, options, hud, samples))
+    finally:
+        headless.release()
+    _write_animation(images, out, kind)
+    print(out)
+    return 0
+
+
+def _write_animation(images, out: Path, kind: str) -> None:
+    from PIL import Image
+
+    if kind == "gif":
+        pictures = [Image.fromarray(im) for im in images]
+        pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=80, loop=0)
+        return
+    folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
+    folder.mkdir(parents=True, exist_ok=True)
+    for i, image in enumerate(images):
+        Image.fromarray(image).save(folder / f"frame_{i:04d}.png")
+    if kind == "mp4":
+        try:
+            result = subprocess.run(
+                ["ffmpeg", "-y", "-loglevel", "error", "-framerate", "25",
+                 "-i", str(folder / "frame_%04d.png"), "-pix_fmt", "yuv420p",
+                 "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(out)],
+                capture_output=True, text=True, check=False)
+            if result.returncode != 0:
+                raise ExhibitError(f"ffmpeg failed: {result.stderr.strip().splitlines()[-1:]}")
+        finally:
+            shutil.rmtree(folder, ignore_errors=True)

@@ -1,0 +1,146 @@
+"""A Mesh4D on the GPU: vertex buffers written once, so a frame only changes uniforms.
+
+Surfaces go up as interleaved float32 (position, n1, n2: 48 bytes a vertex) with an index
+buffer; curves, wire meshes and markers go up as one instance buffer of segments (p0, p1, style),
+each drawn as a screen-space quad. Nothing here depends on the view.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from exhibit.surfaces.mesh import Mesh4D, Surface
+
+#: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
+MARKER_SCALE = 3.5
+MARKER_MIN = 7.0
+MARKER_OUTLINE = (0.05, 0.05, 0.07)
+
+
+def surface_vertices(surface: Surface) -> np.ndarray:
+    """(V, 12) float32: position, n1, n2 — the per-vertex data of the Lemma 1(c) pipeline."""
+    return np.ascontiguousarray(np.concatenate(
+        [surface.positions, surface.normals[:, 0], surface.normals[:, 1]], axis=1),
+        dtype=np.float32)
+
+
+def unique_edges(triangles: np.ndarray) -> np.ndarray:
+    """(E, 2) vertex pairs of the distinct edges of a triangle mesh (for wire-style surfaces)."""
+    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
+    return np.unique(np.sort(edges, axis=1), axis=0)
+
+
+def _segment_rows(starts, ends, color, width) -> np.ndarray:
+    n = len(starts)
+    style = np.tile(np.array([*color, width], dtype=np.float64), (n, 1))
+    return np.concatenate([starts, ends, style], axis=1)
+
+
+@dataclass
+class GpuSurface:
+    name: str
+    color: tuple[float, float, float]
+    vbo: moderngl.Buffer
+    ibo: moderngl.Buffer
+    triangle_count: int
+    vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
+
+
+@dataclass
+class GpuMesh:
+    """Buffers and vertex arrays for one Mesh4D; release() frees them."""
+
+    mesh: Mesh4D
+    surfaces: list[GpuSurface]
+    lines: moderngl.Buffer | None
+    line_count: int
+    markers: moderngl.Buffer | None
+    marker_count: int
+    vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
+    #: Largest distance of any point from the origin (for the 4D depth colour ramp).
+    radius: float = 1.0
+
+    @property
+    def triangle_count(self) -> int:
+        return sum(s.triangle_count for s in self.surfaces)
+
+    def release(self) -> None:
+        for s in self.surfaces:
+            for vao in s.vaos.values():
+                vao.release()
+            s.vbo.release()
+            s.ibo.release()
+        for vao in self.vaos.values():
+            vao.release()
+        for buf in (self.lines, self.markers):
+            if buf is not None:
+                buf.release()
+        self.surfaces, self.vaos, self.lines, self.markers = [], {}, None, None
+
+
+def _attribute_format(program: moderngl.Program, names: list[str]) -> tuple[str, list[str]]:
+    """'4f 4f 4f'-style format for vec4 attributes, skipping those the compiler removed."""
+    parts, used = [], []
+    for name in names:
+        if name in program:
+            parts.append("4f")
+            used.append(name)
+        else:
+            parts.append("16x")
+    return " ".join(parts), used
+
+
+def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Program]) -> GpuMesh:
+    """Write the mesh to GPU buffers once and bind them to every program that draws them."""
+    surfaces, rows = [], []
+    for surface in mesh.surfaces:
+        if surface.material.style == "wire":
+            edges = unique_edges(surface.triangles)
+            p = surface.positions
+            rows.append(_segment_rows(p[edges[:, 0]], p[edges[:, 1]], surface.material.color,
+                                      surface.material.line_width))
+            continue
+        if len(surface.triangles) == 0:
+            continue
+        vbo = ctx.buffer(surface_vertices(surface).tobytes())
+        ibo = ctx.buffer(np.ascontiguousarray(surface.triangles, dtype=np.int32).tobytes())
+        gpu = GpuSurface(surface.name, surface.material.color, vbo, ibo, len(surface.triangles))
+        for key in ("surface", "silhouette", "ids", "floor"):
+            prog = programs[key]
+            fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
+            gpu.vaos[key] = ctx.vertex_array(prog, [(vbo, fmt, *used)], index_buffer=ibo,
+                                             index_element_size=4)
+        surfaces.append(gpu)
+    for curve in mesh.curves:
+        segments = curve.segments()
+        if len(segments):
+            rows.append(_segment_rows(segments[:, 0], segments[:, 1], curve.material.color,
+                                      curve.material.line_width))
+    lines = markers = None
+    vaos = {}
+    line_count = marker_count = 0
+    if rows:
+        data = np.concatenate(rows).astype(np.float32)
+        lines = ctx.buffer(data.tobytes())
+        line_count = len(data)
+        vaos["lines"] = ctx.vertex_array(
+            programs["curves"], [(lines, "4f 4f 4f/i", "in_p0", "in_p1", "in_style")])
+    if mesh.markers:
+        marker_rows = []
+        for m in mesh.markers:
+            width = max(MARKER_SCALE * m.material.line_width, MARKER_MIN)
+            p = m.position[None]
+            marker_rows.append(_segment_rows(p, p, MARKER_OUTLINE, width + 3.0))
+            marker_rows.append(_segment_rows(p, p, m.material.color, width))
+        data = np.concatenate(marker_rows).astype(np.float32)
+        markers = ctx.buffer(data.tobytes())
+        marker_count = len(data)
+        vaos["markers"] = ctx.vertex_array(
+            programs["curves"], [(markers, "4f 4f 4f/i", "in_p0", "in_p1", "in_style")])
+    arrays = ([s.positions for s in mesh.surfaces] + [c.points for c in mesh.curves]
+              + [m.position[None] for m in mesh.markers])
+    radius = max([float(np.linalg.norm(a, axis=1).max()) for a in arrays if len(a)] + [1e-6])
+    return GpuMesh(mesh, surfaces, lines, line_count, markers, marker_count, vaos, radius)

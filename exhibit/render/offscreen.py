@@ -1,0 +1,99 @@
+"""The offscreen target: an EGL context, a multisampled framebuffer, and images as numpy arrays.
+
+Tests, the `exhibit render` command and the benchmark all draw through this; the window target
+(window.py) hands its own context to the same Renderer.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+from PIL import Image
+
+from exhibit.render.context import headless_context
+from exhibit.render.renderer import Renderer
+
+#: 4x MSAA: surfaces' edges antialiased; curves are antialiased by their own coverage.
+DEFAULT_SAMPLES = 4
+
+
+class Offscreen:
+    """A colour + depth framebuffer of one size (multisampled, resolved on read)."""
+
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int],
+                 samples: int = DEFAULT_SAMPLES):
+        width, height = size
+        if width < 1 or height < 1:
+            raise ValueError(f"image size must be positive, got {width}x{height}")
+        samples = min(samples, ctx.max_samples) if samples > 1 else 0
+        self.ctx, self.size, self.samples = ctx, (int(width), int(height)), samples
+        self._color = ctx.renderbuffer(self.size, 4, samples=samples)
+        self._depth = ctx.depth_renderbuffer(self.size, samples=samples)
+        self.framebuffer = ctx.framebuffer([self._color], self._depth)
+        if samples:
+            self._resolved_color = ctx.renderbuffer(self.size, 4)
+            self._resolved = ctx.framebuffer([self._resolved_color])
+        else:
+            self._resolved_color, self._resolved = None, self.framebuffer
+
+    def read(self) -> np.ndarray:
+        """(height, width, 3) uint8, top row first."""
+        if self.samples:
+            self.ctx.copy_framebuffer(self._resolved, self.framebuffer)
+        data = self._resolved.read(components=3, alignment=1)
+        image = np.frombuffer(data, dtype=np.uint8).reshape(self.size[1], self.size[0], 3)
+        return image[::-1].copy()
+
+    def release(self) -> None:
+        for obj in (self.framebuffer, self._color, self._depth, self._resolved_color):
+            if obj is not None:
+                obj.release()
+        if self.samples:
+            self._resolved.release()
+
+
+class Headless:
+    """An EGL context with its Renderer: the whole offscreen pipeline in one object."""
+
+    def __init__(self, ctx: moderngl.Context | None = None):
+        self.ctx = ctx or headless_context()
+        self.renderer = Renderer(self.ctx)
+        self._targets: dict[tuple[tuple[int, int], int], Offscreen] = {}
+
+    def activate(self) -> None:
+        """Make this context current again (another context in the process may have taken it)."""
+        self.ctx.__enter__()
+
+    def target(self, size: tuple[int, int], samples: int = DEFAULT_SAMPLES) -> Offscreen:
+        key = (tuple(size), samples)
+        if key not in self._targets:
+            self._targets[key] = Offscreen(self.ctx, size, samples)
+        return self._targets[key]
+
+    def image(self, gpu, view, size, options=None, hud=None,
+              samples: int = DEFAULT_SAMPLES) -> np.ndarray:
+        from exhibit.render.options import RenderOptions
+        self.activate()
+        target = self.target(size, samples)
+        self.renderer.render(gpu, view, target.framebuffer, options or RenderOptions(), hud)
+        return target.read()
+
+    def ids(self, gpu, view, size) -> np.ndarray:
+        """(height, width) int triangle ids + 1 (0 = background), no multisampling."""
+        self.activate()
+        target = self.target(size, 0)
+        self.renderer.render_ids(gpu, view, target.framebuffer)
+        rgb = target.read().astype(np.int64)
+        return rgb[..., 0] | (rgb[..., 1] << 8) | (rgb[..., 2] << 16)
+
+    def release(self) -> None:
+        self.activate()
+        for target in self._targets.values():
+            target.release()
+        self._targets.clear()
+        self.renderer.release()
+        self.ctx.release()
+
+
+def save_png(image: np.ndarray, path) -> None:
+    Image.fromarray(image).save(path)

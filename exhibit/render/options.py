@@ -1,0 +1,36 @@
+"""What the renderer draws, beyond the ViewState: toggles a kiosk, the CLI or a test can set."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+#: Dark blue-grey gradient: the tori's greens and reds read well on it and it does not glare.
+BACKGROUND = ((0.16, 0.18, 0.23), (0.03, 0.035, 0.05))
+
+
+@dataclass(frozen=True)
+class RenderOptions:
+    #: Live 4D -> 2D silhouette curves (Lemma 3) on every surface.
+    silhouettes: bool = True
+    #: Mark the points where the projected normal vanishes (Lemma 2).
+    pinch_points: bool = True
+    #: Colour surfaces by their 4D depth (view w) instead of their material.
+    depth_colour: bool = False
+    #: Solid surfaces (off: only their silhouettes, curves and markers, unoccluded by them).
+    surfaces: bool = True
+    #: Curves, wire meshes and markers.
+    curves: bool = True
+    #: Title, caption, angles, sensor distance, axes gizmo, marker labels.
+    hud: bool = True
+    #: Background gradient (top, bottom) as RGB in [0, 1].
+    background: tuple[tuple[float, float, float], tuple[float, float, float]] = BACKGROUND
+    #: Line widths are given for a 720-pixel-high picture and scale with the height; None = auto.
+    line_scale: float | None = None
+    #: Width in px (at 720 px) of the live silhouette curves and diameter of Lemma 2 marks.
+    silhouette_width: float = 2.5
+    pinch_size: float = 9.0
+
+    def width_scale(self, height: int) -> float:
+        if self.line_scale is not None:
+            return self.line_scale
+        return max(height / 720.0, 0.5)

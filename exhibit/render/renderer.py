@@ -1,0 +1,357 @@
+"""The renderer: one object per GL context, serving the offscreen EGL target and the GLFW window.
+
+A frame is: background, surfaces (the 4D pipeline in the vertex shader, clipped at the sensor
+hyperplane and the front plane by gl_ClipDistance, lit two-sided with the Lemma 1(c) normal),
+live silhouettes (Lemma 3 curves and Lemma 2 points, found per triangle in a geometry shader),
+curves and markers as screen-space capsules depth-tested against the surfaces, then the HUD.
+Per frame only uniforms change, plus a few HUD instances and any text that changed.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from exhibit.geometry.pipeline import clip_transform
+from exhibit.geometry.view import ViewState
+from exhibit.render import shaders
+from exhibit.render.gpu import GpuMesh, upload
+from exhibit.render.options import RenderOptions
+from exhibit.render.text import TextCache, has_greek, line_height, text_width, wrap
+from exhibit.surfaces.mesh import Mesh4D
+
+GL_CLIP_DISTANCE0 = 0x3000
+GL_CLIP_DISTANCE1 = 0x3001
+#: NDC depth by which curves are pulled towards the viewer (surfaces are also pushed back by a
+#: slope-scaled polygon offset), so a curve lying on a surface is not half-buried in it.
+LINE_BIAS = 2e-4
+#: The paper's axis colours (Figures 6-8): x red, y orange, z green, w blue.
+AXIS_COLORS = ((0.9, 0.22, 0.18), (0.97, 0.6, 0.12), (0.25, 0.78, 0.3), (0.3, 0.5, 1.0))
+OVERLAY_FLOATS = 9  # a (2), b (2), rgba (4), width (1)
+
+
+@dataclass(frozen=True)
+class HudInfo:
+    """Words for visitors; the numbers (angles, sensor distance) come from the ViewState."""
+
+    title: str = ""
+    caption: str = ""
+    axes: tuple[str, str, str, str] = ("x", "y", "z", "w")
+    #: Labels of the mesh's markers are drawn too; this is an extra line under the caption.
+    note: str = ""
+
+
+def _mat(m: np.ndarray) -> bytes:
+    """Row-major numpy matrix to GLSL's column-major bytes."""
+    return np.ascontiguousarray(np.asarray(m, dtype=np.float32).T).tobytes()
+
+
+def darker(color, factor: float = 0.32) -> tuple[float, float, float]:
+    return tuple(float(c) * factor for c in color)
+
+
+class Renderer:
+    """Compiles the programs once per context; draws any uploaded mesh in any ViewState."""
+
+    def __init__(self, ctx: moderngl.Context):
+        self.ctx = ctx
+        p = shaders.program
+        self.programs = {
+            "surface": p(ctx, "surface.glsl"),
+            "ids": p(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
+            "silhouette": p(ctx, "silhouette.glsl"),
+            "curves": p(ctx, "curves.glsl"),
+            "overlay": p(ctx, "overlay.glsl"),
+            "text": p(ctx, "text.glsl"),
+            "background": p(ctx, "background.glsl"),
+            "floor": p(ctx, "floor.glsl"),
+        }
+        self._empty = {name: ctx.vertex_array(self.programs[name], [])
+                       for name in ("text", "background")}
+        self._overlay_buffer = ctx.buffer(reserve=64 * OVERLAY_FLOATS * 4, dynamic=True)
+        self._overlay_vao = ctx.vertex_array(
+            self.programs["overlay"],
+            [(self._overlay_buffer, "2f 2f 4f 1f/i", "in_a", "in_b", "in_color", "in_width")])
+        self.text = TextCache(ctx)
+
+    # ------------------------------------------------------------------ meshes
+
+    def upload(self, mesh: Mesh4D) -> GpuMesh:
+        """Buffers for a mesh, written once; draw it in any view with render()."""
+        return upload(self.ctx, mesh, self.programs)
+
+    # ------------------------------------------------------------------ a frame
+
+    def set_pipeline(self, program: moderngl.Program, view: ViewState, size: tuple[int, int]):
+        """Upload the view's 4x5 clip map, pose, clip planes and centres to one program."""
+        width, height = size
+        ct = clip_transform(view, width / height)
+        values = {
+            "u_M": _mat(ct.matrix[:, :4]),
+            "u_m": ct.matrix[:, 4],
+            "u_R": _mat(ct.pose[:4, :4]),
+            "u_t": ct.pose[:4, 4],
+            "u_plane_n0": ct.clip_planes[0, :4],
+            "u_plane_d0": ct.clip_planes[0, 4],
+            "u_plane_n1": ct.clip_planes[1, :4],
+            "u_plane_d1": ct.clip_planes[1, 4],
+            "u_r1": view.sensor_r,
+            "u_r2": view.eye_r,
+            "u_viewport": (float(width), float(height)),
+        }
+        for name, value in values.items():
+            if name not in program:
+                continue
+            if isinstance(value, bytes):
+                program[name].write(value)
+            elif isinstance(value, np.ndarray):
+                program[name].value = tuple(float(v) for v in value)
+            else:
+                program[name].value = value
+        return ct
+
+    def _set(self, program, **values) -> None:
+        for name, value in values.items():
+            if name in program:
+                program[name].value = value
+
+    def render(self, gpu: GpuMesh, view: ViewState, framebuffer: moderngl.Framebuffer,
+               options: RenderOptions = RenderOptions(), hud: HudInfo | None = None) -> None:
+        """Draw one frame of gpu in view into framebuffer (its whole viewport)."""
+        ctx = self.ctx
+        framebuffer.use()
+        width, height = framebuffer.size
+        ctx.viewport = (0, 0, width, height)
+        size = (width, height)
+        scale = options.width_scale(height)
+        ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.depth_func = "<"
+
+        # Background (the depth test off, so it writes no depth).
+        ctx.depth_mask = True
+        framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+        ctx.disable(moderngl.DEPTH_TEST)
+        top, bottom = options.background
+        self._set(self.programs["background"], u_top=tuple(top), u_bottom=tuple(bottom))
+        self._empty["background"].render(moderngl.TRIANGLES, vertices=3)
+
+        # Surfaces.
+        ctx.enable(moderngl.DEPTH_TEST)
+        prog = self.programs["surface"]
+        self.set_pipeline(prog, view, size)
+        lights = list(view.lights)[:4]
+        padded = np.zeros((4, 3), dtype=np.float32)
+        padded[:len(lights)] = lights
+        prog["u_lights"].write(padded.tobytes())
+        w0 = view.offset[3]
+        self._set(prog, u_light_count=len(lights), u_depth_colour=int(options.depth_colour),
+                  u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
+        self._clip_distances(True)
+        ctx.polygon_offset = (1.0, 1.0)
+        for surface in gpu.surfaces if options.surfaces else ():
+            prog["u_color"].value = tuple(surface.color)
+            surface.vaos["surface"].render(moderngl.TRIANGLES)
+        ctx.polygon_offset = (0.0, 0.0)
+        self._clip_distances(False)
+
+        # Live silhouettes and Lemma 2 points: depth-tested against the surfaces, no depth writes.
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        ctx.depth_func = "<="
+        if options.silhouettes and gpu.surfaces:
+            prog = self.programs["silhouette"]
+            self.set_pipeline(prog, view, size)
+            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale, u_pass=1,
+                      u_pinch=(1.0, 0.93, 0.2, options.pinch_size if options.pinch_points else 0.0))
+            ctx.depth_mask = False
+            for surface in gpu.surfaces:
+                prog["u_ink"].value = (*darker(surface.color), options.silhouette_width)
+                surface.vaos["silhouette"].render(moderngl.TRIANGLES)
+            ctx.depth_mask = True
+
+        # Curves and markers: opaque cores with depth writes, then antialiased rims blended.
+        if options.curves:
+            prog = self.programs["curves"]
+            self.set_pipeline(prog, view, size)
+            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale)
+            for key, count in (("lines", gpu.line_count), ("markers", gpu.marker_count)):
+                if not count:
+                    continue
+                for pass_ in (0, 1):
+                    prog["u_pass"].value = pass_
+                    ctx.depth_mask = pass_ == 0
+                    gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+            ctx.depth_mask = True
+
+        ctx.disable(moderngl.DEPTH_TEST)
+        if options.hud and hud is not None:
+            self._hud(gpu, view, hud, size)
+        ctx.disable(moderngl.BLEND)
+        ctx.depth_func = "<"
+
+    def _clip_distances(self, on: bool) -> None:
+        for enum in (GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE1):
+            (self.ctx.enable_direct if on else self.ctx.disable_direct)(enum)
+
+    # ------------------------------------------------------------------ triangle ids (tests)
+
+    def render_ids(self, gpu: GpuMesh, view: ViewState, framebuffer: moderngl.Framebuffer) -> None:
+        """Every triangle in a unique flat colour (id + 1, surfaces numbered in order)."""
+        ctx = self.ctx
+        framebuffer.use()
+        width, height = framebuffer.size
+        ctx.viewport = (0, 0, width, height)
+        framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        ctx.disable(moderngl.BLEND)
+        ctx.enable(moderngl.DEPTH_TEST)
+        prog = self.programs["ids"]
+        self.set_pipeline(prog, view, (width, height))
+        self._clip_distances(True)
+        offset = 0
+        for surface in gpu.surfaces:
+            prog["u_id_offset"].value = offset
+            surface.vaos["ids"].render(moderngl.TRIANGLES)
+            offset += surface.triangle_count
+        self._clip_distances(False)
+        ctx.disable(moderngl.DEPTH_TEST)
+
+    # ------------------------------------------------------------------ HUD
+
+    def _text(self, text: str, style: str, size: int, x: float, y: float, color, viewport):
+        """Draw text with its top-left corner at (x, y) in pixels from the top-left."""
+        if not text:
+            return 0, 0
+        item = self.text.get(text, style, size)
+        x, y = round(x), round(y)
+        prog = self.programs["text"]
+        item.texture.use(0)
+        prog["u_texture"].value = 0
+        prog["u_viewport"].value = viewport
+        prog["u_rect"].value = (x, viewport[1] - y - item.height, item.width, item.height)
+        prog["u_color"].value = tuple(color)
+        self._empty["text"].render(moderngl.TRIANGLE_STRIP, vertices=4)
+        return item.width, item.height
+
+    def _panel(self, x, y, w, h, color, viewport) -> None:
+        prog = self.programs["text"]
+        self.text.white.use(0)
+        prog["u_texture"].value = 0
+        prog["u_viewport"].value = viewport
+        prog["u_rect"].value = (round(x), viewport[1] - round(y) - round(h), round(w), round(h))
+        prog["u_color"].value = tuple(color)
+        self._empty["text"].render(moderngl.TRIANGLE_STRIP, vertices=4)
+
+    def _overlay(self, items: list[tuple], viewport) -> None:
+        """Draw 2D capsules (a, b, rgba, width) given in pixels from the top-left."""
+        if not items:
+            return
+        rows = np.array([(ax, viewport[1] - ay, bx, viewport[1] - by, *rgba, width)
+                         for (ax, ay), (bx, by), rgba, width in items], dtype=np.float32)
+        data = rows.tobytes()
+        if len(data) > self._overlay_buffer.size:
+            self._overlay_buffer.orphan(len(data))
+        self._overlay_buffer.write(data)
+        prog = self.programs["overlay"]
+        prog["u_viewport"].value = viewport
+        prog["u_pass"].value = 1
+        self._overlay_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
+
+    def _hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size) -> None:
+        width, height = size
+        viewport = (float(width), float(height))
+        margin = max(4, round(0.022 * height))
+        title_px = max(10, round(0.036 * height))
+        body_px = max(9, round(0.021 * height))
+        ink, dim = (0.96, 0.96, 0.93, 1.0), (0.78, 0.8, 0.84, 1.0)
+        pad = max(3, body_px // 2)
+
+        # Title and caption, top left, on a translucent panel.
+        lines = []
+        if hud.title:
+            lines.append((hud.title, "bold", title_px, ink))
+        for paragraph in (hud.caption, hud.note):
+            for line in wrap(paragraph, "sans", body_px, 0.36 * width):
+                lines.append((line, "sans", body_px, dim))
+        if lines:
+            block_w = max(text_width(t, s, px) for t, s, px, _ in lines) + 2 * pad
+            block_h = sum(line_height(s, px) for _, s, px, _ in lines) + 2 * pad
+            self._panel(margin, margin, block_w, block_h, (0.0, 0.0, 0.0, 0.45), viewport)
+            y = margin + pad
+            for text, style, px, color in lines:
+                self._text(text, style, px, margin + pad, y, color, viewport)
+                y += line_height(style, px)
+
+        # Angles and sensor distance, bottom left, in a fixed-width font so digits do not jitter.
+        theta = [f"θ{chr(0x2080 + i)}" if has_greek() else f"t{i}" for i in range(1, 7)]
+        angles = "  ".join(f"{t} {math.degrees(a):.1f}°" for t, a in zip(theta, view.angles))
+        if view.sensor_r == 0:
+            sensor = "sensor distance " + ("∞" if has_greek() else "inf") + "  (r = 0)"
+        else:
+            sensor = f"sensor distance {view.sensor_distance:.2f}  (r = {view.sensor_r:.3f})"
+        eye = ("eye " + ("∞" if has_greek() else "inf") if view.eye_r == 0
+               else f"eye {view.eye_distance:.1f}, fov {view.field_of_view:.0f}°")
+        status = [angles, f"{sensor}   {eye}"]
+        mono_h = line_height("mono", body_px)
+        block_w = max(text_width(t, "mono", body_px) for t in status) + 2 * pad
+        block_h = mono_h * len(status) + 2 * pad
+        y0 = height - margin - block_h
+        self._panel(margin, y0, block_w, block_h, (0.0, 0.0, 0.0, 0.45), viewport)
+        for i, text in enumerate(status):
+            self._text(text, "mono", body_px, margin + pad, y0 + pad + i * mono_h, ink, viewport)
+
+        self._gizmo(view, hud.axes, size, margin, body_px)
+        self._marker_labels(gpu, view, size, body_px)
+
+    def _gizmo(self, view: ViewState, axes, size, margin: int, body_px: int) -> None:
+        """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
+        pointing towards the sensor (out of the 3D image, into the 4th dimension)."""
+        width, height = size
+        viewport = (float(width), float(height))
+        radius = max(14.0, 0.09 * height)
+        cx = width - margin - radius - body_px
+        cy = margin + radius + body_px
+        rot = view.rotation()
+        items = [((cx, cy), (cx, cy), (0.0, 0.0, 0.0, 0.45), 2 * (radius + body_px))]
+        ends = []
+        for i in np.argsort(rot[2]):  # back to front along the eye's z
+            v = rot[:, i]
+            tip = (cx + 0.78 * radius * v[0], cy - 0.78 * radius * v[1])
+            rgba = (*AXIS_COLORS[i], 1.0)
+            items.append(((cx, cy), tip, rgba, max(1.5, 0.018 * radius * 2)))
+            items.append((tip, tip, rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * v[3]))))
+            ends.append((i, v))
+        self.ctx.enable(moderngl.BLEND)
+        self._overlay(items, viewport)
+        for i, v in ends:
+            label = axes[i]
+            lw = text_width(label, "bold", body_px)
+            lx = cx + 0.78 * radius * v[0] + (0.35 * body_px if v[0] >= 0 else -lw - 0.35 * body_px)
+            ly = cy - 0.78 * radius * v[1] - 0.6 * body_px
+            self._text(label, "bold", body_px, lx, ly, (*AXIS_COLORS[i], 1.0), viewport)
+        caption = "4D axes"
+        cw = text_width(caption, "sans", max(8, body_px - 2))
+        self._text(caption, "sans", max(8, body_px - 2), cx - cw / 2, cy + radius + 0.1 * body_px,
+                   (0.75, 0.77, 0.8, 1.0), viewport)
+
+    def _marker_labels(self, gpu: GpuMesh, view: ViewState, size, body_px: int) -> None:
+        markers = [m for m in gpu.mesh.markers if m.label]
+        if not markers:
+            return
+        width, height = size
+        ct = clip_transform(view, width / height)
+        pixels, ok = ct.to_pixels(np.array([m.position for m in markers]), width, height)
+        for m, (x, y), visible in zip(markers, pixels, ok):
+            if visible:
+                self._text(m.label, "bold", body_px, x + 0.6 * body_px, y - 1.3 * body_px,
+                           (*m.material.color, 1.0), (float(width), float(height)))
+
+    def release(self) -> None:
+        self.text.release()
+        for vao in [*self._empty.values(), self._overlay_vao]:
+            vao.release()
+        self._overlay_buffer.release()
+        for prog in self.programs.values():
+            prog.release()

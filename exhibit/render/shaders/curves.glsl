@@ -1,0 +1,30 @@
+// Curves (fibres, axes, scene silhouettes, wire meshes) and markers: one instance per segment,
+// four strip vertices per instance. A marker is a segment of length zero (a disc).
+#include "pipeline.glsl"
+#include "lines_common.glsl"
+
+#if defined VERTEX_SHADER
+in vec4 in_p0;
+in vec4 in_p1;
+in vec4 in_style;   // rgb, width in px (before u_width_scale)
+uniform float u_width_scale;
+flat out vec4 v_ends;
+flat out vec4 v_color;
+flat out float v_half_width;
+
+void main() {
+    vec4 c0 = to_clip(in_p0), c1 = to_clip(in_p1);
+    v_color = vec4(in_style.rgb, 1.0);
+    v_half_width = 0.5 * max(in_style.w * u_width_scale, 1.0);
+    if (!clip_segment(c0, c1, line_distances(in_p0, c0), line_distances(in_p1, c1))) {
+        gl_Position = vec4(2.0, 2.0, 2.0, 1.0);  // wholly clipped: a degenerate, culled quad
+        v_ends = vec4(0.0);
+        return;
+    }
+    gl_Position = line_corner(c0, c1, v_half_width, gl_VertexID, v_ends);
+}
+#endif
+
+#if defined FRAGMENT_SHADER
+#include "line_fragment.glsl"
+#endif

@@ -1,0 +1,118 @@
+// Live silhouettes for the current view, on the GPU, every frame.
+//  * Lemma 3: the 4D -> 2D silhouette is the zero set of
+//      s = (n1.rho1)(n2.rho2) - (n1.rho2)(n2.rho1)      (rho1 towards the sensor, rho2 the eye);
+//    the geometry shader finds the segment where s changes sign in each triangle (marching
+//    triangles, as exhibit.geometry.zero_set_segments) and emits it as a thick screen-space line.
+//  * Lemma 2: points where the projected normal vanishes (rho in the tangent plane, i.e.
+//    n1.rho1 = n2.rho1 = 0); generically isolated, found per triangle and marked with a disc.
+#include "pipeline.glsl"
+#include "lines_common.glsl"
+
+#if defined VERTEX_SHADER
+in vec4 in_pos;
+in vec4 in_n1;
+in vec4 in_n2;
+out vec4 g_clip;
+out vec4 g_dist;
+out float g_s;
+out float g_singular;
+out vec4 g_m1;
+out vec4 g_m2;
+out vec2 g_ab;
+
+void main() {
+    vec4 q = u_R * in_pos + u_t;
+    vec4 m1 = u_R * in_n1;
+    vec4 m2 = u_R * in_n2;
+    vec4 rho1 = sensor_ray(q);
+    vec4 rho2 = eye_ray(q);
+    g_s = dot(m1, rho1) * dot(m2, rho2) - dot(m1, rho2) * dot(m2, rho1);
+    g_singular = dot(m1, m1) < 0.25 ? 1.0 : 0.0;   // normals are zero at singular points
+    g_clip = to_clip(in_pos);
+    g_dist = line_distances(in_pos, g_clip);
+    g_m1 = m1;
+    g_m2 = m2;
+    g_ab = vec2(dot(m1, rho1), dot(m2, rho1));
+}
+#endif
+
+#if defined GEOMETRY_SHADER
+layout(triangles) in;
+layout(triangle_strip, max_vertices = 8) out;
+in vec4 g_clip[];
+in vec4 g_dist[];
+in float g_s[];
+in float g_singular[];
+in vec4 g_m1[];
+in vec4 g_m2[];
+in vec2 g_ab[];
+uniform vec4 u_ink;          // rgb, width in px
+uniform vec4 u_pinch;        // rgb, diameter in px (0: Lemma 2 points not marked)
+uniform float u_width_scale;
+flat out vec4 v_ends;
+flat out vec4 v_color;
+flat out float v_half_width;
+
+void emit_segment(vec4 c0, vec4 c1, vec4 d0, vec4 d1, vec4 style, float lift) {
+    if (!clip_segment(c0, c1, d0, d1)) return;
+    float hw = 0.5 * max(style.w * u_width_scale, 1.0);
+    for (int k = 0; k < 4; ++k) {
+        vec4 ends;
+        gl_Position = line_corner(c0, c1, hw, k, ends);
+        gl_Position.z -= lift * gl_Position.w;
+        v_ends = ends;
+        v_color = vec4(style.rgb, 1.0);
+        v_half_width = hw;
+        EmitVertex();
+    }
+    EndPrimitive();
+}
+
+void main() {
+    if (g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;  // never silhouettes
+    // Lemma 3 segment: the two edges whose ends have opposite signs of s.
+    vec4 c[2];
+    vec4 d[2];
+    int n = 0;
+    for (int i = 0; i < 3; ++i) {
+        int j = (i + 1) % 3;
+        float a = g_s[i], b = g_s[j];
+        if ((a > 0.0) != (b > 0.0) && n < 2) {
+            float t = a / (a - b);
+            c[n] = mix(g_clip[i], g_clip[j], t);
+            d[n] = mix(g_dist[i], g_dist[j], t);
+            ++n;
+        }
+    }
+    if (n == 2) emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0);
+
+    // Lemma 2 point: the normal-plane part of rho1 vanishes. Express each vertex's (n1.rho,
+    // n2.rho) in vertex 0's normal frame (the pair is only defined up to rotation) and solve
+    // for the barycentric point where the linear interpolant is (0, 0).
+    if (u_pinch.w <= 0.0) return;
+    vec2 A[3];
+    for (int k = 0; k < 3; ++k) {
+        vec4 u = g_ab[k].x * g_m1[k] + g_ab[k].y * g_m2[k];
+        A[k] = vec2(dot(u, g_m1[0]), dot(u, g_m2[0]));
+    }
+    vec2 e1 = A[1] - A[0], e2 = A[2] - A[0];
+    float det = e1.x * e2.y - e1.y * e2.x;
+    float scale = max(max(dot(A[0], A[0]), dot(A[1], A[1])), dot(A[2], A[2]));
+    if (abs(det) <= 1e-6 * scale || scale <= 0.0) return;   // degenerate: a curve, not a point
+    float l1 = (-A[0].x * e2.y + A[0].y * e2.x) / det;
+    float l2 = (-e1.x * A[0].y + e1.y * A[0].x) / det;
+    float l0 = 1.0 - l1 - l2;
+    // Half-open test so a point on a shared edge is claimed by one triangle only.
+    if (l0 < 0.0 || l1 < 0.0 || l2 < 0.0 || l0 >= 1.0 || l1 >= 1.0) return;
+    vec4 cp = l0 * g_clip[0] + l1 * g_clip[1] + l2 * g_clip[2];
+    vec4 dp = l0 * g_dist[0] + l1 * g_dist[1] + l2 * g_dist[2];
+    if (any(lessThan(dp, vec4(0.0)))) return;
+    // A Lemma 2 point lies on a fold of the 3D image, where the surface is seen edge-on: lift the
+    // disc further towards the viewer so the surface it marks does not cut it in half.
+    emit_segment(cp, cp, dp, dp, u_pinch, 10.0 * u_line_bias);
+}
+#endif
+
+#if defined FRAGMENT_SHADER
+#include "line_fragment.glsl"
+#endif

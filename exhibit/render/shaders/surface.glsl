@@ -1,0 +1,49 @@
+// Surfaces: 4D positions and two unit 4D normals per vertex, uploaded once. Per frame only the
+// uniforms change; the vertex shader does the paper's whole pipeline.
+#include "pipeline.glsl"
+
+#if defined VERTEX_SHADER
+in vec4 in_pos;
+in vec4 in_n1;
+in vec4 in_n2;
+out vec3 v_normal;
+out vec3 v_to_eye;
+out float v_w;
+
+void main() {
+    vec4 q = u_R * in_pos + u_t;
+    vec4 m1 = u_R * in_n1;
+    vec4 m2 = u_R * in_n2;
+    vec4 rho = sensor_ray(q);
+    // Lemma 1(c): the combination of n1, n2 orthogonal to the ray; dropping w gives the normal
+    // of the projected surface v(S) at v(p).
+    v_normal = (dot(m2, rho) * m1 - dot(m1, rho) * m2).xyz;
+    // Towards the eye from v(p) = q.xyz / H, times r2 * H > 0 so it stays finite: (0, 0, H) - r2 q.
+    v_to_eye = vec3(0.0, 0.0, rho.w) - u_r2 * q.xyz;
+    v_w = q.w;
+    gl_Position = to_clip(in_pos);
+    gl_ClipDistance[0] = sensor_plane(in_pos);
+    gl_ClipDistance[1] = front_plane(in_pos);
+}
+#endif
+
+#if defined FRAGMENT_SHADER
+#if defined TRIANGLE_IDS
+uniform int u_id_offset;
+out vec4 f_color;
+void main() {
+    // Each triangle in a unique flat colour (id + 1; 0 is the background): tests read it back.
+    int id = gl_PrimitiveID + u_id_offset + 1;
+    f_color = vec4(float(id & 255), float((id >> 8) & 255), float((id >> 16) & 255), 255.0) / 255.0;
+}
+#else
+#include "lighting.glsl"
+in vec3 v_normal;
+in vec3 v_to_eye;
+in float v_w;
+out vec4 f_color;
+void main() {
+    f_color = vec4(shade(v_normal, v_to_eye, v_w), 1.0);
+}
+#endif
+#endif

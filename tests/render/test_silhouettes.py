@@ -1,0 +1,58 @@
+"""Live silhouettes: the GPU's Lemma 3 curve is the CPU geometry's zero set of the silhouette
+function, for views the scenes never fixed."""
+
+import numpy as np
+import pytest
+
+from exhibit import scenes
+from exhibit.geometry import (ViewState, clip_transform, eye_ray, sensor_ray, silhouette_function,
+                              zero_set_segments)
+from exhibit.render import RenderOptions
+
+SIZE = (240, 180)
+INK_ONLY = RenderOptions(surfaces=False, curves=False, hud=False, pinch_points=False,
+                         background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), silhouette_width=2.0,
+                         line_scale=1.0)
+VIEWS = [
+    ViewState(angles=(0.4, -0.7, -0.5, 0.3, -0.4, 0.0), sensor_r=0.0, eye_r=0.0,
+              half_height=1.3),
+    ViewState(angles=(-0.9, -1.2, -0.3, 0.8, -0.6, 0.3), sensor_r=1 / 3, eye_r=1 / 7,
+              offset=(0.0, 0.0, 0.0, 0.3), half_height=1.5),
+]
+
+
+def cpu_silhouette_pixels(surface, view):
+    q = view.to_view(surface.positions)
+    n1 = view.vectors_to_view(surface.normals[:, 0])
+    n2 = view.vectors_to_view(surface.normals[:, 1])
+    s = silhouette_function(n1, n2, sensor_ray(q, view.sensor_r), eye_ray(q, view.eye_r))
+    segments = zero_set_segments(surface.positions, surface.triangles, s)
+    ct = clip_transform(view, SIZE[0] / SIZE[1])
+    t = np.linspace(0.0, 1.0, 5)[None, :, None]
+    samples = segments[:, :1] + t * (segments[:, 1:] - segments[:, :1])
+    pixels, ok = ct.to_pixels(samples.reshape(-1, 4), *SIZE)
+    return pixels[ok]
+
+
+@pytest.mark.parametrize("index", range(len(VIEWS)))
+def test_gpu_silhouette_is_the_cpu_zero_set(gl, index):
+    view = VIEWS[index]
+    mesh = scenes.get("hopf").build(resolution=24)
+    mesh.curves.clear()
+    gpu = gl.renderer.upload(mesh)
+    image = gl.image(gpu, view, SIZE, INK_ONLY, samples=0)
+    gpu.release()
+    ink = np.argwhere(image.max(axis=-1) > 20)[:, ::-1] + 0.5   # (x, y) pixel centres
+    expected = np.concatenate([cpu_silhouette_pixels(s, view) for s in mesh.surfaces])
+    expected = expected[np.all((expected >= 0) & (expected < SIZE), axis=1)]
+    assert len(ink) > 200 and len(expected) > 200
+
+    def nearest(a, b):
+        d = np.full(len(a), np.inf)
+        for chunk in np.array_split(np.arange(len(b)), max(1, len(b) // 2000)):
+            d = np.minimum(d, np.linalg.norm(a[:, None] - b[None, chunk], axis=-1).min(axis=1))
+        return d
+
+    # Every inked pixel is on the CPU curve, and the CPU curve is inked along its length.
+    assert np.quantile(nearest(ink, expected), 0.99) <= 2.5
+    assert np.quantile(nearest(expected, ink), 0.99) <= 2.5
