@@ -318,8 +318,11 @@ class Calibration(Message):
     @classmethod
     def unpack(cls, payload: bytes) -> "Calibration":
         reason, mask, *zeros = struct.unpack(cls._FMT, payload)
-        return cls(CalibrationReason(reason) if reason in CalibrationReason._value2member_map_
-                   else reason, mask, tuple(zeros))
+        try:
+            reason = CalibrationReason(reason)
+        except ValueError:
+            pass  # a reason added later: keep the number
+        return cls(reason, mask, tuple(zeros))
 
 
 @dataclass(frozen=True)

@@ -14,10 +14,9 @@ import threading
 import time
 
 import pytest
+import serial
 
 from exhibit.devices import protocol as p
-
-from .conftest import require
 
 SPEED = 8
 VCC_MV = 5000
@@ -104,8 +103,6 @@ class Host:
     """The exhibit's side: the pty opened with pyserial, bytes through the StreamDecoder."""
 
     def __init__(self, path):
-        import serial
-
         self.port = serial.Serial(path, 115200, timeout=0.02)
         self.decoder = p.StreamDecoder()
         self.tracker = p.SequenceTracker()
@@ -149,7 +146,6 @@ class Host:
 
 @pytest.fixture(scope="module")
 def board(harness, avr_build, tmp_path_factory):
-    require("firmware-in-the-loop tests", [], "python3-serial (pyserial)")
     sim = Sim(harness, avr_build / "controller" / "controller.elf",
               tmp_path_factory.mktemp("sim") / "harness.log")
     host = None
