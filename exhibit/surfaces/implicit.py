@@ -98,6 +98,12 @@ def _prune(f1, f2, origin, h, size, domain_lo, domain_hi, stats, progress) -> np
         scale //= 2
 
 
+def _straddles(values: np.ndarray) -> np.ndarray:
+    """For corner values (N, corners, 2): both functions have corners on both sides of zero."""
+    positive = values > 0
+    return np.all(positive.any(axis=1) & ~positive.all(axis=1), axis=1)
+
+
 def _labelled(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For triangles with (f1, f2) at their corners, shape (T, 3, 2): whether the perturbed linear
     interpolant vanishes inside, and the barycentric coordinates of the unperturbed zero.
@@ -195,30 +201,33 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
         stats.seconds = time.perf_counter() - started
         return ImplicitResult(empty, stats, np.zeros((0, 4)))
 
-    # Every square (2-face) of every surviving cell: base corner + which plane, deduplicated.
-    bases, planes = [], []
-    for p, (d1, d2) in enumerate(_OTHERS):
-        for i, j in itertools.product((0, 1), repeat=2):
-            offset = np.zeros(4, dtype=np.int64)
-            offset[d1], offset[d2] = i, j
-            bases.append(cells + offset)
-            planes.append(np.full(len(cells), p))
-    bases = np.concatenate(bases)
-    planes = np.concatenate(planes)
-    _, first = np.unique(_pack(bases, planes), return_index=True)
-    bases, planes = bases[first], planes[first]
-    stats.squares = len(bases)
+    # Only cells whose corners straddle zero in both functions can hold a crossing of the
+    # piecewise-linear interpolant (a value <= 0 counts as negative, as the perturbation says).
+    # Positions are always origin + integer corner * h, so a grid vertex gets the same value
+    # bit for bit wherever it is evaluated.
+    corner_values = _evaluate(f1, f2, origin + (cells[:, None, :] + _CHILD_OFFSETS) * h)
+    straddling = _straddles(corner_values)
+    cells, corner_values = cells[straddling], corner_values[straddling]
 
-    # Corners v00, v10, v11, v01 of each square, evaluated once per grid vertex.
+    # A square crossed by the interpolant straddles in both functions, and so does the cell at
+    # its base corner (the cell it is the lowest face of). So each square is made exactly once,
+    # by that cell, with no deduplication, and its corner values are taken from the cell's.
+    corner_index = {tuple(o): k for k, o in enumerate(_CHILD_OFFSETS.tolist())}
     e = np.eye(4, dtype=np.int64)
+    bases, planes, values = [], [], []
+    for p, (a, b) in enumerate(_PAIRS):
+        ring = [e[a] * 0, e[a], e[a] + e[b], e[b]]  # v00, v10, v11, v01
+        index = [corner_index[tuple(v.tolist())] for v in ring]
+        square_values = corner_values[:, index, :]
+        keep = _straddles(square_values)
+        bases.append(cells[keep])
+        planes.append(np.full(int(keep.sum()), p))
+        values.append(square_values[keep])
+    bases, planes, values = np.concatenate(bases), np.concatenate(planes), np.concatenate(values)
+    stats.squares = len(bases)
     pair = np.array(_PAIRS)[planes]
     ea, eb = e[pair[:, 0]], e[pair[:, 1]]
-    corners = np.stack([bases, bases + ea, bases + ea + eb, bases + eb], axis=1)  # (S, 4, 4)
-    flat = corners.reshape(-1, 4)
-    keys, inverse = np.unique(_pack(flat), return_inverse=True)
-    unique_vertices = flat[np.unique(inverse, return_index=True)[1]]
-    values = _evaluate(f1, f2, origin + unique_vertices * h)[inverse.reshape(-1)].reshape(-1, 4, 2)
-    positions = origin + corners * h
+    positions = origin + np.stack([bases, bases + ea, bases + ea + eb, bases + eb], axis=1) * h
 
     # The two Kuhn triangles (v00, v10, v11) and (v00, v01, v11).
     tri_index = np.array([[0, 1, 2], [0, 3, 2]])
