@@ -49,6 +49,9 @@ class Scene:
     #: Names of the four coordinates (e.g. x, y, u, v for the offset pipes; x, y, z, t for collisions).
     axes: tuple[str, str, str, str] = ("x", "y", "z", "w")
     default_resolution: int = 64
+    #: Changes whenever the scene's definition changes outside the code (e.g. its TOML file's
+    #: hash), so cached meshes of the old definition are not reused.
+    version: str = ""
 
     def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""

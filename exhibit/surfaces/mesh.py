@@ -96,6 +96,7 @@ class Curve:
 
     def __post_init__(self) -> None:
         self.points = np.ascontiguousarray(self.points, dtype=np.float64).reshape(-1, 4)
+        self.closed = bool(self.closed)
 
     @property
     def tangents(self) -> np.ndarray:
