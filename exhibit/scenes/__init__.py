@@ -2,9 +2,20 @@
 
 from __future__ import annotations
 
+import os
+from pathlib import Path
+
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import Parameter, Preset, Scene
-from exhibit.scenes import collision, hopf, offsets
+from exhibit.scenes import collision, gallery, hopf, offsets
+from exhibit.scenes.toml_scene import load_scene_file
+
+#: Where curators' scene files live: the repository's configs/scenes, then every folder in
+#: $EXHIBIT_SCENE_PATH (separated by ':').
+BUILTIN_SCENE_DIR = Path(__file__).resolve().parents[2] / "configs" / "scenes"
+#: Problems met loading scene files: (path, message). Shown by `exhibit scenes`; the other scenes
+#: still load, so one broken file never takes the exhibit down.
+LOAD_ERRORS: list[tuple[str, str]] = []
 
 _REGISTRY: dict[str, Scene] = {}
 
@@ -53,7 +64,28 @@ def figure(number: int) -> tuple[Scene, Preset]:
     return scene, scene.preset(preset_name)
 
 
-for _scene in (hopf.SCENE, offsets.PARABOLA, offsets.CUSP, offsets.TRACED, collision.SCENE):
-    register(_scene)
+def scene_dirs() -> list[Path]:
+    extra = [Path(p) for p in os.environ.get("EXHIBIT_SCENE_PATH", "").split(":") if p]
+    return [BUILTIN_SCENE_DIR] + extra
 
-__all__ = ["FIGURES", "Parameter", "Preset", "Scene", "figure", "get", "names", "register"]
+
+def load_scene_files() -> None:
+    for folder in scene_dirs():
+        for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
+            try:
+                scene = load_scene_file(path)
+                if scene.name in _REGISTRY:
+                    raise ExhibitError(f"{path}: name: a scene called {scene.name!r} exists "
+                                       "already")
+                register(scene)
+            except ExhibitError as exc:
+                LOAD_ERRORS.append((str(path), str(exc)))
+
+
+for _scene in (hopf.SCENE, offsets.PARABOLA, offsets.CUSP, offsets.TRACED, collision.SCENE,
+               gallery.CLIFFORD, gallery.COMPLEX_SQUARE):
+    register(_scene)
+load_scene_files()
+
+__all__ = ["FIGURES", "LOAD_ERRORS", "Parameter", "Preset", "Scene", "figure", "get", "names",
+           "register", "load_scene_file"]

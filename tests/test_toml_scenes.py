@@ -1,0 +1,124 @@
+"""Curators' TOML scenes: the shipped files load and mesh; every mistake names file and key."""
+
+import subprocess
+import sys
+import textwrap
+
+import numpy as np
+import pytest
+
+from exhibit import scenes
+from exhibit.errors import ExhibitError
+from exhibit.scenes.toml_scene import load_scene_file
+from exhibit.surfaces import analyse
+
+GOOD = """
+name = "slice"
+title = "A slice"
+caption = "For visitors."
+[parameters.a]
+default = 0.25
+min = -0.45
+max = 0.45
+[[surface]]
+name = "slice"
+f1 = "x^2 + y^2 + z^2 + w^2 - 1"
+f2 = "x*y - z*w - a"
+box = [[-1.1, 1.1], [-1.1, 1.1], [-1.1, 1.1], [-1.1, 1.1]]
+"""
+BOX = "box = [[-1.1, 1.1], [-1.1, 1.1], [-1.1, 1.1], [-1.1, 1.1]]"
+
+
+def write(tmp_path, text, name="scene.toml"):
+    path = tmp_path / name
+    path.write_text(textwrap.dedent(text))
+    return path
+
+
+def test_shipped_scene_files_are_registered_and_mesh_cleanly():
+    assert not scenes.LOAD_ERRORS
+    slice_mesh = scenes.get("sphere-slice").build(resolution=16)
+    surface = slice_mesh.surfaces[0]
+    x, y, z, w = surface.positions.T
+    assert np.max(np.abs(x * x + y * y + z * z + w * w - 1)) < 1e-9
+    assert np.max(np.abs(x * y - z * w - 0.25)) < 1e-9
+    assert analyse(surface.triangles).boundary_edges == 0
+    veronese = scenes.get("veronese").build(resolution=12).surfaces[0]
+    vx, vy, vz, vw = veronese.positions.T
+    # the Veronese surface satisfies (xy)^2 + ... : its points are images of unit vectors
+    assert veronese.info["kind"] == "parametric" and np.all(np.isfinite(veronese.positions))
+    assert np.max(np.abs(vx)) <= 0.5 + 1e-9
+
+
+def test_parameters_reach_the_formulas(tmp_path):
+    scene = load_scene_file(write(tmp_path, GOOD))
+    surface = scene.build({"a": -0.3}, 12).surfaces[0]
+    x, y, z, w = surface.positions.T
+    assert np.max(np.abs(x * y - z * w + 0.3)) < 1e-9
+
+
+@pytest.mark.parametrize("change, key, reason", [
+    (("name = \"slice\"", "name = \"Bad Name\""), "name", "lower-case"),
+    (("title = \"A slice\"\n", ""), "title", "missing"),
+    (("caption = \"For visitors.\"", "caption = \"For visitors.\"\ncolour = 1"), "colour",
+     "unknown key"),
+    (("default = 0.25", "default = 0.9"), "parameters.a.default", "outside"),
+    (("default = 0.25", "default = \"big\""), "parameters.a.default", "finite number"),
+    (("x*y - z*w - a", "x*y - q"), "surface[0].f2", "unknown name 'q'"),
+    (("x*y - z*w - a", "__import__('os')"), "surface[0].f2", "not allowed"),
+    (("x*y - z*w - a", "x*y +"), "surface[0].f2", "syntax error"),
+    (("[-1.1, 1.1], [-1.1, 1.1]]", "[-1.1, 1.1]]"), "surface[0].box", "four"),
+    (("box = [[-1.1, 1.1]", "box = [[1.1, -1.1]"), "surface[0].box[0]", "below high"),
+    (("name = \"slice\"\nf1", "name = \"slice\"\ncolor = [2, 0, 0]\nf1"), "surface[0].color",
+     "colour"),
+    (("[[surface]]", "[[surface]]\npoint = [\"s\", \"t\", \"0\", \"0\"]"), "surface[0]",
+     "either"),
+    ((BOX, BOX + "\n[view]\nsensor_distance = -2"),
+     "view.sensor_distance", "positive"),
+    ((BOX, BOX + "\n[view]\nangles = [1, 2]"), "view.angles",
+     "6 finite numbers"),
+])
+def test_mistakes_are_named(tmp_path, change, key, reason):
+    old, new = change
+    assert old in GOOD
+    path = write(tmp_path, GOOD.replace(old, new, 1))
+    with pytest.raises(ExhibitError) as info:
+        load_scene_file(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: {key}:"), message
+    assert reason in message
+
+
+def test_not_toml_and_missing_surface(tmp_path):
+    with pytest.raises(ExhibitError, match="not valid TOML"):
+        load_scene_file(write(tmp_path, "name = = 1"))
+    with pytest.raises(ExhibitError, match="surface: at least one"):
+        load_scene_file(write(tmp_path, GOOD.split("[[surface]]")[0]))
+    with pytest.raises(ExhibitError, match="cannot read"):
+        load_scene_file(tmp_path / "absent.toml")
+
+
+def test_a_broken_file_is_skipped_and_reported_not_fatal(tmp_path):
+    write(tmp_path, "name = = broken", "broken.toml")
+    write(tmp_path, GOOD.replace('"slice"', '"extra-slice"', 1), "extra.toml")
+    code = ("from exhibit import scenes; print('extra-slice' in scenes.names()); "
+            "print(len(scenes.LOAD_ERRORS))")
+    env = {"EXHIBIT_SCENE_PATH": str(tmp_path), "PATH": "/usr/bin:/bin"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         check=True).stdout.split()
+    assert out == ["True", "1"]
+
+
+@pytest.mark.parametrize("name", ["clifford-torus", "complex-square"])
+def test_gallery_scenes(name):
+    surface = scenes.get(name).build(resolution=12).surfaces[0]
+    report = analyse(surface.triangles)
+    if name == "clifford-torus":
+        assert (report.euler_characteristic, report.boundary_edges) == (0, 0)
+        x, y, z, w = surface.positions.T
+        np.testing.assert_allclose(x * x + y * y, 0.5, atol=1e-12)
+        np.testing.assert_allclose(z * z + w * w, 0.5, atol=1e-12)
+    else:
+        assert report.euler_characteristic == 1
+        x, y, u, v = surface.positions.T
+        np.testing.assert_allclose(u + 1j * v, (x + 1j * y) ** 2, atol=1e-12)
