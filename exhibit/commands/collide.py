@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 import math
-import sys
 
 import numpy as np
 
@@ -60,11 +59,8 @@ def run(args) -> int:
     if params["vc"] == 0 and params["vs"] == 0:
         raise ExhibitError("--vc and --vs are both 0: nothing moves, so there is no first contact")
     resolution = parse_resolution(args.resolution) or collision.SCENE.default_resolution
-    progress.enable(sys.stderr.isatty())
-    try:
+    with progress.on_terminal():
         part = collision.build_part(params, resolution)
-    finally:
-        progress.done()
     point = collision.colliding_point(part)
     lo, hi = collision.box(params)
     cell = max(h - l for l, h in zip(lo, hi)) / resolution

@@ -4,20 +4,16 @@ how closely the vertices satisfy the surface's equations."""
 from __future__ import annotations
 
 import json
-import sys
 
 from exhibit import scenes
-from exhibit.scenes.base import parse_overrides, parse_resolution
+from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
 from exhibit.surfaces import analyse, progress
 
 HELP = "build a scene and check its mesh: components, Euler characteristic, edges, residuals"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("scene", help="scene name (see `exhibit scenes`)")
-    parser.add_argument("--param", action="append", default=[], metavar="K=V",
-                        help="scene parameter (repeatable)")
-    parser.add_argument("--resolution", metavar="N", help="mesh resolution (default: the scene's)")
+    add_scene_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -43,11 +39,8 @@ def run(args) -> int:
     scene = scenes.get(args.scene)
     overrides = parse_overrides(args.param)
     resolution = parse_resolution(args.resolution)
-    progress.enable(sys.stderr.isatty())
-    try:
+    with progress.on_terminal():
         mesh = scene.build(overrides, resolution)
-    finally:
-        progress.done()
     parts = [part_report(surface) for surface in mesh.surfaces]
     if args.json:
         print(json.dumps({"scene": scene.name, "parts": parts}, indent=2, ensure_ascii=False))

@@ -5,28 +5,23 @@ surface along u, v, or the collision curve along x, y."""
 from __future__ import annotations
 
 import json
-import sys
 
 import numpy as np
 
 from exhibit import scenes
 from exhibit.errors import ExhibitError
-from exhibit.geometry.silhouette import silhouette_function
-from exhibit.scenes.base import parse_overrides, parse_resolution
+from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
+from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
 from exhibit.surfaces import progress
 from exhibit.surfaces.curves import chain_segments
-from exhibit.geometry.silhouette import zero_set_segments
 
 HELP = "silhouette curves of a scene for the orthographic view along two axes"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("scene", help="scene name (see `exhibit scenes`)")
+    add_scene_arguments(parser)
     parser.add_argument("--along", required=True, metavar="AXIS,AXIS",
                         help="two of the scene's axis names, e.g. u,v or x,y")
-    parser.add_argument("--param", action="append", default=[], metavar="K=V",
-                        help="scene parameter (repeatable)")
-    parser.add_argument("--resolution", metavar="N", help="mesh resolution (default: the scene's)")
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -46,11 +41,8 @@ def run(args) -> int:
     along = parse_along(args.along, scene.axes)
     overrides = parse_overrides(args.param)
     resolution = parse_resolution(args.resolution)
-    progress.enable(sys.stderr.isatty())
-    try:
+    with progress.on_terminal():
         mesh = scene.build(overrides, resolution)
-    finally:
-        progress.done()
     e = np.eye(4)
     curves = []
     for surface in mesh.surfaces:

@@ -117,3 +117,11 @@ def parse_resolution(text) -> int | None:
     if not 4 <= value <= 1024:
         raise ExhibitError(f"--resolution must lie between 4 and 1024, got {value}")
     return value
+
+
+def add_scene_arguments(parser) -> None:
+    """The scene, --param and --resolution options every scene command shares."""
+    parser.add_argument("scene", help="scene name (see `exhibit scenes`)")
+    parser.add_argument("--param", action="append", default=[], metavar="K=V",
+                        help="scene parameter (repeatable)")
+    parser.add_argument("--resolution", metavar="N", help="mesh resolution (default: the scene's)")

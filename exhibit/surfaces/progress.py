@@ -31,3 +31,16 @@ def done() -> None:
     if _enabled:
         sys.stderr.write("\r\x1b[K")
         sys.stderr.flush()
+
+
+class on_terminal:
+    """Context manager: show build progress while the block runs, if stderr is a terminal."""
+
+    def __enter__(self):
+        enable(sys.stderr.isatty())
+        return self
+
+    def __exit__(self, *exc):
+        done()
+        enable(False)
+        return False
