@@ -23,6 +23,7 @@ apt_run=(
 apt_test=(
   "${apt_run[@]}"
   gcc make pkg-config gcc-avr binutils-avr avr-libc arduino-core-avr libsimavr-dev libelf-dev  # firmware: host and AVR builds, simavr harness (tests/firmware)
+  xvfb fonts-dejavu-core   # renderer: window tests under Xvfb, HUD glyphs (θ, ∞) for the text tests
 )
 
 say() { printf 'bootstrap: %s\n' "$*" >&2; }

@@ -43,8 +43,11 @@ def add_arguments(parser) -> None:
                         help="do not draw the live Lemma 3 silhouettes and Lemma 2 points")
     parser.add_argument("--depth-colour", action="store_true",
                         help="colour surfaces by 4D depth (w after rotation)")
-    parser.add_argument("--out", required=True, metavar="FILE",
+    parser.add_argument("--out", metavar="FILE",
                         help="output .png (or, with --frames, a folder, .gif or .mp4)")
+    parser.add_argument("--window", action="store_true",
+                        help="show it in a window instead (keys 1-6 turn the angles, Shift "
+                             "reverses, Up/Down move the sensor, D colours by 4D depth, Esc quits)")
 
 
 def _int(text: str, name: str, low: int, high: int) -> int:
@@ -137,6 +140,10 @@ def run(args) -> int:
     resolution = (None if args.resolution is None
                   else _int(args.resolution, "--resolution", 4, 2048))
     frames = None if args.frames is None else _int(args.frames, "--frames", 1, 10000)
+    if args.window:
+        return _window(scene, params, view, note, size, resolution, samples)
+    if args.out is None:
+        raise ExhibitError("--out FILE is required (or --window)")
     out = Path(args.out)
     if frames is None:
         if out.suffix.lower() != ".png":
@@ -178,6 +185,19 @@ def run(args) -> int:
         headless.release()
     _write_animation(images, out, kind)
     print(out)
+    return 0
+
+
+def _window(scene, params, view, note, size, resolution, samples) -> int:
+    from exhibit.render import HudInfo
+    from exhibit.render.window import Window, view as viewer
+
+    window = Window(size, title=scene.title, samples=samples)
+    try:
+        gpu = window.renderer.upload(scene.build(params, resolution))
+        viewer(window, gpu, view, HudInfo(scene.title, scene.caption, tuple(scene.axes), note))
+    finally:
+        window.close()
     return 0
 
 

@@ -108,7 +108,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         vbo = ctx.buffer(surface_vertices(surface).tobytes())
         ibo = ctx.buffer(np.ascontiguousarray(surface.triangles, dtype=np.int32).tobytes())
         gpu = GpuSurface(surface.name, surface.material.color, vbo, ibo, len(surface.triangles))
-        for key in ("surface", "silhouette", "ids", "floor"):
+        for key in ("surface", "surface_depth", "silhouette", "ids", "floor"):
             prog = programs[key]
             fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
             gpu.vaos[key] = ctx.vertex_array(prog, [(vbo, fmt, *used)], index_buffer=ibo,

@@ -61,6 +61,7 @@ class Renderer:
         p = shaders.program
         self.programs = {
             "surface": p(ctx, "surface.glsl"),
+            "surface_depth": p(ctx, "surface.glsl", ("DEPTH_COLOUR",)),
             "ids": p(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
             "silhouette": p(ctx, "silhouette.glsl"),
             "curves": p(ctx, "curves.glsl"),
@@ -119,11 +120,13 @@ class Renderer:
                 program[name].value = value
 
     def render(self, gpu: GpuMesh, view: ViewState, framebuffer: moderngl.Framebuffer,
-               options: RenderOptions = RenderOptions(), hud: HudInfo | None = None) -> None:
-        """Draw one frame of gpu in view into framebuffer (its whole viewport)."""
+               options: RenderOptions = RenderOptions(), hud: HudInfo | None = None,
+               size: tuple[int, int] | None = None) -> None:
+        """Draw one frame of gpu in view into framebuffer; size overrides the framebuffer's own
+        (a window's default framebuffer changes size with the window)."""
         ctx = self.ctx
         framebuffer.use()
-        width, height = framebuffer.size
+        width, height = size or framebuffer.size
         ctx.viewport = (0, 0, width, height)
         size = (width, height)
         scale = options.width_scale(height)
@@ -140,22 +143,8 @@ class Renderer:
 
         # Surfaces.
         ctx.enable(moderngl.DEPTH_TEST)
-        prog = self.programs["surface"]
-        self.set_pipeline(prog, view, size)
-        lights = list(view.lights)[:4]
-        padded = np.zeros((4, 3), dtype=np.float32)
-        padded[:len(lights)] = lights
-        prog["u_lights"].write(padded.tobytes())
-        w0 = view.offset[3]
-        self._set(prog, u_light_count=len(lights), u_depth_colour=int(options.depth_colour),
-                  u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
-        self._clip_distances(True)
-        ctx.polygon_offset = (1.0, 1.0)
-        for surface in gpu.surfaces if options.surfaces else ():
-            prog["u_color"].value = tuple(surface.color)
-            surface.vaos["surface"].render(moderngl.TRIANGLES)
-        ctx.polygon_offset = (0.0, 0.0)
-        self._clip_distances(False)
+        if options.surfaces:
+            self.draw_surfaces(gpu, view, size, options.depth_colour)
 
         # Live silhouettes and Lemma 2 points: depth-tested against the surfaces, no depth writes.
         ctx.enable(moderngl.BLEND)
@@ -191,6 +180,28 @@ class Renderer:
             self._hud(gpu, view, hud, size)
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
+
+    def draw_surfaces(self, gpu: GpuMesh, view: ViewState, size, depth_colour: bool = False,
+                      key: str | None = None) -> None:
+        """The surface pass alone (depth test on, current framebuffer): also what the benchmark
+        times against its CPU baseline and its pass-through floor (key="floor")."""
+        ctx = self.ctx
+        key = key or ("surface_depth" if depth_colour else "surface")
+        prog = self.programs[key]
+        self.set_pipeline(prog, view, size)
+        if "u_lights" in prog:
+            lights = np.zeros((2, 3), dtype=np.float32)   # key and fill light; more are ignored
+            lights[:len(view.lights[:2])] = view.lights[:2]
+            prog["u_lights"].write(lights.tobytes())
+        w0 = view.offset[3]
+        self._set(prog, u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
+        self._clip_distances(key != "floor")   # the floor writes no gl_ClipDistance
+        ctx.polygon_offset = (1.0, 1.0)
+        for surface in gpu.surfaces:
+            self._set(prog, u_color=tuple(surface.color))
+            surface.vaos[key].render(moderngl.TRIANGLES)
+        ctx.polygon_offset = (0.0, 0.0)
+        self._clip_distances(False)
 
     def _clip_distances(self, on: bool) -> None:
         for enum in (GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE1):
@@ -270,8 +281,9 @@ class Renderer:
 
         # Title and caption, top left, on a translucent panel.
         lines = []
-        if hud.title:
-            lines.append((hud.title, "bold", title_px, ink))
+        # The title wraps short of the gizmo in the top-right corner.
+        for line in wrap(hud.title, "bold", title_px, 0.62 * width):
+            lines.append((line, "bold", title_px, ink))
         for paragraph in (hud.caption, hud.note):
             for line in wrap(paragraph, "sans", body_px, 0.36 * width):
                 lines.append((line, "sans", body_px, dim))

@@ -56,7 +56,8 @@ def test_every_figure_renders_non_blank(gl, tmp_path, number):
     out = tmp_path / f"figure-{number}.png"
     assert main(["render", "--figure", str(number), "--size", "160x120", "--resolution", "12",
                  "--no-hud", "--out", str(out)]) == 0
-    image = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    with Image.open(out) as picture:
+        image = np.asarray(picture.convert("RGB")).astype(int)
     background = np.array([[0.16, 0.18, 0.23]]) * 255  # the gradient's top colour, roughly
     far_from_background = np.abs(image - background).max(axis=-1) > 60
     assert far_from_background.mean() > 0.03, f"figure {number} is blank"

@@ -5,14 +5,11 @@ in vec4 in_clip;
 in vec2 in_clip_distance;
 in vec3 in_normal;
 in vec3 in_to_eye;
-in float in_w;
 out vec3 v_normal;
 out vec3 v_to_eye;
-out float v_w;
 void main() {
     v_normal = in_normal;
     v_to_eye = in_to_eye;
-    v_w = in_w;
     gl_Position = in_clip;
     gl_ClipDistance[0] = in_clip_distance.x;
     gl_ClipDistance[1] = in_clip_distance.y;
@@ -22,7 +19,6 @@ void main() {
 #include "lighting.glsl"
 in vec3 v_normal;
 in vec3 v_to_eye;
-in float v_w;
 out vec4 f_color;
-void main() { f_color = vec4(shade(v_normal, v_to_eye, v_w), 1.0); }
+void main() { f_color = vec4(shade(v_normal, v_to_eye, 0.0), 1.0); }
 #endif

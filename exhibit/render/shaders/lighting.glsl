@@ -1,10 +1,8 @@
 // Two-sided Blinn-Phong in eye coordinates (x right, y up, z towards the viewer): the normal is
 // flipped towards the eye, because a projected 4D surface has no consistent outside.
-uniform vec3 u_lights[4];
-uniform int u_light_count;
+uniform vec3 u_lights[2];     // towards the key and fill lights (unit; zero = off)
 uniform vec3 u_color;
-uniform int u_depth_colour;   // 1: colour by 4D depth (view w) instead of the material
-uniform vec2 u_w_range;       // view w mapped to the ends of the depth ramp
+uniform vec2 u_w_range;       // view w mapped to the ends of the depth ramp (DEPTH_COLOUR)
 
 vec3 depth_ramp(float w) {
     float t = clamp((w - u_w_range.x) / max(u_w_range.y - u_w_range.x, 1e-6), 0.0, 1.0);
@@ -18,15 +16,17 @@ vec3 shade(vec3 normal, vec3 to_eye, float view_w) {
     float len = length(normal);
     vec3 N = len > 1e-12 ? normal / len : V;   // Lemma 2 points: the projected normal vanishes
     if (dot(N, V) < 0.0) N = -N;
-    vec3 base = u_depth_colour == 1 ? depth_ramp(view_w) : u_color;
-    vec3 diffuse = vec3(0.0);
-    float specular = 0.0;
-    for (int i = 0; i < u_light_count; ++i) {
-        vec3 L = u_lights[i];
-        float weight = i == 0 ? 1.0 : 0.45;
-        diffuse += weight * vec3(max(dot(N, L), 0.0));
-        specular += weight * pow(max(dot(N, normalize(L + V)), 0.0), 48.0);
-    }
-    float rim = 1.0 - 0.35 * pow(1.0 - max(dot(N, V), 0.0), 3.0);  // darken grazing views
-    return (base * (0.22 + 0.78 * diffuse) + 0.28 * specular) * rim;
+#if defined DEPTH_COLOUR
+    vec3 base = depth_ramp(view_w);
+#else
+    vec3 base = u_color;
+#endif
+    vec3 L0 = u_lights[0], L1 = u_lights[1];
+    float diffuse = max(dot(N, L0), 0.0) + 0.45 * max(dot(N, L1), 0.0);
+    float h0 = max(dot(N, normalize(L0 + V)), 0.0), h1 = max(dot(N, normalize(L1 + V)), 0.0);
+    h0 *= h0; h0 *= h0; h0 *= h0; h0 *= h0; h0 *= h0;   // ^32 by squaring: no exp/log
+    h1 *= h1; h1 *= h1; h1 *= h1; h1 *= h1; h1 *= h1;
+    float grazing = 1.0 - max(dot(N, V), 0.0);
+    float rim = 1.0 - 0.35 * grazing * grazing * grazing;  // darken grazing views
+    return (base * (0.22 + 0.78 * diffuse) + 0.28 * (h0 + 0.45 * h1)) * rim;
 }

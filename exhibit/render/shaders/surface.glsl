@@ -8,7 +8,9 @@ in vec4 in_n1;
 in vec4 in_n2;
 out vec3 v_normal;
 out vec3 v_to_eye;
+#if defined DEPTH_COLOUR
 out float v_w;
+#endif
 
 void main() {
     vec4 q = u_R * in_pos + u_t;
@@ -20,7 +22,9 @@ void main() {
     v_normal = (dot(m2, rho) * m1 - dot(m1, rho) * m2).xyz;
     // Towards the eye from v(p) = q.xyz / H, times r2 * H > 0 so it stays finite: (0, 0, H) - r2 q.
     v_to_eye = vec3(0.0, 0.0, rho.w) - u_r2 * q.xyz;
+#if defined DEPTH_COLOUR
     v_w = q.w;
+#endif
     gl_Position = to_clip(in_pos);
     gl_ClipDistance[0] = sensor_plane(in_pos);
     gl_ClipDistance[1] = front_plane(in_pos);
@@ -40,7 +44,11 @@ void main() {
 #include "lighting.glsl"
 in vec3 v_normal;
 in vec3 v_to_eye;
+#if defined DEPTH_COLOUR
 in float v_w;
+#else
+const float v_w = 0.0;
+#endif
 out vec4 f_color;
 void main() {
     f_color = vec4(shade(v_normal, v_to_eye, v_w), 1.0);
