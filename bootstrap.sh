@@ -19,11 +19,12 @@ esac
 apt_run=(
   python3 python3-venv python3-pip   # the interpreter and venv (Python >= 3.11)
   libegl1 libgl1 libgl1-mesa-dri     # OpenGL/EGL, with Mesa llvmpipe where there is no GPU
+  fonts-dejavu-core                  # the HUD's font (has θ and ∞)
 )
 apt_test=(
   "${apt_run[@]}"
   gcc make pkg-config gcc-avr binutils-avr avr-libc arduino-core-avr libsimavr-dev libelf-dev  # firmware: host and AVR builds, simavr harness (tests/firmware)
-  xvfb fonts-dejavu-core   # renderer: window tests under Xvfb, HUD glyphs (θ, ∞) for the text tests
+  xvfb                     # renderer: window tests under Xvfb
 )
 
 say() { printf 'bootstrap: %s\n' "$*" >&2; }

@@ -51,6 +51,7 @@ def test_lemma2_agrees_with_the_rank_of_the_projected_tangent_plane(p, u, w, r, 
     t2 = lam * ray + mu * u
     tangent_frame = np.column_stack([t1, t2])
     assume(rank_ratio(tangent_frame) > 1e-2)  # a nonsingular point: t1, t2 independent
+    assume(rank_ratio(np.column_stack([t1, ray])) > 1e-2)  # t1 has an image of its own
     projected = sensor_jacobian(p, r) @ tangent_frame  # the image of the tangent plane, 3x2
     if mu == 0:
         assert rank_ratio(projected) < 1e-12
@@ -86,6 +87,9 @@ def test_lemma3_agrees_with_the_rank_of_the_2d_image(p, u, w, r1, r2, a, b, mu):
     t1 = w
     t2 = a * ray1 + b * ray2 + mu * u
     assume(rank_ratio(np.column_stack([t1, t2])) > 1e-2)
+    # t1 itself must not (nearly) lie in the rays' plane, or the whole image is ~0 and its rank
+    # ratio is rounding noise.
+    assume(rank_ratio(np.column_stack([t1, ray1, ray2])) > 1e-2)
     image = projected_tangents_2d(p, t1, t2, r1, r2)
     n1, n2 = normals_from_tangents(t1, t2)
     if mu == 0:
