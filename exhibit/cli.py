@@ -24,6 +24,7 @@ COMMANDS = {
     "silhouette": "silhouette",
     "bench": "bench",
     "render": "render",
+    "decode": "decode",
 }
 
 
