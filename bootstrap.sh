@@ -84,9 +84,19 @@ case "$job" in
   run)
     install_system_packages "${apt_run[@]}"
     setup_venv ""
-    # Until the kiosk lands this is the closest working job: the sensor approaching the
-    # hypersphere (the paper's Figures 6-8), computed by the geometry core.
-    exec .venv/bin/exhibit sweep "$@"
+    # With arguments: that exhibit command (./bootstrap.sh run inspect collision).
+    [ $# -gt 0 ] && exec .venv/bin/exhibit "$@"
+    # Until the kiosk lands this is the closest working job: on a display, the staff viewer on
+    # the Hopf scene; without one, the paper's Figures 6-17 rendered headlessly into out/.
+    if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
+      exec .venv/bin/exhibit render hopf --window
+    fi
+    say "no display: rendering the paper's figures into out/figures/"
+    mkdir -p out/figures
+    for figure in 6 7 8 9 10 11 12 13 14 15 16 17; do
+      .venv/bin/exhibit render --figure "$figure" --out "out/figures/figure-$figure.png"
+    done
+    exec .venv/bin/exhibit sweep
     ;;
   test)
     install_system_packages "${apt_test[@]}"
