@@ -1,0 +1,426 @@
+"""HID input devices through hidapi: the knob box, the Griffin PowerMate, SpaceMice, and any
+other device a museum describes with a layout file.
+
+A *layout* (configs/devices/*.toml with a ``[layout]`` table) is data: which VID:PIDs it fits,
+which hidapi backend reaches it, and where each value sits in each input report. Reports are
+told apart by their report id (first byte, when the device uses ids) and their length, so a
+SpaceMouse's split reports (1 = translation, 2 = rotation, 3 = buttons) and the newer combined
+six-axis report 1 live in one layout.
+
+hidapi on Linux has two backends that cannot open each other's paths: ``hid`` (libusb: claims
+the interface, sees real USB only, usage pages read 0; the only way to the PowerMate, which the
+kernel hides from hidraw) and ``hidraw`` (/dev/hidrawN: not exclusive, usage pages visible). The
+URL scheme picks one; a layout names the one its device needs. Unplug shows as OSError from
+``read``: the device is closed and looked for again every ``retry_s`` (the binding has no
+hotplug callbacks).
+"""
+
+from __future__ import annotations
+
+import importlib
+import struct
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from exhibit.devices.base import (Backend, Capabilities, DeviceError, Event, Kind, State,
+                                  release_events)
+
+__all__ = ["Field", "Report", "Layout", "load_layouts", "load_layout", "find_layout",
+           "HidBackend", "LAYOUT_DIR"]
+
+LAYOUT_DIR = Path(__file__).resolve().parents[2] / "configs" / "devices"
+
+_KINDS = {"axis": Kind.ABS, "delta": Kind.REL, "buttons": Kind.BUTTON}
+_TYPES = {"i8": "b", "u8": "B", "i16": "<h", "u16": "<H", "i16be": ">h", "u16be": ">H"}
+
+
+@dataclass(frozen=True)
+class Field:
+    """``count`` values of ``type`` from byte ``offset`` (buttons: ``count`` bits, LSB first),
+    channels ``index`` .. ``index + count - 1``; an axis reads ``scale`` at full deflection."""
+
+    kind: Kind
+    offset: int
+    type: str = "i8"
+    count: int = 1
+    index: int = 0
+    scale: float = 1.0
+
+    @property
+    def end(self) -> int:
+        if self.kind is Kind.BUTTON:
+            return self.offset + (self.count + 7) // 8
+        return self.offset + self.count * struct.calcsize(_TYPES[self.type])
+
+    def values(self, data: bytes) -> list[int]:
+        if self.kind is Kind.BUTTON:
+            bits = int.from_bytes(data[self.offset:self.end], "little")
+            return [(bits >> i) & 1 for i in range(self.count)]
+        fmt = _TYPES[self.type]
+        order = fmt[0] if fmt[0] in "<>" else ""
+        return list(struct.unpack_from(order + fmt[-1] * self.count, data, self.offset))
+
+    def pack(self, values: list[int], into: bytearray) -> None:
+        if self.kind is Kind.BUTTON:
+            bits = sum((1 << i) for i, v in enumerate(values) if v)
+            into[self.offset:self.end] = bits.to_bytes(self.end - self.offset, "little")
+            return
+        fmt = _TYPES[self.type]
+        order = fmt[0] if fmt[0] in "<>" else ""
+        struct.pack_into(order + fmt[-1] * self.count, into, self.offset, *values)
+
+
+@dataclass(frozen=True)
+class Report:
+    """An input report: ``id`` is its first byte (None: the device uses no report ids);
+    ``size`` the least length, id included, that carries every field."""
+
+    id: int | None
+    size: int
+    fields: tuple[Field, ...]
+
+
+@dataclass(frozen=True)
+class Layout:
+    name: str
+    description: str
+    match: tuple[tuple[int, int], ...]
+    backend: str
+    usage_page: int | None
+    reports: tuple[Report, ...]
+    source: str = ""
+
+    @property
+    def capabilities(self) -> Capabilities:
+        n = {k: 0 for k in Kind}
+        for r in self.reports:
+            for f in r.fields:
+                n[f.kind] = max(n[f.kind], f.index + f.count)
+        return Capabilities(axes=n[Kind.ABS], deltas=n[Kind.REL], buttons=n[Kind.BUTTON])
+
+    def report_for(self, data: bytes) -> Report | None:
+        """The longest report description this report fits (ids first, then length)."""
+        best = None
+        for r in self.reports:
+            if r.id is not None and (not data or data[0] != r.id):
+                continue
+            if len(data) >= r.size and (best is None or r.size > best.size):
+                best = r
+        return best
+
+
+# ---- loading -------------------------------------------------------------------------------
+
+
+def _get(table: dict, key: str, types, where: str, default: Any = ...):
+    if key not in table:
+        if default is ...:
+            raise DeviceError(f"{where}.{key}: missing")
+        return default
+    value = table[key]
+    allowed = types if isinstance(types, tuple) else (types,)
+    if not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed):
+        raise DeviceError(f"{where}.{key}: expected {_tname(types)}, got {value!r}")
+    return value
+
+
+def _tname(types) -> str:
+    names = {int: "an integer", float: "a number", str: "a string", list: "a list",
+             dict: "a table", bool: "true or false"}
+    types = types if isinstance(types, tuple) else (types,)
+    return " or ".join(names.get(t, t.__name__) for t in types)
+
+
+def _check_keys(table: dict, allowed: set[str], where: str) -> None:
+    for key in table:
+        if key not in allowed:
+            raise DeviceError(f"{where}: unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
+
+
+def parse_layout(doc: dict, source: str) -> Layout:
+    """A Layout from a parsed TOML document; DeviceError names the file and the key."""
+    _check_keys(doc, {"layout", "report"}, source)
+    where = f"{source}: layout"
+    head = _get(doc, "layout", dict, source)
+    _check_keys(head, {"name", "description", "match", "backend", "usage_page"}, where)
+    name = _get(head, "name", str, where)
+    description = _get(head, "description", str, where, "")
+    match = []
+    for i, text in enumerate(_get(head, "match", list, where, [])):
+        if not isinstance(text, str):
+            raise DeviceError(f"{where}.match[{i}]: expected \"VID:PID\" in hex, got {text!r}")
+        from exhibit.devices.url import parse_vid_pid
+
+        try:
+            vid, pid, _ = parse_vid_pid(text)
+        except DeviceError:
+            raise DeviceError(f"{where}.match[{i}]: expected \"VID:PID\" in hex, got {text!r}") from None
+        match.append((vid, pid))
+    backend = _get(head, "backend", str, where, "hidraw")
+    if backend not in ("hid", "hidraw"):
+        raise DeviceError(f"{where}.backend: 'hid' (libusb) or 'hidraw', got {backend!r}")
+    usage_page = _get(head, "usage_page", int, where, None)
+    reports = []
+    raw_reports = _get(doc, "report", list, source)
+    if not raw_reports:
+        raise DeviceError(f"{source}: report: at least one [[report]] is needed")
+    for ri, rep in enumerate(raw_reports):
+        rw = f"{source}: report[{ri}]"
+        if not isinstance(rep, dict):
+            raise DeviceError(f"{rw}: expected a table")
+        _check_keys(rep, {"id", "size", "fields"}, rw)
+        rid = _get(rep, "id", int, rw, None)
+        if rid is not None and not 0 < rid < 256:
+            raise DeviceError(f"{rw}.id: report ids are 1..255, got {rid}")
+        first = 1 if rid is not None else 0
+        fields = []
+        for fi, fd in enumerate(_get(rep, "fields", list, rw)):
+            fw = f"{rw}.fields[{fi}]"
+            if not isinstance(fd, dict):
+                raise DeviceError(f"{fw}: expected a table")
+            _check_keys(fd, {"kind", "offset", "type", "count", "index", "scale"}, fw)
+            kind = _get(fd, "kind", str, fw)
+            if kind not in _KINDS:
+                raise DeviceError(f"{fw}.kind: unknown kind {kind!r} (one of {', '.join(_KINDS)})")
+            ftype = _get(fd, "type", str, fw, "i8" if kind != "buttons" else "bits")
+            if kind == "buttons":
+                if ftype != "bits":
+                    raise DeviceError(f"{fw}.type: buttons are bits, got {ftype!r}")
+            elif ftype not in _TYPES:
+                raise DeviceError(f"{fw}.type: unknown type {ftype!r} (one of {', '.join(_TYPES)})")
+            offset = _get(fd, "offset", int, fw)
+            count = _get(fd, "count", int, fw, 1)
+            index = _get(fd, "index", int, fw, 0)
+            scale = float(_get(fd, "scale", (int, float), fw, 1))
+            if offset < first:
+                raise DeviceError(f"{fw}.offset: {offset} overlaps the report id byte")
+            if not 1 <= count <= 64 or not 0 <= index < 256:
+                raise DeviceError(f"{fw}: count must be 1..64 and index 0..255")
+            if not scale > 0:
+                raise DeviceError(f"{fw}.scale: must be > 0, got {scale}")
+            fields.append(Field(_KINDS[kind], offset, ftype, count, index, scale))
+        if not fields:
+            raise DeviceError(f"{rw}.fields: empty")
+        end = max(f.end for f in fields)
+        size = _get(rep, "size", int, rw, end)
+        if size < end or size > 1024:
+            raise DeviceError(f"{rw}.size: {size} is shorter than its fields ({end} bytes)")
+        reports.append(Report(rid, size, tuple(fields)))
+    return Layout(name, description, tuple(match), backend, usage_page, tuple(reports), source)
+
+
+def load_layout(path: Path) -> Layout:
+    try:
+        with open(path, "rb") as f:
+            doc = tomllib.load(f)
+    except OSError as exc:
+        raise DeviceError(f"cannot read layout {path}: {exc.strerror or exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise DeviceError(f"{path}: not valid TOML: {exc}") from None
+    return parse_layout(doc, str(path))
+
+
+def load_layouts(dirs=None) -> dict[str, Layout]:
+    """Every layout file (a TOML file with a [layout] table) in ``dirs`` (default
+    configs/devices), by name; a later directory overrides an earlier one."""
+    layouts: dict[str, Layout] = {}
+    for d in ([LAYOUT_DIR] if dirs is None else [Path(x) for x in dirs]):
+        for path in sorted(Path(d).glob("*.toml")):
+            try:
+                with open(path, "rb") as f:
+                    doc = tomllib.load(f)
+            except tomllib.TOMLDecodeError as exc:
+                raise DeviceError(f"{path}: not valid TOML: {exc}") from None
+            except OSError as exc:
+                raise DeviceError(f"cannot read {path}: {exc.strerror or exc}") from None
+            if "layout" in doc:
+                layout = parse_layout(doc, str(path))
+                layouts[layout.name] = layout
+    return layouts
+
+
+def find_layout(layouts: dict[str, Layout], name: str | None, vid, pid, url: str) -> Layout:
+    if name is not None:
+        if name not in layouts:
+            raise DeviceError(f"device URL {url!r}: no layout {name!r} (known: "
+                              f"{', '.join(sorted(layouts)) or 'none'})")
+        return layouts[name]
+    for layout in layouts.values():
+        if (vid, pid) in layout.match:
+            return layout
+    if vid is None:
+        raise DeviceError(f"device URL {url!r}: say which layout (?layout=NAME; known: "
+                          f"{', '.join(sorted(layouts)) or 'none'})")
+    raise DeviceError(f"device URL {url!r}: no layout matches {vid:04x}:{pid:04x}; add one to "
+                      f"configs/devices with match = [\"{vid:04x}:{pid:04x}\"] (docs/DEVICES.md)")
+
+
+# ---- the backend ---------------------------------------------------------------------------
+
+
+@dataclass
+class HidBackend(Backend):
+    """``hid://VID:PID[/SERIAL]``, ``hidraw://VID:PID[/SERIAL]`` or ``hidraw:///dev/hidrawN``."""
+
+    layout: Layout | None = None
+    backend: str = "hidraw"
+    vid: int | None = None
+    pid: int | None = None
+    serial: str | None = None
+    path: str | None = None
+    api: Any = None
+    retry_s: float = 0.5
+    max_reports: int = 64
+    fake: Any = field(default=None, init=False, repr=False)
+
+    def __post_init__(self) -> None:
+        if self.layout is None:
+            raise DeviceError("a HID backend needs a layout")
+        self.capabilities = self.layout.capabilities
+        self.reports_ok = self.reports_unknown = self.reconnects = 0
+        self._dev = None
+        self._axes: dict[int, float] = {}
+        self._buttons: dict[int, float] = {}
+        self._pending: list[Event] = []
+        self._next_retry = 0.0
+        self._ever = False
+
+    @property
+    def target(self) -> str:
+        if self.path:
+            return self.path
+        s = f"{self.vid:04x}:{self.pid:04x}"
+        return f"{s}/{self.serial}" if self.serial else s
+
+    def _hidapi(self):
+        if self.api is None:
+            try:
+                self.api = importlib.import_module("hid" if self.backend == "hid" else "hidraw")
+            except ImportError as exc:
+                raise DeviceError(f"hidapi's {self.backend} backend is missing ({exc}); "
+                                  "pip install 'hidapi>=0.14'") from None
+        return self.api
+
+    def _open(self) -> None:
+        self._hidapi()
+        self._connect(self.clock())
+
+    def _close(self) -> None:
+        self._drop()
+        self._pending.clear()
+
+    def _drop(self) -> None:
+        dev, self._dev = self._dev, None
+        if dev is not None:
+            try:
+                dev.close()
+            except (OSError, ValueError):
+                pass
+
+    def _candidates(self) -> list[bytes]:
+        api = self.api
+        if self.path:
+            return [self.path.encode()]
+        try:
+            found = api.enumerate(self.vid, self.pid)
+        except (OSError, ValueError):
+            return []
+        if self.serial:
+            found = [d for d in found if d.get("serial_number") == self.serial]
+        if self.layout.usage_page and self.backend == "hidraw":
+            # hidraw shows each top-level collection; pick the layout's (libusb reads 0 here)
+            best = [d for d in found if d.get("usage_page") == self.layout.usage_page]
+            found = best or found
+        return [d["path"] for d in found]
+
+    def _connect(self, now: float) -> None:
+        self._next_retry = now + self.retry_s
+        paths = self._candidates()
+        if not paths:
+            self.state = State.LOST
+            self.detail = f"waiting for {self.target} ({self.backend}): not connected"
+            return
+        dev = self.api.device()
+        try:
+            dev.open_path(paths[0])
+            dev.set_nonblocking(1)
+        except (OSError, ValueError) as exc:
+            try:
+                dev.close()
+            except (OSError, ValueError):
+                pass
+            self.state = State.LOST
+            self.detail = (f"cannot open {self.target} ({self.backend}): {exc}; check the udev "
+                           "rule's permissions (docs/DEVICES.md)")
+            return
+        self._dev = dev
+        if self._ever:
+            self.reconnects += 1
+        self._ever = True
+        self.state = State.CONNECTED
+        try:
+            product = dev.get_product_string() or self.layout.name
+        except (OSError, ValueError):
+            product = self.layout.name
+        self.detail = f"{product} ({self.layout.name} layout, {self.backend})"
+
+    def _lost(self, now: float, why: str) -> None:
+        self._drop()
+        self.state = State.LOST
+        self.detail = why
+        self._next_retry = now + self.retry_s
+        self._pending += release_events(now, self.name, self._axes, self._buttons)
+        self._axes.clear()
+        self._buttons.clear()
+
+    def _poll(self) -> list[Event]:
+        now = self.clock()
+        if self._dev is None:
+            if now >= self._next_retry:
+                self._connect(now)
+            if self._dev is None:
+                out, self._pending = self._pending, []
+                return out
+        for _ in range(self.max_reports):  # bounded work per poll, even for a flooding device
+            try:
+                data = self._dev.read(64)
+            except (OSError, ValueError) as exc:
+                self._lost(now, f"{self.target} unplugged ({exc or 'read error'}); looking for it")
+                break
+            if not data:
+                break
+            self._report(bytes(data), now)
+        out, self._pending = self._pending, []
+        return out
+
+    def _report(self, data: bytes, now: float) -> None:
+        report = self.layout.report_for(data)
+        if report is None:
+            self.reports_unknown += 1
+            return
+        self.reports_ok += 1
+        out = self._pending
+        for f in report.fields:
+            for i, raw in enumerate(f.values(data)):
+                ch = f.index + i
+                if f.kind is Kind.REL:
+                    if raw:
+                        out.append(Event(now, self.name, Kind.REL, ch, float(raw)))
+                elif f.kind is Kind.ABS:
+                    v = max(-1.0, min(1.0, raw / f.scale))
+                    if self._axes.get(ch, 0.0) != v:
+                        self._axes[ch] = v
+                        out.append(Event(now, self.name, Kind.ABS, ch, v))
+                else:
+                    v = float(raw)
+                    if self._buttons.get(ch, 0.0) != v:
+                        self._buttons[ch] = v
+                        out.append(Event(now, self.name, Kind.BUTTON, ch, v))
+
+    def status(self) -> dict:
+        d = super().status()
+        d["link"] = {"reports_ok": self.reports_ok, "reports_unknown": self.reports_unknown,
+                     "reconnects": self.reconnects}
+        return d

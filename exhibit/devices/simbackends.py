@@ -1,0 +1,51 @@
+"""``sim://`` backends: the real host code connected to a simulated device.
+
+``sim://controller`` is a :class:`SerialController` reading the pty of a :class:`SimController`
+it owns; ``sim://LAYOUT`` is a :class:`HidBackend` reading a scripted fake HID device. Nothing is
+short-circuited: the controller's bytes cross a real pty, the fake HID device hands over the same
+report bytes hidapi would.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from exhibit.devices.controller import SerialController
+from exhibit.devices.sim import SimController, Step
+
+__all__ = ["SimulatedController", "simulated_hid"]
+
+
+@dataclass
+class SimulatedController(SerialController):
+    """A controller simulator in a thread and the serial backend on its pty."""
+
+    script: list[Step] | None = None
+    seed: int | None = None
+    sim: SimController | None = field(default=None, init=False)
+
+    def _open(self) -> None:
+        self.sim = SimController(script=self.script, seed=self.seed).start()
+        self.path = str(self.sim.link)
+        super()._open()
+
+    def _close(self) -> None:
+        super()._close()
+        if self.sim is not None:
+            self.sim.stop()
+            self.sim = None
+
+
+def simulated_hid(name, clock, layout, script=None, seed=None):
+    from exhibit.devices.fakehid import FakeHidBus, FakeHidDevice
+    from exhibit.devices.hid import HidBackend
+
+    vid, pid = layout.match[0] if layout.match else (0xF00D, 0x0001)
+    device = FakeHidDevice(vid, pid, product=layout.description or layout.name, serial="SIM1",
+                           usage_page=layout.usage_page or 0, script=script, clock=clock,
+                           seed=seed, layout=layout)
+    bus = FakeHidBus([device])
+    backend = HidBackend(name=name, clock=clock, layout=layout, backend=layout.backend,
+                         vid=vid, pid=pid, serial=None, path=None, api=bus)
+    backend.fake = device
+    return backend

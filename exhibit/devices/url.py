@@ -1,0 +1,169 @@
+"""The URL factory: one string in a config picks the backend, as pyserial's ``serial_for_url``
+picks ``loop://`` or ``socket://``. The same tests and the same kiosk then run on a simulated,
+recorded or real device by changing only the URL.
+
+==========================================  ================================================
+``serial:///dev/serial/by-id/...?baud=N``   the 6-axis controller (baud defaults to 115200)
+``hid://VID:PID[/SERIAL][?layout=NAME]``    HID device through hidapi's libusb backend
+                                            (the only way to the Griffin PowerMate)
+``hidraw://VID:PID[/SERIAL][?layout=NAME]`` HID device through hidraw (not exclusive; vendor
+``hidraw:///dev/hidrawN[?layout=NAME]``     usage pages visible); VID:PID survives a replug,
+                                            /dev/hidrawN may not
+``sim://controller[?script=FILE]``          simulated controller on a pty (the real protocol)
+``sim://LAYOUT[?script=FILE]``              scripted fake HID device with that layout
+``replay://FILE[?speed=X&loop=1]``          a recorded session (``exhibit record``)
+``keyboard://``                             keys and mouse, fed by whoever owns the window
+==========================================  ================================================
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+from urllib.parse import parse_qs, urlsplit
+
+from exhibit.devices.base import Backend, Clock, DeviceError
+
+__all__ = ["backend_for_url", "parse_url", "SCHEMES", "parse_vid_pid"]
+
+#: scheme -> the query keys it accepts
+SCHEMES = {
+    "serial": {"baud"},
+    "hid": {"layout"},
+    "hidraw": {"layout"},
+    "sim": {"script", "seed"},
+    "replay": {"speed", "loop"},
+    "keyboard": set(),
+}
+
+
+def parse_url(url: str) -> tuple[str, str, dict[str, str]]:
+    """(scheme, target, query) of a device URL; DeviceError says what is wrong with it."""
+    if not isinstance(url, str) or "://" not in url:
+        raise DeviceError(f"device URL {url!r} needs a scheme: one of "
+                          + ", ".join(f"{s}://" for s in SCHEMES))
+    parts = urlsplit(url)
+    scheme = parts.scheme.lower()
+    if scheme not in SCHEMES:
+        raise DeviceError(f"device URL {url!r}: unknown scheme {scheme!r} (one of "
+                          + ", ".join(f"{s}://" for s in SCHEMES) + ")")
+    target = parts.netloc + parts.path
+    query: dict[str, str] = {}
+    for key, values in parse_qs(parts.query, keep_blank_values=True).items():
+        if key not in SCHEMES[scheme]:
+            allowed = ", ".join(sorted(SCHEMES[scheme])) or "none"
+            raise DeviceError(f"device URL {url!r}: unknown option {key!r} (allowed: {allowed})")
+        if len(values) != 1:
+            raise DeviceError(f"device URL {url!r}: option {key!r} given {len(values)} times")
+        query[key] = values[0]
+    if parts.fragment:
+        raise DeviceError(f"device URL {url!r}: unexpected '#{parts.fragment}'")
+    return scheme, target, query
+
+
+def parse_vid_pid(text: str, url: str = "") -> tuple[int, int, str | None]:
+    """``VID:PID[/SERIAL]`` in hex -> (vid, pid, serial or None)."""
+    ids, _, serial = text.partition("/")
+    vid, sep, pid = ids.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        v, p = int(vid, 16), int(pid, 16)
+        if not (0 <= v <= 0xFFFF and 0 <= p <= 0xFFFF) or len(vid) > 4 or len(pid) > 4:
+            raise ValueError
+    except ValueError:
+        raise DeviceError(f"device URL {url or text!r}: expected VID:PID in hex "
+                          f"(e.g. 2341:8037), got {ids!r}") from None
+    return v, p, serial or None
+
+
+def _number(url: str, key: str, value: str, kind=float, low=None):
+    try:
+        n = kind(value)
+    except ValueError:
+        raise DeviceError(f"device URL {url!r}: option {key}={value!r} is not a number") from None
+    if low is not None and not n > low:
+        raise DeviceError(f"device URL {url!r}: option {key} must be > {low}")
+    return n
+
+
+def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.monotonic,
+                    layout_dirs=None, hid_api=None) -> Backend:
+    """A backend for ``url``, not yet opened. ``name`` tags its events (default: the scheme).
+    ``layout_dirs`` overrides where HID layouts are looked up; ``hid_api`` replaces the hidapi
+    module (tests pass a fake bus)."""
+    scheme, target, query = parse_url(url)
+    name = name or scheme
+    if scheme == "serial":
+        from exhibit.devices.controller import SerialController
+
+        if not target:
+            raise DeviceError(f"device URL {url!r}: no port path (serial:///dev/ttyUSB0)")
+        baud = _number(url, "baud", query.get("baud", "115200"), int, 0)
+        b = SerialController(name=name, clock=clock, path=target, baud=baud)
+    elif scheme in ("hid", "hidraw"):
+        from exhibit.devices.hid import HidBackend, find_layout, load_layouts
+
+        layouts = load_layouts(layout_dirs)
+        if target.startswith("/"):
+            if scheme == "hid":
+                raise DeviceError(f"device URL {url!r}: hid:// takes VID:PID; use "
+                                  f"hidraw://{target} for a /dev/hidraw path")
+            vid = pid = serial = None
+            path = target
+        else:
+            vid, pid, serial = parse_vid_pid(target, url)
+            path = None
+        layout = find_layout(layouts, query.get("layout"), vid, pid, url)
+        b = HidBackend(name=name, clock=clock, layout=layout, backend=scheme, vid=vid, pid=pid,
+                       serial=serial, path=path, api=hid_api)
+    elif scheme == "sim":
+        b = _sim_backend(url, target, query, name, clock, layout_dirs)
+    elif scheme == "replay":
+        from exhibit.devices.replay import ReplayBackend
+
+        if not target:
+            raise DeviceError(f"device URL {url!r}: no file (replay://session.jsonl)")
+        speed = _number(url, "speed", query.get("speed", "1"), float, 0)
+        loop = query.get("loop", "0") not in ("0", "false", "no", "")
+        b = ReplayBackend(name=name, clock=clock, file=Path(target), speed=speed, loop=loop)
+    else:  # keyboard
+        from exhibit.devices.keyboard import KeyboardBackend
+
+        if target:
+            raise DeviceError(f"device URL {url!r}: keyboard:// takes no path")
+        b = KeyboardBackend(name=name, clock=clock)
+    b.url = url
+    return b
+
+
+def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
+    script = None
+    if "script" in query:
+        path = Path(query["script"])
+        try:
+            text = path.read_text()
+        except OSError as exc:
+            raise DeviceError(f"device URL {url!r}: cannot read script {path}: "
+                              f"{exc.strerror or exc}") from None
+    seed = _number(url, "seed", query["seed"], int) if "seed" in query else None
+    if target == "controller":
+        from exhibit.devices.sim import parse_script
+        from exhibit.devices.simbackends import SimulatedController
+
+        if "script" in query:
+            script = parse_script(text, str(path))
+        return SimulatedController(name=name, clock=clock, script=script, seed=seed)
+    from exhibit.devices.hid import find_layout, load_layouts
+    from exhibit.devices.simbackends import simulated_hid
+
+    layouts = load_layouts(layout_dirs)
+    if target not in layouts:
+        raise DeviceError(f"device URL {url!r}: no simulated device {target!r} (controller or "
+                          f"a layout: {', '.join(sorted(layouts))})")
+    layout = find_layout(layouts, target, None, None, url)
+    if "script" in query:
+        from exhibit.devices.fakehid import parse_hid_script
+
+        script = parse_hid_script(text, str(path), layout)
+    return simulated_hid(name=name, clock=clock, layout=layout, script=script, seed=seed)
