@@ -25,6 +25,10 @@ COMMANDS = {
     "bench": "bench",
     "render": "render",
     "decode": "decode",
+    "devices": "devices",
+    "monitor": "monitor",
+    "simulate": "simulate",
+    "record": "record",
 }
 
 

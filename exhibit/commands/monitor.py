@@ -1,0 +1,68 @@
+"""`exhibit monitor [--json]`: the live mapped parameters, for installers wiring a kiosk.
+
+Polls every configured device (as the kiosk does, never blocking), applies the mapping, and
+prints the seven parameters, each device's state and the idle time a few times a second. With
+--json every line is a JSON object, for scripts.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+
+from exhibit.commands._devices_common import add_config_arguments, config_from_args
+from exhibit.devices.hub import DeviceSet
+from exhibit.devices.mapping import ActivityDetector, Mapper
+from exhibit.errors import ExhibitError
+from exhibit.geometry.view import ViewState
+
+HELP = "show the live mapped parameters (angles, sensor distance) and device states"
+
+
+def add_arguments(parser) -> None:
+    add_config_arguments(parser)
+    parser.add_argument("--json", action="store_true", help="one JSON object per line")
+    parser.add_argument("--rate", type=float, default=5.0, help="lines per second (default 5)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="stop after this many seconds (default: until Ctrl-C)")
+
+
+def snapshot(view: ViewState, devices: DeviceSet, mapper: Mapper, now: float) -> dict:
+    idle = mapper.activity.idle_for(now)
+    return {
+        "angles_deg": [round(math.degrees(a), 3) for a in view.angles],
+        "sensor_r": round(view.sensor_r, 6),
+        "sensor_distance": None if view.sensor_r == 0 else round(view.sensor_distance, 4),
+        "idle_s": None if math.isinf(idle) else round(idle, 2),
+        "devices": {s["name"]: s["state"] for s in devices.statuses()},
+    }
+
+
+def text_line(s: dict) -> str:
+    angles = " ".join(f"θ{i + 1} {a:+7.1f}°" for i, a in enumerate(s["angles_deg"]))
+    d = "inf" if s["sensor_distance"] is None else f"{s['sensor_distance']:.2f}"
+    devs = ", ".join(f"{k} {v}" for k, v in s["devices"].items())
+    idle = "never touched" if s["idle_s"] is None else f"idle {s['idle_s']:.1f} s"
+    return f"{angles}  sensor d={d} (r={s['sensor_r']:.3f})  | {devs} | {idle}"
+
+
+def run(args) -> int:
+    if not (args.rate > 0 and math.isfinite(args.rate)):
+        raise ExhibitError("--rate must be a positive number")
+    config = config_from_args(args)
+    mapper = Mapper(config.mapping, ActivityDetector(config.activity_threshold))
+    view = ViewState()
+    with DeviceSet(config) as devices:
+        start = next_print = time.monotonic()
+        while True:
+            now = time.monotonic()
+            view = mapper.apply(view, devices.poll(), now)
+            if now >= next_print:
+                s = snapshot(view, devices, mapper, now)
+                print(json.dumps(s) if args.json else text_line(s), flush=True)
+                next_print += 1.0 / args.rate
+            if args.duration is not None and now - start >= args.duration:
+                break
+            time.sleep(0.005)
+    return 0

@@ -1,0 +1,57 @@
+"""`exhibit simulate controller [--script FILE]`: a simulated 6-axis controller on a pty.
+
+Prints the pseudo-terminal to open (first line of standard output, alone, for scripts) and runs
+until Ctrl-C or --duration. It speaks the real protocol (firmware/PROTOCOL.md), so anything that
+reads the board reads it: ``exhibit monitor --device controller=serial://PTY``, the kiosk, pyserial.
+Scripts are described in exhibit/devices/sim.py and docs/DEVICES.md.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+from exhibit.devices import protocol as p
+from exhibit.devices.sim import SimController, parse_script
+from exhibit.errors import ExhibitError
+
+HELP = "run a simulated controller on a pseudo-terminal (prints the tty path)"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("device", choices=["controller"], help="what to simulate")
+    parser.add_argument("--script", type=Path, help="a script of stick moves, buttons and faults")
+    parser.add_argument("--link", type=Path,
+                        help="also make this symlink to the pty, a stable name that survives "
+                             "the script's unplug/replug (like /dev/serial/by-id/...)")
+    parser.add_argument("--duration", type=float, default=None,
+                        help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--protocol-version", type=int, default=p.PROTOCOL_VERSION,
+                        help="speak another protocol version (to check a host's refusal)")
+
+
+def run(args) -> int:
+    script = None
+    if args.script is not None:
+        try:
+            text = args.script.read_text()
+        except OSError as exc:
+            raise ExhibitError(f"cannot read {args.script}: {exc.strerror or exc}") from None
+        script = parse_script(text, str(args.script))
+    if not 0 <= args.protocol_version <= 255:
+        raise ExhibitError("--protocol-version must be 0..255")
+    sim = SimController(args.link, script=script, version=args.protocol_version)
+    sim.start()
+    try:
+        print(sim.tty, flush=True)
+        print(f"simulated controller on {sim.tty} (stable name {sim.link}); Ctrl-C stops it",
+              file=sys.stderr, flush=True)
+        start = time.monotonic()
+        while args.duration is None or time.monotonic() - start < args.duration:
+            time.sleep(0.05)
+    except KeyboardInterrupt:
+        pass
+    finally:
+        sim.stop()
+    return 0

@@ -1,0 +1,84 @@
+"""All configured devices at once: open them, poll them all without blocking, merge events.
+
+One faulty backend never stops the others: a device that is absent waits in LOST, and an
+unexpected exception from a backend (a bug, a driver surprise) is caught, shown in its status
+and the backend is reopened later, because on a museum floor a frozen exhibit is worse than a
+missing knob.
+"""
+
+from __future__ import annotations
+
+import time
+
+from exhibit.devices.base import Backend, Event, State
+from exhibit.devices.config import DeviceConfig
+from exhibit.devices.keyboard import KeyboardBackend
+from exhibit.devices.url import backend_for_url
+
+__all__ = ["DeviceSet"]
+
+
+class DeviceSet:
+    def __init__(self, config: DeviceConfig, clock=time.monotonic, hid_api=None):
+        self.config = config
+        self.clock = clock
+        # construct every backend first: a bad URL or layout fails before anything is opened
+        self.backends: list[Backend] = [
+            backend_for_url(url, name, clock=clock, layout_dirs=config.layout_dirs,
+                            hid_api=hid_api)
+            for name, url in config.devices.items()]
+        self._broken: dict[int, float] = {}
+
+    def open(self) -> "DeviceSet":
+        for i, b in enumerate(self.backends):
+            self._guard(i, b.open)
+        return self
+
+    def _guard(self, i: int, fn):
+        try:
+            return fn()
+        except Exception as exc:  # noqa: BLE001 - one device's bug must not stop the exhibit
+            b = self.backends[i]
+            try:
+                b.close()
+            except Exception:  # noqa: BLE001
+                pass
+            b.state = State.LOST
+            b.detail = f"backend error: {type(exc).__name__}: {exc}"
+            self._broken[i] = self.clock() + 2.0
+            return None
+
+    def poll(self) -> list[Event]:
+        out: list[Event] = []
+        for i, b in enumerate(self.backends):
+            if i in self._broken:
+                if self.clock() < self._broken[i]:
+                    continue
+                del self._broken[i]
+                self._guard(i, b.open)
+                continue
+            events = self._guard(i, b.poll)
+            if events:
+                out += events
+        return out
+
+    def close(self) -> None:
+        for b in self.backends:
+            try:
+                b.close()
+            except Exception:  # noqa: BLE001
+                pass
+
+    def statuses(self) -> list[dict]:
+        return [b.status() for b in self.backends]
+
+    @property
+    def keyboard(self) -> KeyboardBackend | None:
+        """The keyboard backend, for the window owner to feed."""
+        return next((b for b in self.backends if isinstance(b, KeyboardBackend)), None)
+
+    def __enter__(self) -> "DeviceSet":
+        return self.open()
+
+    def __exit__(self, *exc) -> None:
+        self.close()

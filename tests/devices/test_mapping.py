@@ -1,0 +1,180 @@
+"""The mapping from events to the seven parameters, the activity detector, and the config."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from exhibit.devices.base import DeviceError, Event, Kind
+from exhibit.devices.config import load_config, parse_config
+from exhibit.devices.mapping import ActivityDetector, Mapper, shape
+from exhibit.geometry.view import ViewState
+
+DEG = math.pi / 180
+
+
+def cfg(binds, **mapping):
+    return parse_config({"mapping": {"bind": binds, **mapping}}, "test.toml").mapping
+
+
+def ev(t, kind, index, value, device="d"):
+    return Event(t, device, Kind(kind), index, value)
+
+
+def test_knob_detents_are_angle_steps_and_invert():
+    m = Mapper(cfg([{"device": "d", "input": "delta 1", "param": "theta1", "step": 5},
+                    {"device": "d", "input": "delta 2", "param": "theta4", "step": 2,
+                     "invert": True}]))
+    v = m.apply(ViewState(), [ev(0, "rel", 0, 3), ev(0, "rel", 1, 2), ev(0, "rel", 0, -1)], 0.0)
+    assert v.angles[0] == pytest.approx(10 * DEG) and v.angles[3] == pytest.approx(-4 * DEG)
+    assert v.angles[1:3] == (0.0, 0.0)
+
+
+def test_axis_is_a_rate_integrated_over_event_time():
+    m = Mapper(cfg([{"device": "d", "input": "axis 2", "param": "theta2", "rate": 90}]))
+    v = ViewState()
+    v = m.apply(v, [ev(10.0, "abs", 1, 0.5)], 10.0)
+    assert v.angles[1] == 0.0
+    v = m.apply(v, [], 10.4)  # held for 0.4 s at half deflection: 18 degrees
+    assert v.angles[1] == pytest.approx(18 * DEG)
+    # released at 10.5 (by the event's stamp) though the frame is drawn at 10.7
+    v = m.apply(v, [ev(10.5, "abs", 1, 0.0)], 10.7)
+    assert v.angles[1] == pytest.approx(22.5 * DEG)
+    assert m.apply(v, [], 20.0) is v  # nothing held: the same object, no work
+
+
+def test_dead_zone_and_curve_shape_the_deflection():
+    assert shape(0.05, 0.1, 1) == 0.0
+    assert shape(0.1 + 1e-9, 0.1, 1) == pytest.approx(0.0, abs=1e-8)  # no jump at the edge
+    assert shape(0.55, 0.1, 1) == pytest.approx(0.5)
+    assert shape(-0.55, 0.1, 2) == pytest.approx(-0.25)
+    assert shape(1.0, 0.1, 3) == 1.0
+    m = Mapper(cfg([{"device": "d", "input": "axis 1", "param": "theta3", "rate": 100,
+                     "dead_zone": 0.2, "curve": 2}]))
+    v = m.apply(ViewState(), [ev(0, "abs", 0, -0.6)], 0.0)
+    v = m.apply(v, [], 0.5)
+    v = m.apply(v, [], 1.0)
+    assert v.angles[2] == pytest.approx(-25 * DEG)
+    v = m.apply(v, [], 3.0)  # a stalled loop (2 s) moves at most MAX_DT's worth: no lurch
+    assert v.angles[2] == pytest.approx(-37.5 * DEG)
+
+
+def test_angles_wrap_and_limits_hold_without_jumps():
+    m = Mapper(cfg([{"device": "d", "input": "delta 1", "param": "theta1", "step": 100},
+                    {"device": "d", "input": "delta 2", "param": "theta2", "step": 100}],
+                   limits={"theta2": [-180, 0]}))
+    v = m.apply(ViewState(), [ev(0, "rel", 0, 2), ev(0, "rel", 1, -3)], 0.0)
+    assert v.angles[0] == pytest.approx(-160 * DEG)  # 200 degrees wraps
+    assert v.angles[1] == pytest.approx(-180 * DEG)  # held at the limit
+    outside = ViewState(angles=(0, 0.5, 0, 0, 0, 0))  # put there by an attract timeline
+    w = m.apply(outside, [ev(0, "rel", 1, 0.001)], 0.0)
+    assert w.angles[1] == pytest.approx(0.5)  # not pulled in, not pushed further out
+    w = m.apply(outside, [ev(0, "rel", 1, -0.001)], 0.0)
+    assert w.angles[1] == pytest.approx(0.5 - 0.1 * DEG)  # may move back towards the range
+
+
+def test_sensor_moves_in_r_reaches_infinity_and_stops_at_the_minimum_distance():
+    m = Mapper(cfg([{"device": "k", "input": "delta 7", "param": "sensor", "step": 0.025}],
+                   sensor_min_distance=2.0))
+    v = ViewState()
+    v = m.apply(v, [ev(0, "rel", 6, 8, "k")], 0)
+    assert v.sensor_r == pytest.approx(0.2) and v.sensor_distance == pytest.approx(5.0)
+    v = m.apply(v, [ev(0, "rel", 6, 100, "k")], 0)
+    assert v.sensor_r == 0.5 and v.sensor_distance == 2.0
+    v = m.apply(v, [ev(0, "rel", 6, -1000, "k")], 0)
+    assert v.sensor_r == 0.0 and v.sensor_distance == math.inf  # infinity, not beyond
+    v = m.apply(v, [ev(0, "rel", 6, 1, "k")], 0)
+    assert v.sensor_r == pytest.approx(0.025)  # and straight back from it
+
+
+def test_several_devices_drive_one_parameter_and_home():
+    m = Mapper(cfg([{"device": "knobs", "input": "delta 1", "param": "theta1", "step": 10},
+                    {"device": "stick", "input": "axis 1", "param": "theta1", "rate": 10},
+                    {"device": "knobs", "input": "button 7", "action": "home"}],
+                   home_angles=[0, -90, 0, 0, 0, 0], home_sensor_distance=4))
+    v = m.apply(ViewState(), [ev(0, "rel", 0, 1, "knobs"), ev(0, "abs", 0, 1.0, "stick")], 0)
+    v = m.apply(v, [], 0.5)
+    v = m.apply(v, [], 1.0)
+    assert v.angles[0] == pytest.approx(20 * DEG)
+    v = m.apply(v, [ev(1.0, "button", 6, 1.0, "knobs")], 1.0)
+    assert v.angles == pytest.approx((0, -90 * DEG, 0, 0, 0, 0)) and v.sensor_r == 0.25
+    other = m.apply(v, [ev(1.0, "rel", 0, 5, "unbound")], 1.0)
+    assert other.angles == v.angles
+
+
+def test_activity_ignores_noise_and_drift_but_sees_people():
+    a = ActivityDetector(threshold=0.15)
+    t = 0.0
+    for i in range(600):  # a minute of jitter around a pot resting at 0.1
+        t += 0.1
+        a.observe(ev(t, "abs", 0, 0.1 + 0.03 * math.sin(i)))
+        a.update(t)
+    assert a.last_active is None and a.idle_for(t) == math.inf
+    for i in range(3000):  # five minutes of slow drift to 0.6: never a visitor
+        t += 0.1
+        a.observe(ev(t, "abs", 0, 0.1 + 0.5 * i / 3000))
+        a.update(t)
+    assert a.last_active is None
+    a.observe(ev(t, "abs", 0, -0.6))  # someone pushes the stick the other way
+    assert a.last_active == t
+    for _ in range(50):  # and holds it: a steady deflection keeps counting
+        t += 0.1
+        a.update(t)
+    assert a.idle_for(t) == 0.0
+    a.observe(ev(t, "abs", 0, 0.6))
+    t += 1.0
+    a.observe(ev(t, "rel", 0, 0.0))  # a zero delta is nothing
+    a.update(t)
+    b = ActivityDetector()
+    b.observe(ev(5.0, "rel", 3, -1))
+    b.observe(ev(6.0, "button", 0, 0.0))  # a release alone is not a visitor
+    assert b.idle_for(8.0) == 3.0
+
+
+def test_default_config_binds_all_seven_parameters():
+    c = load_config()
+    params = {b.param for b in c.mapping.bindings if b.param}
+    assert params == {"theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor"}
+    assert c.mapping.sensor_min_distance == 2.0 and c.devices["knobs"] == "hidraw://2341:8037"
+
+
+@pytest.mark.parametrize("doc, fragment", [
+    ({"mapping": {"bind": [{"device": "d", "input": "delta 1", "param": "theta7"}]}},
+     "mapping.bind[0].param: unknown parameter 'theta7'"),
+    ({"mapping": {"bind": [{"device": "d", "input": "knob 1", "param": "theta1"}]}},
+     "mapping.bind[0].input: expected 'axis N', 'delta N' or 'button N'"),
+    ({"mapping": {"bind": [{"device": "d", "input": "delta 0", "param": "theta1"}]}},
+     "mapping.bind[0].input"),
+    ({"mapping": {"bind": [{"device": "d", "input": "delta 1", "param": "theta1", "rate": 3}]}},
+     "mapping.bind[0].rate: only for axes"),
+    ({"mapping": {"bind": [{"device": "d", "input": "axis 1", "param": "theta1",
+                            "dead_zone": 1.5}]}}, "mapping.bind[0].dead_zone: must be in [0.0, 0.95]"),
+    ({"mapping": {"bind": [{"device": "d", "input": "axis 1", "param": "theta1",
+                            "invert": "yes"}]}}, "mapping.bind[0].invert: expected true or false"),
+    ({"mapping": {"sensor_min_distance": 0}}, "mapping.sensor_min_distance: must be > 0.0"),
+    ({"mapping": {"limits": {"sensor": [0, 1]}}}, "mapping.limits.sensor"),
+    ({"mapping": {"limits": {"theta2": [0, -180]}}}, "mapping.limits.theta2: expected [low, high]"),
+    ({"devices": {"c": {"url": "serail:///dev/x"}}}, "devices.c.url: device URL 'serail:///dev/x': "
+                                                     "unknown scheme 'serail'"),
+    ({"devices": {"c": {"url": "serial:///dev/x?baud=fast"}}}, "baud='fast' is not a number"),
+    ({"devices": {"c": {"url": "keyboard://"}},
+      "mapping": {"bind": [{"device": "k", "input": "axis 1", "param": "theta1"}]}},
+     "mapping.bind[0].device: no device 'k' (configured: c)"),
+    ({"devices": {"c": {"uri": "keyboard://"}}}, "devices.c: unknown key 'uri'"),
+    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "param": "theta1"}]}},
+     "a button takes action = \"home\""),
+])
+def test_bad_configs_name_the_key(doc, fragment):
+    with pytest.raises(DeviceError) as info:
+        parse_config(doc, "museum.toml")
+    assert fragment in str(info.value) and str(info.value).startswith("museum.toml: ")
+
+
+def test_bad_toml_file_names_the_file(tmp_path):
+    f = tmp_path / "devices.toml"
+    f.write_text("[mapping\n")
+    with pytest.raises(DeviceError, match=r"devices.toml: not valid TOML"):
+        load_config(f)
+    with pytest.raises(DeviceError, match=r"cannot read device config .*nope.toml"):
+        load_config(tmp_path / "nope.toml")
