@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import importlib
 
-HELP = "benchmarks: " + ", ".join(["mesh", "render", "startup"])
+HELP = "benchmarks: " + ", ".join(["mesh", "render", "startup", "input"])
 
 #: benchmark name -> module providing HELP, add_arguments, run
 BENCHMARKS = {
     "mesh": "exhibit.surfaces.bench",
     "render": "exhibit.render.bench",
     "startup": "exhibit.kiosk.bench",
+    "input": "exhibit.devices.bench",
 }
 
 

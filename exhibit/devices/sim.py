@@ -182,6 +182,7 @@ class SimController:
         self.rx_ok = self.rx_rejected = 0
         self.sent_frames = 0
         self.dropped_bytes = 0
+        self.bytes_written = 0
         self.resets = 0
         self._lock = threading.RLock()
         self._master = self._slave = -1
@@ -351,6 +352,7 @@ class SimController:
         except OSError:
             return
         self.dropped_bytes += len(data) - n
+        self.bytes_written += n
         if self.sync and n:
             _wait(lambda: _inq(self._slave) >= min(before + n, 4000))
 

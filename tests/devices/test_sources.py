@@ -241,3 +241,11 @@ def test_bad_device_option_is_one_line(cli):
     assert "--device 'nourl': expected NAME=URL" in r.stderr
     r = cli("simulate", "controller", "--script", "/nonexistent/s.txt")
     assert r.returncode == 2 and "cannot read /nonexistent/s.txt" in r.stderr
+
+
+def test_bench_input_runs_the_real_path(capsys):
+    """The benchmark's plumbing (not its timings): every frame reached the ViewState."""
+    assert main(["bench", "input", "--frames", "20", "--decode-frames", "2000", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert set(r["latency_ms"]) == {"p50", "p99", "max", "mean"}
+    assert r["decoder_frames_per_s"] > 0 and "goals_met" in r
