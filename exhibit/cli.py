@@ -17,6 +17,7 @@ from exhibit.errors import ExhibitError
 
 # name -> module under exhibit.commands; the order is the order of `exhibit --help`.
 COMMANDS = {
+    "check-config": "check_config",
     "sweep": "sweep",
     "scenes": "scenes",
     "inspect": "inspect",

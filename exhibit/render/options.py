@@ -29,6 +29,9 @@ class RenderOptions:
     #: Width in px (at 720 px) of the live silhouette curves and diameter of Lemma 2 marks.
     silhouette_width: float = 2.5
     pinch_size: float = 9.0
+    #: Shift of the text panels in pixels (x right, y down): the kiosk moves them slowly so no
+    #: overlay burns into the screen.
+    hud_drift: tuple[float, float] = (0.0, 0.0)
 
     def width_scale(self, height: int) -> float:
         if self.line_scale is not None:

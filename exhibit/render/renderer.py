@@ -177,7 +177,7 @@ class Renderer:
 
         ctx.disable(moderngl.DEPTH_TEST)
         if options.hud and hud is not None:
-            self._hud(gpu, view, hud, size)
+            self._hud(gpu, view, hud, size, options.hud_drift)
         ctx.disable(moderngl.BLEND)
         ctx.depth_func = "<"
 
@@ -270,8 +270,10 @@ class Renderer:
         prog["u_pass"].value = 1
         self._overlay_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
 
-    def _hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size) -> None:
+    def _hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size,
+             drift: tuple[float, float] = (0.0, 0.0)) -> None:
         width, height = size
+        dx, dy = drift
         viewport = (float(width), float(height))
         margin = max(4, round(0.022 * height))
         title_px = max(10, round(0.036 * height))
@@ -290,10 +292,11 @@ class Renderer:
         if lines:
             block_w = max(text_width(t, s, px) for t, s, px, _ in lines) + 2 * pad
             block_h = sum(line_height(s, px) for _, s, px, _ in lines) + 2 * pad
-            self._panel(margin, margin, block_w, block_h, (0.0, 0.0, 0.0, 0.45), viewport)
-            y = margin + pad
+            self._panel(margin + dx, margin + dy, block_w, block_h, (0.0, 0.0, 0.0, 0.45),
+                        viewport)
+            y = margin + dy + pad
             for text, style, px, color in lines:
-                self._text(text, style, px, margin + pad, y, color, viewport)
+                self._text(text, style, px, margin + dx + pad, y, color, viewport)
                 y += line_height(style, px)
 
         # Angles and sensor distance, bottom left, in a fixed-width font so digits do not jitter.
@@ -309,10 +312,11 @@ class Renderer:
         mono_h = line_height("mono", body_px)
         block_w = max(text_width(t, "mono", body_px) for t in status) + 2 * pad
         block_h = mono_h * len(status) + 2 * pad
-        y0 = height - margin - block_h
-        self._panel(margin, y0, block_w, block_h, (0.0, 0.0, 0.0, 0.45), viewport)
+        y0 = height - margin - block_h - dy
+        self._panel(margin + dx, y0, block_w, block_h, (0.0, 0.0, 0.0, 0.45), viewport)
         for i, text in enumerate(status):
-            self._text(text, "mono", body_px, margin + pad, y0 + pad + i * mono_h, ink, viewport)
+            self._text(text, "mono", body_px, margin + dx + pad, y0 + pad + i * mono_h, ink,
+                       viewport)
 
         self._gizmo(view, hud.axes, size, margin, body_px)
         self._marker_labels(gpu, view, size, body_px)

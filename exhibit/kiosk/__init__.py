@@ -1,0 +1,1 @@
+"""The kiosk: configuration, attract mode, the frame loop, and deployment helpers."""

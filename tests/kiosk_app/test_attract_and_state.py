@@ -1,0 +1,142 @@
+"""Attract timelines and the kiosk's modes, driven by a simulated clock and events (no window)."""
+
+import math
+from pathlib import Path
+
+import pytest
+
+from exhibit.devices.base import Event, Kind
+from exhibit.devices.config import parse_config
+from exhibit.devices.mapping import Mapper
+from exhibit.kiosk.attract import Playlist, load_playlist, load_timeline
+from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
+
+ATTRACT_DIR = Path(__file__).resolve().parents[2] / "configs" / "attract"
+
+TIMELINE = """
+scene = "hopf"
+[[keyframe]]
+t = 0
+angles = [0, 0, 0, 0, 0, 0]
+sensor_distance = "inf"
+caption = "far"
+[[keyframe]]
+t = 10
+angles = [90, 0, 0, 0, 0, 0]
+sensor_distance = 2
+caption = "near"
+ease = "linear"
+[[keyframe]]
+t = 20
+angles = [90, -30, 0, 0, 0, 0]
+"""
+
+
+@pytest.fixture
+def timeline(tmp_path):
+    path = tmp_path / "t.toml"
+    path.write_text(TIMELINE)
+    return load_timeline(path)
+
+
+def test_keyframes_are_hit_and_easing_is_smooth(timeline):
+    view, caption = timeline.at(0)
+    assert view.angles[0] == 0 and view.sensor_r == 0 and caption == "far"
+    view, caption = timeline.at(10)
+    assert view.angles[0] == pytest.approx(math.pi / 2) and view.sensor_r == 0.5
+    assert caption == "near"
+    # smooth easing: at a quarter of the way, less than a quarter of the change
+    quarter, _ = timeline.at(2.5)
+    assert 0 < quarter.angles[0] < math.pi / 8
+    # the sensor moves in r, so "inf" -> 2 passes r = 0.25 at the midpoint
+    assert timeline.at(5)[0].sensor_r == pytest.approx(0.25)
+    # linear easing on the second stretch
+    assert timeline.at(15)[0].angles[1] == pytest.approx(math.radians(-15))
+    assert timeline.duration == 20
+
+
+def test_shipped_playlist_covers_the_papers_scenes():
+    timelines = load_playlist(ATTRACT_DIR)
+    shown = {t.scene for t in timelines}
+    assert {"hopf", "offset-parabola", "offset-cusp", "collision"} <= shown
+    hopf = next(t for t in timelines if t.scene == "hopf")
+    distances = {round(1 / k.sensor_r, 3) if k.sensor_r else math.inf for k in hopf.keyframes}
+    assert {math.inf, 3.0, 2.0} <= distances  # Figures 6, 7 and 8
+    collision_params = {t.params["rs"] for t in timelines if t.scene == "collision"}
+    assert collision_params == {1.0, 0.7, 1.2}  # Figures 15, 16 and 17
+
+
+def test_playlist_loops(timeline):
+    playlist = Playlist([timeline, timeline])
+    playlist.restart(100.0)
+    assert playlist.at(100.0)[2] == "far"
+    assert playlist.at(100.0 + 40 + 1)[1].angles[0] == pytest.approx(timeline.at(1)[0].angles[0])
+
+
+DEVICES = """
+[devices.knobs]
+url = "keyboard://"
+[[mapping.bind]]
+device = "knobs"
+input = "delta 1"
+param = "theta1"
+step = 5
+[[mapping.bind]]
+device = "knobs"
+input = "button 1"
+action = "home"
+"""
+
+
+@pytest.fixture
+def state(timeline):
+    import tomllib
+    config = parse_config(tomllib.loads(DEVICES), "<test>")
+    return KioskState(Playlist([timeline]), Mapper(config.mapping), ("hopf", "collision"),
+                      idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+
+
+def knob(t, steps=1.0):
+    return Event(t, "knobs", Kind.REL, 0, steps)
+
+
+def test_attract_until_input_then_the_visitor_takes_over_without_a_jump(state):
+    for t in (0.0, 1.0, 4.0):
+        frame = state.update([], t)
+        assert frame.mode == ATTRACT
+    before = state.update([], 5.0).view
+    frame = state.update([knob(5.0)], 5.0)
+    assert frame.mode == VISITOR and frame.scene == "hopf"
+    # the first visitor frame is the attract pose plus exactly one knob step
+    assert frame.view.angles[0] == pytest.approx(before.angles[0] + math.radians(5))
+    assert frame.view.angles[1:] == before.angles[1:]
+    assert frame.view.sensor_r == before.sensor_r
+    frame = state.update([], 10.0)  # no input: the visitor's pose stays
+    assert frame.mode == VISITOR and frame.view == state.frame.view
+
+
+def test_idle_timeout_returns_to_attract_with_a_glide(state):
+    state.update([knob(1.0)], 1.0)
+    visitor_view = state.update([knob(2.0, 3)], 2.0).view
+    assert state.update([], 31.0).mode == VISITOR  # 29 s idle
+    frame = state.update([], 32.5)  # 30.5 s idle
+    assert frame.mode == ATTRACT
+    assert frame.view.angles == pytest.approx(visitor_view.angles)  # starts where the visitor left
+    later = state.update([], 35.0)  # after blend_s, the timeline itself
+    assert later.view.angles[0] == pytest.approx(state.playlist.at(35.0)[1].angles[0])
+
+
+def test_a_button_switches_scene_and_home_does_not(state):
+    press = Event(1.0, "knobs", Kind.BUTTON, 5, 1.0)
+    frame = state.update([press], 1.0)
+    assert frame.mode == VISITOR and frame.scene == "collision"
+    frame = state.update([Event(2.0, "knobs", Kind.BUTTON, 5, 1.0)], 2.0)
+    assert frame.scene == "hopf"
+    home = Event(3.0, "knobs", Kind.BUTTON, 0, 1.0)
+    frame = state.update([home], 3.0)
+    assert frame.scene == "hopf" and frame.view.angles == (0.0,) * 6
+
+
+def test_noise_free_idle_means_attract_forever(state):
+    for t in range(0, 300, 7):
+        assert state.update([], float(t)).mode == ATTRACT

@@ -1,0 +1,121 @@
+"""The kiosk config: the shipped one is valid; each kind of mistake is named with file, key and
+reason, every problem at once, exit code 2."""
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from exhibit.cli import main
+from exhibit.kiosk.config import ConfigError, load_kiosk_config
+
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+
+
+@pytest.fixture
+def tree(tmp_path):
+    """A copy of configs/ to break."""
+    shutil.copytree(CONFIGS, tmp_path / "configs")
+    return tmp_path / "configs"
+
+
+def test_shipped_config_is_valid():
+    config = load_kiosk_config(CONFIGS / "kiosk.toml")
+    assert config.start_scene in config.scenes and config.quit_keys
+
+
+def edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new, 1))
+
+
+KIOSK = [
+    ("fullscreen = true ", "fullscreen = 1 ", "display.fullscreen", "true or false"),
+    ("monitor = 0 ", "monitor = -1 ", "display.monitor", "out of range"),
+    ("size = [1280, 720]", "size = [1280]", "display.size", "[width, height]"),
+    ("samples = 4 ", "samples = 4.5 ", "display.samples", "whole number"),
+    ("fps_limit = 60 ", "fps_limit = 1000 ", "display.fps_limit", "out of range"),
+    ("[display]", "[display]\nbrightness = 3", "display.brightness", "unknown key"),
+    ("[content]", "[screen]\nx = 1\n[content]", "screen", "unknown section"),
+    ('start_scene = "hopf"', 'start_scene = "sun"', "content.start_scene", "not one of"),
+    ('scenes = ["hopf",', 'scenes = ["moon", "hopf",', "content.scenes", "no scene named 'moon'"),
+    ("resolution = { hopf = 48", "resolution = { hopf = 2", "content.resolution.hopf",
+     "4..512"),
+    ('config = "devices/default.toml"', 'config = "devices/absent.toml"', "devices.config",
+     "does not exist"),
+    ('timelines = "attract"', 'timelines = "nowhere"', "attract.timelines", "does not exist"),
+    ("idle_timeout_s = 90 ", "idle_timeout_s = 1 ", "attract.idle_timeout_s", "out of range"),
+    ("blend_s = 2.0 ", 'blend_s = "slow" ', "attract.blend_s", "a number"),
+    ("drift_px = 12 ", "drift_px = 1e9 ", "burn_in.drift_px", "out of range"),
+    ('quit_keys = "ctrl+alt+shift+q"', 'quit_keys = "q"', "maintenance.quit_keys",
+     "at least two"),
+]
+
+
+@pytest.mark.parametrize("old, new, key, reason", KIOSK, ids=[k[2] for k in KIOSK])
+def test_kiosk_mistakes(tree, old, new, key, reason):
+    edit(tree / "kiosk.toml", old, new)
+    with pytest.raises(ConfigError) as info:
+        load_kiosk_config(tree / "kiosk.toml")
+    assert any(p.startswith(f"{tree / 'kiosk.toml'}: {key}") and reason in p
+               for p in info.value.problems), info.value.problems
+
+
+LINKED = [
+    ("attract/01-hypersphere.toml", 'scene = "hopf"', 'scene = "sun"', "scene",
+     "no scene named 'sun'"),
+    ("attract/01-hypersphere.toml", "t = 6\n", "t = -6\n", "keyframe[1].t", "seconds >= 0"),
+    ("attract/01-hypersphere.toml", "t = 14\n", "t = 5\n", "keyframe[2].t", "later than"),
+    ("attract/01-hypersphere.toml", 'sensor_distance = 3\n', 'sensor_distance = -3\n',
+     "keyframe[2].sensor_distance", "positive"),
+    ("attract/01-hypersphere.toml", 'ease = "hold"', 'ease = "bounce"', "keyframe[3].ease",
+     "one of"),
+    ("attract/01-hypersphere.toml", 'preset = "figure-6"', 'preset = "figure-60"', "preset",
+     "no preset"),
+    ("attract/05-collision-16.toml", "rs = 0.7", "rs = -0.7", "params", "must lie in"),
+    ("attract/01-hypersphere.toml", "angles = [0, 0, 0, 20, 0, 0]", "angles = [0, 20]",
+     "keyframe[1].angles", "6 finite numbers"),
+]
+
+
+@pytest.mark.parametrize("file, old, new, key, reason", LINKED, ids=[k[3] for k in LINKED])
+def test_linked_file_mistakes(tree, file, old, new, key, reason):
+    edit(tree / file, old, new)
+    with pytest.raises(ConfigError) as info:
+        load_kiosk_config(tree / "kiosk.toml")
+    assert any(p.startswith(f"{tree / file}: {key}") and reason in p
+               for p in info.value.problems), info.value.problems
+
+
+def test_a_bad_device_config_is_reported(tree):
+    edit(tree / "devices/default.toml", 'url = "keyboard://"', 'url = "telepathy://"')
+    with pytest.raises(ConfigError) as info:
+        load_kiosk_config(tree / "kiosk.toml")
+    assert any("telepathy" in p for p in info.value.problems)
+
+
+def test_not_toml_and_unreadable(tree):
+    (tree / "kiosk.toml").write_text("[display\n")
+    with pytest.raises(ConfigError, match="not valid TOML"):
+        load_kiosk_config(tree / "kiosk.toml")
+    with pytest.raises(ConfigError, match="cannot read"):
+        load_kiosk_config(tree / "absent.toml")
+
+
+def test_every_problem_is_reported_at_once(tree, capsys):
+    edit(tree / "kiosk.toml", "monitor = 0 ", "monitor = -1 ")
+    edit(tree / "kiosk.toml", "blend_s = 2.0 ", "blend_s = -2.0 ")
+    assert main(["check-config", str(tree / "kiosk.toml")]) == 2
+    out = capsys.readouterr().out
+    assert "display.monitor" in out and "attract.blend_s" in out and "2 problem(s)" in out
+
+
+def test_environment_overrides_paths(tree, monkeypatch, tmp_path):
+    monkeypatch.setenv("EXHIBIT_ATTRACT_DIR", str(tmp_path / "elsewhere"))
+    with pytest.raises(ConfigError, match=r"attract.timelines \(from \$EXHIBIT_ATTRACT_DIR\)"):
+        load_kiosk_config(tree / "kiosk.toml")
+    monkeypatch.delenv("EXHIBIT_ATTRACT_DIR")
+    monkeypatch.setenv("EXHIBIT_CONFIG", str(tree / "kiosk.toml"))
+    assert load_kiosk_config().path == tree / "kiosk.toml"
+
