@@ -148,7 +148,11 @@ class Kiosk:
         from exhibit.render.renderer import HudInfo
 
         start = self.clock()
+        mode = self.state.mode
         frame = self.state.update(self.devices.poll(), start)
+        if frame.mode != mode:
+            angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
+            log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene, angles)
         scene = scenes.get(frame.scene)
         hud = HudInfo(title=frame.title, caption=frame.caption, axes=scene.axes)
         options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(start))

@@ -3,23 +3,19 @@ ctx.error checked around every test. Without EGL the tests skip, except under CI
 
 from __future__ import annotations
 
-import os
 
 import numpy as np
 import pytest
 
 from exhibit.render import Headless, RenderOptions, RenderUnavailable
 from exhibit.surfaces.mesh import Marker, Material, Mesh4D, Surface
+from tests.xvfb import unavailable  # noqa: F401 - the render tests import it from here
 
 #: Plain pictures for pixel checks: flat black background, no HUD, no silhouettes.
 PLAIN = RenderOptions(silhouettes=False, pinch_points=False, hud=False,
                       background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
 
 
-def unavailable(reason: str):
-    if os.environ.get("CI") == "true":
-        pytest.fail(f"{reason} (CI=true: the render tests must run)")
-    pytest.skip(reason)
 
 
 @pytest.fixture(scope="session")

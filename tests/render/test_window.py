@@ -3,10 +3,8 @@ same picture as the headless target. The window runs in a child process: with Me
 that has initialised EGL (this suite's headless context) cannot make a GLX context current."""
 
 import os
-import shutil
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -16,6 +14,7 @@ from PIL import Image
 from exhibit import scenes
 from exhibit.render import RenderOptions
 from tests.render.conftest import unavailable
+from tests.xvfb import xvfb
 
 SIZE = (240, 180)
 CHILD = r"""
@@ -44,25 +43,8 @@ window.close()
 @pytest.fixture(scope="module")
 def display():
     """A private Xvfb server on a free display number."""
-    if shutil.which("Xvfb") is None:
-        unavailable("Xvfb is not installed (Debian: apt-get install xvfb)")
-    number = next(n for n in range(90, 200)
-                  if not Path(f"/tmp/.X{n}-lock").exists()
-                  and not Path(f"/tmp/.X11-unix/X{n}").exists())
-    server = subprocess.Popen(["Xvfb", f":{number}", "-screen", "0", "640x480x24",
-                               "-nolisten", "tcp"],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    socket = Path(f"/tmp/.X11-unix/X{number}")
-    deadline = time.monotonic() + 10
-    while not socket.exists() and server.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.05)
-    if not socket.exists():
-        server.kill()
-        server.wait()
-        unavailable(f"Xvfb did not start on :{number}")
-    yield f":{number}"
-    server.terminate()
-    server.wait(timeout=10)
+    with xvfb() as name:
+        yield name
 
 
 @pytest.fixture(scope="module")
