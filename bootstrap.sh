@@ -25,6 +25,7 @@ apt_test=(
   "${apt_run[@]}"
   gcc make pkg-config gcc-avr binutils-avr avr-libc arduino-core-avr libsimavr-dev libelf-dev  # firmware: host and AVR builds, simavr harness (tests/firmware)
   xvfb                     # renderer: window tests under Xvfb
+  systemd                  # kiosk: systemd-analyze verify/security on the units (tests/kiosk)
 )
 
 say() { printf 'bootstrap: %s\n' "$*" >&2; }

@@ -1,0 +1,241 @@
+"""`exhibit install [--root DIR] [--prefix DIR] [--dry-run]`: put the kiosk's systemd units, udev
+rules and module list in place (docs/DEPLOYMENT.md).
+
+The files come from systemd/ in this checkout with the install prefix (where the checkout and its
+.venv live; /opt/exhibit by default) substituted. Run as root without --root it also does the
+rest: creates the `exhibit` system user, loads the USB-serial modules, reloads udev and systemd,
+and enables the units; it does not start them, since the kiosk takes over tty1. With --root
+(staging an image, or reviewing) or as another user it writes under DIR and prints the exact
+commands still to run on the target. --dry-run writes and runs nothing and says what it would do.
+"""
+
+from __future__ import annotations
+
+import grp
+import os
+import pwd
+import re
+import shlex
+import subprocess
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+
+from exhibit.errors import ExhibitError
+
+HELP = "install the kiosk's systemd units and udev rules (--root DIR to stage, --dry-run to look)"
+
+DEFAULT_PREFIX = "/opt/exhibit"
+USER = "exhibit"
+HOME = "/var/lib/exhibit"
+#: groups exhibit.service's SupplementaryGroups= names; a missing one stops the service (216/GROUP)
+GROUPS = ("render", "video", "dialout")
+SOURCE_DIR = Path(__file__).resolve().parents[2] / "systemd"
+#: file in systemd/ -> where it goes, relative to the root
+FILES = {
+    "exhibit.service": "etc/systemd/system/exhibit.service",
+    "exhibit-kiosk.service": "etc/systemd/system/exhibit-kiosk.service",
+    "99-exhibit.rules": "etc/udev/rules.d/99-exhibit.rules",
+    "exhibit-modules.conf": "etc/modules-load.d/exhibit.conf",
+}
+UNITS = ("exhibit.service", "exhibit-kiosk.service")
+# Folders the service cannot see (ProtectHome=, PrivateTmp=) or that do not survive a reboot.
+_HIDDEN = ("/home", "/root", "/run/user", "/tmp", "/var/tmp", "/run")
+_SAFE_PATH = re.compile(r"^/[A-Za-z0-9._+/-]*$")
+
+
+@dataclass
+class Planned:
+    """One file to write: where, what, and whether it is new, changed or already the same."""
+    path: Path
+    text: str
+    state: str  # "new" | "changed" | "unchanged"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--root", type=Path, metavar="DIR",
+                        help="write under this folder instead of / and only print the remaining "
+                             "steps (staging an image, or reviewing the files)")
+    parser.add_argument("--prefix", default=DEFAULT_PREFIX, metavar="DIR",
+                        help=f"where the checkout and its .venv live on the kiosk (default "
+                             f"{DEFAULT_PREFIX}); ExecStart= is PREFIX/.venv/bin/exhibit run")
+    parser.add_argument("--dry-run", action="store_true",
+                        help="write and run nothing; show what would be written and run")
+
+
+def run(args) -> int:
+    prefix = check_prefix(args.prefix)
+    root = Path("/") if args.root is None else args.root
+    if args.root is not None and not root.is_dir():
+        raise ExhibitError(f"--root {root}: no such folder")
+    perform = args.root is None and not args.dry_run
+    if perform and os.geteuid() != 0:
+        raise ExhibitError(f"installing into / needs root: sudo {prefix}/.venv/bin/exhibit "
+                           "install; or stage the files with --root DIR, or look with --dry-run")
+    return install(root, prefix, dry_run=args.dry_run, perform=perform)
+
+
+def check_prefix(prefix: str) -> str:
+    """The prefix as an absolute, normalised path the service can reach; ExhibitError if not."""
+    text = str(prefix)
+    if not text.startswith("/"):
+        raise ExhibitError(f"--prefix {text!r}: must be an absolute path (e.g. {DEFAULT_PREFIX})")
+    norm = os.path.normpath(text)
+    if not _SAFE_PATH.match(norm):
+        raise ExhibitError(f"--prefix {text!r}: use only letters, digits and . _ + - / (it is "
+                           "written into unit files unquoted)")
+    for hidden in _HIDDEN:
+        if norm == hidden or norm.startswith(hidden + "/"):
+            raise ExhibitError(f"--prefix {norm}: the service cannot use {hidden} (hidden by "
+                               f"its ProtectHome=/PrivateTmp=, or cleared at boot); use e.g. "
+                               f"{DEFAULT_PREFIX}")
+    if norm == "/":
+        raise ExhibitError("--prefix /: give the folder of the checkout, e.g. /opt/exhibit")
+    return norm
+
+
+def render(text: str, prefix: str) -> str:
+    """A shipped file with the default prefix replaced by ``prefix``."""
+    return text.replace(DEFAULT_PREFIX, prefix)
+
+
+def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
+    """The files to write under ``root``, rendered for ``prefix``."""
+    planned = []
+    for name, dest in FILES.items():
+        src = source / name
+        try:
+            text = render(src.read_text(encoding="utf-8"), prefix)
+        except OSError as exc:
+            raise ExhibitError(f"cannot read {src}: {exc.strerror or exc} (exhibit install works "
+                               "from a source checkout installed with pip install -e, as "
+                               "./bootstrap.sh does)") from None
+        path = root / dest
+        try:
+            old = path.read_text(encoding="utf-8")
+        except FileNotFoundError:
+            state = "new"
+        except (OSError, UnicodeDecodeError):
+            state = "changed"
+        else:
+            state = "unchanged" if old == text else "changed"
+        planned.append(Planned(path, text, state))
+    return planned
+
+
+def write(planned: list[Planned]) -> None:
+    """Write each changed file atomically (mode 0644), creating folders as needed."""
+    for item in planned:
+        if item.state == "unchanged":
+            continue
+        tmp = item.path.with_name(f".{item.path.name}.exhibit-install")
+        try:
+            item.path.parent.mkdir(parents=True, exist_ok=True)
+            tmp.write_text(item.text, encoding="utf-8")
+            os.chmod(tmp, 0o644)
+            os.replace(tmp, item.path)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            raise ExhibitError(f"cannot write {item.path}: {exc.strerror or exc}") from None
+
+
+def steps(need_user: bool = True) -> list[list[str]]:
+    """The commands that finish an installation on the target, in order."""
+    commands = []
+    if need_user:
+        commands.append(["useradd", "--system", "--user-group", "--home-dir", HOME,
+                         "--no-create-home", "--shell", "/usr/sbin/nologin",
+                         "--comment", "exhibit kiosk", USER])
+    commands += [
+        ["modprobe", "-a", "usbserial", "cdc_acm"],
+        ["udevadm", "control", "--reload"],
+        ["udevadm", "trigger", "--action=add", "--subsystem-match=tty",
+         "--subsystem-match=hidraw", "--subsystem-match=usb"],
+        ["systemctl", "daemon-reload"],
+        ["systemctl", "enable", *UNITS],
+    ]
+    return commands
+
+
+def _user_exists(name: str) -> bool:
+    try:
+        pwd.getpwnam(name)
+    except KeyError:
+        return False
+    return True
+
+
+def _group_exists(name: str) -> bool:
+    try:
+        grp.getgrnam(name)
+    except KeyError:
+        return False
+    return True
+
+
+def _run(command: list[str]) -> subprocess.CompletedProcess:
+    return subprocess.run(command, capture_output=True, text=True)
+
+
+def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = False,
+            out: Callable[[str], None] = print, runner: Callable = _run,
+            user_exists: Callable[[str], bool] = _user_exists,
+            group_exists: Callable[[str], bool] = _group_exists,
+            source: Path = SOURCE_DIR) -> int:
+    """Write the files under ``root`` and, with ``perform``, run the remaining steps (the caller
+    checks for root). Returns the exit code; ExhibitError for anything the user must fix."""
+    planned = plan(root, prefix, source)
+    exe = Path(prefix) / ".venv" / "bin" / "exhibit"
+    if perform:
+        if not os.access(exe, os.X_OK):
+            raise ExhibitError(f"{exe} does not exist: put the checkout at {prefix} and create "
+                               f"its venv first (cd {prefix} && ./bootstrap.sh run --help), or "
+                               "give --prefix")
+        missing = [g for g in GROUPS if not group_exists(g)]
+        if missing:
+            raise ExhibitError(f"group(s) {', '.join(missing)} do not exist here; exhibit.service "
+                               "names them in SupplementaryGroups= and would not start: create "
+                               f"them (groupadd --system {missing[0]}) or edit that line")
+    verb = "would write" if dry_run else "wrote"
+    for item in planned:
+        if item.state == "unchanged":
+            out(f"unchanged: {item.path}")
+        else:
+            out(f"{verb} {item.path} ({item.state})")
+    if not dry_run:
+        write(planned)
+
+    on_target = perform or root == Path("/")
+    # Staging for another machine: whether its user exists cannot be known from here.
+    todo = steps(need_user=not user_exists(USER) if on_target else True)
+    if not perform:
+        where = "as root" if on_target else "on the kiosk, as root"
+        out(f"\n{'steps it would run' if dry_run and on_target else 'remaining steps'} ({where}):")
+        for command in todo:
+            out("  " + shlex.join(command))
+        out("  systemctl start exhibit.service    # or reboot; takes over tty1")
+        return 0
+
+    for command in todo:
+        out("$ " + shlex.join(command))
+        try:
+            result = runner(command)
+        except OSError as exc:
+            _failed(command, exc.strerror or str(exc), todo, out)
+        if result.returncode != 0:
+            lines = (result.stderr or result.stdout or "").strip().splitlines()
+            _failed(command, lines[-1] if lines else f"exit code {result.returncode}", todo, out)
+    if not Path("/usr/bin/cage").exists():
+        out("note: /usr/bin/cage is missing: apt-get install cage (exhibit-kiosk.service runs it)")
+    out("\ninstalled and enabled. Start now (takes over tty1) or reboot:\n"
+        "  systemctl start exhibit.service\n"
+        "then check: systemctl status exhibit; journalctl -u exhibit -b; exhibit status")
+    return 0
+
+
+def _failed(command: list[str], why: str, todo: list[list[str]], out) -> None:
+    rest = todo[todo.index(command):]
+    out("the files are in place; run what is left by hand:")
+    for c in rest:
+        out("  " + shlex.join(c))
+    raise ExhibitError(f"{shlex.join(command)} failed: {why}")

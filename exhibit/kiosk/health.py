@@ -1,0 +1,227 @@
+"""The kiosk's health file: what the running exhibit is doing, rewritten about once a second.
+
+The app writes ``{"time", "pid", "fps", "frame_ms_p95", "mode", "scene", "devices": [{"url",
+"state"}], "uptime_s", "gl_errors", "rss_kb", "fds"}``; `exhibit status` (staff, monitoring
+scripts) reads it. Writes are atomic (a temporary file in the same folder, then os.replace), so
+a reader never sees half a file, and the file is world-readable (0644) so staff can read it
+without sudo: nothing in it is secret.
+
+Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
+~/.local/state/exhibit/health.json. The systemd unit sets EXHIBIT_STATE_DIR=/var/lib/exhibit.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from collections.abc import Mapping
+from pathlib import Path
+
+from exhibit.errors import ExhibitError
+
+__all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "HealthError", "state_dir", "default_path",
+           "candidate_paths", "write_health", "read_health", "freshness", "format_duration"]
+
+HEALTH_FILE = "health.json"
+#: Where the service's StateDirectory=exhibit puts the file (exhibit.service).
+SERVICE_STATE_DIR = Path("/var/lib/exhibit")
+MODES = ("attract", "visitor")
+
+_NUMBER = (int, float)
+#: key -> (accepted types, what to call them in an error); "time" is the only required key.
+_FIELDS = {
+    "time": (_NUMBER, "a number (unix seconds)"),
+    "pid": (int, "a whole number"),
+    "fps": (_NUMBER, "a number"),
+    "frame_ms_p95": (_NUMBER, "a number"),
+    "mode": (str, "a string"),
+    "scene": (str, "a string"),
+    "devices": (list, "a list"),
+    "uptime_s": (_NUMBER, "a number"),
+    "gl_errors": (int, "a whole number"),
+    "rss_kb": (int, "a whole number"),
+    "fds": (int, "a whole number"),
+}
+
+
+class HealthError(ExhibitError):
+    """The health file is missing, unreadable or malformed; the message names the file and why.
+    ``missing`` is True when there is no file at all (the kiosk never ran, or not here)."""
+
+    def __init__(self, message: str, missing: bool = False):
+        super().__init__(message)
+        self.missing = missing
+
+
+def state_dir(environ: Mapping[str, str] | None = None) -> Path:
+    """$EXHIBIT_STATE_DIR, else $XDG_STATE_HOME/exhibit, else ~/.local/state/exhibit."""
+    env = os.environ if environ is None else environ
+    if env.get("EXHIBIT_STATE_DIR"):
+        return Path(env["EXHIBIT_STATE_DIR"])
+    if env.get("XDG_STATE_HOME"):
+        return Path(env["XDG_STATE_HOME"]) / "exhibit"
+    home = env.get("HOME") or str(Path.home())
+    return Path(home) / ".local" / "state" / "exhibit"
+
+
+def default_path(environ: Mapping[str, str] | None = None) -> Path:
+    """The health file this process would write: state_dir() / health.json."""
+    return state_dir(environ) / HEALTH_FILE
+
+
+def candidate_paths(environ: Mapping[str, str] | None = None) -> list[Path]:
+    """Where a reader looks, in order: default_path(), then, unless $EXHIBIT_STATE_DIR names a
+    folder, the service's /var/lib/exhibit/health.json, so staff can run `exhibit status` from
+    their own shell on the kiosk machine without knowing where the service keeps its state."""
+    env = os.environ if environ is None else environ
+    paths = [default_path(env)]
+    service = SERVICE_STATE_DIR / HEALTH_FILE
+    if not env.get("EXHIBIT_STATE_DIR") and service not in paths:
+        paths.append(service)
+    return paths
+
+
+def write_health(path: str | os.PathLike, data: Mapping) -> None:
+    """Write ``data`` as the health file at ``path`` atomically, creating its folder if needed.
+
+    Non-finite floats (an fps before the first second) become null, as JSON has no NaN. Raises
+    OSError when the disk refuses (the app logs it and carries on), TypeError for values JSON
+    cannot hold. No fsync: the file is rewritten every second, and losing the last one to a power
+    cut is harmless, while syncing 86,400 times a day wears the kiosk's flash for nothing.
+    """
+    path = Path(path)
+    text = json.dumps(_finite(dict(data)), allow_nan=False, separators=(",", ":")) + "\n"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o644)
+        try:
+            os.fchmod(fd, 0o644)  # the service's UMask would make it private to the kiosk user
+            view = memoryview(text.encode("utf-8"))
+            while view:
+                view = view[os.write(fd, view):]
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def read_health(path: str | os.PathLike) -> dict:
+    """The health file at ``path`` as a dict; HealthError names the file and what is wrong.
+
+    "time" is required (a reader needs the age); the other known keys are checked for type when
+    present, and unknown keys are kept (a newer kiosk may add some).
+    """
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise HealthError(f"no health file at {path}: the kiosk is not running or has not "
+                          "drawn its first second yet", missing=True) from None
+    except IsADirectoryError:
+        raise HealthError(f"{path} is a folder, not a health file") from None
+    except OSError as exc:
+        raise HealthError(f"cannot read {path}: {exc.strerror or exc}") from None
+    try:
+        data = json.loads(raw.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise HealthError(f"{path}: not UTF-8 text") from None
+    except json.JSONDecodeError as exc:
+        raise HealthError(f"{path}: not valid JSON (line {exc.lineno} column {exc.colno}: "
+                          f"{exc.msg})") from None
+    if not isinstance(data, dict):
+        raise HealthError(f"{path}: expected a JSON object, got {type(data).__name__}")
+    problems = _problems(data)
+    if problems:
+        raise HealthError(f"{path}: " + "; ".join(problems))
+    return data
+
+
+def freshness(data: Mapping, max_age: float, now: float | None = None,
+              check_pid: bool = True) -> tuple[bool, float, str | None]:
+    """(fresh, age in seconds, reason when not fresh) of health data read with read_health.
+
+    Stale when older than ``max_age``, when its time lies more than ``max_age`` ahead (the clock
+    was set back, or the writer's clock is wrong), or when its pid no longer exists on this
+    machine (a crashed kiosk is stale at once, not ``max_age`` later).
+    """
+    now = time.time() if now is None else now
+    age = now - float(data["time"])
+    if age > max_age:
+        return False, age, f"last update {format_duration(age)} ago (more than {max_age:g} s)"
+    if age < -max_age:
+        return False, age, (f"last update is stamped {format_duration(-age)} in the future "
+                            "(clock changed?)")
+    pid = data.get("pid")
+    if check_pid and isinstance(pid, int) and pid > 0 and not _pid_alive(pid):
+        return False, age, (f"the kiosk process {pid} is not running (last update "
+                            f"{format_duration(age)} ago)")
+    return True, age, None
+
+
+def _problems(data: dict) -> list[str]:
+    problems = []
+    if "time" not in data:
+        problems.append("key 'time': missing")
+    for key, (types, wanted) in _FIELDS.items():
+        if key not in data or (data[key] is None and key != "time"):
+            continue  # null: not known yet (fps before the first second)
+        value = data[key]
+        if isinstance(value, bool) or not isinstance(value, types):
+            problems.append(f"key {key!r}: expected {wanted}, got {value!r}")
+        elif isinstance(value, float) and not math.isfinite(value):
+            problems.append(f"key {key!r}: expected a finite number, got {value!r}")
+    if isinstance(data.get("mode"), str) and data["mode"] not in MODES:
+        problems.append(f"key 'mode': expected one of {', '.join(MODES)}, got {data['mode']!r}")
+    if isinstance(data.get("devices"), list):
+        for i, device in enumerate(data["devices"]):
+            if not isinstance(device, dict) or not all(isinstance(device.get(k), str)
+                                                       for k in ("url", "state")):
+                problems.append(f"key 'devices[{i}]': expected {{\"url\": str, \"state\": str}}, "
+                                f"got {device!r}")
+    return problems
+
+
+def _finite(value):
+    """Replace NaN and infinities (anywhere in dicts and lists) by None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True  # exists, owned by another user (the service's)
+    except OSError:
+        return True  # cannot tell: do not call a running kiosk dead
+    return True
+
+
+def format_duration(seconds: float) -> str:
+    """3.2 s, 4 min 10 s, 2 h 5 min, 3 d 4 h: how staff read durations."""
+    seconds = abs(seconds)
+    if seconds < 60:
+        return f"{seconds:.1f} s"
+    minutes, s = divmod(int(seconds), 60)
+    hours, m = divmod(minutes, 60)
+    days, h = divmod(hours, 24)
+    if days:
+        return f"{days} d {h} h"
+    if hours:
+        return f"{hours} h {m} min"
+    return f"{m} min {s} s"

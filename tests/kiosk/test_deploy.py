@@ -1,0 +1,403 @@
+"""Deployment files: the units `exhibit install` writes pass `systemd-analyze verify` and keep
+their hardening; the udev rules parse and cover the shipped devices; the install command's
+modes, errors and the order of its steps."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import pytest
+
+from exhibit.commands import install as inst
+from exhibit.errors import ExhibitError
+from exhibit.kiosk import health
+
+REPO = Path(__file__).resolve().parents[2]
+SYSTEMD = REPO / "systemd"
+
+
+def unavailable(reason: str):
+    """Skip, except under CI=true, where these checks must really run."""
+    if os.environ.get("CI") == "true":
+        pytest.fail(f"{reason} (CI=true: these tests must run)")
+    pytest.skip(reason)
+
+
+def units(path: Path) -> dict[str, dict[str, list[str]]]:
+    """A unit file as section -> key -> values (keys may repeat), with continuation lines."""
+    sections: dict[str, dict[str, list[str]]] = {}
+    current = None
+    pending = ""
+    for raw in path.read_text().splitlines():
+        line = pending + raw.strip()
+        pending = ""
+        if not line or line.startswith(("#", ";")):
+            continue
+        if line.endswith("\\"):
+            pending = line[:-1] + " "
+            continue
+        if line.startswith("["):
+            current = sections.setdefault(line.strip("[]"), {})
+            continue
+        key, _, value = line.partition("=")
+        current.setdefault(key.strip(), []).append(value.strip())
+    return sections
+
+
+@pytest.fixture
+def staged(tmp_path, capsys):
+    """`exhibit install --root tmp --prefix /srv/museum/exhibit`, plus stub executables for what
+    the units run and the host's own units (sysinit.target ...), as systemd-analyze needs."""
+    from exhibit.cli import main
+
+    root = tmp_path / "root"
+    root.mkdir()
+    assert main(["install", "--root", str(root), "--prefix", "/srv/museum/exhibit"]) == 0
+    capsys.readouterr()
+    for exe in ("srv/museum/exhibit/.venv/bin/exhibit", "usr/bin/cage", "usr/bin/env", "bin/sh",
+                "bin/sleep"):
+        path = root / exe
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text("#!/bin/sh\n")
+        path.chmod(0o755)
+    return root
+
+
+def analyze(root: Path, *args: str) -> subprocess.CompletedProcess:
+    if shutil.which("systemd-analyze") is None:
+        unavailable("systemd-analyze is not installed (Debian: apt-get install systemd)")
+    host_units = next((p for p in (Path("/usr/lib/systemd/system"), Path("/lib/systemd/system"))
+                       if (p / "sysinit.target").exists()), None)
+    if host_units is None:
+        unavailable("no systemd unit directory with sysinit.target on this machine")
+    (root / "usr/lib/systemd").mkdir(parents=True, exist_ok=True)
+    link = root / "usr/lib/systemd/system"
+    if not link.exists():
+        link.symlink_to(host_units)
+    return subprocess.run(["systemd-analyze", *args, f"--root={root}"], capture_output=True,
+                          text=True, timeout=60)
+
+
+def verify(root: Path, *names: str) -> list[str]:
+    """Every complaint systemd-analyze verify has about our units (it exits 0 on mere warnings
+    such as an unknown key, so the lines are what count)."""
+    result = analyze(root, "verify", "--man=no", "--generators=no", *names)
+    lines = [line for line in (result.stdout + result.stderr).splitlines() if "exhibit" in line]
+    if result.returncode != 0 and not lines:
+        lines = [f"exit {result.returncode}: {result.stderr.strip()}"]
+    return lines
+
+
+# ---------------------------------------------------------------------- the units
+
+def test_units_pass_systemd_analyze_verify(staged):
+    assert verify(staged, *inst.UNITS) == []
+
+
+def test_verify_does_catch_a_broken_unit(staged):
+    """The check above can fail: the same verification flags a typo and a missing program."""
+    unit = staged / "etc/systemd/system/exhibit.service"
+    unit.write_text(unit.read_text().replace("WatchdogSec=10", "WatchdogSecs=10"))
+    problems = verify(staged, "exhibit.service")
+    assert any("Unknown key 'WatchdogSecs'" in line for line in problems)
+    (staged / "srv/museum/exhibit/.venv/bin/exhibit").unlink()
+    assert any("/srv/museum/exhibit/.venv/bin/exhibit is not executable" in line
+               for line in verify(staged, "exhibit.service"))
+
+
+def test_app_unit_exposure_stays_low(staged):
+    """systemd's own hardening score (0 best, 10 worst); the unit scores 2.8 today."""
+    result = analyze(staged, "security", "--offline=yes", "--threshold=35", "exhibit.service")
+    assert result.returncode == 0, result.stdout[-600:] + result.stderr[-300:]
+
+
+def test_app_unit_settings(staged):
+    unit = units(staged / "etc/systemd/system/exhibit.service")
+    service = unit["Service"]
+    expected = {
+        "Type": ["notify"], "NotifyAccess": ["main"], "WatchdogSec": ["10"],
+        "Restart": ["always"], "RestartSec": ["2"], "User": ["exhibit"],
+        "NoNewPrivileges": ["yes"], "ProtectSystem": ["strict"], "ProtectHome": ["yes"],
+        "PrivateTmp": ["yes"], "IPAddressDeny": ["any"], "DevicePolicy": ["closed"],
+        "StateDirectory": ["exhibit"], "CacheDirectory": ["exhibit"],
+        "ExecStart": ["/srv/museum/exhibit/.venv/bin/exhibit run"],
+    }
+    for key, value in expected.items():
+        assert service.get(key) == value, key
+    families = service["RestrictAddressFamilies"][0].split()
+    assert "AF_UNIX" in families and not {"AF_INET", "AF_INET6", "AF_PACKET"} & set(families)
+    allowed = {v.split()[0] for v in service["DeviceAllow"]}
+    assert {"char-drm", "char-hidraw", "char-ttyUSB", "char-ttyACM"} <= allowed
+    assert unit["Unit"]["StartLimitIntervalSec"] == ["0"]  # never give up restarting
+    env = dict(pair.split("=", 1) for line in service["Environment"] for pair in line.split())
+    # The health file lands where `exhibit status` looks for the service's.
+    assert Path(env["EXHIBIT_STATE_DIR"]) == health.SERVICE_STATE_DIR
+    assert env["EXHIBIT_STATE_DIR"] == "/var/lib/" + service["StateDirectory"][0]
+    assert env["EXHIBIT_CACHE_DIR"].startswith("/var/cache/" + service["CacheDirectory"][0])
+    assert "/opt/exhibit" not in (staged / "etc/systemd/system/exhibit.service").read_text()
+
+
+def test_app_and_display_meet_at_the_same_wayland_socket(staged):
+    app = units(staged / "etc/systemd/system/exhibit.service")
+    kiosk = units(staged / "etc/systemd/system/exhibit-kiosk.service")
+    env = dict(pair.split("=", 1) for line in app["Service"]["Environment"]
+               for pair in line.split())
+    runtime = "/run/" + kiosk["Service"]["RuntimeDirectory"][0]
+    assert env["XDG_RUNTIME_DIR"] == runtime
+    assert f"XDG_RUNTIME_DIR={runtime} /usr/bin/cage" in kiosk["Service"]["ExecStart"][0]
+    assert kiosk["Service"]["User"] == app["Service"]["User"]
+    assert "exhibit-kiosk.service" in app["Unit"]["BindsTo"]
+    assert "exhibit.service" in kiosk["Unit"]["Wants"]
+    assert kiosk["Service"]["PAMName"] == ["login"]
+    assert kiosk["Service"]["TTYPath"] == ["/dev/tty1"]
+
+
+def _wait_script(unit_file: Path) -> str:
+    """The ExecStartPre shell snippet as sh would receive it ($$ is systemd's escape for $)."""
+    line = units(unit_file)["Service"]["ExecStartPre"][0]
+    assert line.startswith("/bin/sh -c '") and line.endswith("'")
+    return line[len("/bin/sh -c '"):-1].replace("$$", "$")
+
+
+def test_socket_wait_returns_as_soon_as_the_socket_exists(staged):
+    import socket
+
+    script = _wait_script(staged / "etc/systemd/system/exhibit.service")
+    with tempfile.TemporaryDirectory(prefix="exw-", dir="/tmp") as runtime:
+        env = {"PATH": "/usr/bin:/bin", "XDG_RUNTIME_DIR": runtime, "WAYLAND_DISPLAY": "wayland-0"}
+        server = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            # No socket yet: still waiting after 0.5 s.
+            with pytest.raises(subprocess.TimeoutExpired):
+                subprocess.run(["sh", "-c", script], env=env, timeout=0.5)
+            server.bind(f"{runtime}/wayland-0")
+            result = subprocess.run(["sh", "-c", script], env=env, timeout=5,
+                                    capture_output=True, text=True)
+        finally:
+            server.close()
+    assert result.returncode == 0 and result.stderr == ""
+
+
+def test_modules_loaded_at_boot_cover_the_serial_device_classes(staged):
+    modules = [line for line in (staged / "etc/modules-load.d/exhibit.conf").read_text()
+               .splitlines() if line and not line.startswith("#")]
+    assert modules == ["usbserial", "cdc_acm"]
+
+
+# ---------------------------------------------------------------------- udev rules
+
+MATCH_KEYS = {"ACTION", "SUBSYSTEM", "SUBSYSTEMS", "KERNEL", "KERNELS", "DRIVER", "DRIVERS",
+              "ATTR", "ATTRS", "ENV", "TAG", "TAGS", "DEVPATH", "PROGRAM", "RESULT"}
+ASSIGN_KEYS = {"GROUP", "OWNER", "MODE", "SYMLINK", "ENV", "TAG", "RUN", "NAME", "LABEL", "GOTO",
+               "OPTIONS"}
+PAIR = re.compile(r'\s*([A-Z_]+)(?:\{([A-Za-z0-9_]+)\})?\s*(==|!=|\+=|-=|:=|=)\s*"([^"]*)"\s*(,|$)')
+
+
+def parse_rule(line: str) -> list[tuple[str, str | None, str, str]]:
+    """(key, attribute, operator, value) for each comma-separated pair; ValueError otherwise."""
+    pairs, pos = [], 0
+    while pos < len(line):
+        m = PAIR.match(line, pos)
+        if not m:
+            raise ValueError(f"cannot parse at column {pos + 1}: {line[pos:pos + 30]!r}")
+        key, attr, op, value, _ = m.groups()
+        if op in ("==", "!=") and key not in MATCH_KEYS:
+            raise ValueError(f"{key} is not a match key")
+        if op not in ("==", "!=") and key not in ASSIGN_KEYS:
+            raise ValueError(f"{key} cannot be assigned")
+        if (key in ("ATTR", "ATTRS", "ENV")) != (attr is not None):
+            raise ValueError(f"{key}{{{attr}}}: attribute braces are wrong")
+        pairs.append((key, attr, op, value))
+        pos = m.end()
+    return pairs
+
+
+def rules() -> list[list[tuple[str, str | None, str, str]]]:
+    text = (SYSTEMD / "99-exhibit.rules").read_text()
+    return [parse_rule(line) for line in text.splitlines()
+            if line.strip() and not line.lstrip().startswith("#")]
+
+
+def test_every_udev_rule_parses_into_known_keys():
+    parsed = rules()
+    assert len(parsed) >= 5
+    for rule in parsed:
+        keys = {(k, a): v for k, a, _op, v in rule}
+        assert ("SUBSYSTEM", None) in keys
+        if ("GROUP", None) in keys:
+            assert keys[("GROUP", None)] == inst.USER and keys[("MODE", None)] == "0660"
+        for (key, attr), value in keys.items():
+            if attr in ("idVendor", "idProduct"):
+                assert re.fullmatch(r"[0-9a-f]{4}(\|[0-9a-f]{4})*", value), value
+
+
+def test_the_parser_rejects_what_udev_would():
+    for bad in ('SUBSYSTEM="tty"', 'GROUP=="exhibit"', 'SUBSYSTEM=="tty" GROUP="x"',
+                'ATTRS=="1a86"', "SUBSYSTEM==tty", 'FOO=="x"'):
+        with pytest.raises(ValueError):
+            parse_rule(bad)
+
+
+def _by_id() -> dict[tuple[str, str, str], dict]:
+    table = {}
+    for rule in rules():
+        d = {(k if a is None else f"{k}{{{a}}}"): v for k, a, _op, v in rule}
+        vendor = d.get("ATTRS{idVendor}") or d.get("ATTR{idVendor}")
+        for product in (d.get("ATTRS{idProduct}") or d.get("ATTR{idProduct}") or "*").split("|"):
+            table[(d["SUBSYSTEM"], vendor, product)] = d
+    return table
+
+
+def test_controller_and_knob_box_rules():
+    table = _by_id()
+    for vid_pid in (("1a86", "7523"), ("0403", "6001"), ("2341", "0043")):
+        rule = table[("tty", *vid_pid)]
+        assert rule["SYMLINK"] == "exhibit-controller"
+        assert rule["ENV{ID_MM_DEVICE_IGNORE}"] == "1" and rule["GROUP"] == "exhibit"
+    knobs = table[("hidraw", "2341", "8037")]
+    assert knobs["SYMLINK"] == "exhibit-knobs" and knobs["MODE"] == "0660"
+
+
+def test_shipped_device_configs_are_covered_by_the_rules():
+    """The default device config opens /dev/exhibit-controller, and every shipped layout's
+    VID:PID can be opened by the service's group."""
+    import tomllib
+
+    default = tomllib.loads((REPO / "configs/devices/default.toml").read_text())
+    assert default["devices"]["controller"]["url"].startswith("serial:///dev/exhibit-controller")
+    table = _by_id()
+    for layout_file in (REPO / "configs/devices").glob("*.toml"):
+        layout = tomllib.loads(layout_file.read_text()).get("layout")
+        if not layout:
+            continue
+        subsystem = "hidraw" if layout.get("backend", "hidraw") == "hidraw" else "usb"
+        for vid_pid in layout["match"]:
+            vid, pid = vid_pid.lower().split(":")
+            rule = table.get((subsystem, vid, pid)) or table.get((subsystem, vid, "*"))
+            assert rule and rule["GROUP"] == "exhibit", f"{layout_file.name}: {vid_pid}"
+
+
+# ---------------------------------------------------------------------- exhibit install
+
+def test_install_stages_files_with_the_prefix_and_is_idempotent(tmp_path, capsys):
+    from exhibit.cli import main
+
+    assert main(["install", "--root", str(tmp_path), "--prefix", "/srv/x/../exhibit"]) == 0
+    out = capsys.readouterr().out
+    for dest in inst.FILES.values():
+        assert (tmp_path / dest).is_file() and f"wrote {tmp_path / dest} (new)" in out
+    assert "ExecStart=/srv/exhibit/.venv/bin/exhibit run" in (
+        tmp_path / "etc/systemd/system/exhibit.service").read_text()
+    assert "remaining steps (on the kiosk, as root):" in out
+    assert "  useradd --system --user-group --home-dir /var/lib/exhibit" in out
+    assert "  systemctl enable exhibit.service exhibit-kiosk.service" in out
+    assert main(["install", "--root", str(tmp_path), "--prefix", "/srv/exhibit"]) == 0
+    assert capsys.readouterr().out.count("unchanged: ") == len(inst.FILES)
+
+
+def test_dry_run_writes_nothing(tmp_path, capsys):
+    from exhibit.cli import main
+
+    assert main(["install", "--root", str(tmp_path), "--dry-run"]) == 0
+    assert list(tmp_path.iterdir()) == []
+    assert "would write" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--prefix", "opt/exhibit"], "must be an absolute path"),
+    (["--prefix", "/home/museum/exhibit"], "cannot use /home"),
+    (["--prefix", "/tmp/exhibit"], "cannot use /tmp"),
+    (["--prefix", "/opt/my exhibit"], "use only letters"),
+    (["--prefix", "/"], "give the folder of the checkout"),
+    (["--root", "/nonexistent/stage"], "--root /nonexistent/stage: no such folder"),
+])
+def test_install_argument_errors_are_one_line(cli, args, message):
+    result = cli("install", *args)
+    assert result.returncode == 2 and result.stdout == ""
+    assert result.stderr.count("\n") == 1 and message in result.stderr
+    assert result.stderr.startswith("exhibit install: error: ")
+
+
+def test_installing_into_slash_needs_root(monkeypatch, capsys):
+    from exhibit.cli import main
+
+    monkeypatch.setattr(inst.os, "geteuid", lambda: 1000)
+    assert main(["install"]) == 2
+    assert "installing into / needs root" in capsys.readouterr().err
+
+
+class Runner:
+    def __init__(self, fail: str | None = None):
+        self.commands, self.fail = [], fail
+
+    def __call__(self, command):
+        self.commands.append(command)
+        failed = self.fail is not None and command[0] == self.fail
+        return subprocess.CompletedProcess(command, 1 if failed else 0, "",
+                                           "modprobe: FATAL: Module usbserial not found\n"
+                                           if failed else "")
+
+
+@pytest.fixture
+def prefix(tmp_path):
+    exe = tmp_path / "prefix/.venv/bin/exhibit"
+    exe.parent.mkdir(parents=True)
+    exe.write_text("#!/bin/sh\n")
+    exe.chmod(0o755)
+    return str(tmp_path / "prefix")
+
+
+def test_perform_runs_the_steps_in_order(tmp_path, prefix):
+    root = tmp_path / "root"
+    root.mkdir()
+    runner, lines = Runner(), []
+    assert inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
+                        user_exists=lambda name: False, group_exists=lambda name: True) == 0
+    assert [c[:2] for c in runner.commands] == [
+        ["useradd", "--system"], ["modprobe", "-a"], ["udevadm", "control"],
+        ["udevadm", "trigger"], ["systemctl", "daemon-reload"], ["systemctl", "enable"]]
+    assert runner.commands[0][-1] == "exhibit"
+    assert all((root / dest).is_file() for dest in inst.FILES.values())
+    # The user exists the second time: no useradd.
+    runner = Runner()
+    inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
+                 user_exists=lambda name: True, group_exists=lambda name: True)
+    assert runner.commands[0][0] == "modprobe"
+
+
+def test_perform_stops_at_a_failing_step_and_says_what_is_left(tmp_path, prefix):
+    root = tmp_path / "root"
+    root.mkdir()
+    runner, lines = Runner(fail="modprobe"), []
+    with pytest.raises(ExhibitError) as info:
+        inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
+                     user_exists=lambda name: True, group_exists=lambda name: True)
+    assert str(info.value) == ("modprobe -a usbserial cdc_acm failed: modprobe: FATAL: Module "
+                               "usbserial not found")
+    assert len(runner.commands) == 1
+    assert "  systemctl daemon-reload" in lines and "  udevadm control --reload" in lines
+
+
+def test_perform_refuses_without_the_venv_or_the_groups(tmp_path, prefix):
+    with pytest.raises(ExhibitError, match=r"/nowhere/\.venv/bin/exhibit does not exist"):
+        inst.install(tmp_path, "/nowhere", perform=True, out=lambda s: None, runner=Runner())
+    with pytest.raises(ExhibitError, match="group\\(s\\) render do not exist"):
+        inst.install(tmp_path, prefix, perform=True, out=lambda s: None, runner=Runner(),
+                     group_exists=lambda name: name != "render")
+    assert not (tmp_path / "etc").exists()
+
+
+@pytest.fixture
+def cli(capsys):
+    from exhibit.cli import main
+
+    def run(*args):
+        code = main(list(args))
+        out, err = capsys.readouterr()
+        return subprocess.CompletedProcess(args, code, out, err)
+    return run

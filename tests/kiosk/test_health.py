@@ -1,0 +1,267 @@
+"""The health file (atomic, world-readable, validated on read) and `exhibit status` exit codes."""
+
+from __future__ import annotations
+
+import json
+import os
+import stat
+import subprocess
+import sys
+import threading
+import time
+
+import pytest
+
+from exhibit.kiosk import health
+from exhibit.kiosk.health import HealthError, freshness, read_health, write_health
+
+
+def sample(**changes) -> dict:
+    data = {"time": time.time(), "pid": os.getpid(), "fps": 59.8, "frame_ms_p95": 16.9,
+            "mode": "attract", "scene": "hopf",
+            "devices": [{"url": "serial:///dev/exhibit-controller?baud=115200", "state": "connected"},
+                        {"url": "hidraw://2341:8037", "state": "waiting"}],
+            "uptime_s": 93784.2, "gl_errors": 0, "rss_kb": 187_392, "fds": 23}
+    data.update(changes)
+    return data
+
+
+# ---------------------------------------------------------------------- paths
+
+@pytest.mark.parametrize("env, expected", [
+    ({"EXHIBIT_STATE_DIR": "/var/lib/exhibit", "XDG_STATE_HOME": "/x", "HOME": "/h"},
+     "/var/lib/exhibit/health.json"),
+    ({"XDG_STATE_HOME": "/x", "HOME": "/h"}, "/x/exhibit/health.json"),
+    ({"HOME": "/h"}, "/h/.local/state/exhibit/health.json"),
+    ({"EXHIBIT_STATE_DIR": "", "XDG_STATE_HOME": "", "HOME": "/h"},
+     "/h/.local/state/exhibit/health.json"),
+])
+def test_default_path(env, expected):
+    assert str(health.default_path(env)) == expected
+
+
+def test_readers_fall_back_to_the_service_state_dir_unless_told_where():
+    assert [str(p) for p in health.candidate_paths({"HOME": "/h"})] == [
+        "/h/.local/state/exhibit/health.json", "/var/lib/exhibit/health.json"]
+    assert [str(p) for p in health.candidate_paths({"EXHIBIT_STATE_DIR": "/s"})] == [
+        "/s/health.json"]
+
+
+# ---------------------------------------------------------------------- writing and reading
+
+def test_round_trip_creates_the_folder_and_is_world_readable_despite_umask(tmp_path):
+    path = tmp_path / "state" / "exhibit" / "health.json"
+    old = os.umask(0o077)
+    try:
+        write_health(path, sample())
+    finally:
+        os.umask(old)
+    assert read_health(path) == json.loads(json.dumps(sample(time=read_health(path)["time"])))
+    assert stat.S_IMODE(path.stat().st_mode) == 0o644
+    assert [p.name for p in path.parent.iterdir()] == ["health.json"]  # no temporary left
+
+
+def test_non_finite_numbers_become_null(tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(fps=float("nan"), frame_ms_p95=float("inf")))
+    text = path.read_text()
+    assert "NaN" not in text and "Infinity" not in text
+    data = read_health(path)
+    assert data["fps"] is None and data["frame_ms_p95"] is None
+
+
+def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(scene="hopf"))
+    with pytest.raises(TypeError):
+        write_health(path, sample(scene=object()))
+    assert read_health(path)["scene"] == "hopf"
+    assert [p.name for p in tmp_path.iterdir()] == ["health.json"]
+
+
+def test_write_into_a_read_only_folder_raises_oserror(tmp_path):
+    if os.geteuid() == 0:
+        target = tmp_path / "file-not-folder"
+        target.write_text("")
+        path = target / "health.json"      # root ignores permissions; a file as folder does not
+    else:
+        folder = tmp_path / "ro"
+        folder.mkdir(mode=0o500)
+        path = folder / "health.json"
+    with pytest.raises(OSError):
+        write_health(path, sample())
+
+
+def test_readers_never_see_a_partial_file(tmp_path):
+    """A writer replacing the file as fast as it can; every read is a whole, valid file."""
+    path = tmp_path / "health.json"
+    write_health(path, sample())
+    stop = threading.Event()
+
+    def writer():
+        i = 0
+        while not stop.is_set():
+            write_health(path, sample(scene="x" * (i % 3000), fps=float(i)))
+            i += 1
+
+    thread = threading.Thread(target=writer)
+    thread.start()
+    try:
+        reads = [read_health(path) for _ in range(2000)]
+    finally:
+        stop.set()
+        thread.join()
+    assert len({r["fps"] for r in reads}) > 1  # the writer really was replacing it meanwhile
+
+
+@pytest.mark.parametrize("content, message", [
+    (None, "no health file at"),
+    ("", "not valid JSON (line 1 column 1"),
+    ('{"time": 1, "fps": ', "not valid JSON"),
+    ("[1, 2]", "expected a JSON object, got list"),
+    ('{"fps": 60}', "key 'time': missing"),
+    ('{"time": "now"}', "key 'time': expected a number (unix seconds), got 'now'"),
+    ('{"time": null}', "key 'time': expected a number"),
+    ('{"time": 1, "pid": true}', "key 'pid': expected a whole number, got True"),
+    ('{"time": 1, "mode": "sleeping"}', "key 'mode': expected one of attract, visitor"),
+    ('{"time": 1, "devices": {"url": "x"}}', "key 'devices': expected a list"),
+    ('{"time": 1, "devices": [{"url": "x"}]}', "key 'devices[0]': expected"),
+    ('{"time": 1, "fps": NaN}', "key 'fps': expected a finite number"),
+    (b"\xff\xfe", "not UTF-8 text"),
+])
+def test_read_errors_name_the_file_and_the_problem(tmp_path, content, message):
+    path = tmp_path / "health.json"
+    if isinstance(content, bytes):
+        path.write_bytes(content)
+    elif content is not None:
+        path.write_text(content)
+    with pytest.raises(HealthError) as info:
+        read_health(path)
+    assert str(path) in str(info.value) and message in str(info.value)
+    assert info.value.missing is (content is None)
+
+
+def test_unknown_keys_and_nulls_are_kept(tmp_path):
+    path = tmp_path / "health.json"
+    path.write_text('{"time": 5, "fps": null, "brightness": 0.7}')
+    assert read_health(path) == {"time": 5, "fps": None, "brightness": 0.7}
+
+
+# ---------------------------------------------------------------------- freshness
+
+def test_freshness():
+    now = 1_000_000.0
+    assert freshness({"time": now - 3}, 10, now=now) == (True, 3.0, None)
+    fresh, age, reason = freshness({"time": now - 12.5}, 10, now=now)
+    assert (fresh, age) == (False, 12.5) and "12.5 s ago (more than 10 s)" in reason
+    fresh, _, reason = freshness({"time": now + 60}, 10, now=now)
+    assert not fresh and "in the future" in reason
+    assert freshness({"time": now + 2}, 10, now=now)[0]  # a small clock step is not an alarm
+
+
+def test_a_dead_pid_is_stale_at_once():
+    child = subprocess.Popen([sys.executable, "-c", "pass"])
+    child.wait()
+    fresh, _, reason = freshness({"time": time.time(), "pid": child.pid}, 10)
+    assert not fresh and f"process {child.pid} is not running" in reason
+    assert freshness({"time": time.time(), "pid": child.pid}, 10, check_pid=False)[0]
+    assert freshness({"time": time.time(), "pid": os.getpid()}, 10)[0]
+
+
+@pytest.mark.parametrize("seconds, text", [
+    (3.25, "3.2 s"), (250, "4 min 10 s"), (7500, "2 h 5 min"), (93784.2, "1 d 2 h")])
+def test_durations_read_as_staff_say_them(seconds, text):
+    assert health.format_duration(seconds) == text
+
+
+# ---------------------------------------------------------------------- exhibit status
+
+@pytest.fixture
+def cli(capsys):
+    """`exhibit ARGS...` in this process (the CLI's own entry point, without a 0.8 s start-up per
+    call); returns an object with returncode, stdout and stderr like subprocess.run's."""
+    from exhibit.cli import main
+
+    def run(*args):
+        code = main(list(args))
+        out, err = capsys.readouterr()
+        return subprocess.CompletedProcess(args, code, out, err)
+    return run
+
+
+def status(cli, path, *args):
+    return cli("status", "--file", str(path), *args)
+
+
+def test_status_fresh_prints_a_summary_and_exits_0(tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample())
+    result = subprocess.run([sys.executable, "-m", "exhibit", "status", "--file", str(path)],
+                            capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr
+    out = result.stdout
+    assert out.startswith("exhibit kiosk: OK (updated ")
+    for text in ("attract", "hopf", "59.8", "16.9 ms", "1 d 2 h", "hidraw://2341:8037",
+                 "waiting", "connected", "0 GL errors, 183 MB resident, 23 open files", str(path)):
+        assert text in out
+    assert result.stderr == ""
+
+
+def test_status_stale_exits_1_with_one_line_reason(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(time=time.time() - 60))
+    result = status(cli, path, "--max-age", "30")
+    assert result.returncode == 1
+    assert "exhibit kiosk: STALE" in result.stdout
+    assert result.stderr.count("\n") == 1 and result.stderr.startswith("exhibit status: STALE:")
+    assert "more than 30 s" in result.stderr
+
+
+def test_status_missing_exits_1(cli, tmp_path):
+    result = status(cli, tmp_path / "nothing.json")
+    assert result.returncode == 1 and result.stdout == ""
+    assert result.stderr.startswith("exhibit status: MISSING: no health file at ")
+    assert result.stderr.count("\n") == 1
+
+
+def test_status_missing_names_every_place_it_looked(cli, tmp_path, monkeypatch):
+    monkeypatch.delenv("EXHIBIT_STATE_DIR", raising=False)
+    monkeypatch.setenv("XDG_STATE_HOME", str(tmp_path))
+    if (health.SERVICE_STATE_DIR / "health.json").exists():
+        pytest.skip("this machine runs the kiosk service")
+    result = cli("status")
+    assert result.returncode == 1
+    assert str(tmp_path / "exhibit" / "health.json") in result.stderr
+    assert "/var/lib/exhibit/health.json" in result.stderr
+
+
+def test_status_reads_exhibit_state_dir(cli, tmp_path, monkeypatch):
+    write_health(tmp_path / "health.json", sample())
+    monkeypatch.setenv("EXHIBIT_STATE_DIR", str(tmp_path))
+    assert cli("status").returncode == 0
+
+
+def test_status_broken_file_exits_1(cli, tmp_path):
+    path = tmp_path / "health.json"
+    path.write_text("{")
+    result = status(cli, path)
+    assert result.returncode == 1 and "BROKEN" in result.stderr and str(path) in result.stderr
+
+
+def test_status_json(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(time=time.time() - 100))
+    result = status(cli, path, "--json")
+    assert result.returncode == 1
+    data = json.loads(result.stdout)
+    assert data["fresh"] is False and data["path"] == str(path) and data["age_s"] >= 100
+    assert data["scene"] == "hopf" and "more than 10 s" in data["reason"]
+    missing = json.loads(status(cli, tmp_path / "none.json", "--json").stdout)
+    assert missing["fresh"] is False and "no health file" in missing["reason"]
+
+
+def test_status_bad_max_age_is_a_usage_error(cli, tmp_path):
+    result = status(cli, tmp_path / "health.json", "--max-age", "-1")
+    assert result.returncode == 2
+    assert result.stderr.strip() == ("exhibit status: error: --max-age must be a positive "
+                                     "number of seconds, got -1")
