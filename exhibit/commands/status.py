@@ -70,18 +70,22 @@ def summary(data: dict, path: Path, age: float, fresh: bool) -> str:
         return "?" if value is None else fmt.format(value)
 
     head = "OK" if fresh else "STALE"
-    lines = [f"exhibit kiosk: {head} (updated {format_duration(max(age, 0.0))} ago, pid {get('pid')})"]
+    updated = format_duration(max(age, 0.0))
+    lines = [f"exhibit kiosk: {head} (updated {updated} ago, pid {get('pid')})"]
+    uptime = data.get("uptime_s")
     rows = [
         ("mode", get("mode")),
         ("scene", get("scene")),
-        ("fps", f"{get('fps', '{:.1f}')} (95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)"),
-        ("uptime", "?" if data.get("uptime_s") is None else format_duration(float(data["uptime_s"]))),
+        ("fps", f"{get('fps', '{:.1f}')} "
+                f"(95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)"),
+        ("uptime", "?" if uptime is None else format_duration(float(uptime))),
     ]
     devices = data.get("devices") or []
     if devices:
         width = max(len(d["url"]) for d in devices)
         for i, device in enumerate(devices):
-            rows.append(("devices" if i == 0 else "", f"{device['url']:<{width}}  {device['state']}"))
+            rows.append(("devices" if i == 0 else "",
+                         f"{device['url']:<{width}}  {device['state']}"))
     else:
         rows.append(("devices", "none"))
     rss = data.get("rss_kb")

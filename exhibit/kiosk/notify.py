@@ -41,7 +41,8 @@ class Notifier:
         if watchdog_usec is not None and (isinstance(watchdog_usec, bool)
                                           or not isinstance(watchdog_usec, int)
                                           or watchdog_usec <= 0):
-            raise ValueError(f"watchdog_usec must be a positive whole number, got {watchdog_usec!r}")
+            raise ValueError(f"watchdog_usec must be a positive whole number, "
+                             f"got {watchdog_usec!r}")
         self._watchdog_usec = watchdog_usec if self._address is not None else None
         # Ping at half the timeout (as sd_watchdog_enabled(3) advises), so one late frame or a
         # lost datagram does not cost the service its life.
@@ -126,7 +127,7 @@ class Notifier:
         return self.send(*fields)
 
     def status(self, text: str) -> bool:
-        """STATUS=text, shown by `systemctl status exhibit`. Repeating the last text sends nothing."""
+        """STATUS=text, shown by systemctl status; repeating the last text sends nothing."""
         text = _one_line(text)
         if text == self._last_status or not self.enabled:
             return False

@@ -19,7 +19,8 @@ from exhibit.kiosk.health import HealthError, freshness, read_health, write_heal
 def sample(**changes) -> dict:
     data = {"time": time.time(), "pid": os.getpid(), "fps": 59.8, "frame_ms_p95": 16.9,
             "mode": "attract", "scene": "hopf",
-            "devices": [{"url": "serial:///dev/exhibit-controller?baud=115200", "state": "connected"},
+            "devices": [{"url": "serial:///dev/exhibit-controller?baud=115200",
+                         "state": "connected"},
                         {"url": "hidraw://2341:8037", "state": "waiting"}],
             "uptime_s": 93784.2, "gl_errors": 0, "rss_kb": 187_392, "fds": 23}
     data.update(changes)

@@ -72,7 +72,7 @@ def systemd(request):
 
 @pytest.fixture(autouse=True)
 def _close_notifiers(monkeypatch):
-    """Every Notifier a test makes is closed afterwards (pytest turns ResourceWarning into errors)."""
+    """Every Notifier a test makes is closed afterwards (ResourceWarning is an error here)."""
     made = []
     original = Notifier.__init__
 
