@@ -17,6 +17,7 @@ from exhibit.errors import ExhibitError
 
 # name -> module under exhibit.commands; the order is the order of `exhibit --help`.
 COMMANDS = {
+    "run": "run",
     "check-config": "check_config",
     "sweep": "sweep",
     "scenes": "scenes",
@@ -30,6 +31,8 @@ COMMANDS = {
     "monitor": "monitor",
     "simulate": "simulate",
     "record": "record",
+    "status": "status",
+    "install": "install",
 }
 
 

@@ -119,3 +119,10 @@ def test_environment_overrides_paths(tree, monkeypatch, tmp_path):
     monkeypatch.setenv("EXHIBIT_CONFIG", str(tree / "kiosk.toml"))
     assert load_kiosk_config().path == tree / "kiosk.toml"
 
+
+
+def test_run_refuses_a_bad_config_without_traceback(tree, cli):
+    edit(tree / "kiosk.toml", "monitor = 0 ", "monitor = -1 ")
+    result = cli("run", "--config", str(tree / "kiosk.toml"))
+    assert result.returncode == 2
+    assert "display.monitor" in result.stderr and "Traceback" not in result.stderr

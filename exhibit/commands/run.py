@@ -1,0 +1,49 @@
+"""`exhibit run`: the exhibit itself — fullscreen, devices, attract mode, systemd watchdog."""
+
+from __future__ import annotations
+
+import logging
+import math
+from pathlib import Path
+
+from exhibit.errors import ExhibitError
+from exhibit.kiosk.config import load_kiosk_config
+
+HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--config", help="kiosk config (default: $EXHIBIT_CONFIG or "
+                                         "configs/kiosk.toml)")
+    parser.add_argument("--windowed", action="store_true", help="a window instead of fullscreen")
+    parser.add_argument("--duration", metavar="S", help="stop after S seconds (tests, staff)")
+    parser.add_argument("--screenshot", metavar="FILE.png", help="save the last frame on exit")
+
+
+def run(args) -> int:
+    duration = None
+    if args.duration is not None:
+        try:
+            duration = float(args.duration)
+        except ValueError:
+            raise ExhibitError(f"--duration must be a number of seconds, got {args.duration!r}") \
+                from None
+        if not (math.isfinite(duration) and duration > 0):
+            raise ExhibitError("--duration must be a positive number of seconds")
+    screenshot = Path(args.screenshot) if args.screenshot else None
+    if screenshot is not None and not screenshot.parent.is_dir():
+        raise ExhibitError(f"--screenshot: folder {screenshot.parent} does not exist")
+    config = load_kiosk_config(args.config)  # ConfigError: every problem, exit 2
+    logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
+
+    from exhibit.kiosk.app import Kiosk, open_window
+    from exhibit.kiosk.health import default_path
+    from exhibit.kiosk.notify import Notifier
+
+    window = open_window(config, args.windowed)
+    try:
+        kiosk = Kiosk(config, window, notifier=Notifier.from_env(),
+                      health_path=default_path())
+        return kiosk.run(duration=duration, screenshot=screenshot)
+    finally:
+        window.close()
