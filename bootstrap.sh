@@ -87,12 +87,14 @@ case "$job" in
     setup_venv ""
     # With arguments: that exhibit command (./bootstrap.sh run inspect collision).
     [ $# -gt 0 ] && exec .venv/bin/exhibit "$@"
-    # Until the kiosk lands this is the closest working job: on a display, the staff viewer on
-    # the Hopf scene; without one, the paper's Figures 6-17 rendered headlessly into out/.
+    # The exhibit itself, fullscreen with the shipped config (configs/kiosk.toml); staff quit
+    # with Ctrl+Alt+Shift+Q. Without a display, the headless renderer draws the paper's
+    # Figures 6-17 into out/figures/ instead.
     if [ -n "${DISPLAY:-}${WAYLAND_DISPLAY:-}" ]; then
-      exec .venv/bin/exhibit render hopf --window
+      exec .venv/bin/exhibit run
     fi
-    say "no display: rendering the paper's figures into out/figures/"
+    say "no display (DISPLAY and WAYLAND_DISPLAY are unset): the kiosk needs a screen;"
+    say "rendering the paper's figures headlessly into out/figures/ instead"
     mkdir -p out/figures
     for figure in 6 7 8 9 10 11 12 13 14 15 16 17; do
       .venv/bin/exhibit render --figure "$figure" --out "out/figures/figure-$figure.png"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import faulthandler
 import logging
 import math
 from pathlib import Path
@@ -35,6 +36,8 @@ def run(args) -> int:
         raise ExhibitError(f"--screenshot: folder {screenshot.parent} does not exist")
     config = load_kiosk_config(args.config)  # ConfigError: every problem, exit 2
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
+    # When the watchdog kills a hung loop (SIGABRT), every thread's stack goes to the journal.
+    faulthandler.enable()
 
     from exhibit.kiosk.app import Kiosk, open_window
     from exhibit.kiosk.health import default_path

@@ -91,6 +91,8 @@ class Kiosk:
         with progress.on_terminal():
             for i, (name, params) in enumerate(keys, 1):
                 progress.report(f"preparing scene {i}/{len(keys)}: {name}")
+                if notifier is not None:
+                    notifier.extend_timeout(60)  # a cold mesh build may take a while
                 mesh, _ = build_cached(scenes.get(name), dict(params),
                                        config.resolution.get(name))
                 self.gpu[(name, params)] = window.renderer.upload(mesh)
