@@ -45,7 +45,7 @@ from exhibit.errors import ExhibitError
 from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Scene
 from exhibit.scenes.implicit_scene import mesh_implicit
-from exhibit.surfaces.expressions import ExpressionError, compile_field, parse_expression
+from exhibit.surfaces.expressions import ExpressionError, check_expression, compile_field
 from exhibit.surfaces.mesh import Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 
@@ -177,7 +177,7 @@ def _surface_spec(check: _Checker, index: int, table, axes, defaults):
     def formula(key, variables):
         text = check.string(table, key, where)
         try:
-            parse_expression(text, variables, defaults)
+            check_expression(text, variables, defaults)
         except ExpressionError as exc:
             check.fail(where + key, str(exc))
         return text
@@ -209,7 +209,7 @@ def _surface_spec(check: _Checker, index: int, table, axes, defaults):
         if not isinstance(text, str):
             check.fail(f"{where}point[{k}]", "must be a formula string")
         try:
-            parse_expression(text, ("s", "t"), defaults)
+            check_expression(text, ("s", "t"), defaults)
         except ExpressionError as exc:
             check.fail(f"{where}point[{k}]", str(exc))
     intervals = []

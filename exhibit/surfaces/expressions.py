@@ -15,14 +15,10 @@ from dataclasses import dataclass
 from typing import Mapping, Sequence
 
 import numpy as np
-import sympy
 
-FUNCTIONS = {
-    "sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan, "exp": sympy.exp, "log": sympy.log,
-    "sqrt": sympy.sqrt, "abs": sympy.Abs, "sinh": sympy.sinh, "cosh": sympy.cosh,
-    "tanh": sympy.tanh, "atan": sympy.atan,
-}
-CONSTANTS = {"pi": sympy.pi, "e": sympy.E}
+FUNCTION_NAMES = ("sin", "cos", "tan", "exp", "log", "sqrt", "abs", "sinh", "cosh", "tanh",
+                  "atan")
+CONSTANT_NAMES = ("pi", "e")
 MAX_LENGTH = 2000
 MAX_EXPONENT = 64
 
@@ -31,9 +27,102 @@ class ExpressionError(ValueError):
     """A formula that cannot be accepted; the message names the column and the reason."""
 
 
-def parse_expression(text: str, variables: Sequence[str],
-                     parameters: Mapping[str, float] | None = None) -> sympy.Expr:
-    """Translate ``text`` into a sympy expression in ``variables`` with parameters substituted."""
+class _SympyAlgebra:
+    """Builds the sympy expression (imported only here: it costs half a second at start-up)."""
+
+    def __init__(self, variables):
+        import sympy
+        self.sympy = sympy
+        self.symbols = {name: sympy.Symbol(name, real=True) for name in variables}
+        self.functions = {"sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan,
+                          "exp": sympy.exp, "log": sympy.log, "sqrt": sympy.sqrt,
+                          "abs": sympy.Abs, "sinh": sympy.sinh, "cosh": sympy.cosh,
+                          "tanh": sympy.tanh, "atan": sympy.atan}
+        self.constants = {"pi": sympy.pi, "e": sympy.E}
+
+    def number(self, value: float):
+        if float(value).is_integer() and abs(value) <= 10**6:
+            return self.sympy.Integer(int(value))
+        return self.sympy.Float(value)
+
+    def symbol(self, name):
+        return self.symbols[name]
+
+    def constant(self, name):
+        return self.constants[name]
+
+    def function(self, name, argument):
+        return self.functions[name](argument)
+
+    def numeric(self, value) -> float | None:
+        if not value.is_number:
+            return None
+        try:
+            return float(value)
+        except TypeError:  # a complex constant
+            return None
+
+
+class _Checked:
+    """A formula's value while only checking it: the number when it is a known constant, else
+    None. Enough to catch division by zero and oversized exponents without sympy."""
+
+    __slots__ = ("value",)
+
+    def __init__(self, value):
+        self.value = value
+
+    def _apply(self, other, function):
+        a, b = self.value, other.value
+        if a is None or b is None:
+            return _Checked(None)
+        try:
+            result = function(a, b)
+        except (ArithmeticError, ValueError):
+            return _Checked(None)
+        return _Checked(result if isinstance(result, float) and math.isfinite(result) else None)
+
+    def __add__(self, other):
+        return self._apply(other, lambda a, b: a + b)
+
+    def __sub__(self, other):
+        return self._apply(other, lambda a, b: a - b)
+
+    def __mul__(self, other):
+        return self._apply(other, lambda a, b: a * b)
+
+    def __truediv__(self, other):
+        return self._apply(other, lambda a, b: a / b)
+
+    def __pow__(self, other):
+        return self._apply(other, lambda a, b: float(a**b))
+
+    def __neg__(self):
+        return _Checked(None if self.value is None else -self.value)
+
+
+class _CheckAlgebra:
+    def __init__(self, variables):
+        self.symbols = set(variables)
+
+    def number(self, value: float):
+        return _Checked(float(value))
+
+    def symbol(self, name):
+        return _Checked(None)
+
+    def constant(self, name):
+        return _Checked({"pi": math.pi, "e": math.e}[name])
+
+    def function(self, name, argument):
+        return _Checked(None)
+
+    def numeric(self, value) -> float | None:
+        return value.value
+
+
+def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] | None,
+          algebra):
     parameters = dict(parameters or {})
     if not isinstance(text, str) or not text.strip():
         raise ExpressionError("the formula is empty")
@@ -44,8 +133,7 @@ def parse_expression(text: str, variables: Sequence[str],
         tree = ast.parse(text.strip().replace("^", "**"), mode="eval")
     except SyntaxError as exc:
         raise ExpressionError(f"syntax error at column {exc.offset}: {exc.msg}") from None
-    symbols = {name: sympy.Symbol(name, real=True) for name in variables}
-    clash = set(symbols) & (set(parameters) | set(FUNCTIONS) | set(CONSTANTS))
+    clash = set(variables) & (set(parameters) | set(FUNCTION_NAMES) | set(CONSTANT_NAMES))
     if clash:
         raise ExpressionError(f"names used twice: {', '.join(sorted(clash))}")
 
@@ -55,9 +143,7 @@ def parse_expression(text: str, variables: Sequence[str],
     def number(value, node):
         if not math.isfinite(value) or abs(value) > 1e12:
             fail(node, f"number {value!r} is out of range")
-        if float(value).is_integer() and abs(value) <= 10**6:
-            return sympy.Integer(int(value))
-        return sympy.Float(value)
+        return algebra.number(value)
 
     def visit(node):
         if isinstance(node, ast.Expression):
@@ -67,13 +153,13 @@ def parse_expression(text: str, variables: Sequence[str],
                 fail(node, f"{node.value!r} is not a number")
             return number(node.value, node)
         if isinstance(node, ast.Name):
-            if node.id in symbols:
-                return symbols[node.id]
+            if node.id in variables:
+                return algebra.symbol(node.id)
             if node.id in parameters:
                 return number(float(parameters[node.id]), node)
-            if node.id in CONSTANTS:
-                return CONSTANTS[node.id]
-            known = ", ".join(list(symbols) + sorted(parameters) + sorted(CONSTANTS))
+            if node.id in CONSTANT_NAMES:
+                return algebra.constant(node.id)
+            known = ", ".join(list(variables) + sorted(parameters) + list(CONSTANT_NAMES))
             fail(node, f"unknown name {node.id!r} (known: {known})")
         if isinstance(node, ast.UnaryOp) and isinstance(node.op, (ast.USub, ast.UAdd)):
             operand = visit(node.operand)
@@ -88,25 +174,41 @@ def parse_expression(text: str, variables: Sequence[str],
             if isinstance(op, ast.Mult):
                 return left * right
             if isinstance(op, ast.Div):
-                if right == 0:
+                if algebra.numeric(right) == 0:
                     fail(node, "division by zero")
                 return left / right
             if isinstance(op, ast.Pow):
-                if right.is_number and abs(float(right)) > MAX_EXPONENT:
-                    fail(node, f"exponent {right} is larger than {MAX_EXPONENT}")
+                exponent = algebra.numeric(right)
+                if exponent is not None and abs(exponent) > MAX_EXPONENT:
+                    fail(node, f"exponent {exponent:g} is larger than {MAX_EXPONENT}")
                 return left**right
             fail(node, f"operator {type(op).__name__} is not allowed (use + - * / ^ or **)")
         if isinstance(node, ast.Call):
-            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTIONS:
+            if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTION_NAMES:
                 name = getattr(node.func, "id", "this")
-                fail(node, f"function {name!r} is not allowed (allowed: {', '.join(FUNCTIONS)})")
+                fail(node, f"function {name!r} is not allowed "
+                           f"(allowed: {', '.join(FUNCTION_NAMES)})")
             if node.keywords or len(node.args) != 1:
                 fail(node, f"{node.func.id} takes exactly one argument")
-            return FUNCTIONS[node.func.id](visit(node.args[0]))
+            return algebra.function(node.func.id, visit(node.args[0]))
         fail(node, f"{type(node).__name__} is not allowed in a formula")
 
-    expression = visit(tree)
-    if not isinstance(expression, sympy.Expr):
+    return visit(tree)
+
+
+def check_expression(text: str, variables: Sequence[str],
+                     parameters: Mapping[str, float] | None = None) -> None:
+    """Raise ExpressionError if ``text`` is not an acceptable formula; cheap (no sympy), so scene
+    files can be checked when they load."""
+    _walk(text, variables, parameters, _CheckAlgebra(variables))
+
+
+def parse_expression(text: str, variables: Sequence[str],
+                     parameters: Mapping[str, float] | None = None) -> "sympy.Expr":
+    """Translate ``text`` into a sympy expression in ``variables`` with parameters substituted."""
+    algebra = _SympyAlgebra(variables)
+    expression = _walk(text, variables, parameters, algebra)
+    if not isinstance(expression, algebra.sympy.Expr):
         raise ExpressionError("the formula is not a number-valued expression")
     return expression
 
@@ -188,6 +290,8 @@ def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], l
     Every value the expression takes in a box lies within the returned bounds (never a box with a
     zero pruned); the bounds may be loose.
     """
+    import sympy
+
     index = {symbol: i for i, symbol in enumerate(variables)}
     count = lo.shape[0]
     cache: dict = {}
@@ -256,6 +360,8 @@ class ScalarField:
     symbols: tuple[sympy.Symbol, ...]
 
     def __post_init__(self) -> None:
+        import sympy
+
         self.gradient_expressions = [sympy.diff(self.expression, s) for s in self.symbols]
         self._value = sympy.lambdify(self.symbols, self.expression, modules="numpy")
         self._gradient = [sympy.lambdify(self.symbols, g, modules="numpy")
@@ -280,6 +386,8 @@ class ScalarField:
 def compile_field(text_or_expression, variables: Sequence[str],
                   parameters: Mapping[str, float] | None = None) -> ScalarField:
     """A ScalarField from a formula string (parsed safely) or a sympy expression."""
+    import sympy
+
     if isinstance(text_or_expression, str):
         expression = parse_expression(text_or_expression, variables, parameters)
     else:

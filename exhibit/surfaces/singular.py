@@ -11,7 +11,6 @@ from __future__ import annotations
 import itertools
 
 import numpy as np
-import sympy
 
 from exhibit.surfaces.expressions import ScalarField
 
@@ -37,6 +36,8 @@ class _SingularSystem:
     """F(x) = (f1, f2, minors of J) with its symbolic Jacobian, lambdified once."""
 
     def __init__(self, f1: ScalarField, f2: ScalarField):
+        import sympy  # only when a search runs: it is slow to import
+
         g1, g2 = f1.gradient_expressions, f2.gradient_expressions
         minors = [g1[i] * g2[j] - g1[j] * g2[i] for i, j in itertools.combinations(range(4), 2)]
         equations = [f1.expression, f2.expression] + minors

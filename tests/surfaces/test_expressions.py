@@ -8,7 +8,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exhibit.surfaces.expressions import ExpressionError, compile_field, parse_expression
+from exhibit.surfaces.expressions import (
+    ExpressionError,
+    check_expression,
+    compile_field,
+    parse_expression,
+)
 
 V = ("x", "y", "z", "w")
 
@@ -48,9 +53,27 @@ def test_constant_gradients_broadcast():
     ("lambda: 1", "Lambda is not allowed"),
     ("1e400", "out of range"),
 ])
-def test_rejects_anything_but_arithmetic(text, message):
+@pytest.mark.parametrize("parse", [parse_expression, check_expression])
+def test_rejects_anything_but_arithmetic(text, message, parse):
     with pytest.raises(ExpressionError, match=message):
+        parse(text, V, {"r": 1.0})
+
+
+def test_checking_accepts_what_parsing_accepts():
+    for text in ("x^2 + sin(y*z) - exp(w)/(1 + x**2) + r*sqrt(1 + z^2)", "2^3^2", "x / (r - 1.5)",
+                 "-x^2 + pi * e"):
+        check_expression(text, V, {"r": 1.0})
         parse_expression(text, V, {"r": 1.0})
+
+
+def test_the_kiosk_starts_without_sympy():
+    """sympy costs half a second of start-up; a kiosk with a warm mesh cache never needs it."""
+    import subprocess
+    import sys
+    code = ("import sys, exhibit.kiosk.app, exhibit.commands.run, exhibit.scenes; "
+            "print('sympy' in sys.modules)")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "False"
 
 
 formulas = st.sampled_from([
