@@ -254,8 +254,9 @@ def open_window(config: KioskConfig, windowed: bool):
                            "needs a screen. Headless, render pictures instead: "
                            "`exhibit render --figure 8 --out figure-8.png`")
     try:
-        return Window(size=config.size, title="exhibit", fullscreen=config.fullscreen and not windowed,
-                      samples=config.samples, vsync=config.vsync)
+        return Window(size=config.size, title="exhibit",
+                      fullscreen=config.fullscreen and not windowed, samples=config.samples,
+                      vsync=config.vsync, monitor=config.monitor)
     except RenderUnavailable as exc:
         raise ExhibitError(f"{exc}. Headless, render pictures instead: "
                            "`exhibit render --figure 8 --out figure-8.png`") from None

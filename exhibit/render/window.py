@@ -20,7 +20,7 @@ class Window:
 
     def __init__(self, size: tuple[int, int] = (1280, 720), title: str = "exhibit",
                  fullscreen: bool = False, samples: int = 4, visible: bool = True,
-                 vsync: bool = True):
+                 vsync: bool = True, monitor: int = 0):
         import glfw
 
         self._glfw = glfw
@@ -37,7 +37,12 @@ class Window:
         glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
         glfw.window_hint(glfw.SAMPLES, samples)
         glfw.window_hint(glfw.VISIBLE, visible)
-        monitor = glfw.get_primary_monitor() if fullscreen else None
+        if fullscreen:
+            # The configured monitor if it is connected, else the primary one (never no picture).
+            monitors = glfw.get_monitors() or [glfw.get_primary_monitor()]
+            monitor = monitors[monitor] if monitor < len(monitors) else monitors[0]
+        else:
+            monitor = None
         if monitor is not None:
             mode = glfw.get_video_mode(monitor)
             size = (mode.size.width, mode.size.height)

@@ -145,3 +145,16 @@ def test_watchdog_pings_follow_the_frame_loop(tmp_path):
             child.wait(timeout=30)
             child.stderr.close()
             server.close()
+
+
+def test_fullscreen_fills_the_monitor_and_a_missing_monitor_falls_back():
+    code = ("from exhibit.render.window import Window\n"
+            "w = Window(size=(320, 240), fullscreen=True, samples=0, monitor=3)\n"
+            "print(*w.size); w.close()\n")
+    with xvfb("800x600x24") as display:
+        result = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, DISPLAY=display),
+                                capture_output=True, text=True, timeout=60, cwd=ROOT)
+    if result.returncode != 0 and "cannot start GLFW" in result.stderr:
+        unavailable("no GLFW window on Xvfb")
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["800", "600"]
