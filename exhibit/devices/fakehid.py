@@ -25,6 +25,7 @@ from collections import deque
 
 from exhibit.devices.base import DeviceError, Kind
 from exhibit.devices.hid import Layout
+from exhibit.devices.sim import script_lines
 
 __all__ = ["FakeHidDevice", "FakeHidBus", "encode_report", "parse_hid_script"]
 
@@ -196,12 +197,7 @@ def parse_hid_script(text: str, source: str, layout: Layout) -> list[tuple]:
     """Parses a fake HID script for ``layout``; DeviceError names the file and line."""
     caps = layout.capabilities
     out = []
-    for n, raw in enumerate(text.splitlines(), 1):
-        words = raw.split("#", 1)[0].split()
-        if not words:
-            continue
-        cmd, rest = words[0].lower(), words[1:]
-        where = f"{source} line {n}"
+    for _, where, cmd, rest, words in script_lines(text, source):
         try:
             if cmd == "report":
                 data = bytes.fromhex("".join(rest))

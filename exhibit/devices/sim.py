@@ -63,15 +63,19 @@ _ARITY = {"axes": (6, 6), "axis": (2, 2), "buttons": (0, 4), "wait": (1, 1), "ga
           "repeat": (0, 0)}
 
 
+def script_lines(text: str, source: str):
+    """The commands of a simulator script, one a line, '#' starting a comment: yields (line
+    number, where, command in lower case, its words, the words as written) per non-empty line."""
+    for n, raw in enumerate(text.splitlines(), 1):
+        words = raw.split("#", 1)[0].split()
+        if words:
+            yield n, f"{source} line {n}", words[0].lower(), words[1:], words
+
+
 def parse_script(text: str, source: str = "<script>") -> list[Step]:
     """Parses a simulator script; a bad line raises DeviceError naming the file and line."""
     steps = []
-    for n, raw in enumerate(text.splitlines(), 1):
-        words = raw.split("#", 1)[0].split()
-        if not words:
-            continue
-        cmd, rest = words[0].lower(), words[1:]
-        where = f"{source} line {n}"
+    for n, where, cmd, rest, words in script_lines(text, source):
         if cmd not in _ARITY:
             raise DeviceError(f"{where}: unknown command {words[0]!r} "
                               f"(one of {', '.join(sorted(_ARITY))})")
