@@ -11,6 +11,7 @@ by events and a clock, so it is tested without a window or devices.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from exhibit import scenes
@@ -36,7 +37,6 @@ class Frame:
 
 def _blend(a: ViewState, b: ViewState, u: float) -> ViewState:
     """From a to b (u in [0, 1], eased); angles move the short way round."""
-    import math
     u = u * u * (3 - 2 * u)
 
     def angle(x, y):

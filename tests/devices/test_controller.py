@@ -9,7 +9,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from exhibit.devices import protocol as p
-from exhibit.devices.base import Event, Kind, State
+from exhibit.devices.base import Kind, State
 from exhibit.devices.controller import DeviceClock, SerialController
 from exhibit.devices.sim import SimController
 

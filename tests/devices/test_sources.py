@@ -9,7 +9,7 @@ import math
 import pytest
 
 from exhibit.cli import main
-from exhibit.devices.base import DeviceError, Event, Kind, State
+from exhibit.devices.base import DeviceError, Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.fakehid import FakeHidBus, FakeHidDevice, encode_report
 from exhibit.devices.hid import load_layouts

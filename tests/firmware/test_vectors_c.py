@@ -6,7 +6,6 @@ import ctypes
 
 import pytest
 
-from .conftest import u8
 
 REJECT_NAMES = ["ok", "cobs", "short", "crc", "version", "type", "length", "too_long"]
 TYPES = {"HELLO": 0x01, "HEARTBEAT": 0x02, "AXES": 0x03, "CALIBRATION": 0x04,

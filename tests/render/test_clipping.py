@@ -6,7 +6,6 @@ import pytest
 
 from exhibit import scenes
 from exhibit.geometry import clip_transform
-from exhibit.render import RenderOptions
 
 SIZE = (240, 180)
 RESOLUTION = 20
