@@ -11,6 +11,7 @@ from pathlib import Path
 
 from exhibit import scenes
 from exhibit.errors import ExhibitError
+from exhibit.scenes.base import parse_overrides
 
 HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
 MAX_PIXELS = 8192
@@ -94,16 +95,6 @@ def parse_size(text: str) -> tuple[int, int]:
             _int(parts[1], "--size height", 16, MAX_PIXELS))
 
 
-def parse_params(items: list[str]) -> dict[str, str]:
-    params = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise ExhibitError(f"--param: {item!r} is not KEY=VALUE")
-        params[key.strip()] = value.strip()
-    return params
-
-
 def resolve(args):
     """(scene, params, view, caption line) from the arguments; every problem is an ExhibitError."""
     if args.figure is not None and args.scene:
@@ -118,7 +109,7 @@ def resolve(args):
         params, view, note = {}, scene.view, ""
     else:
         raise ExhibitError("name a scene or give --figure N")
-    params.update(parse_params(args.param))
+    params.update(parse_overrides(args.param))
     scene.resolve(params)  # reports unknown names and bad values before any GL work
     changes = {}
     if args.angles:

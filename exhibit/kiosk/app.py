@@ -26,6 +26,8 @@ from exhibit.errors import ExhibitError
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.state import KioskState
+from exhibit.render.options import RenderOptions
+from exhibit.render.renderer import HudInfo
 from exhibit.scenes.cache import build_cached
 from exhibit.surfaces import progress
 
@@ -146,19 +148,13 @@ class Kiosk:
 
     def step(self) -> None:
         """One frame: poll, update, draw, swap, watchdog."""
-        from exhibit.render.options import RenderOptions
-        from exhibit.render.renderer import HudInfo
-
         start = self.clock()
         mode = self.state.mode
         frame = self.state.update(self.devices.poll(), start)
         if frame.mode != mode:
             angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
             log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene, angles)
-        scene = scenes.get(frame.scene)
-        hud = HudInfo(title=frame.title, caption=frame.caption, axes=scene.axes)
-        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(start))
-        self.window.draw(self.gpu[(frame.scene, frame.params)], frame.view, options, hud)
+        self._draw(frame, start)
         error = self.window.ctx.error
         if error != "GL_NO_ERROR":
             self.stats.gl_errors += 1
@@ -231,16 +227,15 @@ class Kiosk:
             self.devices.close()
         return 0
 
+    def _draw(self, frame, now: float) -> None:
+        hud = HudInfo(title=frame.title, caption=frame.caption, axes=scenes.get(frame.scene).axes)
+        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now))
+        self.window.draw(self.gpu[(frame.scene, frame.params)], frame.view, options, hud)
+
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
 
-        from exhibit.render.options import RenderOptions
-        from exhibit.render.renderer import HudInfo
-        frame = self.state.frame
-        scene = scenes.get(frame.scene)
-        self.window.draw(self.gpu[(frame.scene, frame.params)], frame.view,
-                         RenderOptions(hud=self.config.hud, hud_drift=self.drift(self.clock())),
-                         HudInfo(title=frame.title, caption=frame.caption, axes=scene.axes))
+        self._draw(self.state.frame, self.clock())
         Image.fromarray(self.window.read()).save(path)
 
 

@@ -101,7 +101,7 @@ def parse_overrides(items: list[str] | None) -> dict[str, str]:
     for item in items or []:
         key, sep, value = item.partition("=")
         if not sep or not key.strip() or not value.strip():
-            raise ExhibitError(f"--param expects NAME=VALUE, got {item!r}")
+            raise ExhibitError(f"--param: {item!r} is not NAME=VALUE")
         overrides[key.strip()] = value.strip()
     return overrides
 
