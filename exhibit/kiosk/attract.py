@@ -20,17 +20,20 @@ A timeline lasts until its last keyframe; the playlist plays the files in name o
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Literal
+
+from pydantic import Field
 
 from exhibit import scenes
-from exhibit.errors import ExhibitError
+from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.view import ViewState
+from exhibit.schema import Model, read_toml, validate
+from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, HalfHeight, Name, Number, Numbers,
+                                  Seconds, distance_to_r)
 
 EASES = ("smooth", "linear", "hold")
-TOP_KEYS = {"name", "scene", "preset", "params", "keyframe"}
-KEYFRAME_KEYS = {"t", "angles", "sensor_distance", "eye", "half_height", "caption", "ease"}
 
 
 @dataclass(frozen=True)
@@ -81,107 +84,86 @@ class Timeline:
                                       eye_incidence=mix(a.eye[1], b.eye[1]), half_height=half)
 
 
-def _fail(path, key, reason):
-    raise ExhibitError(f"{path}: {key}: {reason}")
+class KeyframeSpec(Model):
+    t: Seconds
+    angles: Numbers(6, -MAX_ANGLE, MAX_ANGLE) | None = None
+    sensor_distance: Distance | None = None
+    eye: Numbers(2, -MAX_ANGLE, MAX_ANGLE) | None = None
+    half_height: HalfHeight | None = None
+    caption: Caption | None = None
+    ease: Literal[EASES] = "smooth"
 
 
-def _numbers(path, key, value, count):
-    if (not isinstance(value, list) or len(value) != count
-            or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                       and math.isfinite(v) for v in value)):
-        _fail(path, key, f"must be a list of {count} finite numbers, got {value!r}")
-    return [float(v) for v in value]
+class TimelineFile(Model):
+    name: Name | None = None
+    scene: Name
+    preset: Name | None = None
+    params: dict[str, Number(-1e6, 1e6)] = {}
+    keyframe: Annotated[list[KeyframeSpec], Field(min_length=2)]
 
 
 def load_timeline(path: Path) -> Timeline:
+    """A timeline from its file; ConfigError lists every problem as ``file: key: reason``."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ExhibitError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise ExhibitError(f"{path}: not valid TOML: {exc}") from None
-    for key in data:
-        if key not in TOP_KEYS:
-            _fail(path, key, f"unknown key (allowed: {', '.join(sorted(TOP_KEYS))})")
-    name = data.get("name", path.stem)
-    if not isinstance(name, str):
-        _fail(path, "name", "must be a string")
-    scene_name = data.get("scene")
-    if not isinstance(scene_name, str):
-        _fail(path, "scene", "missing (a scene name, see `exhibit scenes`)")
-    if scene_name not in scenes.names():
-        _fail(path, "scene", f"no scene named {scene_name!r} (scenes: {', '.join(scenes.names())})")
-    scene = scenes.get(scene_name)
-    base_view, params = scene.view, {}
-    if "preset" in data:
-        try:
-            preset = scene.preset(str(data["preset"]))
-        except ExhibitError as exc:
-            _fail(path, "preset", str(exc))
-        base_view, params = preset.view, dict(preset.params)
-    raw_params = data.get("params", {})
-    if not isinstance(raw_params, dict):
-        _fail(path, "params", "must be a table of scene parameters")
-    params.update(raw_params)
-    try:
-        params = scene.resolve(params)
-    except ExhibitError as exc:
-        _fail(path, "params", str(exc))
+    spec = validate(TimelineFile, read_toml(path), str(path))
+    problems: list[str] = []
 
-    raw_frames = data.get("keyframe")
-    if not isinstance(raw_frames, list) or len(raw_frames) < 2:
-        _fail(path, "keyframe", "needs at least two [[keyframe]] tables")
+    def problem(key: str, reason: str) -> None:
+        problems.append(f"{path}: {key}: {reason}")
+
+    scene = None
+    try:
+        scene = scenes.get(spec.scene)
+    except ExhibitError as exc:
+        problem("scene", str(exc))
+    base_view, params = ViewState(), {}
+    if scene is not None:
+        base_view = scene.view
+        if spec.preset is not None:
+            try:
+                preset = scene.preset(spec.preset)
+                base_view, params = preset.view, dict(preset.params)
+            except ExhibitError as exc:
+                problem("preset", str(exc))
+        params.update(spec.params)
+        try:
+            params = scene.resolve(params)
+        except ExhibitError as exc:
+            problem("params", str(exc))
+
     frames: list[Keyframe] = []
     previous = Keyframe(0.0, base_view.angles, base_view.sensor_r,
                         (base_view.eye_azimuth, base_view.eye_incidence), base_view.half_height,
                         "", "smooth")
-    for i, raw in enumerate(raw_frames):
+    for i, raw in enumerate(spec.keyframe):
         where = f"keyframe[{i}]."
-        if not isinstance(raw, dict):
-            _fail(path, f"keyframe[{i}]", "must be a table")
-        for key in raw:
-            if key not in KEYFRAME_KEYS:
-                _fail(path, where + key, f"unknown key (allowed: {', '.join(sorted(KEYFRAME_KEYS))})")
-        t = raw.get("t")
-        if isinstance(t, bool) or not isinstance(t, (int, float)) or not math.isfinite(t) or t < 0:
-            _fail(path, where + "t", f"must be a time in seconds >= 0, got {t!r}")
-        if i == 0 and t != 0:
-            _fail(path, where + "t", "the first keyframe must be at t = 0")
-        if i > 0 and t <= frames[-1].t:
-            _fail(path, where + "t", f"{t} must be later than the keyframe before ({frames[-1].t})")
-        angles = previous.angles
-        if "angles" in raw:
-            angles = tuple(math.radians(a) for a in _numbers(path, where + "angles",
-                                                             raw["angles"], 6))
-        sensor_r = previous.sensor_r
-        if "sensor_distance" in raw:
-            d = raw["sensor_distance"]
-            if d == "inf":
-                sensor_r = 0.0
-            elif isinstance(d, (int, float)) and not isinstance(d, bool) and math.isfinite(d) \
-                    and d > 0:
-                sensor_r = 1.0 / d
-            else:
-                _fail(path, where + "sensor_distance",
-                      f"must be \"inf\" or a positive number, got {d!r}")
-        eye = previous.eye
-        if "eye" in raw:
-            eye = tuple(math.radians(a) for a in _numbers(path, where + "eye", raw["eye"], 2))
-        half = previous.half_height
-        if "half_height" in raw:
-            half = _numbers(path, where + "half_height", [raw["half_height"]], 1)[0]
-            if half <= 0:
-                _fail(path, where + "half_height", "must be positive")
-        caption = raw.get("caption", previous.caption)
-        if not isinstance(caption, str):
-            _fail(path, where + "caption", "must be a string")
-        ease = raw.get("ease", "smooth")
-        if ease not in EASES:
-            _fail(path, where + "ease", f"must be one of {', '.join(EASES)}, got {ease!r}")
-        previous = Keyframe(float(t), angles, sensor_r, eye, half, caption, ease)
+        if i == 0 and raw.t != 0:
+            problem(where + "t", "the first keyframe must be at t = 0")
+        if i > 0 and raw.t <= frames[-1].t:
+            problem(where + "t", f"{raw.t:g} must be later than the keyframe before "
+                                 f"({frames[-1].t:g})")
+        previous = Keyframe(
+            raw.t,
+            previous.angles if raw.angles is None else tuple(math.radians(a) for a in raw.angles),
+            previous.sensor_r if raw.sensor_distance is None
+            else distance_to_r(raw.sensor_distance),
+            previous.eye if raw.eye is None else tuple(math.radians(a) for a in raw.eye),
+            previous.half_height if raw.half_height is None else raw.half_height,
+            previous.caption if raw.caption is None else raw.caption,
+            raw.ease)
         frames.append(previous)
-    return Timeline(str(name), str(path), scene_name, params, base_view, tuple(frames))
+    if problems:
+        raise ConfigError(problems)
+    return Timeline(spec.name or path.stem, str(path), spec.scene, params, base_view,
+                    tuple(frames))
+
+
+def timeline_paths(folder: Path) -> list[Path]:
+    """The timeline files in ``folder``, in name order (the order they play)."""
+    try:
+        return sorted(Path(folder).glob("*.toml"))
+    except OSError as exc:
+        raise ExhibitError(f"{folder}: cannot list: {exc.strerror or exc}") from None
 
 
 def load_playlist(folder: Path) -> list[Timeline]:
@@ -189,7 +171,7 @@ def load_playlist(folder: Path) -> list[Timeline]:
     folder = Path(folder)
     if not folder.is_dir():
         raise ExhibitError(f"{folder}: the attract folder does not exist")
-    paths = sorted(folder.glob("*.toml"))
+    paths = timeline_paths(folder)
     if not paths:
         raise ExhibitError(f"{folder}: no attract timelines (*.toml) in it")
     return [load_timeline(p) for p in paths]

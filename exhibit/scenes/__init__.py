@@ -28,10 +28,12 @@ def register(scene: Scene) -> Scene:
 
 
 def names() -> list[str]:
+    load()
     return sorted(_REGISTRY)
 
 
 def get(name: str) -> Scene:
+    load()
     try:
         return _REGISTRY[name]
     except KeyError:
@@ -69,9 +71,35 @@ def scene_dirs() -> list[Path]:
     return [BUILTIN_SCENE_DIR] + extra
 
 
-def load_scene_files() -> None:
+_BUILTIN = (hopf.SCENE, offsets.PARABOLA, offsets.CUSP, offsets.TRACED, collision.SCENE,
+            gallery.CLIFFORD, gallery.COMPLEX_SQUARE)
+_REGISTRY.update((scene.name, scene) for scene in _BUILTIN)
+_loaded = False
+
+
+def _scene_files(folder: Path) -> list[Path]:
+    try:
+        return sorted(folder.glob("*.toml")) if folder.is_dir() else []
+    except OSError as exc:
+        LOAD_ERRORS.append((str(folder), f"{folder}: cannot list: {exc.strerror or exc}"))
+        return []
+
+
+def load(reload: bool = False) -> tuple[dict[str, Scene], list[tuple[str, str]]]:
+    """The scenes (built-in and curators' files) and the problems met loading the files.
+
+    Called by the CLI and the kiosk (and on first use by :func:`names` and :func:`get`), never at
+    import: a broken file must not stop `exhibit --help`. Whatever one file does, it is reported
+    as ``(path, "file: key: reason")`` and the other files still load.
+    """
+    global _loaded
+    if _loaded and not reload:
+        return dict(_REGISTRY), list(LOAD_ERRORS)
+    _REGISTRY.clear()
+    _REGISTRY.update((scene.name, scene) for scene in _BUILTIN)
+    LOAD_ERRORS.clear()
     for folder in scene_dirs():
-        for path in sorted(folder.glob("*.toml")) if folder.is_dir() else []:
+        for path in _scene_files(folder):
             try:
                 scene = load_scene_file(path)
                 if scene.name in _REGISTRY:
@@ -80,12 +108,18 @@ def load_scene_files() -> None:
                 register(scene)
             except ExhibitError as exc:
                 LOAD_ERRORS.append((str(path), str(exc)))
+            except Exception as exc:  # noqa: BLE001 - one curator's file never stops the rest
+                LOAD_ERRORS.append((str(path), f"{path}: cannot load: {type(exc).__name__}: "
+                                               f"{str(exc)[:200]}"))
+    _loaded = True
+    return dict(_REGISTRY), list(LOAD_ERRORS)
 
 
-for _scene in (hopf.SCENE, offsets.PARABOLA, offsets.CUSP, offsets.TRACED, collision.SCENE,
-               gallery.CLIFFORD, gallery.COMPLEX_SQUARE):
-    register(_scene)
-load_scene_files()
+def problems() -> list[tuple[str, str]]:
+    """(path, message) for each scene file that failed to load."""
+    load()
+    return list(LOAD_ERRORS)
 
-__all__ = ["FIGURES", "LOAD_ERRORS", "Parameter", "Preset", "Scene", "figure", "get", "names",
-           "register", "load_scene_file"]
+
+__all__ = ["FIGURES", "LOAD_ERRORS", "Parameter", "Preset", "Scene", "figure", "get", "load",
+           "names", "problems", "register", "load_scene_file"]

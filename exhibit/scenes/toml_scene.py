@@ -28,7 +28,8 @@
     eye_incidence = -60
     half_height = 1.5
 
-Every problem is reported with the file and the key, and what was wrong.
+Every problem is reported with the file and the key, and what was wrong: the structure by the
+typed layer (:mod:`exhibit.schema`), each formula by :func:`check_expression` on its own box.
 """
 
 from __future__ import annotations
@@ -36,191 +37,193 @@ from __future__ import annotations
 import hashlib
 import math
 import re
-import tomllib
 from pathlib import Path
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import Field, PlainValidator
+from pydantic_core import PydanticCustomError
 
-from exhibit.errors import ExhibitError
+from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Scene
 from exhibit.scenes.implicit_scene import mesh_implicit
-from exhibit.surfaces.expressions import ExpressionError, check_expression, compile_field
+from exhibit.schema import Model, read_bytes, read_toml, validate
+from exhibit.schema.types import (MAX_COORDINATE, Angle, Caption, Distance, HalfHeight, Name,
+                                  Number, Numbers, Resolution, Text, distance_to_r, fail,
+                                  numbers_check, text_check)
+from exhibit.surfaces.expressions import MAX_LENGTH, ExpressionError, check_expression, \
+    compile_field
 from exhibit.surfaces.mesh import Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 
-TOP_KEYS = {"name", "title", "caption", "axes", "resolution", "parameters", "surface", "view"}
-SURFACE_KEYS = {"name", "color", "style", "f1", "f2", "box", "point", "s", "t"}
-PARAMETER_KEYS = {"default", "min", "max", "help"}
-VIEW_KEYS = {"angles", "sensor_distance", "eye_azimuth", "eye_incidence", "twist",
-             "eye_distance", "half_height", "reading"}
-NAME = re.compile(r"^[a-z0-9][a-z0-9-]*$")
+NAME = re.compile(r"^[a-z0-9][a-z0-9-]{0,63}$")
+#: Scene parameters are bounded so no formula meets a value it cannot evaluate.
+MAX_PARAMETER = 1e6
 
 
-class _Checker:
-    """Reads values out of the TOML table and raises ExhibitError naming file and key."""
+def _scene_name(value: Any) -> str:
+    if not isinstance(value, str) or not NAME.match(value):
+        raise fail("must be lower-case letters, digits and dashes (at most 64)", value)
+    return value
 
-    def __init__(self, path: Path):
-        self.path = path
 
-    def fail(self, key: str, reason: str):
-        raise ExhibitError(f"{self.path}: {key}: {reason}")
+def _axes(value: Any) -> tuple[str, ...]:
+    if (not isinstance(value, list) or len(value) != 4 or len(set(value)) != 4
+            or not all(isinstance(a, str) and a.isidentifier() and len(a) <= 16 for a in value)):
+        raise fail("must be four different names", value)
+    return tuple(value)
 
-    def unknown(self, table: dict, allowed: set, where: str):
-        for key in table:
-            if key not in allowed:
-                self.fail(f"{where}{key}", f"unknown key (allowed: {', '.join(sorted(allowed))})")
 
-    def string(self, table, key, where="", required=True, default=""):
-        if key not in table:
-            if required:
-                self.fail(where + key, "missing")
-            return default
-        if not isinstance(table[key], str) or not table[key].strip():
-            self.fail(where + key, "must be a non-empty string")
-        return table[key]
+def _box_pair(value: Any) -> tuple[float, float]:
+    low, high = numbers_check(2, -MAX_COORDINATE, MAX_COORDINATE)(value)
+    if low >= high:
+        raise fail(f"low {low:g} must be below high {high:g}", show=False)
+    return low, high
 
-    def number(self, table, key, where="", default=None, allow_inf=False):
-        if key not in table:
-            if default is None:
-                self.fail(where + key, "missing")
-            return default
-        value = table[key]
-        if allow_inf and value == "inf":
-            return math.inf
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
-            self.fail(where + key, f"must be a finite number, got {value!r}")
-        return float(value)
 
-    def numbers(self, value, count, key):
-        if not isinstance(value, list) or len(value) != count or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
-                for v in value):
-            self.fail(key, f"must be a list of {count} finite numbers, got {value!r}")
-        return [float(v) for v in value]
+BoxPair = Annotated[tuple[float, float], PlainValidator(_box_pair)]
+
+
+def _interval(value: Any) -> Interval:
+    if (not isinstance(value, list) or len(value) != 3 or not isinstance(value[2], bool)):
+        raise fail("must be [start, stop, periodic] with periodic true or false", value)
+    start, stop = numbers_check(2, -MAX_COORDINATE, MAX_COORDINATE)(value[:2])
+    if stop <= start:
+        raise fail(f"stop {stop:g} must be above start {start:g}", show=False)
+    return Interval(start, stop, value[2])
+
+
+Formula = Text(MAX_LENGTH)
+_formula = text_check(MAX_LENGTH)
+
+
+def _formulas(value: Any) -> list[str]:
+    if not isinstance(value, list) or len(value) != 4:
+        raise fail("must be four formulas in s and t, one per axis", value)
+    return [_formula(v) for v in value]
+
+
+class ParameterSpec(Model):
+    default: Number(-MAX_PARAMETER, MAX_PARAMETER)
+    min: Number(-MAX_PARAMETER, MAX_PARAMETER) = -MAX_PARAMETER
+    max: Number(-MAX_PARAMETER, MAX_PARAMETER) = MAX_PARAMETER
+    help: Text(500, empty_ok=True) = ""
+
+
+class SurfaceSpec(Model):
+    name: Name | None = None
+    color: Numbers(3, 0.0, 1.0) = (0.7, 0.7, 0.7)
+    style: Literal["solid", "wire"] = "solid"
+    f1: Formula | None = None
+    f2: Formula | None = None
+    box: Annotated[list[BoxPair], Field(min_length=4, max_length=4)] | None = None
+    point: Annotated[list[str], PlainValidator(_formulas)] | None = None
+    s: Annotated[Interval, PlainValidator(_interval)] | None = None
+    t: Annotated[Interval, PlainValidator(_interval)] | None = None
+
+
+class ViewSpec(Model):
+    angles: Numbers(6, -3600, 3600) | None = None
+    sensor_distance: Distance | None = None
+    eye_distance: Distance | None = None
+    eye_azimuth: Angle | None = None
+    eye_incidence: Angle | None = None
+    twist: Angle | None = None
+    half_height: HalfHeight | None = None
+    reading: Literal["screen", "object"] | None = None
+
+
+class SceneFile(Model):
+    name: Annotated[str, PlainValidator(_scene_name)]
+    title: Text(200)
+    caption: Caption
+    axes: Annotated[tuple[str, ...], PlainValidator(_axes)] = ("x", "y", "z", "w")
+    resolution: Resolution = 48
+    parameters: dict[str, ParameterSpec] = {}
+    surface: list[SurfaceSpec] = []
+    view: ViewSpec = ViewSpec()
 
 
 def load_scene_file(path: Path) -> Scene:
+    """A scene from a curator's file; ExhibitError (a ConfigError) lists every problem."""
     path = Path(path)
-    check = _Checker(path)
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ExhibitError(f"{path}: cannot read: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise ExhibitError(f"{path}: not UTF-8 text") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ExhibitError(f"{path}: not valid TOML: {exc}") from None
-    check.unknown(data, TOP_KEYS, "")
-    name = check.string(data, "name")
-    if not NAME.match(name):
-        check.fail("name", f"{name!r} must be lower-case letters, digits and dashes")
-    title = check.string(data, "title")
-    caption = check.string(data, "caption")
-    axes = data.get("axes", ["x", "y", "z", "w"])
-    if (not isinstance(axes, list) or len(axes) != 4 or len(set(axes)) != 4
-            or not all(isinstance(a, str) and a.isidentifier() for a in axes)):
-        check.fail("axes", f"must be four different names, got {axes!r}")
-    resolution = int(check.number(data, "resolution", default=48.0))
-    if not 4 <= resolution <= 512:
-        check.fail("resolution", f"must lie between 4 and 512, got {resolution}")
+    data = read_toml(path)
+    spec = validate(SceneFile, data, str(path))
+    problems: list[str] = []
+
+    def problem(key: str, reason: str) -> None:
+        problems.append(f"{path}: {key}: {reason}")
 
     parameters = []
-    raw_params = data.get("parameters", {})
-    if not isinstance(raw_params, dict):
-        check.fail("parameters", "must be a table of [parameters.NAME] tables")
-    for pname, table in raw_params.items():
-        where = f"parameters.{pname}."
-        if not isinstance(table, dict):
-            check.fail(f"parameters.{pname}", "must be a table with default, min, max, help")
-        if not pname.isidentifier() or pname in axes:
-            check.fail(f"parameters.{pname}", "must be a name that is not an axis")
-        check.unknown(table, PARAMETER_KEYS, where)
-        default = check.number(table, "default", where)
-        low = check.number(table, "min", where, default=-math.inf)
-        high = check.number(table, "max", where, default=math.inf)
-        if not low <= default <= high:
-            check.fail(where + "default", f"{default} is outside [{low}, {high}]")
-        parameters.append(Parameter(pname, default, low, high, table.get("help", "")))
+    for pname, p in spec.parameters.items():
+        if not pname.isidentifier() or pname in spec.axes or len(pname) > 32:
+            problem(f"parameters.{pname}", "must be a name that is not an axis")
+        elif not p.min <= p.default <= p.max:
+            problem(f"parameters.{pname}.default", f"{p.default:g} is outside "
+                                                  f"[{p.min:g}, {p.max:g}]")
+        else:
+            parameters.append(Parameter(pname, p.default, p.min, p.max, p.help))
+    if not spec.surface:
+        problem("surface", "at least one [[surface]] table is needed")
     defaults = {p.name: p.default for p in parameters}
-
-    surfaces = data.get("surface")
-    if not isinstance(surfaces, list) or not surfaces:
-        check.fail("surface", "at least one [[surface]] table is needed")
-    specs = [_surface_spec(check, index, table, axes, defaults)
-             for index, table in enumerate(surfaces)]
+    specs = []
+    for index, surface in enumerate(spec.surface):
+        try:
+            specs.append(_surface_spec(path, index, surface, spec.axes, defaults, parameters))
+        except ConfigError as exc:
+            problems.extend(exc.problems)
+    if problems:
+        raise ConfigError(problems)
 
     def build(params: dict, resolution: int) -> Mesh4D:
         mesh = Mesh4D()
-        for spec in specs:
-            mesh.surfaces.append(spec(params, resolution))
+        for make in specs:
+            mesh.surfaces.append(make(params, resolution))
         return mesh
 
-    view = _view(check, data.get("view", {}))
-    return Scene(name=name, title=title, caption=caption, parameters=tuple(parameters),
-                 build_mesh=build, view=view, axes=tuple(axes), default_resolution=resolution,
-                 version=hashlib.sha256(path.read_bytes()).hexdigest()[:16])
+    return Scene(name=spec.name, title=spec.title, caption=spec.caption,
+                 parameters=tuple(parameters), build_mesh=build, view=_view(path, spec.view),
+                 axes=spec.axes, default_resolution=spec.resolution,
+                 version=hashlib.sha256(read_bytes(path)).hexdigest()[:16])
 
 
-def _surface_spec(check: _Checker, index: int, table, axes, defaults):
-    where = f"surface[{index}]."
-    if not isinstance(table, dict):
-        check.fail(f"surface[{index}]", "must be a table")
-    check.unknown(table, SURFACE_KEYS, where)
-    name = check.string(table, "name", where, required=False, default=f"surface {index + 1}")
-    color = check.numbers(table.get("color", [0.7, 0.7, 0.7]), 3, where + "color")
+def _check(path, key, text, variables, defaults, box=None) -> str:
     try:
-        material = Material(color=tuple(color), style=table.get("style", "solid"))
-    except ValueError as exc:
-        check.fail(where + ("style" if "style" in str(exc) else "color"), str(exc))
+        check_expression(text, variables, defaults)
+    except ExpressionError as exc:
+        raise ConfigError(f"{path}: {key}: {exc}") from None
+    return text
 
-    def formula(key, variables):
-        text = check.string(table, key, where)
-        try:
-            check_expression(text, variables, defaults)
-        except ExpressionError as exc:
-            check.fail(where + key, str(exc))
-        return text
 
-    implicit = "f1" in table or "f2" in table
-    parametric = "point" in table
+def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, parameters):
+    where = f"surface[{index}]"
+    name = surface.name or f"surface {index + 1}"
+    material = Material(color=surface.color, style=surface.style)
+    implicit = surface.f1 is not None or surface.f2 is not None or surface.box is not None
+    parametric = surface.point is not None or surface.s is not None or surface.t is not None
     if implicit == parametric:
-        check.fail(f"surface[{index}]", "give either f1, f2 and box (implicit) or point, s and t "
-                                        "(parametric)")
+        raise ConfigError(f"{path}: {where}: give either f1, f2 and box (implicit) or point, s "
+                          "and t (parametric)")
+    needed = ("f1", "f2", "box") if implicit else ("point", "s", "t")
+    missing = [f"{path}: {where}.{key}: missing" for key in needed
+               if getattr(surface, key) is None]
+    if missing:
+        raise ConfigError(missing)
     if implicit:
-        f1, f2 = formula("f1", axes), formula("f2", axes)
-        box = table.get("box")
-        if not isinstance(box, list) or len(box) != 4:
-            check.fail(where + "box", "must be four [low, high] pairs, one per axis")
-        bounds = [check.numbers(pair, 2, f"{where}box[{k}]") for k, pair in enumerate(box)]
-        for k, (low, high) in enumerate(bounds):
-            if low >= high:
-                check.fail(f"{where}box[{k}]", f"low {low} must be below high {high}")
-        lo, hi = [b[0] for b in bounds], [b[1] for b in bounds]
+        box = surface.box
+        f1 = _check(path, f"{where}.f1", surface.f1, axes, defaults, box)
+        f2 = _check(path, f"{where}.f2", surface.f2, axes, defaults, box)
+        lo, hi = [b[0] for b in box], [b[1] for b in box]
 
         def build_implicit(params, resolution):
             return mesh_implicit(name, f1, f2, axes, params, lo, hi, resolution, material).surface
         return build_implicit
 
-    point = table["point"]
-    if not isinstance(point, list) or len(point) != 4:
-        check.fail(where + "point", "must be four formulas in s and t, one per axis")
-    for k, text in enumerate(point):
-        if not isinstance(text, str):
-            check.fail(f"{where}point[{k}]", "must be a formula string")
-        try:
-            check_expression(text, ("s", "t"), defaults)
-        except ExpressionError as exc:
-            check.fail(f"{where}point[{k}]", str(exc))
-    intervals = []
-    for key in ("s", "t"):
-        raw = table.get(key)
-        if (not isinstance(raw, list) or len(raw) != 3 or not isinstance(raw[2], bool)):
-            check.fail(where + key, "must be [start, stop, periodic] with periodic true or false")
-        start, stop = check.numbers(raw[:2], 2, where + key)
-        if stop <= start:
-            check.fail(where + key, f"stop {stop} must be above start {start}")
-        intervals.append(Interval(start, stop, raw[2]))
+    intervals = (surface.s, surface.t)
+    box = [(i.start, i.stop) for i in intervals]
+    point = [_check(path, f"{where}.point[{k}]", text, ("s", "t"), defaults, box)
+             for k, text in enumerate(surface.point)]
 
     def build_parametric(params, resolution):
         fields = [compile_field(text, ("s", "t"), params) for text in point]
@@ -240,28 +243,22 @@ def _surface_spec(check: _Checker, index: int, table, axes, defaults):
     return build_parametric
 
 
-def _view(check: _Checker, table) -> ViewState:
-    if not isinstance(table, dict):
-        check.fail("view", "must be a table")
-    check.unknown(table, VIEW_KEYS, "view.")
-    changes = {}
-    if "angles" in table:
-        changes["angles"] = [math.radians(a) for a in check.numbers(table["angles"], 6,
-                                                                     "view.angles")]
+def _view(path: Path, spec: ViewSpec) -> ViewState:
+    changes: dict = {}
+    if spec.angles is not None:
+        changes["angles"] = [math.radians(a) for a in spec.angles]
     for key in ("eye_azimuth", "eye_incidence", "twist"):
-        if key in table:
-            changes[key] = math.radians(check.number(table, key, "view."))
-    if "half_height" in table:
-        changes["half_height"] = check.number(table, "half_height", "view.")
-    if "reading" in table:
-        changes["reading"] = table["reading"]
-    for key, field in (("sensor_distance", "sensor_r"), ("eye_distance", "eye_r")):
-        if key in table:
-            distance = check.number(table, key, "view.", allow_inf=True)
-            if distance <= 0:
-                check.fail("view." + key, "must be positive or \"inf\"")
-            changes[field] = 0.0 if math.isinf(distance) else 1.0 / distance
+        if getattr(spec, key) is not None:
+            changes[key] = math.radians(getattr(spec, key))
+    if spec.half_height is not None:
+        changes["half_height"] = spec.half_height
+    if spec.reading is not None:
+        changes["reading"] = spec.reading
+    if spec.sensor_distance is not None:
+        changes["sensor_r"] = distance_to_r(spec.sensor_distance)
+    if spec.eye_distance is not None:
+        changes["eye_r"] = distance_to_r(spec.eye_distance)
     try:
         return ViewState(**changes)
     except ValueError as exc:
-        check.fail("view", str(exc))
+        raise ConfigError(f"{path}: view: {exc}") from None
