@@ -3,17 +3,26 @@
 A mesh is stored under a key made of the scene's name, its resolved parameters, the resolution,
 the scene's own version (e.g. the hash of its TOML file) and the code version (a hash of the
 geometry, surfaces and scenes sources), so any change that could change the mesh misses the cache.
-Files are written atomically; an unreadable file is rebuilt, never trusted.
+Nothing in the cache is trusted: the kiosk runs for months, and one bad file (a power cut mid-
+write, a full disk, a stray symlink or FIFO, tampering) must cost a rebuild, never a crash loop.
+An entry is read only if it is a regular file (never through a symlink, never a FIFO or device)
+of at most MAX_CACHE_BYTES, and used only if Mesh4D.from_bytes accepts every part of it; any
+failure at all logs a warning and rebuilds, and the rebuilt mesh replaces the entry. Writes go to
+a fresh, exclusively created temporary file in the cache folder (fsynced, then renamed over the
+entry), so a reader sees the old file or the new one, and no temporary file is left behind.
 """
 
 from __future__ import annotations
 
+import errno
 import functools
 import hashlib
 import json
 import logging
 import os
-import tempfile
+import secrets
+import stat
+import time
 from pathlib import Path
 from typing import Mapping
 
@@ -23,6 +32,10 @@ from exhibit.surfaces.mesh import Mesh4D
 
 log = logging.getLogger(__name__)
 _PACKAGE = Path(__file__).resolve().parent.parent
+#: Largest cache file read or written (256 MiB); a default-resolution mesh is 0.1 to 2 MB.
+MAX_CACHE_BYTES = 256 << 20
+#: Temporary files older than this (seconds) are debris of a killed writer and are removed.
+STALE_TMP_S = 3600.0
 
 
 def cache_dir() -> Path:
@@ -53,25 +66,97 @@ def cache_key(scene: Scene, params: Mapping[str, float], resolution: int) -> str
 def build_cached(scene: Scene, overrides: Mapping[str, object] | None = None,
                  resolution: int | None = None, directory: Path | None = None
                  ) -> tuple[Mesh4D, bool]:
-    """The scene's mesh from the cache if present and readable, else built and stored.
+    """The scene's mesh from the cache if present and valid, else built and stored.
 
-    Returns (mesh, hit). A cache that cannot be written (read-only disk) only costs the rebuild.
+    Returns (mesh, hit). A bad entry or a cache that cannot be written (read-only disk) only
+    costs the rebuild and a warning.
     """
     params = scene.resolve(overrides)
     resolution = int(resolution or scene.default_resolution)
     folder = Path(directory) if directory else cache_dir()
     path = folder / f"{scene.name}-{cache_key(scene, params, resolution)}.npz"
-    if path.exists():
-        try:
-            return Mesh4D.from_bytes(path.read_bytes()), True
-        except (OSError, ValueError) as exc:
-            log.warning("mesh cache %s is unreadable (%s); rebuilding", path, exc)
+    try:
+        data = _read_entry(path)
+        if data is not None:
+            return Mesh4D.from_bytes(data), True
+    except Exception as exc:  # noqa: BLE001 - no cache file is worth a crash
+        log.warning("mesh cache %s is unusable (%s); rebuilding", path, exc)
     mesh = scene.build(params, resolution)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=folder, delete=False, suffix=".tmp") as tmp:
-            tmp.write(mesh.to_bytes())
-        os.replace(tmp.name, path)
-    except OSError as exc:
+        _store(folder, path, mesh.to_bytes())
+    except Exception as exc:  # noqa: BLE001 - the cache is an optimisation
         log.warning("could not write the mesh cache %s: %s", path, exc)
     return mesh, False
+
+
+def _read_entry(path: Path) -> bytes | None:
+    """The bytes of the regular file at ``path``, None if there is none; OSError or ValueError
+    for anything else. O_NOFOLLOW refuses a symlink (to /dev/zero, say); O_NONBLOCK lets a FIFO
+    open without a writer, so fstat can refuse it instead of the read hanging the kiosk."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
+    except FileNotFoundError:
+        return None
+    except OSError as exc:
+        if exc.errno == errno.ELOOP:
+            raise ValueError("a symbolic link, not a regular file") from None
+        raise
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise ValueError(f"not a regular file (mode {stat.filemode(info.st_mode)})")
+        if info.st_size > MAX_CACHE_BYTES:
+            raise ValueError(f"{info.st_size} bytes, more than the {MAX_CACHE_BYTES} allowed")
+        chunks, left = [], MAX_CACHE_BYTES + 1
+        while left > 0 and (chunk := os.read(fd, min(left, 1 << 20))):
+            chunks.append(chunk)
+            left -= len(chunk)
+        if left <= 0:
+            raise ValueError(f"grew past {MAX_CACHE_BYTES} bytes while being read")
+        return b"".join(chunks)
+    finally:
+        os.close(fd)
+
+
+def _store(folder: Path, path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` atomically through a temporary file only this call created.
+
+    O_EXCL|O_NOFOLLOW with a random name: a file or symlink planted in the folder is never
+    written through. os.replace renames over ``path`` itself, so a symlink, FIFO or bad file
+    there is replaced, not followed.
+    """
+    if len(data) > MAX_CACHE_BYTES:
+        raise ValueError(f"{len(data)} bytes, more than the {MAX_CACHE_BYTES} a read accepts")
+    folder.mkdir(parents=True, exist_ok=True)
+    _sweep(folder)
+    tmp = folder / f".{path.name}.{secrets.token_hex(8)}.tmp"
+    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
+    try:
+        try:
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.fsync(fd)  # the rename must not reach the disk before the data (power cuts)
+        finally:
+            os.close(fd)
+        try:
+            os.replace(tmp, path)
+        except IsADirectoryError:
+            os.rmdir(path)  # an empty folder in the entry's place; a full one is left alone
+            os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _sweep(folder: Path) -> None:
+    """Remove temporary files a writer killed mid-write (power cut, OOM) left over an hour ago."""
+    cutoff = time.time() - STALE_TMP_S
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            try:
+                if (entry.name.endswith(".tmp") and not entry.is_dir(follow_symlinks=False)
+                        and entry.stat(follow_symlinks=False).st_mtime < cutoff):
+                    os.unlink(entry.path)
+            except OSError:
+                pass  # gone already, or not ours to remove

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import io
 import json
+import math
 import zipfile
 from dataclasses import dataclass, field
 
@@ -180,24 +181,150 @@ class Mesh4D:
 
     @classmethod
     def from_bytes(cls, data: bytes) -> "Mesh4D":
-        """Inverse of to_bytes; raises ValueError for anything that is not such an archive."""
+        """Inverse of to_bytes; ValueError for anything that is not exactly such an archive.
+
+        The bytes come from a disk the kiosk does not control (a cache file), so nothing in them
+        is trusted: any failure at all, however exotic, is reported as ValueError, and a mesh is
+        only returned once every part has the shapes, types and finite, bounded values the
+        renderer assumes (a NaN or 1e308 vertex would otherwise reach the GPU).
+        """
         try:
-            with np.load(io.BytesIO(data), allow_pickle=False) as archive:
-                manifest = json.loads(bytes(archive["manifest"]).decode())
-                if manifest.get("format") != 1:
-                    raise ValueError(f"unknown mesh format {manifest.get('format')!r}")
-                mesh = cls()
-                for i, s in enumerate(manifest["surfaces"]):
-                    mesh.surfaces.append(Surface(
-                        s["name"], archive[f"s{i}_positions"], archive[f"s{i}_normals"],
-                        archive[f"s{i}_triangles"], Material(**s["material"]),
-                        archive[f"s{i}_singular"], dict(s.get("info", {}))))
-                for i, c in enumerate(manifest["curves"]):
-                    mesh.curves.append(Curve(c["name"], archive[f"c{i}_points"],
-                                             Material(**c["material"]), c["closed"]))
-                for i, m in enumerate(manifest["markers"]):
-                    mesh.markers.append(Marker(m["name"], archive[f"m{i}_position"],
-                                               Material(**m["material"]), m["label"]))
-                return mesh
-        except (OSError, KeyError, TypeError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-            raise ValueError(f"not a mesh archive: {exc}") from None
+            manifest, arrays = _read_archive(data)
+            mesh = cls()
+            for i, s in enumerate(manifest["surfaces"]):
+                positions = _array(arrays, f"s{i}_positions", "<f8", None, 4)
+                n = len(positions)
+                triangles = _array(arrays, f"s{i}_triangles", "<i4", None, 3)
+                if triangles.size and (triangles.min() < 0 or triangles.max() >= n):
+                    raise ValueError(f"s{i}_triangles: index outside 0..{n - 1}")
+                mesh.surfaces.append(Surface(
+                    s["name"], positions, _array(arrays, f"s{i}_normals", "<f8", n, 2, 4),
+                    triangles, _material(s["material"]),
+                    _array(arrays, f"s{i}_singular", "|b1", n), s["info"]))
+            for i, c in enumerate(manifest["curves"]):
+                mesh.curves.append(Curve(c["name"], _array(arrays, f"c{i}_points", "<f8", None, 4),
+                                         _material(c["material"]), c["closed"]))
+            for i, m in enumerate(manifest["markers"]):
+                mesh.markers.append(Marker(m["name"], _array(arrays, f"m{i}_position", "<f8", 4),
+                                           _material(m["material"]), m["label"]))
+            return mesh
+        except Exception as exc:  # noqa: BLE001 - whatever the bytes provoke means "not a mesh"
+            raise ValueError(f"not a mesh archive: {str(exc) or type(exc).__name__}") from None
+
+
+# ---------------------------------------------------------------------- reading untrusted archives
+
+#: Most bytes the members of one archive may unpack to, checked from the zip directory before
+#: anything is inflated (a zip bomb is refused unread). A 512-resolution implicit scene is a few
+#: hundred MB; a larger mesh is simply rebuilt instead of loaded.
+MAX_UNPACKED_BYTES = 1 << 30
+#: Largest |coordinate| accepted: the scenes live within a few units of the origin.
+MAX_COORDINATE = 1e6
+#: Largest zip central directory (about 10,000 members): zipfile builds an object per entry
+#: before anything can be checked, so millions of tiny entries would exhaust memory.
+_MAX_DIRECTORY_BYTES = 1 << 20
+_PARTS = {"surfaces": ("positions", "normals", "triangles", "singular"),
+          "curves": ("points",), "markers": ("position",)}
+#: key -> type of each part's manifest entry, besides "name" (str) and "material" (dict).
+_PART_FIELDS = {"surfaces": ("info", dict), "curves": ("closed", bool), "markers": ("label", str)}
+
+
+def _read_archive(data: bytes) -> tuple[dict, dict[str, np.ndarray]]:
+    """The checked manifest and every array of an archive, by name without ".npy"."""
+    _check_directory(data)
+    with zipfile.ZipFile(io.BytesIO(data)) as archive:
+        infos = archive.infolist()
+        unpacked = sum(info.file_size for info in infos)
+        if unpacked > MAX_UNPACKED_BYTES:
+            raise ValueError(f"members unpack to {unpacked} bytes, more than the "
+                             f"{MAX_UNPACKED_BYTES} allowed")
+        arrays = {}
+        for info in infos:
+            # bz2/lzma inflate without an output bound (one 4 KB read can become gigabytes)
+            if info.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+                raise ValueError(f"{info.filename}: compression method {info.compress_type}")
+            name = info.filename.removesuffix(".npy")
+            if name == info.filename or name in arrays:
+                raise ValueError(f"unexpected member {info.filename!r}")
+            arrays[name] = _read_npy(archive, info)
+    manifest = _manifest(_array(arrays, "manifest", "|u1", None))
+    expected = {"manifest"} | {f"{kind[0]}{i}_{array}" for kind, names in _PARTS.items()
+                               for i in range(len(manifest[kind])) for array in names}
+    if set(arrays) != expected:
+        raise ValueError(f"members {sorted(set(arrays) ^ expected)} do not match the manifest")
+    return manifest, arrays
+
+
+def _check_directory(data: bytes) -> None:
+    """Refuse an archive whose central directory is too big to parse, before zipfile does."""
+    end = data.rfind(b"PK\x05\x06", max(0, len(data) - 22 - 0xFFFF))
+    if end < 0 or len(data) < end + 22:
+        raise ValueError("no zip directory")
+    if end >= 20 and data[end - 20:end - 16] == b"PK\x06\x07":
+        raise ValueError("zip64 directory")  # numpy writes none below 65,535 members and 4 GB
+    if int.from_bytes(data[end + 12:end + 16], "little") > _MAX_DIRECTORY_BYTES:
+        raise ValueError("zip directory too large")
+
+
+def _read_npy(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
+    """One .npy member, its declared size checked against the member's before reading.
+
+    np.load would allocate whatever shape the header claims; here the array must fill the member
+    exactly, and zipfile stops inflating at the member's (capped) declared size.
+    """
+    with archive.open(info) as fp:
+        version = np.lib.format.read_magic(fp)
+        if version == (1, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(fp)
+        elif version == (2, 0):
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(fp)
+        else:
+            raise ValueError(f"{info.filename}: .npy version {version}")
+        if fortran or dtype.hasobject or any(n < 0 for n in shape):
+            raise ValueError(f"{info.filename}: Fortran order, objects or a negative shape")
+        size = math.prod(shape) * dtype.itemsize
+        if size > info.file_size:
+            raise ValueError(f"{info.filename}: array of {size} bytes in a smaller member")
+        raw = bytearray(fp.read(size))
+        if len(raw) != size or fp.read(1):
+            raise ValueError(f"{info.filename}: member size does not match its array")
+    return np.frombuffer(raw, dtype=dtype).reshape(shape)
+
+
+def _array(arrays: dict, key: str, dtype: str, *shape: int | None) -> np.ndarray:
+    """arrays[key], checked for dtype, shape (None: any length) and finite, bounded floats."""
+    a = arrays[key]
+    if (a.dtype != np.dtype(dtype) or a.ndim != len(shape)
+            or any(want not in (None, got) for want, got in zip(shape, a.shape))):
+        raise ValueError(f"{key}: expected {dtype} of shape {shape}, got {a.dtype} {a.shape}")
+    if a.dtype.kind == "f" and not np.all(np.abs(a) <= MAX_COORDINATE):  # NaN fails too
+        raise ValueError(f"{key}: values not finite or beyond ±{MAX_COORDINATE:g}")
+    return a
+
+
+def _manifest(raw: np.ndarray) -> dict:
+    """The JSON manifest, checked for the structure to_bytes writes."""
+    manifest = json.loads(raw.tobytes().decode("utf-8"))
+    if not isinstance(manifest, dict) or manifest.get("format") != 1:
+        raise ValueError("manifest is not a format-1 object")
+    for kind, (key, kind_type) in _PART_FIELDS.items():
+        parts = manifest.get(kind)
+        if not isinstance(parts, list):
+            raise ValueError(f"manifest {kind!r}: not a list")
+        for part in parts:
+            if not (isinstance(part, dict) and isinstance(part.get("name"), str)
+                    and isinstance(part.get("material"), dict)
+                    and isinstance(part.get(key), kind_type)):
+                raise ValueError(f"manifest {kind!r}: malformed entry")
+    return manifest
+
+
+def _material(d: dict) -> Material:
+    """A Material from its JSON, numbers checked to be finite and in range."""
+    color, width = d.get("color"), d.get("line_width")
+    numbers = (color if isinstance(color, list) else []) + [width]
+    if (set(d) != {"color", "style", "line_width"} or not isinstance(color, list)
+            or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+                       and abs(x) <= MAX_COORDINATE for x in numbers)):
+        raise ValueError(f"malformed material {d!r:.80}")
+    return Material(tuple(color), d["style"], width)
