@@ -15,7 +15,9 @@ import grp
 import os
 import pwd
 import re
+import secrets
 import shlex
+import stat
 import subprocess
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -53,7 +55,7 @@ class Planned:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--root", type=Path, metavar="DIR",
+    parser.add_argument("--root", metavar="DIR",
                         help="write under this folder instead of / and only print the remaining "
                              "steps (staging an image, or reviewing the files)")
     parser.add_argument("--prefix", default=DEFAULT_PREFIX, metavar="DIR",
@@ -65,7 +67,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     prefix = check_prefix(args.prefix)
-    root = Path("/") if args.root is None else args.root
+    if args.root == "":  # Path("") is ".": an empty variable in a script would stage into cwd
+        raise ExhibitError("--root '': give a folder to stage into, or leave --root out to "
+                           "install into /")
+    root = Path("/") if args.root is None else Path(args.root)
     if args.root is not None and not root.is_dir():
         raise ExhibitError(f"--root {root}: no such folder")
     perform = args.root is None and not args.dry_run
@@ -112,15 +117,28 @@ def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
                                "./bootstrap.sh does)") from None
         path = root / dest
         try:
-            old = path.read_text(encoding="utf-8")
+            old = _read_existing(path)
         except FileNotFoundError:
             state = "new"
-        except (OSError, UnicodeDecodeError):
+        except (OSError, ValueError):
             state = "changed"
         else:
-            state = "unchanged" if old == text else "changed"
+            state = "unchanged" if old == text.encode("utf-8") else "changed"
         planned.append(Planned(path, text, state))
     return planned
+
+
+def _read_existing(path: Path, limit: int = 1 << 20) -> bytes:
+    """The bytes of the regular file at ``path``; ValueError for a FIFO, device or folder (which
+    would hang or flood the read) or a file over ``limit``. Non-blocking, so a FIFO opens."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode) or info.st_size > limit:
+            raise ValueError(f"{path}: not a regular file of at most {limit} bytes")
+        return os.read(fd, limit + 1)
+    finally:
+        os.close(fd)
 
 
 def write(planned: list[Planned]) -> None:
@@ -128,15 +146,44 @@ def write(planned: list[Planned]) -> None:
     for item in planned:
         if item.state == "unchanged":
             continue
-        tmp = item.path.with_name(f".{item.path.name}.exhibit-install")
         try:
             item.path.parent.mkdir(parents=True, exist_ok=True)
-            tmp.write_text(item.text, encoding="utf-8")
-            os.chmod(tmp, 0o644)
-            os.replace(tmp, item.path)
+            _replace(item.path, item.text.encode("utf-8"), 0o644)
         except OSError as exc:
-            tmp.unlink(missing_ok=True)
             raise ExhibitError(f"cannot write {item.path}: {exc.strerror or exc}") from None
+
+
+def _replace(path: Path, data: bytes, mode: int) -> None:
+    """Put ``data`` at ``path`` through a temporary file that only this call created.
+
+    Run as root into /etc, so nothing at a temporary name may be trusted: the name is random,
+    O_CREAT|O_EXCL|O_NOFOLLOW refuses anything already there (a planted symlink to /etc/shadow
+    stays untouched), the mode is set on the descriptor (fchmod, not chmod by name), and
+    os.replace renames over ``path`` itself, never through a symlink there.
+    """
+    for _ in range(100):
+        tmp = path.with_name(f".{path.name}.{secrets.token_hex(8)}.exhibit-install")
+        try:
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC,
+                         0o600)
+            break
+        except FileExistsError:
+            continue
+    else:
+        raise FileExistsError(f"no free temporary name next to {path}")
+    try:
+        try:
+            os.fchmod(fd, mode)
+            view = memoryview(data)
+            while view:
+                view = view[os.write(fd, view):]
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
 
 
 def steps(need_user: bool = True) -> list[list[str]]:

@@ -7,8 +7,10 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import stat
 import subprocess
 import tempfile
+import threading
 from pathlib import Path
 
 import pytest
@@ -315,6 +317,7 @@ def test_dry_run_writes_nothing(tmp_path, capsys):
     (["--prefix", "/opt/my exhibit"], "use only letters"),
     (["--prefix", "/"], "give the folder of the checkout"),
     (["--root", "/nonexistent/stage"], "--root /nonexistent/stage: no such folder"),
+    (["--root", ""], "--root '': give a folder"),
 ])
 def test_install_argument_errors_are_one_line(cli, args, message):
     result = cli("install", *args)
@@ -329,6 +332,70 @@ def test_installing_into_slash_needs_root(monkeypatch, capsys):
     monkeypatch.setattr(inst.os, "geteuid", lambda: 1000)
     assert main(["install"]) == 2
     assert "installing into / needs root" in capsys.readouterr().err
+
+
+def test_install_never_writes_through_a_planted_temporary_name(tmp_path, monkeypatch, capsys):
+    """A symlink at the old fixed temporary name, and at the random one with its random part
+    guessed (the first try for each file), is left alone, and so are its target and mode."""
+    from exhibit.cli import main
+
+    victim = tmp_path / "shadow"
+    victim.write_text("root:secret\n")
+    victim.chmod(0o600)
+    root = tmp_path / "root"
+    guessed = "0" * 16
+    planted = []
+    for dest in inst.FILES.values():
+        path = root / dest
+        path.parent.mkdir(parents=True, exist_ok=True)
+        for name in (f".{path.name}.exhibit-install", f".{path.name}.{guessed}.exhibit-install"):
+            (path.parent / name).symlink_to(victim)
+            planted.append(path.parent / name)
+    calls = iter(range(10**6))
+    real = inst.secrets.token_hex
+    monkeypatch.setattr(inst.secrets, "token_hex",
+                        lambda n: guessed if next(calls) % 2 == 0 else real(n))
+    old_umask = os.umask(0o077)
+    try:
+        assert main(["install", "--root", str(root)]) == 0
+    finally:
+        os.umask(old_umask)
+    assert victim.read_text() == "root:secret\n" and (victim.stat().st_mode & 0o777) == 0o600
+    assert all(p.is_symlink() and p.resolve() == victim for p in planted)
+    for dest in inst.FILES.values():
+        path = root / dest
+        assert path.is_file() and not path.is_symlink()
+        assert stat.S_IMODE(path.stat().st_mode) == 0o644  # despite the umask
+        assert sorted(p.name for p in path.parent.iterdir() if "exhibit-install" in p.name) == \
+            sorted(p.name for p in planted if p.parent == path.parent)
+    capsys.readouterr()
+
+
+def test_install_replaces_a_symlink_or_fifo_at_the_destination_without_following_it(tmp_path):
+    victim = tmp_path / "victim"
+    victim.write_text("keep")
+    root = tmp_path / "root"
+    service, rules = (root / inst.FILES[n] for n in ("exhibit.service", "99-exhibit.rules"))
+    service.parent.mkdir(parents=True)
+    service.symlink_to(victim)
+    rules.parent.mkdir(parents=True)
+    os.mkfifo(rules)  # reading it to compare would block forever
+    done = threading.Thread(target=inst.install, args=(root, "/opt/exhibit"),
+                            kwargs={"out": lambda line: None}, daemon=True)
+    done.start()
+    done.join(20)
+    assert not done.is_alive(), "install hung on a FIFO"
+    assert victim.read_text() == "keep"
+    assert service.is_file() and not service.is_symlink() and rules.is_file()
+
+
+def test_a_failed_write_leaves_no_temporary_file(tmp_path, monkeypatch):
+    def fail(*args):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(inst.os, "replace", fail)
+    with pytest.raises(ExhibitError, match="No space left on device"):
+        inst.install(tmp_path, "/opt/exhibit", out=lambda line: None)
+    assert [p for p in tmp_path.rglob("*") if p.is_file()] == []
 
 
 class Runner:
