@@ -8,6 +8,7 @@ unless EXHIBIT_DEBUG=1.
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import os
 import sys
@@ -36,10 +37,18 @@ COMMANDS = {
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """Bad arguments get one line (``exhibit CMD: error: argument --x: reason``) and exit 2,
+    like every other error a person can fix; --help still shows the usage."""
+
+    def error(self, message: str):
+        self.exit(2, f"{self.prog}: error: {message}\n")
+
+
 def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The parser; with ``only``, just that subcommand's module is imported (command modules pull
     in numpy, GL and sympy, so importing all of them would slow every command down)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="exhibit",
         description="Surfaces living in four-dimensional space: a museum exhibit after "
         "Hoffmann & Zhou, 'Visualization of Surfaces in Four-Dimensional Space'.",
@@ -64,18 +73,43 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
-        return int(args._run(args) or 0)
+        code = int(args._run(args) or 0)
+        sys.stdout.flush()  # a full disk or a closed pipe shows here, not at exit
+        return code
     except ExhibitError as exc:
         print(f"exhibit {args.command}: error: {exc}", file=sys.stderr)
         return exc.exit_code
     except KeyboardInterrupt:
         return 130
-    except Exception as exc:  # last line of defence: one line for people, traceback on request
-        if os.environ.get("EXHIBIT_DEBUG") == "1":
-            raise
-        print(f"exhibit {args.command}: internal error: {type(exc).__name__}: {exc} "
-              "(set EXHIBIT_DEBUG=1 for a traceback)", file=sys.stderr)
+    except BrokenPipeError:  # `exhibit decode ... | head`: the reader is gone; stop quietly
+        _drop_stdout()
+        return 141  # 128 + SIGPIPE, what a shell reports for a Unix tool in this case
+    except OSError as exc:
+        if exc.errno not in (errno.ENOSPC, errno.EDQUOT):
+            return _internal(args, exc)
+        _drop_stdout()
+        print(f"exhibit {args.command}: error: {exc.strerror}", file=sys.stderr)
         return 1
+    except Exception as exc:  # last line of defence: one line for people, traceback on request
+        return _internal(args, exc)
+
+
+def _internal(args, exc: Exception) -> int:
+    if os.environ.get("EXHIBIT_DEBUG") == "1":
+        raise exc
+    print(f"exhibit {args.command}: internal error: {type(exc).__name__}: {exc} "
+          "(set EXHIBIT_DEBUG=1 for a traceback)", file=sys.stderr)
+    return 1
+
+
+def _drop_stdout() -> None:
+    """Point stdout at /dev/null so the interpreter's final flush cannot fail again."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError):
+        pass
 
 
 if __name__ == "__main__":

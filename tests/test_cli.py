@@ -28,8 +28,12 @@ def test_no_command_prints_help_and_exits_2(capsys):
 
 @pytest.mark.parametrize("args, fragment", [
     (["sweep", "--distances", "3,banana"], "'banana' is not a number"),
-    (["sweep", "--distances", "-1"], "must be positive"),
-    (["sweep", "--samples", "2"], "at least 8"),
+    (["sweep", "--distances", "-1"], "argument --distances: must lie in [0.05"),
+    (["sweep", "--distances", "1e-320"], "argument --distances: must lie in [0.05"),
+    (["devices", "--wait", "inf"], "argument --wait: must be a number in [0, 60]"),
+    (["monitor", "--duration", "nan"], "argument --duration: must be a number"),
+    (["render", "hopf", "--sensor-distance", "1e-320", "--out", "x.png"], "--sensor-distance: must lie in"),
+    (["sweep", "--samples", "2"], "argument --samples: must lie in [8, 2048]"),
 ])
 def test_bad_arguments_give_one_line_and_exit_2(cli, args, fragment):
     result = cli(*args)
@@ -47,3 +51,24 @@ def test_sweep_reproduces_figures_6_to_8(capsys):
     assert growth["green"] > 10 * growth["red"] > 10
     # By symmetry (x,z)<->(y,w) the green and red tori have equal images at infinity.
     assert rows[0]["green"]["area"] == pytest.approx(rows[0]["red"]["area"], rel=1e-9)
+
+
+def test_a_closed_pipe_ends_quietly(tmp_path):
+    """`exhibit scenes --json | true`: the reader is gone before the first write."""
+    import subprocess
+    import sys
+    err = tmp_path / "err"
+    result = subprocess.run(["bash", "-o", "pipefail", "-c",
+                             f"{sys.executable} -m exhibit scenes --json 2>{err} | true"])
+    assert result.returncode == 141  # 128 + SIGPIPE, as for any Unix tool
+    assert err.read_text() == ""
+
+
+def test_a_full_disk_is_one_line(tmp_path):
+    import subprocess
+    import sys
+    with open("/dev/full", "w") as full:
+        result = subprocess.run([sys.executable, "-m", "exhibit", "scenes", "--json"],
+                                stdout=full, stderr=subprocess.PIPE, text=True)
+    assert result.returncode == 1
+    assert result.stderr.strip() == "exhibit scenes: error: No space left on device"

@@ -52,10 +52,10 @@ def run(args) -> int:
             params[name] = float(raw)
         except ValueError:
             raise ExhibitError(f"--{name} must be a number, got {raw!r}") from None
-        if not math.isfinite(params[name]):
-            raise ExhibitError(f"--{name} must be finite")
-    if params["rc"] <= 0 or params["rs"] <= 0:
-        raise ExhibitError("--rc and --rs must be positive radii")
+        if not (math.isfinite(params[name]) and abs(params[name]) <= 1e6):
+            raise ExhibitError(f"--{name} must be a finite number within ±1e6, got {raw!r}")
+    if not (params["rc"] >= 1e-6 and params["rs"] >= 1e-6):
+        raise ExhibitError("--rc and --rs must be radii of at least 1e-6")
     if params["vc"] == 0 and params["vs"] == 0:
         raise ExhibitError("--vc and --vs are both 0: nothing moves, so there is no first contact")
     resolution = parse_resolution(args.resolution) or collision.SCENE.default_resolution

@@ -13,6 +13,7 @@ import os
 import time
 from pathlib import Path
 
+from exhibit.commands import _args
 from exhibit.commands._devices_common import add_config_arguments, config_from_args
 from exhibit.devices.base import State
 from exhibit.devices.hid import load_layouts
@@ -24,7 +25,7 @@ HELP = "list configured devices with their state, and detected serial and HID de
 def add_arguments(parser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true", help="one JSON document")
-    parser.add_argument("--wait", type=float, default=1.5,
+    parser.add_argument("--wait", type=_args.number(0, 60), default=1.5,
                         help="seconds to give each device to connect (default 1.5)")
 
 
@@ -69,7 +70,7 @@ def detected_hid(layout_dirs) -> list[dict]:
 def run(args) -> int:
     config = config_from_args(args)
     with DeviceSet(config) as devices:
-        end = time.monotonic() + max(0.0, args.wait)
+        end = time.monotonic() + args.wait
         while time.monotonic() < end:
             devices.poll()
             if all(b.state is State.CONNECTED for b in devices.backends):

@@ -11,10 +11,10 @@ import json
 import math
 import time
 
+from exhibit.commands import _args
 from exhibit.commands._devices_common import add_config_arguments, config_from_args
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
-from exhibit.errors import ExhibitError
 from exhibit.geometry.view import ViewState
 
 HELP = "show the live mapped parameters (angles, sensor distance) and device states"
@@ -23,8 +23,8 @@ HELP = "show the live mapped parameters (angles, sensor distance) and device sta
 def add_arguments(parser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true", help="one JSON object per line")
-    parser.add_argument("--rate", type=float, default=5.0, help="lines per second (default 5)")
-    parser.add_argument("--duration", type=float, default=None,
+    parser.add_argument("--rate", type=_args.number(0.1, 100), default=5.0, help="lines per second (default 5)")
+    parser.add_argument("--duration", type=_args.seconds(), default=None,
                         help="stop after this many seconds (default: until Ctrl-C)")
 
 
@@ -48,8 +48,6 @@ def text_line(s: dict) -> str:
 
 
 def run(args) -> int:
-    if not (args.rate > 0 and math.isfinite(args.rate)):
-        raise ExhibitError("--rate must be a positive number")
     config = config_from_args(args)
     mapper = Mapper(config.mapping, ActivityDetector(config.activity_threshold))
     view = ViewState()

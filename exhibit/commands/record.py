@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import time
 
+from exhibit.commands import _args
 from exhibit.commands._devices_common import add_config_arguments, config_from_args
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.replay import Recorder
-from exhibit.errors import ExhibitError
 
 HELP = "record device events to a JSON-lines file (play it back with replay://FILE)"
 
@@ -19,13 +19,11 @@ HELP = "record device events to a JSON-lines file (play it back with replay://FI
 def add_arguments(parser) -> None:
     parser.add_argument("file", help="where to write the recording (.jsonl)")
     add_config_arguments(parser)
-    parser.add_argument("--duration", type=float, default=None,
+    parser.add_argument("--duration", type=_args.seconds(), default=None,
                         help="stop after this many seconds (default: until Ctrl-C)")
 
 
 def run(args) -> int:
-    if args.duration is not None and not args.duration > 0:
-        raise ExhibitError("--duration must be positive")
     config = config_from_args(args)
     with DeviceSet(config) as devices:
         start = time.monotonic()

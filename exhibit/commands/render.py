@@ -3,6 +3,7 @@ approaching (frames in a folder, a GIF, or an MP4 through ffmpeg), on the headle
 
 from __future__ import annotations
 
+import argparse
 import math
 import shutil
 import subprocess
@@ -10,8 +11,10 @@ import tempfile
 from pathlib import Path
 
 from exhibit import scenes
+from exhibit.commands import _args
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import parse_overrides
+from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
 HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
 MAX_PIXELS = 8192
@@ -63,12 +66,9 @@ def _int(text: str, name: str, low: int, high: int) -> int:
 
 def _distance(text: str, name: str) -> float:
     try:
-        value = float(text)
-    except (TypeError, ValueError):
-        raise ExhibitError(f"{name}: {text!r} is not a number or inf") from None
-    if math.isnan(value) or value <= 0:
-        raise ExhibitError(f"{name}: {text!r} must be positive (or inf)")
-    return value
+        return _args.distance()(text)
+    except argparse.ArgumentTypeError as exc:
+        raise ExhibitError(f"{name}: {exc}") from None
 
 
 def _floats(text: str, count: int, name: str) -> list[float]:
@@ -81,8 +81,8 @@ def _floats(text: str, count: int, name: str) -> list[float]:
             value = float(item)
         except ValueError:
             raise ExhibitError(f"{name}: {item!r} is not a number") from None
-        if not math.isfinite(value):
-            raise ExhibitError(f"{name}: {item!r} must be finite")
+        if not math.isfinite(value) or abs(value) > MAX_ANGLE:
+            raise ExhibitError(f"{name}: {item!r} must be finite degrees within ±{MAX_ANGLE:g}")
         values.append(value)
     return values
 
@@ -129,7 +129,7 @@ def run(args) -> int:
     size = parse_size(args.size)
     samples = _int(args.samples, "--samples", 0, 16)
     resolution = (None if args.resolution is None
-                  else _int(args.resolution, "--resolution", 4, 2048))
+                  else _int(args.resolution, "--resolution", MIN_RESOLUTION, MAX_RESOLUTION))
     frames = None if args.frames is None else _int(args.frames, "--frames", 1, 10000)
     if args.window:
         return _window(scene, params, view, note, size, resolution, samples)

@@ -12,8 +12,10 @@ import sys
 import time
 from pathlib import Path
 
+from exhibit.commands import _args
 from exhibit.devices import protocol as p
 from exhibit.devices.sim import SimController, parse_script
+from exhibit.schema import read_text
 from exhibit.errors import ExhibitError
 
 HELP = "run a simulated controller on a pseudo-terminal (prints the tty path)"
@@ -25,19 +27,16 @@ def add_arguments(parser) -> None:
     parser.add_argument("--link", type=Path,
                         help="also make this symlink to the pty, a stable name that survives "
                              "the script's unplug/replug (like /dev/serial/by-id/...)")
-    parser.add_argument("--duration", type=float, default=None,
+    parser.add_argument("--duration", type=_args.seconds(), default=None,
                         help="stop after this many seconds (default: until Ctrl-C)")
-    parser.add_argument("--protocol-version", type=int, default=p.PROTOCOL_VERSION,
+    parser.add_argument("--protocol-version", type=_args.integer(0, 255), default=p.PROTOCOL_VERSION,
                         help="speak another protocol version (to check a host's refusal)")
 
 
 def run(args) -> int:
     script = None
     if args.script is not None:
-        try:
-            text = args.script.read_text()
-        except OSError as exc:
-            raise ExhibitError(f"cannot read {args.script}: {exc.strerror or exc}") from None
+        text = read_text(args.script)  # ConfigError names the file: FIFO, size, encoding
         script = parse_script(text, str(args.script))
     if not 0 <= args.protocol_version <= 255:
         raise ExhibitError("--protocol-version must be 0..255")

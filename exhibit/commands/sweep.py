@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 
-from exhibit.errors import ExhibitError
+from exhibit.commands import _args
 from exhibit.geometry import ViewState, project_to_3d
 from exhibit.geometry.hopf import hopf_torus
 
@@ -25,25 +25,12 @@ HYPERSPHERE_OFFSET = (0.0, 0.0, 0.0, 1.0)
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--distances", default="inf,6,4,3,2.5,2.2,2",
+    parser.add_argument("--distances", type=_args.distances, default="inf,6,4,3,2.5,2.2,2",
                         help="comma-separated sensor distances (inf = orthographic); "
                              "default: %(default)s")
-    parser.add_argument("--samples", type=int, default=181,
+    parser.add_argument("--samples", type=_args.integer(8, 2048), default=181,
                         help="samples per circle of each torus (default: %(default)s)")
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-
-
-def parse_distances(text: str) -> list[float]:
-    distances = []
-    for item in text.split(","):
-        try:
-            value = float(item)
-        except ValueError:
-            raise ExhibitError(f"--distances: {item.strip()!r} is not a number or inf") from None
-        if math.isnan(value) or value <= 0:
-            raise ExhibitError(f"--distances: {item.strip()!r} must be positive (or inf)")
-        distances.append(value)
-    return distances
 
 
 def torus_image_area(latitude: float, view: ViewState, samples: int) -> tuple[float, float]:
@@ -63,9 +50,7 @@ def torus_image_area(latitude: float, view: ViewState, samples: int) -> tuple[fl
 
 
 def run(args) -> int:
-    distances = parse_distances(args.distances)
-    if args.samples < 8:
-        raise ExhibitError("--samples must be at least 8")
+    distances = args.distances
     base = ViewState(offset=HYPERSPHERE_OFFSET)
     rows = []
     for distance in distances:

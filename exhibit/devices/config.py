@@ -16,24 +16,43 @@ larger kiosk config::
     rate = 90               # degrees per second at full deflection (sensor: r per second)
 
 Every mistake is a DeviceError naming the file and the key (``default.toml: mapping.bind[3].param:
-unknown parameter 'theta7'``), never a traceback.
+must be 'theta1', ... or 'sensor', got 'theta7'``), all of them at once, never a traceback. The
+values are typed by :mod:`exhibit.schema`, with limits that keep the mapping's arithmetic finite:
+a step or rate can never carry a parameter to inf or NaN.
 """
 
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Literal
 
 from exhibit.devices.base import DeviceError, Kind
 from exhibit.devices.mapping import PARAMS, Binding, MappingConfig, ParamLimits
 from exhibit.devices.url import backend_for_url
+from exhibit.errors import ConfigError
+from exhibit.schema import Model, read_toml, validate
+from exhibit.schema.types import (MAX_ANGLE, MAX_DISTANCE, MIN_DISTANCE, Distance, Name, Number,
+                                  Numbers, Text)
 
-__all__ = ["DeviceConfig", "load_config", "parse_config", "DEFAULT_CONFIG"]
+__all__ = ["DeviceConfig", "DeviceConfigError", "load_config", "parse_config", "DEFAULT_CONFIG",
+           "STEP_LIMITS", "RATE_LIMITS"]
 
 DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "devices" / "default.toml"
 _INPUTS = {"axis": Kind.ABS, "delta": Kind.REL, "button": Kind.BUTTON}
+#: The largest step per detent and rate at full deflection: degrees for angles, r = 1/d for the
+#: sensor (whose whole range is [0, 1/sensor_min_distance]).
+STEP_LIMITS = {"angle": 180.0, "sensor": 1.0}
+RATE_LIMITS = {"angle": 1440.0, "sensor": 20.0}
+
+
+_Step = Number(-STEP_LIMITS["angle"], STEP_LIMITS["angle"])
+_Rate = Number(0.0, RATE_LIMITS["angle"])
+
+
+class DeviceConfigError(DeviceError, ConfigError):
+    """Problems in a device config, each ``file: key: reason``."""
 
 
 @dataclass(frozen=True)
@@ -45,149 +64,138 @@ class DeviceConfig:
     source: str = "<config>"
 
 
-def _num(table, key, where, default, low=None, high=None, strict_low=False):
-    v = table.get(key, default)
-    if isinstance(v, bool) or not isinstance(v, (int, float)):
-        raise DeviceError(f"{where}.{key}: expected a number, got {v!r}")
-    v = float(v)
-    if math.isnan(v) or (low is not None and (v <= low if strict_low else v < low)) or (
-            high is not None and v > high):
-        rng = f"{'>' if strict_low else '>='} {low}" if high is None else f"in [{low}, {high}]"
-        raise DeviceError(f"{where}.{key}: must be {rng}, got {v}")
-    return v
+class DeviceEntry(Model):
+    url: Text(1000)
 
 
-def _keys(table: dict, allowed: set[str], where: str) -> None:
-    for k in table:
-        if k not in allowed:
-            raise DeviceError(f"{where}: unknown key {k!r} (allowed: {', '.join(sorted(allowed))})")
+class BindSpec(Model):
+    device: Name
+    input: Text(40)
+    param: Literal[PARAMS] | None = None
+    step: _Step | None = None
+    rate: _Rate | None = None
+    dead_zone: Number(0.0, 0.95) = 0.0
+    curve: Number(0.2, 5.0) = 1.0
+    invert: bool = False
+    action: Literal["home"] | None = None
+
+
+class MappingSpec(Model):
+    sensor_min_distance: Number(MIN_DISTANCE, MAX_DISTANCE) = 2.0
+    home_angles: Numbers(6, -180.0, 180.0) = (0.0,) * 6
+    home_sensor_distance: Distance = math.inf
+    limits: dict[str, Any] = {}
+    bind: list[BindSpec] = []
+
+
+class ActivitySpec(Model):
+    threshold: Number(0.0, 1.0) = 0.15
+
+
+class DevicesFile(Model):
+    devices: dict[str, DeviceEntry] = {}
+    mapping: MappingSpec = MappingSpec()
+    activity: ActivitySpec = ActivitySpec()
+    layouts: list[Text(4096)] | None = None
+
+
+def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | None:
+    """The binding a [[mapping.bind]] table describes, or None after naming its problem."""
+    if devices and spec.device not in devices and spec.device != "*":
+        return problem(f"{where}.device", f"no device {spec.device!r} (configured: "
+                                          f"{', '.join(devices)})")
+    words = spec.input.split()
+    if len(words) != 2 or words[0] not in _INPUTS or not words[1].isdigit() \
+            or not 1 <= int(words[1]) <= 256:
+        return problem(f"{where}.input", "expected 'axis N', 'delta N' or 'button N' (N from 1 "
+                                         f"to 256), got {spec.input!r}")
+    kind, index = _INPUTS[words[0]], int(words[1]) - 1
+    if kind is Kind.BUTTON:
+        if spec.action != "home" or spec.param is not None:
+            return problem(where, "a button takes action = \"home\" (no param)")
+        return Binding(spec.device, kind, index, action="home")
+    if spec.action is not None:
+        return problem(f"{where}.action", "only buttons have actions")
+    if spec.param is None:
+        return problem(f"{where}.param", "missing (theta1..theta6 or sensor)")
+    unit = "sensor" if spec.param == "sensor" else "angle"
+    if kind is Kind.REL:
+        for key in ("rate", "dead_zone", "curve"):
+            if key in spec.model_fields_set:
+                return problem(f"{where}.{key}", f"only for axes; a {words[0]} takes step")
+        step = spec.step if spec.step is not None else (5.0 if unit == "angle" else 0.025)
+        if abs(step) > STEP_LIMITS[unit]:
+            return problem(f"{where}.step", f"must lie in [-{STEP_LIMITS[unit]:g}, "
+                                            f"{STEP_LIMITS[unit]:g}] for {spec.param}, got {step}")
+        return Binding(spec.device, kind, index, spec.param, step=step, invert=spec.invert)
+    if spec.step is not None:
+        return problem(f"{where}.step", "only for deltas; an axis takes rate")
+    rate = spec.rate if spec.rate is not None else (90.0 if unit == "angle" else 0.25)
+    if rate > RATE_LIMITS[unit]:
+        return problem(f"{where}.rate", f"must lie in [0, {RATE_LIMITS[unit]:g}] for "
+                                        f"{spec.param}, got {rate}")
+    return Binding(spec.device, kind, index, spec.param, rate=rate, dead_zone=spec.dead_zone,
+                   curve=spec.curve, invert=spec.invert)
 
 
 def parse_config(doc: dict, source: str = "<config>", base: Path | None = None) -> DeviceConfig:
-    """A DeviceConfig from parsed TOML (only the devices/mapping/activity/layouts tables are
-    read, so a kiosk config can hold other tables too)."""
+    """A DeviceConfig from parsed TOML; DeviceConfigError lists every problem."""
+    try:
+        spec = validate(DevicesFile, doc, source)
+    except ConfigError as exc:
+        raise DeviceConfigError(exc.problems) from None
+    problems: list[str] = []
+
+    def problem(key: str, reason: str) -> None:
+        problems.append(f"{source}: {key}: {reason}")
+
     layout_dirs = None
-    if "layouts" in doc:
-        dirs = doc["layouts"]
-        if not isinstance(dirs, list) or not all(isinstance(d, str) for d in dirs):
-            raise DeviceError(f"{source}: layouts: expected a list of directories")
+    if spec.layouts is not None:
         from exhibit.devices.hid import LAYOUT_DIR
 
-        base = base or Path(".")
-        layout_dirs = (LAYOUT_DIR, *[(base / d) for d in dirs])
+        layout_dirs = (LAYOUT_DIR, *[((base or Path(".")) / d) for d in spec.layouts])
     devices: dict[str, str] = {}
-    raw_devices = doc.get("devices", {})
-    if not isinstance(raw_devices, dict):
-        raise DeviceError(f"{source}: devices: expected a table of [devices.NAME]")
-    for name, table in raw_devices.items():
-        where = f"{source}: devices.{name}"
-        if not isinstance(table, dict):
-            raise DeviceError(f"{where}: expected a table with url = \"...\"")
-        _keys(table, {"url"}, where)
-        url = table.get("url")
-        if not isinstance(url, str):
-            raise DeviceError(f"{where}.url: missing (e.g. url = \"serial:///dev/exhibit-controller\")")
+    for name, entry in spec.devices.items():
         try:
-            backend_for_url(url, name, layout_dirs=layout_dirs)  # checks options and layouts
+            backend_for_url(entry.url, name, layout_dirs=layout_dirs)  # checks options, layouts
+            devices[name] = entry.url
+        except ConfigError as exc:
+            problems.extend(exc.problems)
         except DeviceError as exc:
-            raise DeviceError(f"{where}.url: {exc}") from None
-        devices[name] = url
+            problem(f"devices.{name}.url", str(exc))
 
-    m = doc.get("mapping", {})
-    where = f"{source}: mapping"
-    if not isinstance(m, dict):
-        raise DeviceError(f"{where}: expected a table")
-    _keys(m, {"sensor_min_distance", "bind", "limits", "home_angles", "home_sensor_distance"}, where)
-    min_d = _num(m, "sensor_min_distance", where, 2.0, 0.0, strict_low=True)
-    home_d = _num(m, "home_sensor_distance", where, math.inf, 0.0, strict_low=True)
-    home = m.get("home_angles", [0.0] * 6)
-    if (not isinstance(home, list) or len(home) != 6
-            or not all(isinstance(a, (int, float)) and not isinstance(a, bool) for a in home)):
-        raise DeviceError(f"{where}.home_angles: expected six angles in degrees, got {home!r}")
-
+    m = spec.mapping
     limits: dict[str, ParamLimits] = {}
-    raw_limits = m.get("limits", {})
-    if not isinstance(raw_limits, dict):
-        raise DeviceError(f"{where}.limits: expected a table, e.g. theta2 = [-180, 0]")
-    for param, pair in raw_limits.items():
-        lw = f"{where}.limits.{param}"
+    for param, pair in m.limits.items():
+        where = f"mapping.limits.{param}"
         if param not in PARAMS[:6]:
-            raise DeviceError(f"{lw}: limits are for theta1..theta6 (the sensor has "
-                              "sensor_min_distance)")
-        if (not isinstance(pair, list) or len(pair) != 2 or not all(
-                isinstance(v, (int, float)) and not isinstance(v, bool) for v in pair)
-                or not pair[0] < pair[1]):
-            raise DeviceError(f"{lw}: expected [low, high] in degrees with low < high, got {pair!r}")
+            problem(where, "limits are for theta1..theta6 (the sensor has sensor_min_distance)")
+            continue
+        ok = (isinstance(pair, list) and len(pair) == 2
+              and all(isinstance(v, (int, float)) and not isinstance(v, bool)
+                      and math.isfinite(v) and abs(v) <= MAX_ANGLE for v in pair))
+        if not ok or not pair[0] < pair[1]:
+            problem(where, f"expected [low, high] in degrees with low < high, got {pair!r}")
+            continue
         limits[param] = ParamLimits(float(pair[0]), float(pair[1]))
 
     bindings = []
-    raw_bind = m.get("bind", [])
-    if not isinstance(raw_bind, list):
-        raise DeviceError(f"{where}.bind: expected [[mapping.bind]] tables")
-    for i, b in enumerate(raw_bind):
-        bw = f"{where}.bind[{i}]"
-        if not isinstance(b, dict):
-            raise DeviceError(f"{bw}: expected a table")
-        _keys(b, {"device", "input", "param", "step", "rate", "dead_zone", "curve", "invert",
-                  "action"}, bw)
-        device = b.get("device")
-        if not isinstance(device, str):
-            raise DeviceError(f"{bw}.device: missing (the name of a [devices.NAME] table)")
-        if devices and device not in devices and device != "*":
-            raise DeviceError(f"{bw}.device: no device {device!r} (configured: "
-                              f"{', '.join(devices)})")
-        inp = b.get("input")
-        words = inp.split() if isinstance(inp, str) else []
-        if len(words) != 2 or words[0] not in _INPUTS or not words[1].isdigit() or int(words[1]) < 1:
-            raise DeviceError(f"{bw}.input: expected 'axis N', 'delta N' or 'button N' "
-                              f"(N from 1), got {inp!r}")
-        kind, index = _INPUTS[words[0]], int(words[1]) - 1
-        param, action = b.get("param"), b.get("action")
-        invert = b.get("invert", False)
-        if not isinstance(invert, bool):
-            raise DeviceError(f"{bw}.invert: expected true or false, got {invert!r}")
-        if kind is Kind.BUTTON:
-            if action != "home" or param is not None:
-                raise DeviceError(f"{bw}: a button takes action = \"home\" (no param)")
-            bindings.append(Binding(device, kind, index, action="home"))
-            continue
-        if action is not None:
-            raise DeviceError(f"{bw}.action: only buttons have actions")
-        if param not in PARAMS:
-            raise DeviceError(f"{bw}.param: unknown parameter {param!r} (one of "
-                              f"{', '.join(PARAMS)})")
-        if kind is Kind.REL:
-            for k in ("rate", "dead_zone", "curve"):
-                if k in b:
-                    raise DeviceError(f"{bw}.{k}: only for axes; a {words[0]} takes step")
-            step = _num(b, "step", bw, 5.0 if param != "sensor" else 0.025)
-            bindings.append(Binding(device, kind, index, param, step=step, invert=invert))
-        else:
-            if "step" in b:
-                raise DeviceError(f"{bw}.step: only for deltas; an axis takes rate")
-            rate = _num(b, "rate", bw, 90.0 if param != "sensor" else 0.25)
-            dz = _num(b, "dead_zone", bw, 0.0, 0.0, 0.95)
-            curve = _num(b, "curve", bw, 1.0, 0.2, 5.0)
-            bindings.append(Binding(device, kind, index, param, rate=rate, dead_zone=dz,
-                                    curve=curve, invert=invert))
-
-    act = doc.get("activity", {})
-    if not isinstance(act, dict):
-        raise DeviceError(f"{source}: activity: expected a table")
-    _keys(act, {"threshold"}, f"{source}: activity")
-    threshold = _num(act, "threshold", f"{source}: activity", 0.15, 0.0, 1.0)
-
-    mapping = MappingConfig(tuple(bindings), min_d, limits, tuple(float(a) for a in home), home_d)
-    return DeviceConfig(devices, mapping, threshold, layout_dirs, source)
+    for i, b in enumerate(m.bind):
+        binding = _binding(b, f"mapping.bind[{i}]", devices or dict.fromkeys(spec.devices),
+                           problem)
+        if binding is not None:
+            bindings.append(binding)
+    if problems:
+        raise DeviceConfigError(problems)
+    mapping = MappingConfig(tuple(bindings), m.sensor_min_distance, limits, m.home_angles,
+                            m.home_sensor_distance)
+    return DeviceConfig(devices, mapping, spec.activity.threshold, layout_dirs, source)
 
 
 def load_config(path: str | Path | None = None) -> DeviceConfig:
     path = Path(path) if path is not None else DEFAULT_CONFIG
     try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as exc:
-        raise DeviceError(f"cannot read device config {path}: {exc.strerror or exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceError(f"{path}: not valid TOML: {exc}") from None
+        doc = read_toml(path)
+    except ConfigError as exc:
+        raise DeviceConfigError(exc.problems) from None
     return parse_config(doc, str(path), path.parent)

@@ -19,13 +19,17 @@ from __future__ import annotations
 
 import importlib
 import struct
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
+
+from pydantic import Field as PydanticField
 
 from exhibit.devices.base import (Backend, Capabilities, DeviceError, Event, Kind, State,
                                   release_events)
+from exhibit.errors import ConfigError
+from exhibit.schema import Model, read_toml, validate
+from exhibit.schema.types import Integer, Name, Number, Text
 
 __all__ = ["Field", "Report", "Layout", "load_layouts", "load_layout", "find_layout",
            "HidBackend", "LAYOUT_DIR"]
@@ -114,112 +118,94 @@ class Layout:
 # ---- loading -------------------------------------------------------------------------------
 
 
-def _get(table: dict, key: str, types, where: str, default: Any = ...):
-    if key not in table:
-        if default is ...:
-            raise DeviceError(f"{where}.{key}: missing")
-        return default
-    value = table[key]
-    allowed = types if isinstance(types, tuple) else (types,)
-    if not isinstance(value, allowed) or (isinstance(value, bool) and bool not in allowed):
-        raise DeviceError(f"{where}.{key}: expected {_tname(types)}, got {value!r}")
-    return value
+_Offset = Integer(0, 1023)
 
 
-def _tname(types) -> str:
-    names = {int: "an integer", float: "a number", str: "a string", list: "a list",
-             dict: "a table", bool: "true or false"}
-    types = types if isinstance(types, tuple) else (types,)
-    return " or ".join(names.get(t, t.__name__) for t in types)
+class FieldSpec(Model):
+    kind: Literal[tuple(_KINDS)]
+    offset: _Offset
+    type: Literal[tuple(_TYPES) + ("bits",)] | None = None
+    count: Integer(1, 64) = 1
+    index: Integer(0, 255) = 0
+    scale: Number(1e-6, 1e6) = 1.0
 
 
-def _check_keys(table: dict, allowed: set[str], where: str) -> None:
-    for key in table:
-        if key not in allowed:
-            raise DeviceError(f"{where}: unknown key {key!r} (allowed: {', '.join(sorted(allowed))})")
+class ReportSpec(Model):
+    id: Integer(1, 255) | None = None
+    size: Integer(1, 1024) | None = None
+    fields: Annotated[list[FieldSpec], PydanticField(min_length=1)]
+
+
+class LayoutHead(Model):
+    name: Name
+    description: Text(500, empty_ok=True) = ""
+    match: list[Text(40)] = []
+    backend: Literal["hid", "hidraw"] = "hidraw"
+    usage_page: Integer(0, 0xFFFF) | None = None
+
+
+class LayoutFile(Model):
+    layout: LayoutHead
+    report: Annotated[list[ReportSpec], PydanticField(min_length=1)]
 
 
 def parse_layout(doc: dict, source: str) -> Layout:
-    """A Layout from a parsed TOML document; DeviceError names the file and the key."""
-    _check_keys(doc, {"layout", "report"}, source)
-    where = f"{source}: layout"
-    head = _get(doc, "layout", dict, source)
-    _check_keys(head, {"name", "description", "match", "backend", "usage_page"}, where)
-    name = _get(head, "name", str, where)
-    description = _get(head, "description", str, where, "")
-    match = []
-    for i, text in enumerate(_get(head, "match", list, where, [])):
-        if not isinstance(text, str):
-            raise DeviceError(f"{where}.match[{i}]: expected \"VID:PID\" in hex, got {text!r}")
-        from exhibit.devices.url import parse_vid_pid
+    """A Layout from a parsed TOML document; DeviceError names the file and every bad key."""
+    from exhibit.devices.config import DeviceConfigError
+    from exhibit.devices.url import parse_vid_pid
 
+    try:
+        spec = validate(LayoutFile, doc, source)
+    except ConfigError as exc:
+        raise DeviceConfigError(exc.problems) from None
+    problems: list[str] = []
+    match = []
+    for i, text in enumerate(spec.layout.match):
         try:
             vid, pid, _ = parse_vid_pid(text)
+            match.append((vid, pid))
         except DeviceError:
-            raise DeviceError(f"{where}.match[{i}]: expected \"VID:PID\" in hex, got {text!r}") from None
-        match.append((vid, pid))
-    backend = _get(head, "backend", str, where, "hidraw")
-    if backend not in ("hid", "hidraw"):
-        raise DeviceError(f"{where}.backend: 'hid' (libusb) or 'hidraw', got {backend!r}")
-    usage_page = _get(head, "usage_page", int, where, None)
+            problems.append(f"{source}: layout.match[{i}]: expected \"VID:PID\" in hex, "
+                            f"got {text!r}")
     reports = []
-    raw_reports = _get(doc, "report", list, source)
-    if not raw_reports:
-        raise DeviceError(f"{source}: report: at least one [[report]] is needed")
-    for ri, rep in enumerate(raw_reports):
+    for ri, rep in enumerate(spec.report):
         rw = f"{source}: report[{ri}]"
-        if not isinstance(rep, dict):
-            raise DeviceError(f"{rw}: expected a table")
-        _check_keys(rep, {"id", "size", "fields"}, rw)
-        rid = _get(rep, "id", int, rw, None)
-        if rid is not None and not 0 < rid < 256:
-            raise DeviceError(f"{rw}.id: report ids are 1..255, got {rid}")
-        first = 1 if rid is not None else 0
+        first = 1 if rep.id is not None else 0
         fields = []
-        for fi, fd in enumerate(_get(rep, "fields", list, rw)):
+        for fi, fd in enumerate(rep.fields):
             fw = f"{rw}.fields[{fi}]"
-            if not isinstance(fd, dict):
-                raise DeviceError(f"{fw}: expected a table")
-            _check_keys(fd, {"kind", "offset", "type", "count", "index", "scale"}, fw)
-            kind = _get(fd, "kind", str, fw)
-            if kind not in _KINDS:
-                raise DeviceError(f"{fw}.kind: unknown kind {kind!r} (one of {', '.join(_KINDS)})")
-            ftype = _get(fd, "type", str, fw, "i8" if kind != "buttons" else "bits")
-            if kind == "buttons":
-                if ftype != "bits":
-                    raise DeviceError(f"{fw}.type: buttons are bits, got {ftype!r}")
-            elif ftype not in _TYPES:
-                raise DeviceError(f"{fw}.type: unknown type {ftype!r} (one of {', '.join(_TYPES)})")
-            offset = _get(fd, "offset", int, fw)
-            count = _get(fd, "count", int, fw, 1)
-            index = _get(fd, "index", int, fw, 0)
-            scale = float(_get(fd, "scale", (int, float), fw, 1))
-            if offset < first:
-                raise DeviceError(f"{fw}.offset: {offset} overlaps the report id byte")
-            if not 1 <= count <= 64 or not 0 <= index < 256:
-                raise DeviceError(f"{fw}: count must be 1..64 and index 0..255")
-            if not scale > 0:
-                raise DeviceError(f"{fw}.scale: must be > 0, got {scale}")
-            fields.append(Field(_KINDS[kind], offset, ftype, count, index, scale))
-        if not fields:
-            raise DeviceError(f"{rw}.fields: empty")
-        end = max(f.end for f in fields)
-        size = _get(rep, "size", int, rw, end)
-        if size < end or size > 1024:
-            raise DeviceError(f"{rw}.size: {size} is shorter than its fields ({end} bytes)")
-        reports.append(Report(rid, size, tuple(fields)))
-    return Layout(name, description, tuple(match), backend, usage_page, tuple(reports), source)
+            ftype = fd.type or ("bits" if fd.kind == "buttons" else "i8")
+            if (fd.kind == "buttons") != (ftype == "bits"):
+                problems.append(f"{fw}.type: buttons are bits and only buttons are, got "
+                                f"{ftype!r}")
+                continue
+            if fd.offset < first:
+                problems.append(f"{fw}.offset: {fd.offset} overlaps the report id byte")
+                continue
+            fields.append(Field(_KINDS[fd.kind], fd.offset, ftype, fd.count, fd.index, fd.scale))
+        end = max((f.end for f in fields), default=0)
+        size = rep.size if rep.size is not None else end
+        if size < end:
+            problems.append(f"{rw}.size: {size} is shorter than its fields ({end} bytes)")
+        reports.append(Report(rep.id, max(size, end), tuple(fields)))
+    if problems:
+        raise DeviceConfigError(problems)
+    head = spec.layout
+    return Layout(head.name, head.description, tuple(match), head.backend, head.usage_page,
+                  tuple(reports), source)
+
+
+def _read(path: Path) -> dict:
+    from exhibit.devices.config import DeviceConfigError
+
+    try:
+        return read_toml(path)
+    except ConfigError as exc:
+        raise DeviceConfigError(exc.problems) from None
 
 
 def load_layout(path: Path) -> Layout:
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as exc:
-        raise DeviceError(f"cannot read layout {path}: {exc.strerror or exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceError(f"{path}: not valid TOML: {exc}") from None
-    return parse_layout(doc, str(path))
+    return parse_layout(_read(path), str(path))
 
 
 def load_layouts(dirs=None) -> dict[str, Layout]:
@@ -227,14 +213,12 @@ def load_layouts(dirs=None) -> dict[str, Layout]:
     configs/devices), by name; a later directory overrides an earlier one."""
     layouts: dict[str, Layout] = {}
     for d in ([LAYOUT_DIR] if dirs is None else [Path(x) for x in dirs]):
-        for path in sorted(Path(d).glob("*.toml")):
-            try:
-                with open(path, "rb") as f:
-                    doc = tomllib.load(f)
-            except tomllib.TOMLDecodeError as exc:
-                raise DeviceError(f"{path}: not valid TOML: {exc}") from None
-            except OSError as exc:
-                raise DeviceError(f"cannot read {path}: {exc.strerror or exc}") from None
+        try:
+            paths = sorted(Path(d).glob("*.toml"))
+        except OSError as exc:
+            raise DeviceError(f"{d}: cannot list layouts: {exc.strerror or exc}") from None
+        for path in paths:
+            doc = _read(path)
             if "layout" in doc:
                 layout = parse_layout(doc, str(path))
                 layouts[layout.name] = layout

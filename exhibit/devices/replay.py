@@ -9,15 +9,22 @@ gives the same ViewStates every time (the tests check this).
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from exhibit.devices.base import (Backend, Capabilities, DeviceError, Event, Kind, State,
                                   release_events)
+from exhibit.errors import ConfigError
+from exhibit.schema import read_text
 
 __all__ = ["Recorder", "ReplayBackend", "read_recording", "FORMAT"]
 
 FORMAT = 1
+#: A recording is read whole; an hour of busy input is a few megabytes.
+MAX_RECORDING_BYTES = 64 << 20
+#: An axis is in [-1, 1], a detent count small: anything larger is corrupt.
+MAX_EVENT_VALUE = 1e4
 
 
 class Recorder:
@@ -47,14 +54,12 @@ class Recorder:
 def read_recording(path: Path) -> tuple[dict, list[Event]]:
     """(header, events sorted by time); DeviceError names the file and line of a bad entry."""
     try:
-        lines = path.read_text().splitlines()
-    except OSError as exc:
-        raise DeviceError(f"cannot read recording {path}: {exc.strerror or exc}") from None
-    except UnicodeDecodeError:
-        raise DeviceError(f"{path}: not a recording (not text)") from None
+        lines = read_text(path, MAX_RECORDING_BYTES).splitlines()
+    except ConfigError as exc:
+        raise DeviceError(f"recording {exc}") from None
     try:
         header = json.loads(lines[0]) if lines else None
-    except json.JSONDecodeError:
+    except (ValueError, RecursionError):
         header = None
     if not isinstance(header, dict) or header.get("exhibit_recording") != FORMAT:
         raise DeviceError(f"{path} line 1: not an exhibit recording (expected the header "
@@ -65,9 +70,14 @@ def read_recording(path: Path) -> tuple[dict, list[Event]]:
             continue
         try:
             e = Event.from_dict(json.loads(line))
-            if not e.t >= 0:
-                raise ValueError("negative time")
-        except (ValueError, KeyError, TypeError, json.JSONDecodeError) as exc:
+            if not 0 <= e.t <= 1e7:
+                raise ValueError(f"time {e.t} is not in [0, 1e7] s")
+            if not (math.isfinite(e.value) and abs(e.value) <= MAX_EVENT_VALUE):
+                raise ValueError(f"value {e.value} is not a finite number within "
+                                 f"±{MAX_EVENT_VALUE:g}")
+            if not 0 <= e.index < 256:
+                raise ValueError(f"index {e.index} is not in 0..255")
+        except (ValueError, KeyError, TypeError, OverflowError, RecursionError) as exc:
             raise DeviceError(f"{path} line {n}: bad event ({exc})") from None
         events.append(e)
     events.sort(key=lambda e: e.t)

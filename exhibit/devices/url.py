@@ -23,6 +23,8 @@ from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
 from exhibit.devices.base import Backend, Clock, DeviceError
+from exhibit.errors import ConfigError
+from exhibit.schema import read_text
 
 __all__ = ["backend_for_url", "parse_url", "SCHEMES", "parse_vid_pid"]
 
@@ -77,13 +79,15 @@ def parse_vid_pid(text: str, url: str = "") -> tuple[int, int, str | None]:
     return v, p, serial or None
 
 
-def _number(url: str, key: str, value: str, kind=float, low=None):
+def _number(url: str, key: str, value: str, kind, low, high):
+    """A URL option's number in (low, high]: finite, so no option can stall or flood a loop."""
     try:
         n = kind(value)
-    except ValueError:
+    except (ValueError, OverflowError):
         raise DeviceError(f"device URL {url!r}: option {key}={value!r} is not a number") from None
-    if low is not None and not n > low:
-        raise DeviceError(f"device URL {url!r}: option {key} must be > {low}")
+    if not low < n <= high:  # NaN fails too
+        raise DeviceError(f"device URL {url!r}: option {key} must lie in ({low:g}, {high:g}], "
+                          f"got {value!r}")
     return n
 
 
@@ -99,7 +103,7 @@ def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.mo
 
         if not target:
             raise DeviceError(f"device URL {url!r}: no port path (serial:///dev/ttyUSB0)")
-        baud = _number(url, "baud", query.get("baud", "115200"), int, 0)
+        baud = _number(url, "baud", query.get("baud", "115200"), int, 0, 4_000_000)
         b = SerialController(name=name, clock=clock, path=target, baud=baud)
     elif scheme in ("hid", "hidraw"):
         from exhibit.devices.hid import HidBackend, find_layout, load_layouts
@@ -124,7 +128,7 @@ def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.mo
 
         if not target:
             raise DeviceError(f"device URL {url!r}: no file (replay://session.jsonl)")
-        speed = _number(url, "speed", query.get("speed", "1"), float, 0)
+        speed = _number(url, "speed", query.get("speed", "1"), float, 0, 1000)
         loop = query.get("loop", "0") not in ("0", "false", "no", "")
         b = ReplayBackend(name=name, clock=clock, file=Path(target), speed=speed, loop=loop)
     else:  # keyboard
@@ -142,11 +146,10 @@ def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
     if "script" in query:
         path = Path(query["script"])
         try:
-            text = path.read_text()
-        except OSError as exc:
-            raise DeviceError(f"device URL {url!r}: cannot read script {path}: "
-                              f"{exc.strerror or exc}") from None
-    seed = _number(url, "seed", query["seed"], int) if "seed" in query else None
+            text = read_text(path)
+        except ConfigError as exc:
+            raise DeviceError(f"device URL {url!r}: script {exc}") from None
+    seed = _number(url, "seed", query["seed"], int, -1, 2**32 - 1) if "seed" in query else None
     if target == "controller":
         from exhibit.devices.sim import parse_script
         from exhibit.devices.simbackends import SimulatedController

@@ -42,9 +42,8 @@ from typing import Annotated, Any, Literal
 
 import numpy as np
 from pydantic import Field, PlainValidator
-from pydantic_core import PydanticCustomError
 
-from exhibit.errors import ConfigError, ExhibitError
+from exhibit.errors import ConfigError
 from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Scene
 from exhibit.scenes.implicit_scene import mesh_implicit

@@ -139,18 +139,18 @@ def test_sim_url_with_a_script(clock, tmp_path):
 @pytest.mark.parametrize("text, fragment", [
     ("[layout]\nname = 'x'\n", "report: missing"),
     ("[layout]\nname = 'x'\n[[report]]\nid = 1\nfields = [{kind='delt', offset=1}]\n",
-     "report[0].fields[0].kind: unknown kind 'delt'"),
+     "report[0].fields[0].kind: must be 'axis', 'delta' or 'buttons', got 'delt'"),
     ("[layout]\nname = 'x'\n[[report]]\nid = 1\nfields = [{kind='delta', offset=0}]\n",
      "report[0].fields[0].offset: 0 overlaps the report id byte"),
     ("[layout]\nname = 'x'\n[[report]]\nid = 1\nsize = 2\nfields = [{kind='axis', offset=1, "
      "type='i16'}]\n", "report[0].size: 2 is shorter than its fields (3 bytes)"),
     ("[layout]\nname = 'x'\nmatch = ['12345:1']\n[[report]]\nfields = [{kind='delta', offset=0}]\n",
      "layout.match[0]: expected \"VID:PID\" in hex"),
-    ("[layout]\nname = 3\n", "layout.name: expected a string, got 3"),
-    ("[layout]\nname = 'x'\ncolour = 'red'\n", "layout: unknown key 'colour'"),
+    ("[layout]\nname = 3\n", "layout.name: must be a string, got 3"),
+    ("[layout]\nname = 'x'\ncolour = 'red'\n", "layout.colour: unknown key"),
     ("[layout\n", "not valid TOML"),
     ("[layout]\nname = 'x'\n[[report]]\nid = 1\nfields = [{kind='axis', offset=1, scale=0}]\n",
-     "fields[0].scale: must be > 0"),
+     "fields[0].scale: must lie in [1e-06"),
 ])
 def test_bad_layouts_name_the_file_and_key(tmp_path, text, fragment):
     f = tmp_path / "bad.toml"

@@ -17,7 +17,7 @@ from exhibit.cli import main
     (["render", "hopf", "--size", "640", "--out", "x.png"], "WIDTHxHEIGHT"),
     (["render", "hopf", "--angles", "1,2,3", "--out", "x.png"], "expected 6"),
     (["render", "hopf", "--eye", "10,x", "--out", "x.png"], "'x' is not a number"),
-    (["render", "hopf", "--sensor-distance", "-2", "--out", "x.png"], "must be positive"),
+    (["render", "hopf", "--sensor-distance", "-2", "--out", "x.png"], "must lie in [0.05"),
     (["render", "hopf", "--param", "axis_length", "--out", "x.png"], "not NAME=VALUE"),
     (["render", "hopf", "--param", "radius=2", "--out", "x.png"], "no parameter 'radius'"),
     (["render", "hopf", "--out", "x.jpg"], "must end in .png"),
