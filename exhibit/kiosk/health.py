@@ -15,19 +15,26 @@ from __future__ import annotations
 import json
 import math
 import os
+import stat
 import time
 from collections.abc import Mapping
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
 
-__all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "HealthError", "state_dir", "default_path",
-           "candidate_paths", "write_health", "read_health", "freshness", "format_duration"]
+__all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "MAX_HEALTH_BYTES", "HealthError", "state_dir",
+           "default_path", "candidate_paths", "write_health", "read_health", "freshness",
+           "format_duration"]
 
 HEALTH_FILE = "health.json"
 #: Where the service's StateDirectory=exhibit puts the file (exhibit.service).
 SERVICE_STATE_DIR = Path("/var/lib/exhibit")
 MODES = ("attract", "visitor")
+#: Largest health file read (1 MiB; the kiosk writes about 400 bytes): a reader is never flooded.
+MAX_HEALTH_BYTES = 1 << 20
+#: Largest magnitude of a known number (2**53, exact as a float): anything beyond is corrupt,
+#: and would overflow the float arithmetic of a reader (an int of 400 digits has no float).
+MAX_NUMBER = 2**53
 
 _NUMBER = (int, float)
 #: key -> (accepted types, what to call them in an error); "time" is the only required key.
@@ -116,32 +123,70 @@ def write_health(path: str | os.PathLike, data: Mapping) -> None:
 def read_health(path: str | os.PathLike) -> dict:
     """The health file at ``path`` as a dict; HealthError names the file and what is wrong.
 
-    "time" is required (a reader needs the age); the other known keys are checked for type when
-    present, and unknown keys are kept (a newer kiosk may add some).
+    "time" is required (a reader needs the age); the other known keys are checked for type and
+    range when present, and unknown keys are kept (a newer kiosk may add some). Only a regular
+    file of at most MAX_HEALTH_BYTES is read, opened non-blocking so that a FIFO or device in its
+    place is refused instead of hanging the reader; NaN, Infinity and numbers too large for a
+    float (1e400) are refused too, as JSON has none and they would make --json output invalid.
     """
     path = Path(path)
     try:
-        raw = path.read_bytes()
+        raw = _read_regular(path)
     except FileNotFoundError:
         raise HealthError(f"no health file at {path}: the kiosk is not running or has not "
                           "drawn its first second yet", missing=True) from None
     except IsADirectoryError:
         raise HealthError(f"{path} is a folder, not a health file") from None
-    except OSError as exc:
-        raise HealthError(f"cannot read {path}: {exc.strerror or exc}") from None
+    except (OSError, ValueError) as exc:
+        raise HealthError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
     try:
-        data = json.loads(raw.decode("utf-8"))
+        data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant,
+                          parse_float=_finite_float)
     except UnicodeDecodeError:
         raise HealthError(f"{path}: not UTF-8 text") from None
     except json.JSONDecodeError as exc:
         raise HealthError(f"{path}: not valid JSON (line {exc.lineno} column {exc.colno}: "
                           f"{exc.msg})") from None
+    except ValueError as exc:  # NaN, 1e400, a 5000-digit int
+        raise HealthError(f"{path}: not valid JSON ({str(exc)[:80]})") from None
+    except RecursionError:
+        raise HealthError(f"{path}: not valid JSON (nested too deep)") from None
     if not isinstance(data, dict):
         raise HealthError(f"{path}: expected a JSON object, got {type(data).__name__}")
     problems = _problems(data)
     if problems:
         raise HealthError(f"{path}: " + "; ".join(problems))
     return data
+
+
+def _read_regular(path: Path) -> bytes:
+    """The bytes of the regular file at ``path``; IsADirectoryError for a folder, ValueError for
+    anything else that is not a regular file of at most MAX_HEALTH_BYTES."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        info = os.fstat(fd)
+        if stat.S_ISDIR(info.st_mode):
+            raise IsADirectoryError(path)
+        if not stat.S_ISREG(info.st_mode):
+            raise ValueError(f"not a regular file (a FIFO, socket or device: "
+                             f"{stat.filemode(info.st_mode)})")
+        raw = os.read(fd, MAX_HEALTH_BYTES + 1)  # one more: a bigger file is refused unparsed
+        if len(raw) > MAX_HEALTH_BYTES:
+            raise ValueError(f"more than the {MAX_HEALTH_BYTES} bytes a health file may have")
+        return raw
+    finally:
+        os.close(fd)
+
+
+def _no_constant(name: str):
+    raise ValueError(f"{name} is not a JSON number")
+
+
+def _finite_float(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise ValueError(f"{text[:20]} is too large")
+    return value
 
 
 def freshness(data: Mapping, max_age: float, now: float | None = None,
@@ -178,6 +223,8 @@ def _problems(data: dict) -> list[str]:
             problems.append(f"key {key!r}: expected {wanted}, got {value!r}")
         elif isinstance(value, float) and not math.isfinite(value):
             problems.append(f"key {key!r}: expected a finite number, got {value!r}")
+        elif isinstance(value, (int, float)) and abs(value) > MAX_NUMBER:
+            problems.append(f"key {key!r}: out of range (beyond ±2**53)")
     if isinstance(data.get("mode"), str) and data["mode"] not in MODES:
         problems.append(f"key 'mode': expected one of {', '.join(MODES)}, got {data['mode']!r}")
     if isinstance(data.get("devices"), list):
@@ -203,7 +250,7 @@ def _finite(value):
 def _pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
-    except ProcessLookupError:
+    except (ProcessLookupError, OverflowError):  # OverflowError: beyond any pid
         return False
     except PermissionError:
         return True  # exists, owned by another user (the service's)

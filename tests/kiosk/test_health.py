@@ -127,8 +127,20 @@ def test_readers_never_see_a_partial_file(tmp_path):
     ('{"time": 1, "mode": "sleeping"}', "key 'mode': expected one of attract, visitor"),
     ('{"time": 1, "devices": {"url": "x"}}', "key 'devices': expected a list"),
     ('{"time": 1, "devices": [{"url": "x"}]}', "key 'devices[0]': expected"),
-    ('{"time": 1, "fps": NaN}', "key 'fps': expected a finite number"),
+    ('{"time": 1, "fps": NaN}', "not valid JSON (NaN is not a JSON number)"),
+    ('{"time": 1, "extra": -Infinity}', "not valid JSON (-Infinity is not a JSON number)"),
+    ('{"time": 1e400}', "not valid JSON (1e400 is too large)"),
+    ('{"time": 1, "extra": [1e999]}', "not valid JSON (1e999 is too large)"),
+    ('{"time": 1, "extra": ' + "9" * 5000 + "}", "not valid JSON (Exceeds the limit"),
+    ("[" * 100_000 + "]" * 100_000, "not valid JSON (nested too deep)"),
+    ('{"time": ' + "9" * 400 + "}", "key 'time': out of range"),
+    ('{"time": 1, "rss_kb": 100000000000000000000}', "key 'rss_kb': out of range"),
+    ('{"time": -1e300}', "key 'time': out of range"),
+    ('{"time": 1, "pid": 1.5}', "key 'pid': expected a whole number, got 1.5"),
+    ('{"time": 1, "devices": [{"url": "x", "state": 3}]}', "key 'devices[0]': expected"),
+    ('{"time": 1, "devices": ["x"]}', "key 'devices[0]': expected"),
     (b"\xff\xfe", "not UTF-8 text"),
+    (b" " * (health.MAX_HEALTH_BYTES + 1), "more than the 1048576 bytes a health file may have"),
 ])
 def test_read_errors_name_the_file_and_the_problem(tmp_path, content, message):
     path = tmp_path / "health.json"
@@ -266,3 +278,71 @@ def test_status_bad_max_age_is_a_usage_error(cli, tmp_path):
     assert result.returncode == 2
     assert result.stderr.strip() == ("exhibit status: error: --max-age must be a positive "
                                      "number of seconds, got -1")
+
+
+# ---------------------------------------------------------------------- hostile health files
+
+def test_status_strips_terminal_escapes_from_the_file(cli, tmp_path):
+    """Escape sequences in the scene or a device name (set the title, clear the screen, a
+    hyperlink, 8-bit CSI, bidi override) reach the staff terminal as plain text only."""
+    path = tmp_path / "health.json"
+    hostile = sample(scene="\x1b]0;pwned\x07hopf\x1b[2J\x1b[H",
+                     devices=[{"url": "serial://\x1b]8;;http://x\x1b\\dev\x1b]8;;\x1b\\",
+                               "state": "conn\x9b31mected\r\nFAKE: ok\u202e\x7f\x00"}])
+    write_health(path, hostile)
+    result = status(cli, path)
+    assert result.returncode == 0, result.stderr
+    assert "hopf" in result.stdout and "serial://dev  connected  FAKE: ok" in result.stdout
+    for line in result.stdout.splitlines():
+        assert all(c.isprintable() for c in line), repr(line)
+    # --json keeps the exact strings, escaped: valid JSON, nothing raw for the terminal.
+    result = status(cli, path, "--json")
+    assert result.stdout.isascii() and all(c.isprintable() or c == "\n" for c in result.stdout)
+    data = json.loads(result.stdout)
+    assert data["scene"] == hostile["scene"] and data["devices"] == hostile["devices"]
+
+
+def test_status_strips_escapes_from_paths_and_reasons(cli, tmp_path):
+    path = tmp_path / "h\x1b[31m\x07ealth.json"
+    write_health(path, sample(time=time.time() - 60))
+    result = status(cli, path)
+    assert result.returncode == 1 and "\x1b" not in result.stdout + result.stderr
+    assert "h[31mealth.json" not in result.stdout and "health.json" in result.stdout
+    path.write_text("{")
+    result = status(cli, path)
+    assert result.returncode == 1 and result.stderr.startswith("exhibit status: BROKEN: ")
+    assert "\x1b" not in result.stderr and "\x07" not in result.stderr
+    assert result.stderr.count("\n") == 1
+
+
+@pytest.mark.parametrize("kind", ["fifo", "dev/zero", "symlink to dev/zero", "socket"])
+def test_status_refuses_a_non_regular_file_without_hanging(tmp_path, kind):
+    path = tmp_path / "health.json"
+    if kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "socket":
+        import socket
+        with socket.socket(socket.AF_UNIX) as server:
+            server.bind(str(path))  # the socket file stays after close
+    elif kind == "symlink to dev/zero":
+        path.symlink_to("/dev/zero")
+    else:
+        path = "/dev/zero"
+    result = subprocess.run([sys.executable, "-m", "exhibit", "status", "--file", str(path)],
+                            capture_output=True, text=True, timeout=30)
+    assert result.returncode == 1 and result.stdout == ""
+    why = "No such device or address" if kind == "socket" else "not a regular file"
+    assert result.stderr.startswith(f"exhibit status: BROKEN: cannot read {path}: {why}")
+    assert result.stderr.count("\n") == 1
+
+
+def test_status_survives_extreme_but_valid_numbers(cli, tmp_path):
+    """The largest accepted values, negative ones and huge unknown keys print, not crash."""
+    path = tmp_path / "health.json"
+    big = float(health.MAX_NUMBER)
+    write_health(path, sample(fps=big, frame_ms_p95=-big, uptime_s=big, rss_kb=2**53,
+                              gl_errors=-(2**53), fds=0, pid=2**53, extra=10**4000))
+    result = status(cli, path)
+    assert result.returncode == 1  # pid 2**53 is not running
+    assert "exhibit kiosk: STALE" in result.stdout and "STALE" in result.stderr
+    assert json.loads(status(cli, path, "--json").stdout)["extra"] == 10**4000
