@@ -174,6 +174,8 @@ class Mapper:
         acc = [0.0] * 7
         home = False
         for e in events:
+            if not math.isfinite(e.value):  # a corrupt source must not poison the view
+                continue
             self.activity.observe(e)
             if e.kind is Kind.ABS:
                 key = (e.device, e.index)
