@@ -1,5 +1,6 @@
 """Curators' TOML scenes: the shipped files load and mesh; every mistake names file and key."""
 
+import os
 import subprocess
 import sys
 import textwrap
@@ -122,3 +123,37 @@ def test_gallery_scenes(name):
         assert report.euler_characteristic == 1
         x, y, u, v = surface.positions.T
         np.testing.assert_allclose(u + 1j * v, (x + 1j * y) ** 2, atol=1e-12)
+
+
+BROKEN = {
+    "literal.toml": lambda p: p.write_text(GOOD.replace("x*y - z*w - a", "x + " + "9" * 400)),
+    "minus.toml": lambda p: p.write_text(GOOD.replace("x*y - z*w - a", "-" * 999 + "x")),
+    "zero.toml": lambda p: p.symlink_to("/dev/zero"),
+    "fifo.toml": lambda p: os.mkfifo(p),
+    "latin1.toml": lambda p: p.write_bytes(GOOD.replace("slice", "caf\xe9").encode("latin-1")),
+    "nested.toml": lambda p: p.write_text("x = " + "[" * 50_000 + "]" * 50_000),
+}
+
+
+def test_broken_scene_files_stop_no_command(tmp_path):
+    """A curator's broken files (a 400-digit literal, 999 minus signs, /dev/zero, a FIFO, ...)
+    are reported by name; --help, scenes and check-config still answer, promptly."""
+    for name, make in BROKEN.items():
+        make(tmp_path / name)
+    write(tmp_path, GOOD.replace('"slice"', '"extra-slice"', 1), "extra.toml")
+    env = {**os.environ, "EXHIBIT_SCENE_PATH": str(tmp_path)}
+
+    def exhibit(*args):
+        return subprocess.run([sys.executable, "-m", "exhibit", *args], capture_output=True,
+                              text=True, env=env, timeout=120)
+
+    assert exhibit("--help").returncode == 0
+    listed = exhibit("scenes")
+    assert listed.returncode == 0 and "extra-slice" in listed.stdout
+    assert "Traceback" not in listed.stderr
+    for name in BROKEN:
+        assert f"skipped {tmp_path / name}" in listed.stderr, (name, listed.stderr)
+    checked = exhibit("check-config")
+    assert checked.returncode == 2 and "Traceback" not in checked.stdout + checked.stderr
+    for name in BROKEN:
+        assert str(tmp_path / name) in checked.stdout, name

@@ -16,8 +16,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> int:
     listing = [scenes.get(name).to_json() for name in scenes.names()]
-    for path, message in scenes.LOAD_ERRORS:
-        print(f"exhibit scenes: skipped {path}: {message}", file=sys.stderr)
+    for _, message in scenes.problems():
+        print(f"exhibit scenes: skipped {message}", file=sys.stderr)
     if args.json:
         print(json.dumps({"scenes": listing}, indent=2, ensure_ascii=False))
         return 0

@@ -9,6 +9,7 @@ from typing import Callable, Mapping
 
 from exhibit.errors import ExhibitError
 from exhibit.geometry.view import ViewState
+from exhibit.schema.types import MAX_RESOLUTION, MIN_RESOLUTION
 from exhibit.surfaces.mesh import Mesh4D
 
 
@@ -63,8 +64,10 @@ class Scene:
                 raise ExhibitError(f"scene {self.name!r} has no parameter {key!r} "
                                    f"(parameters: {names})")
             try:
+                if isinstance(raw, bool):  # true is not 1.0 to a curator
+                    raise TypeError
                 value = float(raw)
-            except (TypeError, ValueError):
+            except (TypeError, ValueError, OverflowError):
                 raise ExhibitError(f"parameter {key}={raw!r} of scene {self.name!r} "
                                    "is not a number") from None
             p = known[key]
@@ -84,8 +87,9 @@ class Scene:
     def build(self, overrides: Mapping[str, object] | None = None,
               resolution: int | None = None) -> Mesh4D:
         resolution = int(resolution or self.default_resolution)
-        if resolution < 4:
-            raise ExhibitError(f"resolution must be at least 4, got {resolution}")
+        if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
+            raise ExhibitError(f"resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], "
+                               f"got {resolution}")
         return self.build_mesh(self.resolve(overrides), resolution)
 
     def to_json(self) -> dict:
@@ -107,15 +111,17 @@ def parse_overrides(items: list[str] | None) -> dict[str, str]:
 
 
 def parse_resolution(text) -> int | None:
-    """`--resolution N`: None (the scene's default) or an integer from 4 to 1024."""
+    """`--resolution N`: None (the scene's default) or a whole number within the one cap that
+    scene files and the kiosk config share."""
     if text is None:
         return None
     try:
         value = int(text)
     except (TypeError, ValueError):
         raise ExhibitError(f"--resolution must be a whole number, got {text!r}") from None
-    if not 4 <= value <= 1024:
-        raise ExhibitError(f"--resolution must lie between 4 and 1024, got {value}")
+    if not MIN_RESOLUTION <= value <= MAX_RESOLUTION:
+        raise ExhibitError(f"--resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], "
+                           f"got {value}")
     return value
 
 
