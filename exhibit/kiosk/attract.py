@@ -15,6 +15,9 @@
     ease = "smooth"                           # into the next keyframe: smooth | linear | hold
 
 A timeline lasts until its last keyframe; the playlist plays the files in name order and loops.
+Limits: t 0..86400 s, angles and eye -3600..3600 degrees, sensor_distance "inf" or 0.05..1e6,
+half_height 0.001..1000, params -1e6..1e6 (and the scene's own range), captions up to 2000
+characters.
 """
 
 from __future__ import annotations
