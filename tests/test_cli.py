@@ -3,6 +3,8 @@
 import json
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from exhibit import __version__
 from exhibit.cli import COMMANDS, main
@@ -72,3 +74,40 @@ def test_a_full_disk_is_one_line(tmp_path):
                                 stdout=full, stderr=subprocess.PIPE, text=True)
     assert result.returncode == 1
     assert result.stderr.strip() == "exhibit scenes: error: No space left on device"
+
+
+NUMERIC_OPTIONS = [("devices", "--wait"), ("monitor", "--rate"), ("monitor", "--duration"),
+                   ("record", "--duration"), ("simulate", "--duration"),
+                   ("simulate", "--protocol-version"), ("sweep", "--samples"),
+                   ("sweep", "--distances")]
+HOSTILE = ["nan", "inf", "-inf", "1e-320", "1e308", "-1", "0", "1e999", "", "x", "0x10",
+           "9" * 400, "1_000", " 3 ", "+inf", "NaN", "-0", "3,", ",", "inf,nan"]
+
+
+@settings(max_examples=300, deadline=None, derandomize=True)
+@given(option=st.sampled_from(NUMERIC_OPTIONS),
+       text=st.one_of(st.sampled_from(HOSTILE), st.floats().map(repr), st.text(max_size=12)))
+def test_numeric_options_are_finite_or_refused(option, text):
+    """Every numeric option either parses to finite values in range or exits 2 in one line."""
+    import contextlib
+    import io
+    import math
+
+    from exhibit.cli import build_parser
+
+    command, flag = option
+    extra = ["file.jsonl"] if command == "record" else ["controller"] if command == "simulate" \
+        else []
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err):
+        try:
+            args = build_parser(command).parse_args([command, *extra, f"{flag}={text}"])
+        except SystemExit as exc:
+            assert exc.code == 2
+            assert len(err.getvalue().strip().splitlines()) == 1, err.getvalue()
+            assert f"argument {flag}" in err.getvalue()
+            return
+    value = getattr(args, flag.lstrip("-").replace("-", "_"))
+    for v in (value if isinstance(value, list) else [value]):
+        assert not math.isnan(v) and v >= 0
+        assert math.isfinite(v) or flag == "--distances"
