@@ -4,10 +4,14 @@ One faulty backend never stops the others: a device that is absent waits in LOST
 unexpected exception from a backend (a bug, a driver surprise) is caught, shown in its status
 and the backend is reopened later, because on a museum floor a frozen exhibit is worse than a
 missing knob.
+The traceback of such an exception is logged once per backend and kind of exception, not at
+every poll or reopen (every 2 s for as long as the bug lasts, which on an unattended kiosk can be
+months); later ones only count up in the backend's status detail.
 """
 
 from __future__ import annotations
 
+import logging
 import time
 
 from exhibit.devices.base import Backend, Event, State
@@ -16,6 +20,10 @@ from exhibit.devices.keyboard import KeyboardBackend
 from exhibit.devices.url import backend_for_url
 
 __all__ = ["DeviceSet"]
+
+log = logging.getLogger("exhibit.devices")
+#: Seconds before a backend that raised is reopened.
+RETRY_S = 2.0
 
 
 class DeviceSet:
@@ -28,6 +36,8 @@ class DeviceSet:
                             hid_api=hid_api)
             for name, url in config.devices.items()]
         self._broken: dict[int, float] = {}
+        self._errors: dict[int, int] = {}  # backend index -> exceptions so far
+        self._logged: set[tuple[int, str]] = set()  # (index, exception type) with a traceback
 
     def open(self) -> "DeviceSet":
         for i, b in enumerate(self.backends):
@@ -43,9 +53,16 @@ class DeviceSet:
                 b.close()
             except Exception:  # noqa: BLE001
                 pass
+            count = self._errors[i] = self._errors.get(i, 0) + 1
+            if (i, type(exc).__name__) not in self._logged:
+                self._logged.add((i, type(exc).__name__))
+                log.error("device %s (%s): backend error, reopened every %g s (this traceback "
+                          "is logged once; the count is in its status)", b.name, b.url, RETRY_S,
+                          exc_info=exc)
             b.state = State.LOST
-            b.detail = f"backend error: {type(exc).__name__}: {exc}"
-            self._broken[i] = self.clock() + 2.0
+            b.detail = (f"backend error: {type(exc).__name__}: {exc}"
+                        + (f" ({count} so far)" if count > 1 else ""))
+            self._broken[i] = self.clock() + RETRY_S
             return None
 
     def poll(self) -> list[Event]:

@@ -176,6 +176,37 @@ def test_a_backend_that_raises_does_not_stop_the_others(clock):
     devices.close()
 
 
+def test_a_backend_that_always_raises_is_logged_once_and_reopened(clock, caplog):
+    """Polled for 20 s (2000 polls, a reopen every 2 s): one traceback in the log, the other
+    device's events all arrive, and the broken one is reopened again and again."""
+    config, layout, dev, devices = session(clock)
+    knobs = devices.backends[0]
+    opens = []
+
+    def broken():
+        raise RuntimeError("driver surprise")
+
+    def reopen():
+        opens.append(clock())
+        knobs._poll = broken  # the real _open would restore nothing; the bug stays
+
+    knobs._poll, knobs._open = broken, reopen
+    got = []
+    with caplog.at_level("ERROR", logger="exhibit.devices"):
+        for i in range(2000):
+            clock.advance(0.01)
+            devices.keyboard.key("w", i % 100 < 50)
+            got += devices.poll()
+    tracebacks = [r for r in caplog.records if r.exc_info]
+    assert len(tracebacks) == 1 and "driver surprise" in caplog.text
+    assert caplog.text.count("Traceback") == 1
+    assert sum(e.device == "kb" for e in got) == 40  # 20 presses and 20 releases
+    assert len(opens) >= 9
+    status = {s["name"]: s for s in devices.statuses()}
+    assert status["knobs"]["detail"].endswith(f"({len(opens) + 1} so far)")
+    devices.close()
+
+
 def test_monitor_shows_a_simulated_controller_moving_the_view(tmp_path, capsys):
     script = tmp_path / "push.txt"
     script.write_text("wait 0.3\naxes 1 0 0 0 0 0\n")
