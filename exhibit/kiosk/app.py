@@ -4,6 +4,21 @@ Everything slow happens before the first frame: meshes come from the cache (or a
 with progress), are uploaded to the GPU once, and devices are opened. Each frame then polls the
 devices without blocking, steps the KioskState, draws, swaps (vsync paces the loop), pings the
 systemd watchdog and, about once a second, writes the health file and the STATUS line.
+
+It survives what it can, because a crash is a black screen until someone comes:
+
+* A frame that raises is logged (the first of each kind with its traceback, then a count every
+  ERROR_REPORT_S) and the next frame tries again. Only after FAILING_EXIT_S with every frame
+  failing does the kiosk exit (status FAILING_EXIT) for systemd to restart it: a fresh process
+  (a new GL context, attract mode from the start) is the one remedy left, and a minute or more
+  between restarts is no crash loop.
+* A scene whose mesh cannot be built or uploaded is skipped, with the timelines that show it,
+  and named in the health file ("scenes_failed", "problems"). If no scene is left, the kiosk
+  runs on with a notice on the screen instead of exiting: a restart would fail the same way,
+  again and again, rebuilding meshes behind a black screen each time, whereas a running kiosk
+  tells visitors and `exhibit status` what is wrong, and keeps the watchdog quiet.
+* GLFW errors (exhibit.render.window) and device backends that raise (DeviceSet) are logged,
+  never fatal; losing the input focus neither iconifies nor stops the fullscreen window.
 """
 
 from __future__ import annotations
@@ -13,6 +28,7 @@ import math
 import os
 import resource
 import time
+import traceback
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,6 +48,15 @@ from exhibit.scenes.cache import build_cached
 from exhibit.surfaces import progress
 
 log = logging.getLogger("exhibit.kiosk")
+
+#: A run of failed frames this long, with none drawn, ends the process so systemd restarts it.
+FAILING_EXIT_S = 60.0
+FAILING_EXIT = 70  # EX_SOFTWARE
+#: Failed frames after the first of their kind are summed up in one line at most this often.
+ERROR_REPORT_S = 10.0
+#: What the screen says when no scene could be prepared (the second line is for staff).
+NOTICE = ("This exhibit is resting for a moment.",
+          "(no scene could be prepared: see `exhibit status` and the journal)")
 
 #: GLFW key names for keys that have none of their own (glfw.get_key_name gives None for them).
 _SPECIAL_KEYS = {"SPACE": "space", "ESCAPE": "escape", "UP": "up", "DOWN": "down",
@@ -61,20 +86,48 @@ def _fd_count() -> int:
         return -1
 
 
-def mesh_keys(config: KioskConfig, playlist: list) -> list[tuple[str, tuple]]:
-    """Every (scene, parameters) the kiosk can show: the content list and the timelines."""
-    keys = []
-    for name in config.scenes:
-        params = tuple(sorted(scenes.get(name).resolve().items()))
-        keys.append((name, params))
-    for timeline in playlist:
-        keys.append((timeline.scene, tuple(sorted(timeline.params.items()))))
-    return list(dict.fromkeys(keys))
+class FrameErrors:
+    """Frames that raised. The first of each kind (exception type and the line that raised it)
+    is logged with its traceback, again at most hourly; the others are counted and summed up in
+    one line at most every ``every`` seconds, so a frame failing 60 times a second does not
+    flood the journal. ``failing_since``: when the current run of failed frames began."""
+
+    def __init__(self, every: float = ERROR_REPORT_S):
+        self.every = every
+        self.total = 0
+        self.failing_since: float | None = None
+        self._kinds: dict[tuple, float] = {}  # kind -> when its traceback was last logged
+        self._count, self._latest, self._logged = 0, "", -math.inf
+
+    def failed(self, exc: BaseException, now: float) -> None:
+        self.total += 1
+        if self.failing_since is None:
+            self.failing_since = now
+        where = traceback.extract_tb(exc.__traceback__)[-1:]
+        kind = (type(exc).__name__, *[(w.filename, w.lineno) for w in where])
+        if now - self._kinds.get(kind, -math.inf) >= 3600 and len(self._kinds) < 100:
+            self._kinds[kind] = self._logged = now
+            log.error("a frame failed (the next one tries again)", exc_info=exc)
+        else:
+            self._count += 1
+            self._latest = f"{type(exc).__name__}: {exc}"
+        self.flush(now)
+
+    def drawn(self, now: float) -> None:
+        self.failing_since = None
+        self.flush(now)
+
+    def flush(self, now: float) -> None:
+        if self._count and now - self._logged >= self.every:
+            log.error("%d more failed frames in the last %.0f s (the last: %s)", self._count,
+                      now - self._logged, self._latest)
+            self._count, self._logged = 0, now
 
 
 class Kiosk:
     """The running exhibit. ``window`` is an exhibit.render.window.Window (or any object with
-    draw, read, swap, should_close, close, handle and _glfw)."""
+    draw, notice, read, swap, ctx, renderer, handle and _glfw). ``state`` is None when no scene
+    could be prepared: the window then shows NOTICE."""
 
     def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
                  health_path: Path | None = None):
@@ -83,29 +136,74 @@ class Kiosk:
         self.clock = clock
         self.notifier = notifier
         self.health_path = health_path
-        timelines = load_playlist(config.attract_dir)
+        #: For the health file: [{"scene", "reason"}] and one line per problem, for people.
+        self.scenes_failed: list[dict] = []
+        self.problems: list[str] = []
+        try:
+            timelines = load_playlist(config.attract_dir)
+        except Exception as exc:  # noqa: BLE001 - attract mode can do without timelines
+            log.error("no attract timelines: %s", exc)
+            self.problems.append(f"no attract timelines: {exc}")
+            timelines = []
         device_config = load_config(config.devices_config)
         self.devices = DeviceSet(device_config, clock=clock).open()
         mapper = Mapper(device_config.mapping,
                         ActivityDetector(threshold=device_config.activity_threshold))
-        self.gpu = {}
-        keys = mesh_keys(config, timelines)
-        with progress.on_terminal():
-            for i, (name, params) in enumerate(keys, 1):
-                progress.report(f"preparing scene {i}/{len(keys)}: {name}")
-                if notifier is not None:
-                    notifier.extend_timeout(60)  # a cold mesh build may take a while
-                mesh, _ = build_cached(scenes.get(name), dict(params),
-                                       config.resolution.get(name))
-                self.gpu[(name, params)] = window.renderer.upload(mesh)
+        content, timelines = self._prepare(timelines)
         now = clock()
         self.started = now
-        self.state = KioskState(Playlist(timelines), mapper, config.scenes,
-                                config.idle_timeout_s, config.blend_s, now)
+        self.state = None
+        if content or timelines:
+            self.state = KioskState(Playlist(timelines), mapper, content,
+                                    config.idle_timeout_s, config.blend_s, now)
+        else:
+            log.critical("no scene could be prepared: the kiosk shows a notice until it is "
+                         "fixed and restarted")
+            self.problems.append("no scene could be prepared: the screen shows a notice")
         self.stats = FrameStats()
+        self.errors = FrameErrors()
+        self.frames = 0
         self._last_report = now
         self._quit = False
         self._install_input()
+
+    def _prepare(self, timelines: list) -> tuple[tuple[str, ...], list]:
+        """Upload a mesh for every (scene, parameters) of the content list and the timelines,
+        building it once if the cache has none. A scene that fails (a bad scene file, a build
+        that raises, no GPU memory) is skipped and noted; returns the content list and the
+        timelines that are left."""
+        jobs = list(dict.fromkeys([(name, None) for name in self.config.scenes]
+                                  + [(t.scene, tuple(sorted(t.params.items())))
+                                     for t in timelines]))
+        self.gpu, ready, failed = {}, set(), set()
+        with progress.on_terminal():
+            for i, (name, params) in enumerate(jobs, 1):
+                progress.report(f"preparing scene {i}/{len(jobs)}: {name}")
+                if self.notifier is not None:
+                    self.notifier.extend_timeout(60)  # a cold mesh build may take a while
+                try:
+                    if params is None:  # a content scene: its default parameters
+                        params = tuple(sorted(scenes.get(name).resolve().items()))
+                    if (name, params) not in self.gpu and (name, params) not in failed:
+                        mesh, _ = build_cached(scenes.get(name), dict(params),
+                                               self.config.resolution.get(name))
+                        self.gpu[(name, params)] = self.window.renderer.upload(mesh)
+                except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
+                    failed.add((name, params))
+                    reason = f"{type(exc).__name__}: {exc}"
+                    log.error("scene %s skipped: %s", name, reason, exc_info=exc)
+                    if {"scene": name, "reason": reason} not in self.scenes_failed:
+                        self.scenes_failed.append({"scene": name, "reason": reason})
+                        self.problems.append(f"scene {name} skipped: {reason}")
+                if (name, params) in self.gpu:
+                    ready.add(jobs[i - 1])
+        content = tuple(name for name in self.config.scenes if (name, None) in ready)
+        kept = [t for t in timelines if (t.scene, tuple(sorted(t.params.items()))) in ready]
+        for t in timelines:
+            if t not in kept:
+                log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
+                self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
+        return content, kept
 
     # ------------------------------------------------------------------ input from the window
 
@@ -132,6 +230,7 @@ class Kiosk:
                 self._quit = True
 
         def on_focus(_window, focused):
+            log.info("the window %s the input focus", "has" if focused else "lost")
             if not focused and keyboard is not None:
                 keyboard.release_all()
 
@@ -147,24 +246,27 @@ class Kiosk:
     # ------------------------------------------------------------------ the loop
 
     def step(self) -> None:
-        """One frame: poll, update, draw, swap, watchdog."""
+        """One frame: poll, update, draw, swap (run() adds the watchdog and the reports)."""
         start = self.clock()
-        mode = self.state.mode
-        frame = self.state.update(self.devices.poll(), start)
-        if frame.mode != mode:
-            angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
-            log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene, angles)
-        self._draw(frame, start)
+        events = self.devices.poll()
+        if self.state is None:
+            self.window.notice(list(NOTICE), self.drift(start))
+        else:
+            mode = self.state.mode
+            frame = self.state.update(events, start)
+            if frame.mode != mode:
+                angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
+                log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene,
+                         angles)
+            self._draw(frame, start)
         error = self.window.ctx.error
         if error != "GL_NO_ERROR":
             self.stats.gl_errors += 1
-            log.error("GL error: %s", error)
+            n = self.stats.gl_errors
+            if n & (n - 1) == 0:  # the 1st, 2nd, 4th, 8th...: a few lines, even over months
+                log.error("GL error: %s (%d so far)", error, n)
         self.window.swap()
-        if self.notifier is not None:
-            self.notifier.watchdog()
         self.stats.times.append(self.clock() - start)
-        if start - self._last_report >= 1.0:
-            self._report(start)
 
     def drift(self, now: float) -> tuple[float, float]:
         """Where the text panels sit now: a slow Lissajous path within drift_px (burn-in care)."""
@@ -181,51 +283,88 @@ class Kiosk:
         self._last_report = now
         devices = [{"url": s.get("url", ""), "state": s.get("state", "")}
                    for s in self.devices.statuses()]
+        mode = scene = None
+        if self.state is not None:
+            mode, scene = self.state.mode, self.state.frame.scene
+        problems = list(self.problems)
+        if self.errors.failing_since is not None:
+            problems.append(f"frames failing for {now - self.errors.failing_since:.0f} s "
+                            "(see the journal)")
         if self.notifier is not None:
             states = ", ".join(f"{d['url']} {d['state']}" for d in devices)
-            self.notifier.status(f"{fps:.0f} fps, {self.state.mode}, {self.state.frame.scene}; "
-                                 f"{states}")
+            what = f"{mode}, {scene}" if self.state is not None else "notice (no scene)"
+            self.notifier.status(f"{fps:.0f} fps, {what}; {states}"
+                                 + (f"; {len(problems)} problems" if problems else ""))
         if self.health_path is not None:
             from exhibit.kiosk.health import write_health
             try:
                 write_health(self.health_path, {
                     "time": time.time(), "pid": os.getpid(), "fps": round(fps, 1),
-                    "frame_ms_p95": round(p95, 2), "mode": self.state.mode,
-                    "scene": self.state.frame.scene, "devices": devices,
-                    "uptime_s": round(now - self.started, 1), "gl_errors": self.stats.gl_errors,
-                    "rss_kb": _rss_kb(), "fds": _fd_count()})
+                    "frame_ms_p95": round(p95, 2), "mode": mode, "scene": scene,
+                    "devices": devices, "uptime_s": round(now - self.started, 1),
+                    "gl_errors": self.stats.gl_errors, "rss_kb": _rss_kb(), "fds": _fd_count(),
+                    "frames": self.frames, "frame_errors": self.errors.total,
+                    "problems": problems, "scenes_failed": self.scenes_failed})
             except OSError as exc:
                 log.warning("cannot write the health file %s: %s", self.health_path, exc)
 
     def run(self, duration: float | None = None, screenshot: Path | None = None,
             max_frames: int | None = None) -> int:
-        """Run until the maintenance keys (or duration / max_frames, for tests and staff)."""
-        first = True
+        """Run until the maintenance keys (or duration / max_frames, for tests and staff).
+
+        Returns 0, or FAILING_EXIT after FAILING_EXIT_S in which every frame raised. READY goes
+        to systemd after the first frame drawn; the watchdog is pinged after every frame, drawn
+        or failed, as the loop is alive either way (a hung one is what the watchdog is for)."""
         frames = 0
+        code = 0
         min_frame = 1.0 / self.config.fps_limit
         try:
             while not self._quit:
                 start = self.clock()
-                self.step()
+                drawn = self._frame(start)
+                if drawn and self.frames == 1 and self.notifier is not None:
+                    self.notifier.ready()
+                if not drawn and start - self.errors.failing_since >= FAILING_EXIT_S:
+                    log.critical("no frame drawn for %.0f s (%d failed): exiting, for systemd "
+                                 "to restart the kiosk", start - self.errors.failing_since,
+                                 self.errors.total)
+                    code = FAILING_EXIT
+                    break
                 frames += 1
-                if first:
-                    first = False
-                    if self.notifier is not None:
-                        self.notifier.ready()
                 if duration is not None and start - self.started >= duration:
                     break
                 if max_frames is not None and frames >= max_frames:
                     break
                 spare = min_frame - (self.clock() - start)
-                if spare > 0 and not self.config.vsync:
-                    time.sleep(spare)
+                if spare > 0 and (not self.config.vsync or not drawn):
+                    time.sleep(spare)  # a failed frame did not wait for vsync: no busy loop
             if screenshot is not None:
                 self._screenshot(screenshot)
         finally:
             if self.notifier is not None:
                 self.notifier.stopping()
             self.devices.close()
-        return 0
+        return code
+
+    def _frame(self, start: float) -> bool:
+        """step(), the watchdog and, about once a second, the reports; whether a frame was drawn.
+        Exceptions go to FrameErrors: a frame's bug must not end the exhibit."""
+        try:
+            self.step()
+            self.frames += 1
+            self.errors.drawn(start)
+            drawn = True
+        except Exception as exc:  # noqa: BLE001
+            self.errors.failed(exc, start)
+            drawn = False
+        if self.notifier is not None:
+            self.notifier.watchdog()
+        if start - self._last_report >= 1.0:
+            try:
+                self._report(start)
+            except Exception as exc:  # noqa: BLE001
+                self.errors.failed(exc, start)
+        return drawn
 
     def _draw(self, frame, now: float) -> None:
         hud = HudInfo(title=frame.title, caption=frame.caption, axes=scenes.get(frame.scene).axes)
@@ -235,7 +374,10 @@ class Kiosk:
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
 
-        self._draw(self.state.frame, self.clock())
+        if self.state is None:
+            self.window.notice(list(NOTICE), self.drift(self.clock()))
+        else:
+            self._draw(self.state.frame, self.clock())
         Image.fromarray(self.window.read()).save(path)
 
 

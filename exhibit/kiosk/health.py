@@ -1,10 +1,13 @@
 """The kiosk's health file: what the running exhibit is doing, rewritten about once a second.
 
 The app writes ``{"time", "pid", "fps", "frame_ms_p95", "mode", "scene", "devices": [{"url",
-"state"}], "uptime_s", "gl_errors", "rss_kb", "fds"}``; `exhibit status` (staff, monitoring
-scripts) reads it. Writes are atomic (a temporary file in the same folder, then os.replace), so
-a reader never sees half a file, and the file is world-readable (0644) so staff can read it
-without sudo: nothing in it is secret.
+"state"}], "uptime_s", "gl_errors", "rss_kb", "fds", "frames", "frame_errors", "problems": [str],
+"scenes_failed": [{"scene", "reason"}]}``: "frames" drawn and "frame_errors" (frames that raised)
+since the start, "problems" one line each for people (scenes skipped, frames failing), and "mode"
+and "scene" null when no scene could be prepared (the screen shows a notice). `exhibit status`
+(staff, monitoring scripts) reads it. Writes are atomic (a temporary file in the same folder,
+then os.replace), so a reader never sees half a file, and the file is world-readable (0644) so
+staff can read it without sudo: nothing in it is secret.
 
 Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
 ~/.local/state/exhibit/health.json. The systemd unit sets EXHIBIT_STATE_DIR=/var/lib/exhibit.

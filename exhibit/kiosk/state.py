@@ -7,6 +7,10 @@ by events and a clock, so it is tested without a window or devices.
 * A button press (other than a "home" button) moves to the next scene of the content list.
 * After ``idle_timeout_s`` without real input, attract mode returns, gliding from the visitor's
   view into the timeline over ``blend_s`` when the scene is the same.
+
+Either list may be empty when the kiosk skipped scenes that failed to load (never both): with no
+timeline, attract mode slowly turns the first scene of the content list; with no content list,
+buttons leave the visitor on the scene shown.
 """
 
 from __future__ import annotations
@@ -21,6 +25,8 @@ from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Playlist
 
 ATTRACT, VISITOR = "attract", "visitor"
+#: Seconds per turn of θ1 in attract mode when there is no timeline to play.
+TURN_S = 120.0
 
 
 @dataclass(frozen=True)
@@ -70,17 +76,25 @@ class KioskState:
     # ------------------------------------------------------------------ frames
 
     def _attract_frame(self, now: float) -> Frame:
-        timeline, view, caption = self.playlist.at(now)
+        if self.playlist.timelines:
+            timeline, view, caption = self.playlist.at(now)
+            name, params = timeline.scene, tuple(sorted(timeline.params.items()))
+            scene = scenes.get(name)
+        else:
+            name = self.content[0]
+            scene = scenes.get(name)
+            params, caption = tuple(sorted(scene.resolve().items())), scene.caption
+            turn = 2 * math.pi * ((now - self.playlist.started) / TURN_S % 1.0)
+            view = scene.view.replace(angles=(scene.view.angles[0] + turn,
+                                              *scene.view.angles[1:]))
         if self._blend_from is not None:
-            start_view, start, scene = self._blend_from
+            start_view, start, blend_scene = self._blend_from
             u = (now - start) / self.blend_s if self.blend_s > 0 else 1.0
-            if u >= 1.0 or scene != timeline.scene:
+            if u >= 1.0 or blend_scene != name:
                 self._blend_from = None
             else:
                 view = _blend(start_view, view, max(u, 0.0))
-        scene = scenes.get(timeline.scene)
-        return Frame(ATTRACT, timeline.scene, tuple(sorted(timeline.params.items())), view,
-                     scene.title, caption)
+        return Frame(ATTRACT, name, params, view, scene.title, caption)
 
     def _visitor_frame(self, scene_name: str, params, view: ViewState) -> Frame:
         scene = scenes.get(scene_name)
@@ -91,6 +105,8 @@ class KioskState:
                    and (e.device, e.index) not in self._home_buttons)
 
     def _next_scene(self) -> Frame:
+        if not self.content:
+            return self.frame
         current = self.frame.scene
         index = self.content.index(current) + 1 if current in self.content else 0
         name = self.content[index % len(self.content)]

@@ -1,11 +1,18 @@
 """The window target: a GLFW window (fullscreen on the kiosk) whose context gets the same Renderer
 as the headless target. One process uses one kind of target: with Mesa, once EGL (the headless
-target) has been initialised, GLX refuses to make a window context current (BadAccess). The kiosk owns the loop; view() below is a small interactive viewer for
-staff (`exhibit render SCENE --window`)."""
+target) has been initialised, GLX refuses to make a window context current (BadAccess). The
+kiosk owns the loop; view() below is a small interactive viewer for staff (`exhibit render SCENE
+--window`).
+
+GLFW errors are logged, never raised: on a kiosk that runs for months, an error from the window
+system (a monitor unplugged, a focus change GLFW cannot follow) must not end the exhibit.
+"""
 
 from __future__ import annotations
 
+import logging
 import math
+import time
 
 import moderngl
 import numpy as np
@@ -13,6 +20,42 @@ import numpy as np
 from exhibit.render.context import REQUIRED_VERSION, RenderUnavailable
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo, Renderer
+from exhibit.render.text import line_height, text_width
+
+log = logging.getLogger("exhibit.glfw")
+
+
+class GlfwErrors:
+    """GLFW's error callback: logs each distinct error at once, then a repeat count at most every
+    ``every`` seconds, so an error GLFW reports every frame does not flood the journal. It never
+    raises (pyGLFW would re-raise it from the next GLFW call, ending the frame loop). ``last``
+    is the latest message, for the reason when a window cannot be made."""
+
+    def __init__(self, every: float = 60.0, clock=time.monotonic):
+        self.every = every
+        self.clock = clock
+        self.last = ""
+        self._seen: dict[str, list] = {}  # message -> [repeats not logged yet, when logged]
+
+    def __call__(self, code: int, description) -> None:
+        try:
+            if isinstance(description, bytes):
+                description = description.decode("utf-8", "replace")
+            self.last = message = f"({code}) {description}"
+            now = self.clock()
+            seen = self._seen.get(message)
+            if seen is None:
+                if len(self._seen) < 100:  # beyond that, new messages are not logged at all
+                    self._seen[message] = [0, now]
+                    log.warning("GLFW error %s", message)
+            elif now - seen[1] >= self.every:
+                log.warning("GLFW error %s (%d more times in %.0f s)", message, seen[0] + 1,
+                            now - seen[1])
+                seen[:] = [0, now]
+            else:
+                seen[0] += 1
+        except Exception:  # noqa: BLE001 - reporting an error must not become one
+            pass
 
 
 class Window:
@@ -24,19 +67,22 @@ class Window:
         import glfw
 
         self._glfw = glfw
-        glfw.ERROR_REPORTING = "raise"  # GLFW errors as exceptions, not warnings
-        try:
-            ok = glfw.init()
-        except glfw.GLFWError as exc:
-            raise RenderUnavailable(f"cannot start GLFW ({exc}); is DISPLAY set?") from None
-        if not ok:
-            raise RenderUnavailable("cannot start GLFW (no display?); use the headless target")
+        # Logged, never raised (see GlfwErrors); 'log' in case the callback is ever reset.
+        glfw.ERROR_REPORTING = "log"
+        self.errors = GlfwErrors()
+        glfw.set_error_callback(self.errors)
+        if not glfw.init():
+            raise RenderUnavailable(f"cannot start GLFW ({self.errors.last or 'no display?'}); "
+                                    "is DISPLAY set? Or use the headless target")
         glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, REQUIRED_VERSION // 100)
         glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, REQUIRED_VERSION % 100 // 10)
         glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
         glfw.window_hint(glfw.OPENGL_FORWARD_COMPAT, True)
         glfw.window_hint(glfw.SAMPLES, samples)
         glfw.window_hint(glfw.VISIBLE, visible)
+        # A fullscreen window that loses focus would be iconified: a black screen until
+        # someone comes, and under X11 without an EWMH window manager a GLFW error instead.
+        glfw.window_hint(glfw.AUTO_ICONIFY, False)
         if fullscreen:
             # The configured monitor if it is connected, else the primary one (never no picture).
             monitors = glfw.get_monitors() or [glfw.get_primary_monitor()]
@@ -46,11 +92,11 @@ class Window:
         if monitor is not None:
             mode = glfw.get_video_mode(monitor)
             size = (mode.size.width, mode.size.height)
-        try:
-            self.handle = glfw.create_window(size[0], size[1], title, monitor, None)
-        except glfw.GLFWError as exc:
+        self.handle = glfw.create_window(size[0], size[1], title, monitor, None)
+        if not self.handle:
             glfw.terminate()
-            raise RenderUnavailable(f"cannot open an OpenGL 3.3 window ({exc})") from None
+            self.handle = None
+            raise RenderUnavailable(f"cannot open an OpenGL 3.3 window ({self.errors.last})")
         glfw.make_context_current(self.handle)
         glfw.swap_interval(1 if vsync else 0)
         self.ctx = moderngl.create_context(require=REQUIRED_VERSION)
@@ -65,6 +111,27 @@ class Window:
         """Render one frame into the back buffer (call swap() to show it)."""
         self._glfw.make_context_current(self.handle)
         self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
+
+    def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
+        """Lines of text centred on a dark screen (call swap() to show it): what the kiosk shows
+        when it has nothing else, so the screen says what is wrong instead of staying black.
+        ``drift`` moves the text (burn-in care: it may stay up for weeks)."""
+        self._glfw.make_context_current(self.handle)
+        ctx, (width, height) = self.ctx, self.size
+        ctx.screen.use()
+        ctx.viewport = (0, 0, width, height)
+        ctx.screen.clear(0.06, 0.06, 0.08, 1.0)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        px = max(10, round(0.03 * height))
+        step = line_height("sans", px)
+        y = (height - step * len(lines)) / 2 + drift[1]
+        for line in lines:
+            x = (width - text_width(line, "sans", px)) / 2 + drift[0]
+            self.renderer._text(line, "sans", px, x, y, (0.85, 0.85, 0.82, 1.0),
+                                (float(width), float(height)))
+            y += step
+        ctx.disable(moderngl.BLEND)
 
     def read(self) -> np.ndarray:
         """The back buffer as (height, width, 3) uint8, top row first (before swap()).

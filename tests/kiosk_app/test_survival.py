@@ -1,0 +1,198 @@
+"""What the kiosk survives: frames that raise, scenes that fail to build, GLFW errors.
+
+The Kiosk runs here in-process on a fake window and a fake clock (meshes are stand-ins, so no
+GL and no mesh builds), except the last test, which shows the every-scene-failed notice in a
+real window under Xvfb."""
+
+import json
+import logging
+import os
+import re
+import subprocess
+import sys
+from types import SimpleNamespace
+
+import numpy as np
+from PIL import Image
+
+from exhibit.kiosk import app
+from exhibit.kiosk.config import load_kiosk_config
+from exhibit.render.window import GlfwErrors
+from tests.kiosk_app.test_window import ROOT, make_config
+from tests.xvfb import unavailable, xvfb
+
+
+class FakeWindow:
+    """What Kiosk needs of a window, drawing nothing; ``fail`` counts down frames that raise."""
+
+    def __init__(self):
+        noop = lambda *a, **k: None  # noqa: E731
+        self._glfw = SimpleNamespace(
+            CURSOR=0, CURSOR_HIDDEN=0, REPEAT=2, PRESS=1, MOD_CONTROL=2, MOD_ALT=4, MOD_SHIFT=1,
+            MOD_SUPER=8, **{f"KEY_{k}": i for i, k in enumerate(app._SPECIAL_KEYS)},
+            set_input_mode=noop, get_key_name=noop, set_key_callback=noop,
+            set_window_focus_callback=noop, set_window_close_callback=noop,
+            set_window_should_close=noop)
+        self.handle = object()
+        self.ctx = SimpleNamespace(error="GL_NO_ERROR")
+        self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
+        self.fail = 0
+        self.drawn, self.notices = [], 0
+
+    def draw(self, gpu, view, options, hud):
+        if self.fail > 0:
+            self.fail -= 1
+            raise ZeroDivisionError("a bug in the renderer")
+        self.drawn.append(gpu)
+
+    def notice(self, lines, drift=(0.0, 0.0)):
+        self.notices += 1
+
+    def swap(self):
+        pass
+
+
+class Notifier:
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        return lambda *a: self.calls.append(name)
+
+
+def kiosk(tmp_path, monkeypatch, broken=()):
+    """A Kiosk on a fake window and a clock that moves 0.1 s per reading (about 0.2 s a frame);
+    building a mesh for a scene in ``broken`` raises (``broken`` True: every scene)."""
+    path = make_config(tmp_path, "")
+    devices = path.parent / "devices" / "default.toml"  # keyboards only: no simulator thread
+    devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"', devices.read_text()))
+    config = load_kiosk_config(path)
+
+    def build(scene, params, resolution):
+        if broken is True or scene.name in broken:
+            raise RuntimeError(f"cannot build {scene.name}")
+        return f"mesh {scene.name}", None
+
+    monkeypatch.setattr(app, "build_cached", build)
+    ticks = iter(np.arange(1e6) * 0.1)
+    notifier = Notifier()
+    k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)), notifier=notifier,
+                  health_path=tmp_path / "health.json")
+    return k, notifier
+
+
+def health(tmp_path):
+    return json.loads((tmp_path / "health.json").read_text())
+
+
+def test_frames_that_raise_are_logged_once_and_the_next_frame_tries_again(
+        tmp_path, monkeypatch, caplog):
+    k, notifier = kiosk(tmp_path, monkeypatch)
+    k.window.fail = 200
+    with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
+        assert k.run(max_frames=300) == 0
+    assert caplog.text.count("Traceback") == 1 and "a bug in the renderer" in caplog.text
+    assert "more failed frames in the last" in caplog.text  # a count, about every 10 s
+    assert sum(r.levelno >= logging.ERROR for r in caplog.records) < 10
+    assert len(k.window.drawn) == 100 and k.frames == 100 and k.errors.total == 200
+    # The watchdog is pinged every frame, drawn or not; READY once, at the first frame drawn.
+    assert notifier.calls.count("watchdog") == 300
+    assert notifier.calls.index("ready") > 200 and notifier.calls.count("ready") == 1
+    report = health(tmp_path)
+    assert 90 <= report["frames"] <= 100 and report["frame_errors"] == 200  # a second ago
+    assert report["problems"] == [] and report["fps"] > 0
+
+
+def test_a_minute_of_nothing_but_failed_frames_exits_for_systemd_to_restart(
+        tmp_path, monkeypatch, caplog):
+    k, _ = kiosk(tmp_path, monkeypatch)
+    k.window.fail = 10**9
+    with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
+        assert k.run(max_frames=10_000) == app.FAILING_EXIT
+    assert 60 <= k.clock() - k.started < 62 and k.frames == 0
+    assert caplog.text.count("Traceback") == 1 and "exiting, for systemd" in caplog.text
+    assert any("frames failing for" in p for p in health(tmp_path)["problems"])
+
+
+def test_a_scene_that_fails_to_build_is_skipped_with_its_timelines(tmp_path, monkeypatch,
+                                                                   caplog):
+    """hopf fails: its attract timeline goes too, so attract mode turns clifford-torus."""
+    with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
+        k, _ = kiosk(tmp_path, monkeypatch, broken={"hopf"})
+        assert k.run(max_frames=50) == 0
+    assert caplog.text.count("Traceback") == 1 and "scene hopf skipped" in caplog.text
+    assert k.state.content == ("clifford-torus",) and k.state.playlist.timelines == []
+    assert set(k.window.drawn) == {"mesh clifford-torus"} and k.errors.total == 0
+    first = k.state.frame.view.angles[0]
+    assert k.state.update([], k.clock() + 10).view.angles[0] != first  # it turns
+    report = health(tmp_path)
+    assert report["scenes_failed"] == [{"scene": "hopf", "reason": "RuntimeError: cannot "
+                                        "build hopf"}]
+    assert any("attract timeline" in p for p in report["problems"])
+    assert report["mode"] == "attract" and report["scene"] == "clifford-torus"
+
+
+def test_buttons_do_nothing_when_no_content_scene_is_left(tmp_path, monkeypatch):
+    from exhibit.devices.base import Event, Kind
+    k, _ = kiosk(tmp_path, monkeypatch, broken={"clifford-torus"})
+    k.state.content = ()  # hopf only shows in its timeline
+    frame = k.state.update([Event(k.clock(), "controller", Kind.BUTTON, 0, 1.0)], k.clock())
+    assert frame.mode == "visitor" and frame.scene == "hopf"
+
+
+def test_when_every_scene_fails_the_kiosk_shows_a_notice_and_runs_on(tmp_path, monkeypatch):
+    k, notifier = kiosk(tmp_path, monkeypatch, broken=True)
+    assert k.state is None
+    assert k.run(max_frames=30) == 0
+    assert k.window.notices == 30 and k.errors.total == 0 and "ready" in notifier.calls
+    report = health(tmp_path)
+    assert report["mode"] is None and report["scene"] is None
+    assert {f["scene"] for f in report["scenes_failed"]} == {"hopf", "clifford-torus"}
+    assert any("no scene could be prepared" in p for p in report["problems"])
+
+
+def test_glfw_errors_are_logged_once_then_counted(caplog):
+    now = [0.0]
+    errors = GlfwErrors(every=60, clock=lambda: now[0])
+    with caplog.at_level(logging.WARNING, logger="exhibit.glfw"):
+        for i in range(1000):
+            now[0] = i * 0.1
+            errors(65544, b"X11: something the window system refused")
+        errors(65545, "another")
+    lines = caplog.text.splitlines()
+    assert len(lines) == 3 and errors.last == "(65545) another"
+    assert "(600 more times in 60 s)" in lines[1]
+
+
+NOTICE_RUN = r"""
+import sys
+from exhibit.kiosk import app
+def build(scene, params, resolution):
+    raise RuntimeError("no mesh today")
+app.build_cached = build
+from exhibit.cli import main
+sys.exit(main(sys.argv[1:]))
+"""
+
+
+def test_the_notice_is_drawn_in_a_real_window(tmp_path):
+    kiosk = make_config(tmp_path, "wait 60\n")
+    shot = tmp_path / "notice.png"
+    with xvfb() as display:
+        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+                   EXHIBIT_STATE_DIR=str(tmp_path / "state"))
+        env.pop("NOTIFY_SOCKET", None)
+        result = subprocess.run(
+            [sys.executable, "-c", NOTICE_RUN, "run", "--config", str(kiosk), "--windowed",
+             "--duration", "2", "--screenshot", str(shot)],
+            env=env, capture_output=True, text=True, timeout=120, cwd=ROOT)
+    if result.returncode != 0 and "cannot start GLFW" in result.stderr:
+        unavailable("no GLFW window on Xvfb")
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert "no scene could be prepared" in result.stderr
+    picture = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert picture.shape == (240, 320)
+    assert (picture > 150).sum() > 100  # light text on the dark screen
+    assert picture.mean() < 60
+    report = json.loads((tmp_path / "state" / "health.json").read_text())
+    assert any("no scene could be prepared" in p for p in report["problems"])
