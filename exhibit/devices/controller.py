@@ -251,6 +251,7 @@ class SerialController(Backend):
     def status(self) -> dict:
         d = super().status()
         d["link"] = {**self.decoder.summary(), "lost_frames": self.tracker.lost,
+                     "reordered": self.tracker.reordered, "duplicates": self.tracker.duplicates,
                      "restarts": self.tracker.restarts, "reconnects": self.reconnects}
         return d
 

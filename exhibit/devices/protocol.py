@@ -520,24 +520,56 @@ class StreamDecoder:
 
 
 class SequenceTracker:
-    """Counts frames lost between accepted ones from their 8-bit sequence numbers.
+    """Counts frames lost, reordered and duplicated, from their 8-bit sequence numbers.
 
-    ``update(frame)`` returns how many frames were missed just before it. A :class:`Hello` with
-    seq 0 means the device restarted (its counter starts at 0), which is not a loss.
+    ``update(frame)`` returns how many frames were missed just before it. Numbers wrap at 256,
+    so a step back is ambiguous: a frame at most WINDOW behind the newest is taken for a late or
+    repeated one, not for a gap of 200-odd frames that wrapped around. A frame that arrives late
+    was counted lost when the frames after it came, so it is taken back off ``lost`` and counted
+    ``reordered``; a repeat is counted in ``duplicates`` (a swapped pair 5, 7, 6, 8 is 0 lost and
+    1 reordered; 5, 5 is 1 duplicate). The price: a real gap of 255 - WINDOW to 255 frames reads
+    as a step back and is undercounted; the controller resyncs (``expected = None``) whenever
+    it reopens the port, which it does after a second of silence.
+
+    A :class:`Hello` with seq 0 means the device restarted (its counter starts at 0), which is
+    not a loss.
     """
+
+    WINDOW = 64
 
     def __init__(self) -> None:
         self.expected: int | None = None
-        self.lost = 0
-        self.restarts = 0
+        self.lost = self.restarts = self.reordered = self.duplicates = 0
+        self._missing: set[int] = set()  # skipped numbers at most WINDOW back: may arrive late
+        self._span = 0  # how far behind the newest frame anything is known since the resync
 
     def update(self, frame: Frame) -> int:
-        gap = 0
-        if isinstance(frame.message, Hello) and frame.seq == 0:
+        seq = frame.seq & 0xFF
+        if isinstance(frame.message, Hello) and seq == 0:
             if self.expected is not None and self.expected != 0:
                 self.restarts += 1
-        elif self.expected is not None:
-            gap = (frame.seq - self.expected) & 0xFF
+            self.expected = None
+        gap = 0
+        if self.expected is None:  # first frame, restart, or the controller reopened the port
+            self._missing.clear()
+            self._span = 0
+        else:
+            gap = (seq - self.expected) & 0xFF
+            if gap >= 255 - self.WINDOW:  # behind the newest frame (by 255 - gap)
+                if seq in self._missing:
+                    self._missing.discard(seq)
+                    self.lost -= 1
+                    self.reordered += 1
+                elif 255 - gap <= self._span:
+                    self.duplicates += 1
+                else:
+                    self.reordered += 1  # from before the resync: nothing to take back
+                return 0
             self.lost += gap
-        self.expected = (frame.seq + 1) & 0xFF
+            self._missing.update((self.expected + k) & 0xFF
+                                 for k in range(max(0, gap - self.WINDOW), gap))
+            self._span = min(self.WINDOW, self._span + gap + 1)
+            if self._missing:
+                self._missing = {m for m in self._missing if (seq - m) & 0xFF <= self.WINDOW}
+        self.expected = (seq + 1) & 0xFF
         return gap

@@ -87,6 +87,19 @@ def test_unplug_releases_and_replug_resumes_within_2_s(loop, controller, sim, cl
     assert controller.tracker.lost == 0
 
 
+def test_link_status_counts_a_repeat_and_a_swap_as_such_not_as_losses(loop, controller, sim):
+    """The last frame again, then the next two swapped: 0 lost (it used to say 511)."""
+    loop.until(connected(controller))
+    loop.run(0.2)
+    n = sim._seq  # the number of the simulator's next frame
+    sim.inject(p.encode_frame(p.Heartbeat(), n - 1))
+    sim.inject(p.encode_frame(p.Heartbeat(), n + 1) + p.encode_frame(p.Heartbeat(), n))
+    sim._seq = (n + 2) & 0xFF
+    loop.run(0.5)
+    link = controller.status()["link"]
+    assert (link["lost_frames"], link["duplicates"], link["reordered"]) == (0, 1, 1)
+
+
 @pytest.mark.parametrize("cut", [1, 2, 5, 10, 16])
 def test_unplug_in_the_middle_of_a_frame(loop, controller, sim, cut):
     """A frame cut at any byte by the unplug is never accepted, nor glued to the next one."""

@@ -204,18 +204,120 @@ def test_axes_normalized():
     assert a.normalized[3] == pytest.approx(0.5, abs=1e-4)
 
 
+def hb(seq, msg=p.Heartbeat()):
+    return p.Frame(msg.TYPE, seq & 0xFF, msg)
+
+
+def track(seqs, tracker=None):
+    """(tracker, what update returned for each) after feeding heartbeats numbered ``seqs``."""
+    t = tracker or p.SequenceTracker()
+    return t, [t.update(hb(s)) for s in seqs]
+
+
 def test_sequence_tracker_counts_gaps_wrap_and_restarts():
     t = p.SequenceTracker()
+    assert t.update(hb(0, p.Hello())) == 0
+    assert track([1, 2, 5, 6], t)[1] == [0, 0, 2, 0]
+    assert track([150, 254, 255, 0, 1], t)[1] == [143, 103, 0, 0, 0]  # wraps 255 -> 0
+    assert t.update(hb(0, p.Hello())) == 0  # the board restarted: not a loss
+    assert (t.lost, t.restarts, t.reordered, t.duplicates) == (248, 1, 0, 0)
+    assert t.update(hb(1)) == 0
 
-    def f(seq, msg=p.Heartbeat()):
-        return p.Frame(msg.TYPE, seq, msg)
 
-    assert t.update(f(0, p.Hello())) == 0
-    assert [t.update(f(s)) for s in (1, 2, 5, 6)] == [0, 0, 2, 0]
-    assert [t.update(f(s)) for s in (254, 255, 0, 1)] == [247, 0, 0, 0]  # wraps 255 -> 0
-    assert t.update(f(0, p.Hello())) == 0  # the board restarted: not a loss
-    assert (t.lost, t.restarts) == (249, 1)
-    assert t.update(f(1)) == 0
+@pytest.mark.parametrize("seqs, lost, reordered, duplicates", [
+    ([5, 5], 0, 0, 1),  # was 255 lost
+    ([5, 6, 6, 6, 7], 0, 0, 2),
+    ([5, 7, 6, 8], 0, 1, 0),  # was 256 lost
+    ([254, 0, 255, 1], 0, 1, 0),  # swapped across the wrap
+    ([5, 9, 8, 6, 7, 10], 0, 3, 0),
+    ([5, 7, 6, 6, 7], 0, 1, 2),
+    ([5, 9], 3, 0, 0),  # a real gap
+    ([5, 9, 7], 2, 1, 0),  # one of the three came late
+    ([5, 9, 5], 3, 0, 1),
+    ([100, 100 - 64], 0, 1, 0),  # 64 back: late (from before the tracker started)
+    ([100, 100 - 65], 190, 0, 0),  # 65 back: a gap that wrapped around
+    ([100, 100 + 191], 190, 0, 0),  # the longest gap counted as one: 190 frames
+    ([100, 100 + 192], 0, 1, 0),  # one more reads as 64 back
+])
+def test_sequence_tracker_tells_late_and_repeated_frames_from_gaps(seqs, lost, reordered,
+                                                                   duplicates):
+    t, _ = track(seqs)
+    assert (t.lost, t.reordered, t.duplicates) == (lost, reordered, duplicates)
+
+
+def test_a_late_frame_takes_its_loss_back():
+    t, gaps = track([5, 7])
+    assert gaps == [0, 1] and t.lost == 1
+    assert t.update(hb(6)) == 0 and (t.lost, t.reordered) == (0, 1)
+    assert t.update(hb(8)) == 0 and t.lost == 0
+
+
+def test_a_frame_missing_longer_than_the_window_stays_lost():
+    t, _ = track([0, *range(2, 67)])
+    assert t.lost == 1
+    t.update(hb(1))  # 65 back: read as a wrapped gap, the documented ambiguity
+    assert t.lost == 1 + 190 and t.reordered == 0
+
+
+def test_resync_forgets_what_was_missing():
+    t, _ = track([5, 9])
+    t.expected = None  # what the controller does on reopening the port
+    t, _ = track([40, 7, 40], t)  # 7 was once missing, but that was before the resync
+    assert (t.lost, t.reordered, t.duplicates) == (3, 1, 1)
+
+
+@st.composite
+def link(draw):
+    """Heartbeat numbers as a lossy, reordering, repeating link delivers them, unwrapped.
+
+    Kept runs of 1-20 frames alternate with dropped runs of 0-50 (so no gap reaches 256 - 64);
+    frames are shuffled within blocks of 16 numbers and some repeated later in their block (so
+    none arrives more than 16 behind the newest); the first frame comes first and is not lost.
+    """
+    runs = draw(st.lists(st.tuples(st.integers(1, 20), st.integers(0, 50)), min_size=1,
+                         max_size=40))
+    kept, n = [], 0
+    for keep, drop in runs:
+        kept += range(n, n + keep)
+        n += keep + drop
+    blocks: dict[int, list[int]] = {}
+    for s in kept[1:]:
+        blocks.setdefault(s // 16, []).append(s)
+    delivered = [0]
+    for block in blocks.values():
+        order = list(draw(st.permutations(block)))
+        for _ in range(draw(st.integers(0, 3))):
+            i = draw(st.integers(0, len(order) - 1))
+            order.insert(draw(st.integers(i + 1, len(order))), order[i])
+        delivered += order
+    return draw(st.integers(0, 255)), delivered
+
+
+LINK_EXAMPLES = []
+
+
+@settings(max_examples=300, deadline=None)
+@given(link())
+def test_sequence_tracker_counts_exactly_the_frames_never_delivered(stream):
+    """Whatever the order and repeats, lost = the numbers never delivered, and every late or
+    repeated frame is counted once as reordered or duplicate."""
+    start, delivered = stream
+    LINK_EXAMPLES.append(len(delivered))
+    t, _ = track([start + s for s in delivered])
+    seen, newest, reordered = set(), -1, 0
+    for s in delivered:
+        reordered += s not in seen and s < newest
+        seen.add(s)
+        newest = max(newest, s)
+    assert t.lost == newest + 1 - len(seen)
+    assert t.duplicates == len(delivered) - len(seen)
+    assert t.reordered == reordered
+
+
+def test_report_link_examples(capsys):
+    with capsys.disabled():
+        print(f"\nsequence tracker: {len(LINK_EXAMPLES)} hypothesis streams, "
+              f"{sum(LINK_EXAMPLES)} frames")
 
 
 def test_codec_module_does_no_io():
