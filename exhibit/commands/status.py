@@ -97,6 +97,14 @@ def summary(data: dict, path: Path, age: float, fresh: bool) -> str:
                          f"{url:<{width}}  {printable(device['state'])}"))
     else:
         rows.append(("devices", "none"))
+    failed = [f for f in (data.get("scenes_failed") or []) if isinstance(f, dict)]
+    problems = [p for p in (data.get("problems") or []) if isinstance(p, str)]
+    for i, problem in enumerate(problems[:20]):
+        rows.append(("problems" if i == 0 else "", printable(problem)[:300]))
+    if failed and not problems:
+        rows.append(("problems", f"{len(failed)} scene(s) failed: "
+                                 + printable(", ".join(str(f.get("scene")) for f in failed))))
+    rows.append(("frames", f"{get('frames')} drawn, {get('frame_errors')} failed"))
     rss = data.get("rss_kb")
     rows.append(("process", f"{get('gl_errors')} GL errors, "
                             f"{'?' if rss is None else f'{rss / 1024:.0f} MB'} resident, "

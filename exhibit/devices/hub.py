@@ -14,7 +14,7 @@ from __future__ import annotations
 import logging
 import time
 
-from exhibit.devices.base import Backend, Event, State
+from exhibit.devices.base import Backend, DeviceError, Event, State
 from exhibit.devices.config import DeviceConfig
 from exhibit.devices.keyboard import KeyboardBackend
 from exhibit.devices.url import backend_for_url
@@ -54,13 +54,15 @@ class DeviceSet:
             except Exception:  # noqa: BLE001
                 pass
             count = self._errors[i] = self._errors.get(i, 0) + 1
+            known = isinstance(exc, DeviceError)  # a problem a person fixes: no traceback
             if (i, type(exc).__name__) not in self._logged:
                 self._logged.add((i, type(exc).__name__))
-                log.error("device %s (%s): backend error, reopened every %g s (this traceback "
-                          "is logged once; the count is in its status)", b.name, b.url, RETRY_S,
-                          exc_info=exc)
+                log.error("device %s (%s): %s, retried every %g s (logged once; the count is "
+                          "in its status)", b.name, b.url,
+                          exc if known else "backend error", RETRY_S,
+                          exc_info=None if known else exc)
             b.state = State.LOST
-            b.detail = (f"backend error: {type(exc).__name__}: {exc}"
+            b.detail = ((f"{exc}" if known else f"backend error: {type(exc).__name__}: {exc}")
                         + (f" ({count} so far)" if count > 1 else ""))
             self._broken[i] = self.clock() + RETRY_S
             return None

@@ -105,8 +105,13 @@ def write_health(path: str | os.PathLike, data: Mapping) -> None:
     text = json.dumps(_finite(dict(data)), allow_nan=False, separators=(",", ":")) + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
     try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_CLOEXEC, 0o644)
+        try:
+            fd = os.open(tmp, flags, 0o644)
+        except FileExistsError:  # left by a crash, or planted: unlink never follows a link
+            os.unlink(tmp)
+            fd = os.open(tmp, flags, 0o644)
         try:
             os.fchmod(fd, 0o644)  # the service's UMask would make it private to the kiosk user
             view = memoryview(text.encode("utf-8"))

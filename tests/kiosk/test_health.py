@@ -12,6 +12,7 @@ import time
 
 import pytest
 
+from exhibit.cli import main
 from exhibit.kiosk import health
 from exhibit.kiosk.health import HealthError, freshness, read_health, write_health
 
@@ -346,3 +347,25 @@ def test_status_survives_extreme_but_valid_numbers(cli, tmp_path):
     assert result.returncode == 1  # pid 2**53 is not running
     assert "exhibit kiosk: STALE" in result.stdout and "STALE" in result.stderr
     assert json.loads(status(cli, path, "--json").stdout)["extra"] == 10**4000
+
+
+def test_status_shows_skipped_scenes_and_problems_safely(tmp_path, capsys):
+    path = tmp_path / "health.json"
+    write_health(path, sample(scenes_failed=[{"scene": "hopf", "reason": "boom"}],
+                              problems=["scene hopf skipped: \x1b[2Jboom"], frames=120,
+                              frame_errors=3))
+    assert main(["status", "--file", str(path)]) == 0
+    out = capsys.readouterr().out
+    assert "scene hopf skipped: boom" in out and "\x1b" not in out
+    assert "120 drawn, 3 failed" in out
+
+
+def test_the_health_file_is_not_written_through_a_planted_link(tmp_path):
+    path = tmp_path / "health.json"
+    victim = tmp_path / "victim"
+    victim.write_text("keep")
+    victim.chmod(0o600)
+    (tmp_path / f".health.json.{os.getpid()}.tmp").symlink_to(victim)
+    write_health(path, sample())
+    assert victim.read_text() == "keep" and (victim.stat().st_mode & 0o777) == 0o600
+    assert read_health(path)["scene"] == sample()["scene"]
