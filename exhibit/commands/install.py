@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
+from exhibit.resources import shipped
 
 HELP = "install the kiosk's systemd units and udev rules (--root DIR to stage, --dry-run to look)"
 
@@ -32,7 +33,7 @@ USER = "exhibit"
 HOME = "/var/lib/exhibit"
 #: groups exhibit.service's SupplementaryGroups= names; a missing one stops the service (216/GROUP)
 GROUPS = ("render", "video", "dialout")
-SOURCE_DIR = Path(__file__).resolve().parents[2] / "systemd"
+SOURCE_DIR = shipped("systemd")
 #: file in systemd/ -> where it goes, relative to the root
 FILES = {
     "exhibit.service": "etc/systemd/system/exhibit.service",

@@ -32,6 +32,7 @@ from exhibit.devices.base import DeviceError, Kind
 from exhibit.devices.mapping import PARAMS, Binding, MappingConfig, ParamLimits
 from exhibit.devices.url import backend_for_url
 from exhibit.errors import ConfigError
+from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import (MAX_ANGLE, MAX_DISTANCE, MIN_DISTANCE, Distance, Name, Number,
                                   Numbers, Text)
@@ -39,7 +40,7 @@ from exhibit.schema.types import (MAX_ANGLE, MAX_DISTANCE, MIN_DISTANCE, Distanc
 __all__ = ["DeviceConfig", "DeviceConfigError", "load_config", "parse_config", "DEFAULT_CONFIG",
            "STEP_LIMITS", "RATE_LIMITS"]
 
-DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "devices" / "default.toml"
+DEFAULT_CONFIG = shipped("configs", "devices", "default.toml")
 _INPUTS = {"axis": Kind.ABS, "delta": Kind.REL, "button": Kind.BUTTON}
 #: The largest step per detent and rate at full deflection: degrees for angles, r = 1/d for the
 #: sensor (whose whole range is [0, 1/sensor_min_distance]).

@@ -28,13 +28,14 @@ from pydantic import Field as PydanticField
 from exhibit.devices.base import (Backend, Capabilities, DeviceError, Event, Kind, State,
                                   release_events)
 from exhibit.errors import ConfigError
+from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Integer, Name, Number, Text
 
 __all__ = ["Field", "Report", "Layout", "load_layouts", "load_layout", "find_layout",
            "HidBackend", "LAYOUT_DIR"]
 
-LAYOUT_DIR = Path(__file__).resolve().parents[2] / "configs" / "devices"
+LAYOUT_DIR = shipped("configs", "devices")
 
 _KINDS = {"axis": Kind.ABS, "delta": Kind.REL, "buttons": Kind.BUTTON}
 _TYPES = {"i8": "b", "u8": "B", "i16": "<h", "u16": "<H", "i16be": ">h", "u16be": ">H"}

@@ -15,10 +15,11 @@ from pathlib import Path
 
 from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
+from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
 from exhibit.schema.types import Integer, Number, Numbers, QuitKeys, Resolution, Text
 
-DEFAULT_CONFIG = Path(__file__).resolve().parents[2] / "configs" / "kiosk.toml"
+DEFAULT_CONFIG = shipped("configs", "kiosk.toml")
 
 __all__ = ["ConfigError", "DEFAULT_CONFIG", "KioskConfig", "load_kiosk_config"]
 

@@ -6,13 +6,14 @@ import os
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
+from exhibit.resources import shipped
 from exhibit.scenes.base import Parameter, Preset, Scene
 from exhibit.scenes import collision, gallery, hopf, offsets
 from exhibit.scenes.toml_scene import load_scene_file
 
 #: Where curators' scene files live: the repository's configs/scenes, then every folder in
 #: $EXHIBIT_SCENE_PATH (separated by ':').
-BUILTIN_SCENE_DIR = Path(__file__).resolve().parents[2] / "configs" / "scenes"
+BUILTIN_SCENE_DIR = shipped("configs", "scenes")
 #: Problems met loading scene files: (path, message). Shown by `exhibit scenes`; the other scenes
 #: still load, so one broken file never takes the exhibit down.
 LOAD_ERRORS: list[tuple[str, str]] = []
