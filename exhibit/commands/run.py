@@ -14,8 +14,9 @@ HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--config", help="kiosk config (default: $EXHIBIT_CONFIG or "
-                                         "configs/kiosk.toml)")
+    parser.add_argument("--config", help="site config over the shipped defaults (default: "
+                                         "$EXHIBIT_CONFIG, else /etc/exhibit/kiosk.toml if it "
+                                         "exists)")
     parser.add_argument("--windowed", action="store_true", help="a window instead of fullscreen")
     parser.add_argument("--duration", metavar="S", help="stop after S seconds (tests, staff)")
     parser.add_argument("--screenshot", metavar="FILE.png", help="save the last frame on exit")

@@ -1,10 +1,15 @@
-"""The kiosk's configuration: configs/kiosk.toml and everything it points to, checked as a whole.
+"""The kiosk's configuration: the shipped defaults, a site file over them, and everything they
+point to, checked as a whole.
 
-Every problem is collected (not just the first) and reported as ``file: key: reason``, so an
-installer fixes a config in one pass. The fields are typed once in :mod:`exhibit.schema`, the same
-types the running kiosk relies on, so whatever this accepts can be run. Paths in the file are relative to the file itself.
-Environment variables override the paths: EXHIBIT_CONFIG (this file), EXHIBIT_DEVICES_CONFIG,
-EXHIBIT_ATTRACT_DIR.
+The site file (``--config FILE``, else $EXHIBIT_CONFIG, else /etc/exhibit/kiosk.toml when it
+exists) holds only the keys it changes; every other value comes from the shipped
+configs/kiosk.toml. A relative path resolves against the file that names it, else against the
+shipped files. $EXHIBIT_DEVICES_CONFIG and $EXHIBIT_ATTRACT_DIR override those two paths.
+
+Every problem is collected (not just the first) and reported as ``file: key: reason`` against
+the file that holds the key, so an installer fixes a config in one pass. The fields are typed
+once in :mod:`exhibit.schema`, the same types the running kiosk relies on, so whatever this
+accepts can be run.
 """
 
 from __future__ import annotations
@@ -17,11 +22,15 @@ from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
+from exhibit.schema.layers import leaves, merge, source_of
 from exhibit.schema.types import Integer, Number, Numbers, QuitKeys, Resolution, Text
 
 DEFAULT_CONFIG = shipped("configs", "kiosk.toml")
+#: Where an installed kiosk keeps its site settings (docs/DEPLOYMENT.md).
+SITE_CONFIG = Path("/etc/exhibit/kiosk.toml")
 
-__all__ = ["ConfigError", "DEFAULT_CONFIG", "KioskConfig", "load_kiosk_config"]
+__all__ = ["ConfigError", "DEFAULT_CONFIG", "SITE_CONFIG", "KioskConfig", "load_kiosk_config",
+           "site_config_path"]
 
 PathText = Text(4096)
 
@@ -90,66 +99,118 @@ class KioskConfig:
     drift_px: float = 12.0
     drift_period_s: float = 600.0
     quit_keys: tuple[str, ...] = ()
+    #: the site file layered over the shipped defaults (None: the defaults alone)
+    site: Path | None = None
+    #: every setting as "section.key" -> (effective value, the file it came from)
+    sources: dict = field(default_factory=dict)
 
 
-def _path(problems: list[str], config: Path, raw: str, key: str, env: str, want_dir: bool
+def site_config_path(path: str | Path | None = None) -> Path | None:
+    """The site file: the argument, else $EXHIBIT_CONFIG, else /etc/exhibit/kiosk.toml if it
+    exists; None when the shipped defaults stand alone."""
+    chosen = path or os.environ.get("EXHIBIT_CONFIG")
+    if not chosen:
+        return SITE_CONFIG if SITE_CONFIG.exists() else None
+    chosen = Path(chosen)
+    try:
+        if chosen.resolve() == DEFAULT_CONFIG.resolve():
+            return None
+    except OSError:
+        pass
+    return chosen
+
+
+def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_dir: bool
           ) -> Path | None:
-    """A referenced file or folder: $ENV if set, else relative to the config file."""
+    """A referenced file or folder: $ENV if set, else relative to the file that names it, else
+    relative to the shipped configs."""
     if os.environ.get(env):
         path, where = Path(os.environ[env]), f"{key} (from ${env})"
     else:
-        path, where = (config.parent / raw), key
+        path, where = origin.parent / raw, key
+        fallback = DEFAULT_CONFIG.parent / raw
+        if check_file_ref(path, want_dir) and not check_file_ref(fallback, want_dir):
+            path = fallback
     reason = check_file_ref(path, want_dir)
     if reason:
-        problems.append(f"{config}: {where}: {reason}")
+        problems.append(f"{origin}: {where}: {reason}")
         return None
     return path
 
 
 def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True) -> KioskConfig:
-    """Read and check the kiosk config; raises ConfigError listing every problem found.
+    """Read and check the shipped defaults with the site file over them; raises ConfigError
+    listing every problem found.
 
     With ``check_linked`` the device config, the attract timelines and the scene files are
     loaded and checked too (what `exhibit check-config` and `exhibit run` do).
     """
-    path = Path(path or os.environ.get("EXHIBIT_CONFIG") or DEFAULT_CONFIG)
+    site = site_config_path(path)
     problems: list[str] = []
-    try:
-        spec = validate(KioskFile, read_toml(path), str(path))
-    except ConfigError as exc:
-        problems.extend(exc.problems)
-        spec = None
+    layers = []
+    for file in (DEFAULT_CONFIG, site):
+        if file is None:
+            continue
+        try:
+            layers.append((file, read_toml(file)))
+        except ConfigError as exc:
+            problems.extend(exc.problems)
+    doc, origin = merge(layers)
+    last = site or DEFAULT_CONFIG
+    spec = None
+    if not problems:
+        try:
+            spec = validate(KioskFile, doc, lambda loc: source_of(origin, loc, last))
+        except ConfigError as exc:
+            problems.extend(exc.problems)
     known, scene_problems = scenes.load()
-    values: dict = {"path": path}
+
+    def where(*key: str) -> Path:
+        return source_of(origin, key, last)
+
+    values: dict = {"path": site or DEFAULT_CONFIG, "site": site}
     if spec is not None:
         d, c = spec.display, spec.content
         values.update(fullscreen=d.fullscreen, monitor=d.monitor, size=tuple(d.size),
                       vsync=d.vsync, samples=d.samples, fps_limit=d.fps_limit, hud=d.hud)
         scene_list = c.scenes if c.scenes is not None else sorted(known)
         if not scene_list:
-            problems.append(f"{path}: content.scenes: must name at least one scene")
+            problems.append(f"{where('content', 'scenes')}: content.scenes: must name at least "
+                            "one scene")
         for name in scene_list:
             if name not in known:
-                problems.append(f"{path}: content.scenes: no scene named {name!r} (scenes: "
-                                f"{', '.join(sorted(known))})")
+                problems.append(f"{where('content', 'scenes')}: content.scenes: no scene named "
+                                f"{name!r} (scenes: {', '.join(sorted(known))})")
         values["scenes"] = tuple(s for s in scene_list if s in known) or tuple(sorted(known))
         start = c.start_scene if c.start_scene is not None else values["scenes"][0]
         if start not in values["scenes"]:
-            problems.append(f"{path}: content.start_scene: {start!r} is not one of "
-                            "content.scenes")
+            problems.append(f"{where('content', 'start_scene')}: content.start_scene: {start!r} "
+                            "is not one of content.scenes")
         values["start_scene"] = start
         for name in c.resolution:
             if name not in known:
-                problems.append(f"{path}: content.resolution.{name}: no such scene")
+                problems.append(f"{where('content', 'resolution', name)}: "
+                                f"content.resolution.{name}: no such scene")
         values["resolution"] = {k: v for k, v in c.resolution.items() if k in known}
-        values["devices_config"] = _path(problems, path, spec.devices.config, "devices.config",
+        values["devices_config"] = _path(problems, where("devices", "config"),
+                                         spec.devices.config, "devices.config",
                                          "EXHIBIT_DEVICES_CONFIG", False)
-        values["attract_dir"] = _path(problems, path, spec.attract.timelines,
-                                      "attract.timelines", "EXHIBIT_ATTRACT_DIR", True)
+        values["attract_dir"] = _path(problems, where("attract", "timelines"),
+                                      spec.attract.timelines, "attract.timelines",
+                                      "EXHIBIT_ATTRACT_DIR", True)
         values.update(idle_timeout_s=spec.attract.idle_timeout_s, blend_s=spec.attract.blend_s,
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
                       quit_keys=spec.maintenance.quit_keys)
+        values["sources"] = {".".join(key): (value, origin.get(key, last))
+                             for key, value in leaves(doc)}
+        for key, env in (("devices.config", "EXHIBIT_DEVICES_CONFIG"),
+                         ("attract.timelines", "EXHIBIT_ATTRACT_DIR")):
+            field_name = "devices_config" if key == "devices.config" else "attract_dir"
+            if values[field_name] is not None:
+                values["sources"][key] = (str(values[field_name]),
+                                          f"${env}" if os.environ.get(env)
+                                          else values["sources"].get(key, (None, last))[1])
 
     if check_linked and spec is not None:
         if values["devices_config"] is not None:
@@ -164,8 +225,8 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
             from exhibit.kiosk.attract import timeline_paths, load_timeline
             timelines = timeline_paths(values["attract_dir"])
             if not timelines:
-                problems.append(f"{path}: attract.timelines: {values['attract_dir']} has no "
-                                "*.toml timelines")
+                problems.append(f"{where('attract', 'timelines')}: attract.timelines: "
+                                f"{values['attract_dir']} has no *.toml timelines")
             for timeline_path in timelines:
                 try:
                     load_timeline(timeline_path)

@@ -58,7 +58,9 @@ def _allowed(model: type[BaseModel], loc: tuple) -> list[str] | None:
     return sorted(current.model_fields)
 
 
-def problems(exc: ValidationError, source: str, model: type[BaseModel]) -> list[str]:
+def problems(exc: ValidationError, source, model: type[BaseModel]) -> list[str]:
+    """One ``file: key: reason`` line per error; ``source`` is a file name, or a function from
+    an error's location to the file that holds that key (layered configs)."""
     out = []
     for error in exc.errors(include_url=False):
         loc, kind = tuple(error["loc"]), error["type"]
@@ -77,13 +79,16 @@ def problems(exc: ValidationError, source: str, model: type[BaseModel]) -> list[
         else:
             reason = error["msg"]
         key = where(loc)
-        out.append(f"{source}: {key}: {reason}" if key else f"{source}: {reason}")
+        file = source(loc) if callable(source) else source
+        out.append(f"{file}: {key}: {reason}" if key else f"{file}: {reason}")
     return out
 
 
-def validate(model: type[M], data: Any, source: str, context: dict | None = None) -> M:
-    """``model`` from parsed data; ConfigError lists every problem as ``source: key: reason``."""
+def validate(model: type[M], data: Any, source, context: dict | None = None) -> M:
+    """``model`` from parsed data; ConfigError lists every problem as ``source: key: reason``
+    (``source`` as for :func:`problems`)."""
     try:
         return model.model_validate(data, context=context)
     except ValidationError as exc:
-        raise ConfigError(problems(exc, str(source), model)) from None
+        raise ConfigError(problems(exc, source if callable(source) else str(source), model)) \
+            from None

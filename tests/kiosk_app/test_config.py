@@ -126,3 +126,82 @@ def test_run_refuses_a_bad_config_without_traceback(tree, cli):
     result = cli("run", "--config", str(tree / "kiosk.toml"))
     assert result.returncode == 2
     assert "display.monitor" in result.stderr and "Traceback" not in result.stderr
+
+
+# ---- layered site configuration -------------------------------------------------------------
+
+def test_a_site_file_of_one_key_changes_only_that_key(tmp_path, capsys):
+    site = tmp_path / "kiosk.toml"
+    site.write_text("[display]\nmonitor = 1\n")
+    shipped = load_kiosk_config(CONFIGS / "kiosk.toml")
+    config = load_kiosk_config(site)
+    assert config.monitor == 1 and config.site == site
+    assert (config.scenes, config.resolution, config.quit_keys, config.devices_config) == \
+        (shipped.scenes, shipped.resolution, shipped.quit_keys, shipped.devices_config)
+    assert main(["check-config", str(site)]) == 0
+    assert "over the shipped defaults" in capsys.readouterr().out
+
+
+def test_tables_merge_key_by_key(tmp_path):
+    site = tmp_path / "kiosk.toml"
+    site.write_text("[content]\nresolution = { hopf = 32 }\n")
+    assert load_kiosk_config(site).resolution == {"hopf": 32, "collision": 40}
+
+
+def test_relative_paths_resolve_against_the_naming_file_else_the_shipped_files(tmp_path):
+    (tmp_path / "museum-devices.toml").write_text('[devices.k]\nurl = "keyboard://"\n')
+    site = tmp_path / "kiosk.toml"
+    site.write_text('[devices]\nconfig = "museum-devices.toml"\n'
+                    '[attract]\ntimelines = "attract"\n')  # not here: the shipped folder
+    config = load_kiosk_config(site)
+    assert config.devices_config == tmp_path / "museum-devices.toml"
+    assert config.attract_dir == CONFIGS / "attract"
+
+
+def test_problems_name_the_file_that_holds_the_key(tmp_path):
+    site = tmp_path / "kiosk.toml"
+    site.write_text("[display]\nmonitor = 99\n[burn_in]\ncolour = 1\n")
+    with pytest.raises(ConfigError) as info:
+        load_kiosk_config(site)
+    assert f"{site}: display.monitor: must lie in [0, 16], got 99" in info.value.problems
+    assert any(p.startswith(f"{site}: burn_in.colour: unknown key") for p in info.value.problems)
+
+
+def test_show_prints_every_effective_value_with_its_file(tmp_path, capsys):
+    site = tmp_path / "kiosk.toml"
+    site.write_text("[attract]\nidle_timeout_s = 30\n")
+    assert main(["check-config", str(site), "--show"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert any(line.startswith("attract.idle_timeout_s = 30 ") and line.endswith(f"# {site}")
+               for line in lines), lines
+    assert any(line.startswith("display.vsync = true ") and line.endswith("kiosk.toml")
+               and str(site) not in line for line in lines)
+    assert any(line.startswith("devices.config = ") for line in lines)
+
+
+def test_etc_exhibit_is_the_default_site_file(tmp_path, monkeypatch):
+    from exhibit.kiosk import config as kiosk_config
+    site = tmp_path / "etc-kiosk.toml"
+    site.write_text("[display]\nsamples = 0\n")
+    monkeypatch.delenv("EXHIBIT_CONFIG", raising=False)
+    monkeypatch.setattr(kiosk_config, "SITE_CONFIG", site)
+    assert load_kiosk_config().samples == 0
+    monkeypatch.setattr(kiosk_config, "SITE_CONFIG", tmp_path / "absent.toml")
+    assert load_kiosk_config().site is None
+
+
+def test_device_commands_read_the_kiosk_config(tmp_path, cli):
+    (tmp_path / "museum-devices.toml").write_text('[devices.only-keys]\nurl = "keyboard://"\n')
+    site = tmp_path / "kiosk.toml"
+    site.write_text('[devices]\nconfig = "museum-devices.toml"\n')
+    for args, env in ((["--config", str(site)], {}), ([], {"EXHIBIT_CONFIG": str(site)})):
+        import json
+        import os
+        import subprocess
+        import sys
+        result = subprocess.run([sys.executable, "-m", "exhibit", "devices", "--json", "--wait",
+                                 "0", *args], capture_output=True, text=True,
+                                env={**os.environ, **env})
+        assert result.returncode == 0, result.stderr
+        names = [d["name"] for d in json.loads(result.stdout)["configured"]]
+        assert names == ["only-keys"]
