@@ -1,12 +1,13 @@
 """`exhibit install [--root DIR] [--prefix DIR] [--dry-run]`: put the kiosk's systemd units, udev
-rules and module list in place (docs/DEPLOYMENT.md).
+rules, module list and kernel settings in place (docs/DEPLOYMENT.md).
 
 The files come from systemd/ in this checkout with the install prefix (where the checkout and its
 .venv live; /opt/exhibit by default) substituted. Run as root without --root it also does the
-rest: creates the `exhibit` system user, loads the USB-serial modules, reloads udev and systemd,
-and enables the units; it does not start them, since the kiosk takes over tty1. With --root
-(staging an image, or reviewing) or as another user it writes under DIR and prints the exact
-commands still to run on the target. --dry-run writes and runs nothing and says what it would do.
+rest: creates the `exhibit` system user, loads the USB-serial modules, applies the kernel settings
+(SysRq off), reloads udev and systemd, and enables the units; it does not start them, since the
+kiosk takes over tty1. With --root (staging an image, or reviewing) or as another user it writes
+under DIR and prints the exact commands still to run on the target. --dry-run writes and runs
+nothing and says what it would do.
 """
 
 from __future__ import annotations
@@ -40,11 +41,17 @@ FILES = {
     "exhibit-kiosk.service": "etc/systemd/system/exhibit-kiosk.service",
     "99-exhibit.rules": "etc/udev/rules.d/99-exhibit.rules",
     "exhibit-modules.conf": "etc/modules-load.d/exhibit.conf",
+    "exhibit-sysctl.conf": "etc/sysctl.d/90-exhibit.conf",
 }
 UNITS = ("exhibit.service", "exhibit-kiosk.service")
 # Folders the service cannot see (ProtectHome=, PrivateTmp=) or that do not survive a reboot.
 _HIDDEN = ("/home", "/root", "/run/user", "/tmp", "/var/tmp", "/run")
 _SAFE_PATH = re.compile(r"^/[A-Za-z0-9._+/-]*$")
+#: What exhibit-kiosk.service needs on the machine: (program, Debian package, why).
+_DISPLAY_PROGRAMS = (
+    ("/usr/bin/cage", "cage", "exhibit-kiosk.service runs it"),
+    ("/usr/bin/Xwayland", "xwayland", "Debian's cage exits at start without it"),
+)
 
 
 @dataclass
@@ -196,6 +203,7 @@ def steps(need_user: bool = True) -> list[list[str]]:
                          "--comment", "exhibit kiosk", USER])
     commands += [
         ["modprobe", "-a", "usbserial", "cdc_acm"],
+        ["sysctl", "--system"],  # kernel.sysrq = 0 now; systemd-sysctl applies it at each boot
         ["udevadm", "control", "--reload"],
         ["udevadm", "trigger", "--action=add", "--subsystem-match=tty",
          "--subsystem-match=hidraw", "--subsystem-match=usb"],
@@ -273,8 +281,9 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
         if result.returncode != 0:
             lines = (result.stderr or result.stdout or "").strip().splitlines()
             _failed(command, lines[-1] if lines else f"exit code {result.returncode}", todo, out)
-    if not Path("/usr/bin/cage").exists():
-        out("note: /usr/bin/cage is missing: apt-get install cage (exhibit-kiosk.service runs it)")
+    for program, package, why in _DISPLAY_PROGRAMS:
+        if not Path(program).exists():
+            out(f"note: {program} is missing: apt-get install {package} ({why})")
     out("\ninstalled and enabled. Start now (takes over tty1) or reboot:\n"
         "  systemctl start exhibit.service\n"
         "then check: systemctl status exhibit; journalctl -u exhibit -b; exhibit status")

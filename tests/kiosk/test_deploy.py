@@ -1,6 +1,6 @@
 """Deployment files: the units `exhibit install` writes pass `systemd-analyze verify` and score
 at most 2.5 in `systemd-analyze security`; the udev rules parse and cover the shipped devices; the
-install command's modes, errors and the order of its steps.
+kernel settings turn SysRq off; the install command's modes, errors and the order of its steps.
 (tests/deploy runs cage and the kiosk under the units' sandbox.)"""
 
 from __future__ import annotations
@@ -139,6 +139,13 @@ def test_hardening_both_units_share(staged):
         assert "PrivateNetwork" not in service, name
     app = units(staged / "etc/systemd/system/exhibit.service")["Service"]
     assert app["PrivateUsers"] == ["yes"]
+
+
+def test_sysrq_is_turned_off(staged):
+    text = (staged / "etc/sysctl.d/90-exhibit.conf").read_text()
+    settings = dict(line.replace(" ", "").split("=", 1) for line in text.splitlines()
+                    if line.strip() and not line.startswith(("#", ";")))
+    assert settings == {"kernel.sysrq": "0"}
 
 
 def test_app_unit_settings(staged):
@@ -449,8 +456,9 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
     assert inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
                         user_exists=lambda name: False, group_exists=lambda name: True) == 0
     assert [c[:2] for c in runner.commands] == [
-        ["useradd", "--system"], ["modprobe", "-a"], ["udevadm", "control"],
-        ["udevadm", "trigger"], ["systemctl", "daemon-reload"], ["systemctl", "enable"]]
+        ["useradd", "--system"], ["modprobe", "-a"], ["sysctl", "--system"],
+        ["udevadm", "control"], ["udevadm", "trigger"], ["systemctl", "daemon-reload"],
+        ["systemctl", "enable"]]
     assert runner.commands[0][-1] == "exhibit"
     assert all((root / dest).is_file() for dest in inst.FILES.values())
     # The user exists the second time: no useradd.
@@ -492,3 +500,18 @@ def cli(capsys):
         return subprocess.CompletedProcess(args, code, out, err)
     return run
 
+
+def test_perform_names_a_missing_compositor_or_xwayland(tmp_path, prefix, monkeypatch):
+    """Debian's cage 0.1.4 exits with `Cannot find Xwayland binary` when xwayland is missing,
+    even for a Wayland client: the installer says so instead of leaving a black screen."""
+    monkeypatch.setattr(inst, "_DISPLAY_PROGRAMS", (
+        (str(tmp_path / "cage"), "cage", "exhibit-kiosk.service runs it"),
+        (str(tmp_path / "Xwayland"), "xwayland", "Debian's cage exits at start without it")))
+    root = tmp_path / "root"
+    root.mkdir()
+    lines = []
+    inst.install(root, prefix, perform=True, out=lines.append, runner=Runner(),
+                 user_exists=lambda name: True, group_exists=lambda name: True)
+    assert f"note: {tmp_path}/Xwayland is missing: apt-get install xwayland (Debian's cage " \
+           "exits at start without it)" in lines
+    assert any(line.startswith(f"note: {tmp_path}/cage is missing") for line in lines)
