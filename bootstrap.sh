@@ -26,6 +26,8 @@ apt_test=(
   gcc make pkg-config gcc-avr binutils-avr avr-libc arduino-core-avr libsimavr-dev libelf-dev  # firmware: host and AVR builds, simavr harness (tests/firmware)
   xvfb                     # renderer: window tests under Xvfb
   systemd                  # kiosk: systemd-analyze verify/security on the units (tests/kiosk)
+  cage xwayland grim       # deploy: the kiosk on cage as in docs/DEPLOYMENT.md, frame grabbed (tests/deploy)
+  libwayland-client0 libwayland-egl1 libwayland-cursor0 libxkbcommon0  # deploy: GLFW's Wayland build
 )
 
 say() { printf 'bootstrap: %s\n' "$*" >&2; }
