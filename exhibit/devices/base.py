@@ -5,7 +5,9 @@ arrived since the last call (possibly nothing) as timestamped :class:`Event` val
 escape as exceptions from ``poll()``: a backend that loses its device goes to ``LOST``, emits
 release events (so a held stick does not keep spinning the view), and tries to come back by
 itself; ``state`` and ``detail`` say what is going on for ``exhibit devices`` and the kiosk's
-status line.
+status line. A device that has not been seen since the backend was opened is ``WAITING``, not
+``LOST``: the base class tells the two apart, and keeps the time of each change of state, so
+the health file can say how long a device has been missing (``exhibit status --max-lost``).
 """
 
 from __future__ import annotations
@@ -17,8 +19,8 @@ from typing import Callable
 
 from exhibit.errors import ExhibitError
 
-__all__ = ["DeviceError", "State", "Kind", "Event", "Capabilities", "Backend", "Clock",
-           "release_events"]
+__all__ = ["DeviceError", "State", "MISSING", "Kind", "Event", "Capabilities", "Backend",
+           "Clock", "release_events"]
 
 Clock = Callable[[], float]
 
@@ -28,13 +30,30 @@ class DeviceError(ExhibitError):
 
 
 class State(str, enum.Enum):
-    """Where a backend stands. ``CONNECTING``: port open, handshake not done yet."""
+    """Where a backend stands.
+
+    - ``CLOSED``: not opened, or closed.
+    - ``WAITING``: opened, and its device not connected once since: not plugged in, not found,
+      no permission, or it never answered the handshake.
+    - ``CONNECTING``: port open, first handshake not done yet.
+    - ``CONNECTED``: delivering events.
+    - ``LOST``: it was connected, then went away (unplugged, silent, a read error); retried.
+    - ``RECONNECTING``: the port is back after a loss, handshake not done yet.
+
+    A backend sets ``LOST`` whenever it does not have its device; :class:`Backend` reports that
+    as ``WAITING`` until the device has been ``CONNECTED`` once.
+    """
 
     CLOSED = "closed"
+    WAITING = "waiting"
     CONNECTING = "connecting"
     CONNECTED = "connected"
     LOST = "lost"
     RECONNECTING = "reconnecting"
+
+
+#: The states of an open backend whose device delivers nothing: it is missing.
+MISSING = frozenset({State.WAITING, State.CONNECTING, State.LOST, State.RECONNECTING})
 
 
 class Kind(str, enum.Enum):
@@ -104,16 +123,68 @@ class Backend:
 
     ``name`` tags the events (the mapping binds to it); ``clock`` is injectable so tests and
     replays run on simulated time instead of sleeping.
+
+    ``state`` is a property: setting it records when the state changed (``state_seconds``),
+    since when the device has been missing (``missing_seconds``: since it was last connected,
+    or since it was opened if it never was), and turns ``LOST`` into ``WAITING`` for a device
+    never connected. Closing and reopening into the state it had before the close (DeviceSet
+    does that after a backend raised) continues that state: a device that keeps failing does
+    not look newly lost every two seconds.
     """
 
     name: str = "device"
     clock: Clock = field(default=time.monotonic, repr=False)
-    state: State = field(default=State.CLOSED, init=False)
+    #: True once the device has been CONNECTED (kept across close and reopen)
+    ever_connected: bool = field(default=False, init=False)
+    _state: State = field(default=State.CLOSED, init=False, repr=False)
+    _state_since: float | None = field(default=None, init=False, repr=False)
+    _missing_since: float | None = field(default=None, init=False, repr=False)
+    _before_close: tuple = field(default=(State.CLOSED, None), init=False, repr=False)
     #: one line on the last problem or the device's identity, for people
     detail: str = field(default="", init=False)
     url: str = field(default="", init=False)
 
     capabilities: Capabilities = field(default_factory=Capabilities, init=False)
+
+    @property
+    def state(self) -> State:
+        return self._state
+
+    @state.setter
+    def state(self, value: State) -> None:
+        value = State(value)
+        if value is State.LOST and not self.ever_connected:
+            value = State.WAITING
+        old = self._state
+        if value is old:
+            return
+        now = self.clock()
+        if value is State.CLOSED:
+            self._before_close = (old, self._state_since)
+            self._state_since = now
+        elif old is State.CLOSED and self._before_close[0] is value:
+            self._state_since = self._before_close[1]  # reopened into the same state
+        else:
+            self._state_since = now
+        if value is State.CONNECTED:
+            self.ever_connected = True
+            self._missing_since = None
+        elif value is not State.CLOSED and self._missing_since is None:
+            self._missing_since = now  # CLOSED keeps it: a reopen continues the same absence
+        self._state = value
+
+    def state_seconds(self, now: float | None = None) -> float | None:
+        """Seconds in the current state (on ``clock``); None before the first change."""
+        if self._state_since is None:
+            return None
+        return max(0.0, (self.clock() if now is None else now) - self._state_since)
+
+    def missing_seconds(self, now: float | None = None) -> float | None:
+        """Seconds the device has been missing (a MISSING state): since it was last connected,
+        or since the backend was opened if it never was. None when connected or closed."""
+        if self._state not in MISSING or self._missing_since is None:
+            return None
+        return max(0.0, (self.clock() if now is None else now) - self._missing_since)
 
     def open(self) -> "Backend":
         """Start using the device. A device that is absent is not an error for a backend that
@@ -133,9 +204,18 @@ class Backend:
             return []
         return self._poll()
 
-    def status(self) -> dict:
+    def status(self, now: float | None = None) -> dict:
+        """``state_s``: seconds in this state; ``missing_s``: seconds without the device (None
+        when connected or closed); ``ever_connected``: whether it has been connected since it
+        was first opened (``waiting`` or ``lost``). ``now``: the time on ``clock``, if the
+        caller has read it already."""
+        now = self.clock() if now is None else now
+        state_s, missing_s = self.state_seconds(now), self.missing_seconds(now)
         return {"name": self.name, "url": self.url, "state": self.state.value,
-                "detail": self.detail, "capabilities": self.capabilities.to_dict()}
+                "detail": self.detail, "capabilities": self.capabilities.to_dict(),
+                "state_s": None if state_s is None else round(state_s, 3),
+                "missing_s": None if missing_s is None else round(missing_s, 3),
+                "ever_connected": self.ever_connected}
 
     def __enter__(self) -> "Backend":
         return self.open()

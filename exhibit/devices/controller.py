@@ -2,7 +2,8 @@
 
 Life cycle, all driven from the non-blocking ``poll()``:
 
-- open the port (a missing port is not an error: LOST, retried every ``retry_s``);
+- open the port (a missing port is not an error: WAITING, or LOST if it was connected before,
+  retried every ``retry_s``);
 - handshake: send HELLO_REQUEST, wait for HELLO (resent every 0.5 s), CONNECTING meanwhile;
 - CONNECTED: AXES become ABS/BUTTON events, stamped on the device's clock; HEARTBEATs only prove
   the line is alive;
@@ -96,7 +97,6 @@ class SerialController(Backend):
         self._next_retry = 0.0
         self._next_hello = 0.0
         self._opened_at = 0.0
-        self._ever_connected = False
 
     # ---- life cycle
 
@@ -120,7 +120,7 @@ class SerialController(Backend):
         try:
             port = serial.Serial(self.path, self.baud, timeout=0, write_timeout=0, exclusive=True)
         except (OSError, serial.SerialException, ValueError) as exc:
-            self.state = State.LOST
+            self.state = State.LOST  # WAITING if it has never been connected (Backend.state)
             self.detail = f"waiting for {self.path}: {_reason(exc)}"
             return
         self._port = port
@@ -128,11 +128,11 @@ class SerialController(Backend):
         self.tracker.expected = None  # pyserial flushed the boot HELLO: no gap across a reopen
         self.device_clock.reset()
         # RECONNECTING: the port is back after a loss, the handshake is not done yet.
-        self.state = State.RECONNECTING if self._ever_connected else State.CONNECTING
+        self.state = State.RECONNECTING if self.ever_connected else State.CONNECTING
         self.detail = f"handshake on {self.path}"
         self._opened_at = self._last_rx = now
         self._next_hello = now
-        if self._ever_connected:
+        if self.ever_connected:
             self.reconnects += 1
 
     def _lost(self, now: float, why: str) -> None:
@@ -229,8 +229,7 @@ class SerialController(Backend):
             self.device_clock.reset()
         self.hello = hello
         self.capabilities = Capabilities(axes=hello.n_axes, buttons=hello.n_buttons)
-        self.state = State.CONNECTED
-        self._ever_connected = True
+        self.state = State.CONNECTED  # sets ever_connected
         fw = ".".join(map(str, hello.firmware))
         self.detail = f"firmware {fw} on {self.path}"
 
@@ -248,8 +247,8 @@ class SerialController(Backend):
                 self._buttons[i] = v
                 out.append(Event(t, self.name, Kind.BUTTON, i, v))
 
-    def status(self) -> dict:
-        d = super().status()
+    def status(self, now: float | None = None) -> dict:
+        d = super().status(now)
         d["link"] = {**self.decoder.summary(), "lost_frames": self.tracker.lost,
                      "reordered": self.tracker.reordered, "duplicates": self.tracker.duplicates,
                      "restarts": self.tracker.restarts, "reconnects": self.reconnects}

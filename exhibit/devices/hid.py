@@ -270,7 +270,6 @@ class HidBackend(Backend):
         self._buttons: dict[int, float] = {}
         self._pending: list[Event] = []
         self._next_retry = 0.0
-        self._ever = False
 
     @property
     def target(self) -> str:
@@ -324,7 +323,7 @@ class HidBackend(Backend):
         self._next_retry = now + self.retry_s
         paths = self._candidates()
         if not paths:
-            self.state = State.LOST
+            self.state = State.LOST  # WAITING if it has never been connected (Backend.state)
             self.detail = f"waiting for {self.target} ({self.backend}): not connected"
             return
         dev = self.api.device()
@@ -341,9 +340,8 @@ class HidBackend(Backend):
                            "rule's permissions (docs/DEVICES.md)")
             return
         self._dev = dev
-        if self._ever:
+        if self.ever_connected:
             self.reconnects += 1
-        self._ever = True
         self.state = State.CONNECTED
         try:
             product = dev.get_product_string() or self.layout.name
@@ -404,8 +402,8 @@ class HidBackend(Backend):
                         self._buttons[ch] = v
                         out.append(Event(now, self.name, Kind.BUTTON, ch, v))
 
-    def status(self) -> dict:
-        d = super().status()
+    def status(self, now: float | None = None) -> dict:
+        d = super().status(now)
         d["link"] = {"reports_ok": self.reports_ok, "reports_unknown": self.reports_unknown,
                      "reconnects": self.reconnects}
         return d

@@ -1,7 +1,7 @@
 """All configured devices at once: open them, poll them all without blocking, merge events.
 
-One faulty backend never stops the others: a device that is absent waits in LOST, and an
-unexpected exception from a backend (a bug, a driver surprise) is caught, shown in its status
+One faulty backend never stops the others: a device that is absent waits (WAITING if it was
+never connected, LOST if it went away), and an unexpected exception from a backend (a bug, a driver surprise) is caught, shown in its status
 and the backend is reopened later, because on a museum floor a frozen exhibit is worse than a
 missing knob.
 The traceback of such an exception is logged once per backend and kind of exception, not at
@@ -61,7 +61,7 @@ class DeviceSet:
                           "in its status)", b.name, b.url,
                           exc if known else "backend error", RETRY_S,
                           exc_info=None if known else exc)
-            b.state = State.LOST
+            b.state = State.LOST  # WAITING if never connected; the absence runs on across reopens
             b.detail = ((f"{exc}" if known else f"backend error: {type(exc).__name__}: {exc}")
                         + (f" ({count} so far)" if count > 1 else ""))
             self._broken[i] = self.clock() + RETRY_S
@@ -88,8 +88,10 @@ class DeviceSet:
             except Exception:  # noqa: BLE001
                 pass
 
-    def statuses(self) -> list[dict]:
-        return [b.status() for b in self.backends]
+    def statuses(self, now: float | None = None) -> list[dict]:
+        """Every backend's status(); ``now`` (on ``clock``) if the caller has read it."""
+        now = self.clock() if now is None else now
+        return [b.status(now) for b in self.backends]
 
     @property
     def keyboard(self) -> KeyboardBackend | None:

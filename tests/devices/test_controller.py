@@ -122,7 +122,8 @@ def test_missing_port_is_waited_for(clock, tmp_path):
     b = SerialController(name="c", clock=clock, path=str(link)).open()
     loop = Loop(clock, None, [b])
     loop.run(1.0)
-    assert b.state is State.LOST and str(link) in b.detail
+    assert b.state is State.WAITING and str(link) in b.detail  # never connected: not "lost"
+    assert b.status()["missing_s"] == pytest.approx(1.0, abs=0.02)
     s = SimController(link, clock=clock, sync=True)
     s.plug()
     loop.sim = s

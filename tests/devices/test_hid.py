@@ -116,7 +116,7 @@ def test_hidraw_prefers_the_layouts_usage_page_and_serial_filter(clock):
     assert [(e.index, e.value) for e in b.poll()] == [(6, 1.0)]
     b2 = HidBackend(name="k", clock=clock, layout=layout, backend="hidraw", vid=0x2341,
                     pid=0x8037, serial="B", api=bus).open()
-    assert b2.state is State.LOST and "2341:8037/B" in b2.detail
+    assert b2.state is State.WAITING and "2341:8037/B" in b2.detail
 
 
 def test_sim_url_with_a_script(clock, tmp_path):
