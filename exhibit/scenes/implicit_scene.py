@@ -47,18 +47,23 @@ def fixed_silhouette(part: ImplicitPart, along: tuple[int, int], name: str,
 
     Traced as the zero set of s = (n1·e_a)(n2·e_b) - (n1·e_b)(n2·e_a), n1 = ∇f1, n2 = ∇f2, on the
     mesh, then each point is Newton-projected onto the exact curve f1 = f2 = s = 0 (s built
-    symbolically), so the curve is as accurate as the surface's vertices, not the triangles."""
+    symbolically), so the curve is as accurate as the surface's vertices, not the triangles.
+    Vertices where a gradient is not finite count as silhouette points; no point is NaN."""
     surface = part.surface
     if len(surface.triangles) == 0:
         return []
     e = np.eye(4)
     p = surface.positions
-    values = silhouette_function(part.f1.gradient(p), part.f2.gradient(p), e[along[0]], e[along[1]])
+    with np.errstate(all="ignore"):
+        values = silhouette_function(part.f1.gradient(p), part.f2.gradient(p), e[along[0]],
+                                     e[along[1]])
+    values = np.where(np.isfinite(values), values, 0.0)  # on the silhouette, as singular points
     curves = zero_set_curves(surface, values, name, material)
     g1, g2 = part.f1.gradient_expressions, part.f2.gradient_expressions
     a, b = along
     s = ScalarField(g1[a] * g2[b] - g1[b] * g2[a], part.f1.symbols)
     edge = float(np.max(np.ptp(p, axis=0))) / max(part.result.stats.resolution, 1)
     for curve in curves:
-        curve.points, _, _ = project_onto((part.f1, part.f2, s), curve.points, 2.0 * edge)
-    return curves
+        points, _, _ = project_onto((part.f1, part.f2, s), curve.points, 2.0 * edge)
+        curve.points = points[np.all(np.isfinite(points), axis=1)]
+    return [curve for curve in curves if len(curve.points) >= 2]

@@ -13,6 +13,12 @@
 3. Place each cell's vertex at the mean of its crossings, then Newton-project it onto the surface
    with the minimum-norm step x <- x - Jᵀ(JJᵀ)⁻¹F. Where σ_min(J)/σ_max(J) is tiny the point is
    singular: it keeps its piecewise-linear position and is reported.
+
+Formulas from scene files may be undefined or overflow on part of the box (sqrt(x) where x < 0,
+log(x^2) at x = 0). No NaN or inf reaches the mesh: cells with such corner values hold no
+crossing, Newton keeps the start of a point it cannot evaluate, vertices where f1 or f2 is not
+finite are dropped with their triangles, and a non-finite gradient makes a zero normal (a
+singular vertex). numpy's warnings about those values are silenced: they are handled here.
 """
 
 from __future__ import annotations
@@ -28,6 +34,7 @@ import numpy as np
 from exhibit.surfaces import progress as progress_line
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.mesh import Material, Surface
+from exhibit.surfaces.parametric import finite_directions, keep_vertices
 from exhibit.surfaces.singular import find_singular_points
 
 #: σ_min/σ_max of the Jacobian below which a vertex counts as a singular point.
@@ -35,6 +42,8 @@ SINGULAR_RATIO = 1e-6
 NEWTON_ITERATIONS = 40
 #: Newton stops once max(|f1|, |f2|) at a vertex is below this (relative to the gradient size).
 NEWTON_TOLERANCE = 1e-13
+#: Corner values beyond this count as non-finite: the crossing test multiplies two of them.
+LARGEST_VALUE = 1e150
 
 _PAIRS = list(itertools.combinations(range(4), 2))  # the 6 coordinate planes of a square
 _OTHERS = [tuple(d for d in range(4) if d not in pair) for pair in _PAIRS]
@@ -138,16 +147,19 @@ def _labelled(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return positive, bary
 
 
+@np.errstate(all="ignore")
 def project_onto(fields, points: np.ndarray, max_move: float):
     """Newton-project points onto {f = 0 for f in fields} with the minimum-norm step
     x <- x - Jᵀ(JJᵀ)⁻¹F (k fields, k <= 4).
 
     Returns (positions, singular, unconverged): where σ_min/σ_max of J falls below
-    SINGULAR_RATIO, or a point would move more than ``max_move``, it keeps its start position.
+    SINGULAR_RATIO, or a point would move more than ``max_move``, it keeps its start position;
+    so does a point where a value or the Jacobian is not finite (it counts as unconverged).
     """
     x = points.copy()
     start = points.copy()
     singular = np.zeros(len(x), dtype=bool)
+    failed = np.zeros(len(x), dtype=bool)
     active = np.ones(len(x), dtype=bool)
     for _ in range(NEWTON_ITERATIONS):
         if not active.any():
@@ -157,6 +169,11 @@ def project_onto(fields, points: np.ndarray, max_move: float):
         values = np.stack([f.value(xa) for f in fields], axis=-1)  # (A, k)
         jac = np.stack([f.gradient(xa) for f in fields], axis=1)  # (A, k, 4)
         gram = jac @ np.transpose(jac, (0, 2, 1))  # (A, k, k)
+        finite = np.isfinite(values).all(axis=1) & np.isfinite(gram).all(axis=(1, 2))
+        failed[idx[~finite]] = True
+        active[idx[~finite]] = False
+        idx, xa, values, jac, gram = idx[finite], xa[finite], values[finite], jac[finite], \
+            gram[finite]
         eig = np.linalg.eigvalsh(gram)
         ratio = np.sqrt(np.maximum(eig[:, 0], 0.0) / np.maximum(eig[:, -1], 1e-300))
         is_singular = ratio < SINGULAR_RATIO
@@ -168,12 +185,13 @@ def project_onto(fields, points: np.ndarray, max_move: float):
             solved = np.linalg.solve(gram[ok], values[ok][..., None])[..., 0]
             x[idx[ok]] = xa[ok] - np.einsum("aki,ak->ai", jac[ok], solved)
         active[idx[is_singular | done]] = False
-    runaway = np.linalg.norm(x - start, axis=1) > max_move
+    runaway = ~(np.linalg.norm(x - start, axis=1) <= max_move) | failed
     unconverged = (active | runaway) & ~singular
     x[singular | runaway] = start[singular | runaway]
     return x, singular, unconverged
 
 
+@np.errstate(all="ignore")
 def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi,
                resolution: int, material: Material | None = None, seed: int = 0,
                progress: Callable[[str], None] | None = None,
@@ -215,7 +233,8 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     # Positions are always origin + integer corner * h, so a grid vertex gets the same value
     # bit for bit wherever it is evaluated.
     corner_values = _evaluate(f1, f2, origin + (cells[:, None, :] + _CHILD_OFFSETS) * h)
-    straddling = _straddles(corner_values)
+    straddling = _straddles(corner_values) & np.all(np.abs(corner_values) < LARGEST_VALUE,
+                                                    axis=(1, 2))
     cells, corner_values = cells[straddling], corner_values[straddling]
 
     # A square crossed by the interpolant straddles in both functions, and so does the cell at
@@ -280,11 +299,15 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
         np.where(use_ac[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1)),
     ])
 
-    n1, n2 = f1.gradient(vertices), f2.gradient(vertices)
+    # Drop vertices off the formulas' domain (with their triangles); positions are finite.
+    at_vertices = _evaluate(f1, f2, vertices)
+    keep, triangles = keep_vertices(np.isfinite(at_vertices).all(axis=1), triangles)
+    vertices, singular, at_vertices = vertices[keep], singular[keep], at_vertices[keep]
+    n1 = finite_directions(f1.gradient(vertices))
+    n2 = finite_directions(f2.gradient(vertices))
     surface = Surface.from_normals(name, vertices, n1, n2, triangles, material)
-    surface.singular = singular
-    residual = np.max(np.abs(_evaluate(f1, f2, vertices[~singular])), axis=1) \
-        if np.any(~singular) else np.zeros(1)
+    surface.singular = singular | surface.singular
+    residual = np.max(np.abs(at_vertices[~singular]), axis=1)
     stats.max_residual = float(residual.max()) if len(residual) else 0.0
     if progress:
         progress("searching for singular points")

@@ -4,6 +4,10 @@ Samples are placed where the surface bends: along each parameter the spacing fol
 curvature measured on a finer pilot grid (the turning of the tangent plane plus arc length), so
 flat stretches get few rows and bends many. The result is still a structured grid, so it is
 crack-free by construction: every edge belongs to the same grid line on both sides.
+
+A point function from a scene file may be undefined or overflow on part of the rectangle: such
+samples are dropped with their triangles, and tangents that are not finite give zero normals
+(a singular vertex), so no NaN or inf reaches the Surface.
 """
 
 from __future__ import annotations
@@ -61,12 +65,13 @@ def _bend_density(points: np.ndarray, frames: np.ndarray, axis: int, periodic: b
                 np.take(a, np.arange(count - 1), axis=axis))
 
     nxt, cur = step(points)
-    length = np.linalg.norm(nxt - cur, axis=-1).max(axis=1 - axis)
+    length = np.linalg.norm(nxt - cur, axis=-1)
+    length = np.where(np.isfinite(length), length, 0.0).max(axis=1 - axis)
     f_next, f_cur = step(frames)
     # How far the next normal frame leaves the current normal plane (0 when the plane is fixed).
     overlap = np.einsum("...ai,...bi->...ab", f_next, f_cur)
     turning = np.sqrt(np.maximum(2.0 - np.sum(overlap**2, axis=(-1, -2)), 0.0))
-    turning = turning.max(axis=1 - axis)
+    turning = np.where(np.isfinite(turning), turning, 0.0).max(axis=1 - axis)
     density = length / max(length.sum(), 1e-300)
     if turning.sum() > 1e-9:
         density = density + turning / turning.sum()
@@ -77,10 +82,33 @@ def _equidistribute(pilot: np.ndarray, density: np.ndarray, count: int, interval
     """Place count samples so each interval carries the same share of the density."""
     edges = pilot if not interval.periodic else np.append(pilot, interval.stop)
     weights = density + 0.25 * density.mean()  # never starve a flat stretch entirely
+    if not weights.sum() > 0:  # nothing measurable (e.g. undefined on the whole pilot grid)
+        return interval.uniform(count)
     cumulative = np.concatenate([[0.0], np.cumsum(weights)])
     targets = np.linspace(0.0, cumulative[-1], count + (0 if not interval.periodic else 1))
     samples = np.interp(targets, cumulative, edges)
     return samples[:-1] if interval.periodic else samples
+
+
+def finite_directions(vectors: np.ndarray) -> np.ndarray:
+    """Rows of (..., 4) scaled by their largest component, non-finite or zero rows set to zero.
+
+    Normal and tangent planes depend only on directions; the scaling keeps the 4D cross products
+    that turn them into planes from overflowing, and a zero row reads as a singular point."""
+    vectors = np.asarray(vectors, dtype=float)
+    with np.errstate(all="ignore"):
+        largest = np.max(np.abs(vectors), axis=-1, keepdims=True)
+        usable = np.isfinite(largest) & (largest > 0)
+        return np.where(usable, vectors / np.where(usable, largest, 1.0), 0.0)
+
+
+def keep_vertices(keep: np.ndarray, triangles: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Drop the vertices not in ``keep`` with every triangle touching them, then any vertex left
+    without a triangle. Returns (the vertices to keep, the triangles renumbered to them)."""
+    triangles = triangles[np.all(keep[triangles], axis=1)]
+    used = np.zeros(len(keep), dtype=bool)
+    used[triangles] = True
+    return used, (np.cumsum(used) - 1)[triangles]
 
 
 def grid_triangles(rows: int, cols: int, periodic_rows: bool, periodic_cols: bool) -> np.ndarray:
@@ -95,10 +123,13 @@ def grid_triangles(rows: int, cols: int, periodic_rows: bool, periodic_cols: boo
     return tris.astype(np.int32)
 
 
+@np.errstate(all="ignore")
 def tessellate(name: str, function: PointFunction, s_interval: Interval, t_interval: Interval,
                resolution: tuple[int, int], tangents: TangentFunction | None = None,
                material: Material | None = None, adaptive: bool = True) -> Surface:
-    """A Surface sampling X(s, t) on a rows x cols grid; tangents analytic when given."""
+    """A Surface sampling X(s, t) on a rows x cols grid; tangents analytic when given.
+
+    Samples where X is not finite are left out with their triangles (see the module's notes)."""
     started = time.perf_counter()
     rows, cols = resolution
     if rows < 2 or cols < 2:
@@ -109,17 +140,19 @@ def tessellate(name: str, function: PointFunction, s_interval: Interval, t_inter
         s_pilot, t_pilot = s_interval.uniform(2 * rows), t_interval.uniform(2 * cols)
         S, T = np.meshgrid(s_pilot, t_pilot, indexing="ij")
         pilot_points = function(S, T)
-        frames = np.stack(complement_plane(*tangents(S, T)), axis=-2)
+        frames = np.stack(complement_plane(*map(finite_directions, tangents(S, T))), axis=-2)
         s_samples = _equidistribute(s_pilot, _bend_density(pilot_points, frames, 0,
                                                            s_interval.periodic), rows, s_interval)
         t_samples = _equidistribute(t_pilot, _bend_density(pilot_points, frames, 1,
                                                            t_interval.periodic), cols, t_interval)
     S, T = np.meshgrid(s_samples, t_samples, indexing="ij")
     positions = function(S, T).reshape(-1, 4)
-    t1, t2 = tangents(S, T)
-    triangles = grid_triangles(rows, cols, s_interval.periodic, t_interval.periodic)
-    surface = Surface.from_tangents(name, positions, t1.reshape(-1, 4), t2.reshape(-1, 4),
-                                    triangles, material)
+    t1, t2 = (finite_directions(t).reshape(-1, 4) for t in tangents(S, T))
+    keep, triangles = keep_vertices(np.all(np.isfinite(positions), axis=1),
+                                    grid_triangles(rows, cols, s_interval.periodic,
+                                                   t_interval.periodic))
+    surface = Surface.from_tangents(name, positions[keep], t1[keep], t2[keep], triangles,
+                                    material)
     surface.info = {"kind": "parametric", "max_residual": None, "singular_points":
                     int(surface.singular.sum()), "seconds": time.perf_counter() - started,
                     "resolution": [rows, cols]}

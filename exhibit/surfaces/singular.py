@@ -4,6 +4,10 @@ cross itself or end in a cusp (the paper's circle of singular points on the cusp
 Mesh vertices only come near such points, so they are found by a search: from the vertices
 where the Jacobian is worst conditioned, Gauss-Newton drives f1, f2 and all six 2x2 minors of the
 Jacobian (rank < 2 exactly when they all vanish) to zero together.
+
+The system is built from the fields' differentiable forms, so abs, sign, min and max have finite
+derivatives (their derivative almost everywhere); a search that meets a point where something is
+not finite stops there and finds nothing.
 """
 
 from __future__ import annotations
@@ -12,7 +16,7 @@ import itertools
 
 import numpy as np
 
-from exhibit.surfaces.expressions import ScalarField
+from exhibit.surfaces.expressions import ScalarField, evaluate, lambdify
 
 #: Vertices whose σ_min/σ_max is below this multiple of the cell size (relative to the box)
 #: start a search: near a singular set the ratio falls off like the distance to it.
@@ -21,8 +25,10 @@ ITERATIONS = 30
 TOLERANCE = 1e-10
 
 
+@np.errstate(all="ignore")
 def jacobian_ratio(f1: ScalarField, f2: ScalarField, points: np.ndarray) -> np.ndarray:
-    """σ_min/σ_max of the 2x4 Jacobian at each point (0 at singular points)."""
+    """σ_min/σ_max of the 2x4 Jacobian at each point (0 at singular points, NaN where a
+    gradient is not finite)."""
     g1, g2 = f1.gradient(points), f2.gradient(points)
     # Eigenvalues of the 2x2 Gram matrix JJᵀ in closed form (much cheaper than an SVD).
     a, b, c = np.einsum("ni,ni->n", g1, g1), np.einsum("ni,ni->n", g1, g2), \
@@ -40,22 +46,19 @@ class _SingularSystem:
 
         g1, g2 = f1.gradient_expressions, f2.gradient_expressions
         minors = [g1[i] * g2[j] - g1[j] * g2[i] for i, j in itertools.combinations(range(4), 2)]
-        equations = [f1.expression, f2.expression] + minors
+        equations = [f1.differentiable, f2.differentiable] + minors
         symbols = f1.symbols
-        self._f = [sympy.lambdify(symbols, e, "numpy") for e in equations]
-        self._j = [[sympy.lambdify(symbols, sympy.diff(e, s), "numpy") for s in symbols]
-                   for e in equations]
+        self._f = [lambdify(symbols, e) for e in equations]
+        self._j = [[lambdify(symbols, sympy.diff(e, s)) for s in symbols] for e in equations]
 
     def residual(self, x):
-        c = x.T
-        return np.stack([np.broadcast_to(np.asarray(f(*c), float), x.shape[:1]) for f in self._f], 1)
+        return np.stack([evaluate(f, x) for f in self._f], 1)
 
     def jacobian(self, x):
-        c = x.T
-        return np.stack([np.stack([np.broadcast_to(np.asarray(d(*c), float), x.shape[:1])
-                                   for d in row], 1) for row in self._j], 1)
+        return np.stack([np.stack([evaluate(d, x) for d in row], 1) for row in self._j], 1)
 
 
+@np.errstate(all="ignore")
 def find_singular_points(f1: ScalarField, f2: ScalarField, vertices: np.ndarray,
                          cell_size: float, box_size: float) -> np.ndarray:
     """Singular points near the given mesh vertices (deduplicated to cell_size/4), shape (K, 4)."""
@@ -70,18 +73,25 @@ def find_singular_points(f1: ScalarField, f2: ScalarField, vertices: np.ndarray,
     if system is None:
         system = cache[id(f2)] = _SingularSystem(f1, f2)
     x = seeds.copy()
+    going = np.ones(len(x), dtype=bool)  # searches not stopped by a non-finite value
     for _ in range(ITERATIONS):
-        r = system.residual(x)
-        j = system.jacobian(x)
+        r = system.residual(x[going])
+        j = system.jacobian(x[going])
         # Gauss-Newton: solve (JᵀJ + μI) δ = Jᵀr with a tiny damping for rank-deficient J.
         jtj = np.einsum("aki,akj->aij", j, j)
         jtr = np.einsum("aki,ak->ai", j, r)
+        finite = np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
+        going[np.flatnonzero(going)[~finite]] = False
+        jtj, jtr = jtj[finite], jtr[finite]
         mu = 1e-12 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] * np.eye(4)
-        delta = np.linalg.solve(jtj + mu + 1e-300 * np.eye(4), jtr[..., None])[..., 0]
-        x = x - delta
+        try:
+            delta = np.linalg.solve(jtj + mu + 1e-300 * np.eye(4), jtr[..., None])[..., 0]
+        except np.linalg.LinAlgError:  # singular in floating point: the damping was too small
+            delta = (np.linalg.pinv(jtj + mu) @ jtr[..., None])[..., 0]
+        x[going] -= delta
     r = system.residual(x)
     scale = 1.0 + np.abs(system.residual(seeds)).max(axis=1)
-    found = (np.abs(r).max(axis=1) <= TOLERANCE * scale) & \
+    found = going & (np.abs(r).max(axis=1) <= TOLERANCE * scale) & \
         (np.linalg.norm(x - seeds, axis=1) <= 3 * cell_size)
     points = x[found]
     if len(points) == 0:

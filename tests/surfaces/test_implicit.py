@@ -104,3 +104,36 @@ def test_empty_and_bad_boxes():
     assert len(result.surface.triangles) == 0 and result.stats.cells == 0
     with pytest.raises(ValueError, match="increasing"):
         polygonize("bad", f1, f2, [1] * 4, [-1] * 4, 8)
+
+
+@pytest.mark.parametrize("f1_text, f2_text, level", [
+    ("sign(x)*x + abs(y) + abs(z) + abs(w) - 1", "min(w, 1) - 0.2", "abs(x) + abs(y) + abs(z)"),
+    ("max(abs(x), abs(y), abs(z), abs(w)) - 0.7", "w - 0.3", "max(abs(x), abs(y), abs(z))"),
+])
+def test_surfaces_with_kinks_are_closed_and_on_their_equations(f1_text, f2_text, level):
+    """An octahedron and a cube (f1 = f2 = 0 in the slice w = const): abs, sign, min and max in
+    the pruning bounds, the Newton projection and the singular-point search."""
+    xyzw = ("x", "y", "z", "w")
+    f1, f2 = compile_field(f1_text, xyzw), compile_field(f2_text, xyzw)
+    result = polygonize("kinks", f1, f2, [-1.0] * 4, [1.0] * 4, 16, seed=4)
+    report = analyse(result.surface.triangles)
+    assert (report.components, report.euler_characteristic, report.boundary_edges) == (1, 2, 0)
+    v = result.surface.positions
+    assert np.max(np.abs(f1.value(v))) <= 1e-9 and np.max(np.abs(f2.value(v))) <= 1e-9
+    assert np.all(np.isfinite(result.surface.normals)) and np.all(np.isfinite(v))
+    assert result.stats.cells < 16**4 / 4  # the bounds of abs, max... pruned most of the grid
+    np.testing.assert_allclose(compile_field(level, xyzw).value(v), 0.8 if "sign" in f1_text
+                               else 0.7, atol=1e-9)
+
+
+def test_singular_circle_is_found_through_abs():
+    """The cusp pipe of v² = |u|³ (the cusp y² = x³ mirrored): the singular circle is the same,
+    found by Gauss-Newton on second derivatives of abs."""
+    xyuv = ("x", "y", "u", "v")
+    g = compile_field("(x - u)^2 + (y - v)^2 - 1", xyuv)
+    f = compile_field("v^2 - abs(u)^3", xyuv)
+    result = polygonize("cusp", g, f, [-2.2, -2.2, -1.2, -1.3], [2.2, 2.2, 1.2, 1.3], 20, seed=2)
+    points = result.singular_positions
+    assert len(points) > 10
+    np.testing.assert_allclose(points[:, 2:], 0.0, atol=1e-5)
+    np.testing.assert_allclose(np.hypot(points[:, 0], points[:, 1]), 1.0, atol=1e-5)
