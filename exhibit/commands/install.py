@@ -245,8 +245,9 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
     if perform:
         if not os.access(exe, os.X_OK):
             raise ExhibitError(f"{exe} does not exist: put the checkout at {prefix} and create "
-                               f"its venv first (cd {prefix} && ./bootstrap.sh run --help), or "
-                               "give --prefix")
+                               f"its venv first (cd {prefix} && PYTHON=/usr/bin/python3 "
+                               "./bootstrap.sh run --help), or give --prefix")
+        _check_interpreter(Path(prefix))
         missing = [g for g in GROUPS if not group_exists(g)]
         if missing:
             raise ExhibitError(f"group(s) {', '.join(missing)} do not exist here; exhibit.service "
@@ -288,6 +289,22 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
         "  systemctl start exhibit.service\n"
         "then check: systemctl status exhibit; journalctl -u exhibit -b; exhibit status")
     return 0
+
+
+def _check_interpreter(prefix: Path) -> None:
+    """ExhibitError when the venv's Python is a link into a folder the service cannot see: a venv
+    made from an interpreter under /root or /home (pyenv, a hand-built Python) runs for root but
+    not for the exhibit user (ProtectHome=, and /root is closed to other users): 203/EXEC."""
+    python = prefix / ".venv" / "bin" / "python"
+    real = os.path.realpath(python)
+    if real.startswith(os.path.realpath(prefix) + "/"):
+        return  # a copied interpreter (venv --copies), or none yet: nothing outside to reach
+    for hidden in _HIDDEN:
+        if real == hidden or real.startswith(hidden + "/"):
+            raise ExhibitError(
+                f"{python} is {real}, which the service cannot run ({hidden} is hidden from it "
+                f"or not kept): make the venv from Debian's Python: rm -rf {prefix}/.venv && "
+                f"cd {prefix} && PYTHON=/usr/bin/python3 ./bootstrap.sh run --help")
 
 
 def _failed(command: list[str], why: str, todo: list[list[str]], out) -> None:

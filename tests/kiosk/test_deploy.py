@@ -515,3 +515,19 @@ def test_perform_names_a_missing_compositor_or_xwayland(tmp_path, prefix, monkey
     assert f"note: {tmp_path}/Xwayland is missing: apt-get install xwayland (Debian's cage " \
            "exits at start without it)" in lines
     assert any(line.startswith(f"note: {tmp_path}/cage is missing") for line in lines)
+
+
+def test_perform_refuses_a_venv_whose_python_the_service_cannot_reach(tmp_path, prefix):
+    """A venv made from a Python under /root (pyenv) works for root and fails for the service
+    (203/EXEC): the installer says how to remake it instead."""
+    python = Path(prefix) / ".venv/bin/python"
+    python.symlink_to("/root/.exhibit-test-pyenv/bin/python3")
+    with pytest.raises(ExhibitError, match=r"is /root/\.exhibit-test-pyenv/bin/python3, which "
+                                           r"the service cannot run .* PYTHON=/usr/bin/python3 "):
+        inst.install(tmp_path, prefix, perform=True, out=lambda s: None, runner=Runner(),
+                     group_exists=lambda name: True)
+    assert not (tmp_path / "etc").exists()
+    python.unlink()
+    python.symlink_to("/usr/bin/python3")
+    assert inst.install(tmp_path, prefix, perform=True, out=lambda s: None, runner=Runner(),
+                        user_exists=lambda name: True, group_exists=lambda name: True) == 0
