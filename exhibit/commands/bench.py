@@ -7,14 +7,31 @@ same run, so ratios hold on a noisy machine.
 
 from __future__ import annotations
 
+import contextlib
 import importlib
+import os
+import sys
 
-HELP = "benchmarks: " + ", ".join(["mesh", "render", "startup", "input"])
+#: numpy's BLAS threads: OpenBLAS (and MKL, BLIS) start one thread per core and let them spin
+#: for a while after every call, so a numpy baseline timed just before a GL variant steals a core
+#: from llvmpipe's rasteriser threads and skews the next measurement (the render floor measured
+#: after the CPU baseline was the victim). The benchmarks time with one BLAS thread: set in the
+#: environment before numpy is first imported (this module is imported before any benchmark,
+#: and `exhibit` imports numpy for no other command first), and, if threadpoolctl is installed,
+#: also limited at run time in case numpy was already imported (tests calling main() in-process).
+BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
+                         "BLIS_NUM_THREADS")
+if "numpy" not in sys.modules:
+    for _name in BLAS_THREAD_VARIABLES:
+        os.environ.setdefault(_name, "1")
+
+HELP = "benchmarks: " + ", ".join(["mesh", "render", "kiosk", "startup", "input"])
 
 #: benchmark name -> module providing HELP, add_arguments, run
 BENCHMARKS = {
     "mesh": "exhibit.surfaces.bench",
     "render": "exhibit.render.bench",
+    "kiosk": "exhibit.render.kiosk_bench",
     "startup": "exhibit.kiosk.bench",
     "input": "exhibit.devices.bench",
 }
@@ -34,5 +51,16 @@ def add_arguments(parser) -> None:
         bench.set_defaults(_bench=module.run)
 
 
+def one_blas_thread():
+    """A context limiting numpy's BLAS to one thread while benchmarks time (threadpoolctl when
+    installed; otherwise the environment set at import does it, or nothing can)."""
+    try:
+        from threadpoolctl import threadpool_limits
+    except ImportError:
+        return contextlib.nullcontext()
+    return threadpool_limits(limits=1, user_api="blas")
+
+
 def run(args) -> int:
-    return args._bench(args)
+    with one_blas_thread():
+        return args._bench(args)

@@ -29,6 +29,8 @@ class RenderOptions:
     #: Width in px (at 720 px) of the live silhouette curves and diameter of Lemma 2 marks.
     silhouette_width: float = 2.5
     pinch_size: float = 9.0
+    #: Factor on the width of curves, wire meshes and markers (the kiosk's lean effects < 1).
+    curve_width: float = 1.0
     #: Shift of the text panels in pixels (x right, y down): the kiosk moves them slowly so no
     #: overlay burns into the screen.
     hud_drift: tuple[float, float] = (0.0, 0.0)

@@ -20,7 +20,8 @@ from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import GpuMesh, upload
 from exhibit.render.options import RenderOptions
-from exhibit.render.text import TextCache, has_greek, line_height, text_width, wrap
+from exhibit.render.text import (GlyphAtlas, TextCache, block_image, has_greek, line_height,
+                                 text_width, wrap)
 from exhibit.surfaces.mesh import Mesh4D
 
 GL_CLIP_DISTANCE0 = 0x3000
@@ -31,6 +32,14 @@ LINE_BIAS = 2e-4
 #: The paper's axis colours (Figures 6-8): x red, y orange, z green, w blue.
 AXIS_COLORS = ((0.9, 0.22, 0.18), (0.97, 0.6, 0.12), (0.25, 0.78, 0.3), (0.3, 0.5, 1.0))
 OVERLAY_FLOATS = 9  # a (2), b (2), rgba (4), width (1)
+GLYPH_FLOATS = 12   # rect (4), texel rect (4), rgba (4)
+#: The HUD's translucent panels.
+PANEL = (0.0, 0.0, 0.0, 0.45)
+#: Blending for everything drawn over the scene: straight alpha in, premultiplied out, so an
+#: offscreen scene cleared to transparent composites correctly over the background later.
+BLEND_OVER = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
+              moderngl.ONE_MINUS_SRC_ALPHA)
+BLEND_PREMULTIPLIED = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
 
 
 @dataclass(frozen=True)
@@ -67,6 +76,8 @@ class Renderer:
             "curves": p(ctx, "curves.glsl"),
             "overlay": p(ctx, "overlay.glsl"),
             "text": p(ctx, "text.glsl"),
+            "glyphs": p(ctx, "glyphs.glsl"),
+            "image": p(ctx, "glyphs.glsl", ("RGBA_TEXTURE",)),
             "background": p(ctx, "background.glsl"),
             "floor": p(ctx, "floor.glsl"),
         }
@@ -76,7 +87,18 @@ class Renderer:
         self._overlay_vao = ctx.vertex_array(
             self.programs["overlay"],
             [(self._overlay_buffer, "2f 2f 4f 1f/i", "in_a", "in_b", "in_color", "in_width")])
+        self._glyph_buffer = ctx.buffer(reserve=256 * GLYPH_FLOATS * 4, dynamic=True)
+        self._glyph_vaos = {
+            name: ctx.vertex_array(self.programs[name], [
+                (self._glyph_buffer, "4f 4f 4f/i", "in_rect", "in_uv", "in_color")])
+            for name in ("glyphs", "image")}
         self.text = TextCache(ctx)
+        self.atlas = GlyphAtlas(ctx)
+        #: The title and caption panel: (key, texture, width, height), redrawn when they change.
+        self._block: tuple | None = None
+        #: The last view's clip transform, so one frame computes it once for every pass.
+        self._ct_key: tuple | None = None
+        self._ct = None
 
     # ------------------------------------------------------------------ meshes
 
@@ -86,10 +108,19 @@ class Renderer:
 
     # ------------------------------------------------------------------ a frame
 
+    def clip_transform(self, view: ViewState, size: tuple[int, int]):
+        """exhibit.geometry.clip_transform for this view and size, computed once per frame (the
+        surfaces, silhouettes, curves and marker labels all use it)."""
+        aspect = size[0] / size[1]
+        if (self._ct_key is None or self._ct_key[1] != aspect
+                or not (self._ct_key[0] is view or self._ct_key[0] == view)):
+            self._ct_key, self._ct = (view, aspect), clip_transform(view, aspect)
+        return self._ct
+
     def set_pipeline(self, program: moderngl.Program, view: ViewState, size: tuple[int, int]):
         """Upload the view's 4x5 clip map, pose, clip planes and centres to one program."""
         width, height = size
-        ct = clip_transform(view, width / height)
+        ct = self.clip_transform(view, size)
         values = {
             "u_M": _mat(ct.matrix[:, :4]),
             "u_m": ct.matrix[:, 4],
@@ -123,23 +154,35 @@ class Renderer:
                options: RenderOptions = RenderOptions(), hud: HudInfo | None = None,
                size: tuple[int, int] | None = None) -> None:
         """Draw one frame of gpu in view into framebuffer; size overrides the framebuffer's own
-        (a window's default framebuffer changes size with the window)."""
+        (a window's default framebuffer changes size with the window). The direct path: the
+        background is a pass of its own and antialiasing is the framebuffer's multisampling
+        (the kiosk's frames go through exhibit.render.frame instead)."""
         ctx = self.ctx
         framebuffer.use()
         width, height = size or framebuffer.size
         ctx.viewport = (0, 0, width, height)
         size = (width, height)
-        scale = options.width_scale(height)
-        ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
-        ctx.depth_func = "<"
-
-        # Background (the depth test off, so it writes no depth).
         ctx.depth_mask = True
         framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
-        ctx.disable(moderngl.DEPTH_TEST)
+        # Background (the depth test off, so it writes no depth).
+        ctx.disable(moderngl.BLEND | moderngl.CULL_FACE | moderngl.DEPTH_TEST)
         top, bottom = options.background
         self._set(self.programs["background"], u_top=tuple(top), u_bottom=tuple(bottom))
         self._empty["background"].render(moderngl.TRIANGLES, vertices=3)
+        self.render_scene(gpu, view, size, options)
+        if options.hud and hud is not None:
+            self.render_hud(gpu, view, hud, size, options.hud_drift)
+
+    def render_scene(self, gpu: GpuMesh, view: ViewState, size: tuple[int, int],
+                     options: RenderOptions = RenderOptions()) -> None:
+        """Surfaces, live silhouettes, curves and markers into the current framebuffer (its
+        viewport set, colour and depth cleared): everything that lives in the 4D scene."""
+        ctx = self.ctx
+        width, height = size
+        scale = options.width_scale(height)
+        ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.depth_func = "<"
+        ctx.depth_mask = True
 
         # Surfaces.
         ctx.enable(moderngl.DEPTH_TEST)
@@ -148,7 +191,7 @@ class Renderer:
 
         # Live silhouettes and Lemma 2 points: depth-tested against the surfaces, no depth writes.
         ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        ctx.blend_func = BLEND_OVER
         ctx.depth_func = "<="
         if options.silhouettes and gpu.surfaces:
             prog = self.programs["silhouette"]
@@ -165,7 +208,7 @@ class Renderer:
         if options.curves:
             prog = self.programs["curves"]
             self.set_pipeline(prog, view, size)
-            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale)
+            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale * options.curve_width)
             for key, count in (("lines", gpu.line_count), ("markers", gpu.marker_count)):
                 if not count:
                     continue
@@ -174,11 +217,7 @@ class Renderer:
                     ctx.depth_mask = pass_ == 0
                     gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
             ctx.depth_mask = True
-
-        ctx.disable(moderngl.DEPTH_TEST)
-        if options.hud and hud is not None:
-            self._hud(gpu, view, hud, size, options.hud_drift)
-        ctx.disable(moderngl.BLEND)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.depth_func = "<"
 
     def draw_surfaces(self, gpu: GpuMesh, view: ViewState, size, depth_colour: bool = False,
@@ -232,7 +271,8 @@ class Renderer:
     # ------------------------------------------------------------------ HUD
 
     def _text(self, text: str, style: str, size: int, x: float, y: float, color, viewport):
-        """Draw text with its top-left corner at (x, y) in pixels from the top-left."""
+        """Draw text with its top-left corner at (x, y) in pixels from the top-left, as its own
+        texture (the notice screen; the HUD uses the glyph atlas)."""
         if not text:
             return 0, 0
         item = self.text.get(text, style, size)
@@ -245,15 +285,6 @@ class Renderer:
         prog["u_color"].value = tuple(color)
         self._empty["text"].render(moderngl.TRIANGLE_STRIP, vertices=4)
         return item.width, item.height
-
-    def _panel(self, x, y, w, h, color, viewport) -> None:
-        prog = self.programs["text"]
-        self.text.white.use(0)
-        prog["u_texture"].value = 0
-        prog["u_viewport"].value = viewport
-        prog["u_rect"].value = (round(x), viewport[1] - round(y) - round(h), round(w), round(h))
-        prog["u_color"].value = tuple(color)
-        self._empty["text"].render(moderngl.TRIANGLE_STRIP, vertices=4)
 
     def _overlay(self, items: list[tuple], viewport) -> None:
         """Draw 2D capsules (a, b, rgba, width) given in pixels from the top-left."""
@@ -268,20 +299,45 @@ class Renderer:
         prog = self.programs["overlay"]
         prog["u_viewport"].value = viewport
         prog["u_pass"].value = 1
+        self.ctx.blend_func = BLEND_OVER
         self._overlay_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
 
-    def _hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size,
-             drift: tuple[float, float] = (0.0, 0.0)) -> None:
-        width, height = size
-        dx, dy = drift
-        viewport = (float(width), float(height))
-        margin = max(4, round(0.022 * height))
-        title_px = max(10, round(0.036 * height))
-        body_px = max(9, round(0.021 * height))
-        ink, dim = (0.96, 0.96, 0.93, 1.0), (0.78, 0.8, 0.84, 1.0)
-        pad = max(3, body_px // 2)
+    def _quads(self, program: str, texture, texture_size, rows: list[tuple], viewport) -> None:
+        """Instanced HUD quads (x, y, w, h, u, v, tw, th, r, g, b, a), premultiplied blending."""
+        if not rows:
+            return
+        data = np.asarray(rows, dtype=np.float32).tobytes()
+        if len(data) > self._glyph_buffer.size:
+            self._glyph_buffer.orphan(max(len(data), 2 * self._glyph_buffer.size))
+        self._glyph_buffer.write(data)
+        prog = self.programs[program]
+        texture.use(0)
+        prog["u_texture"].value = 0
+        prog["u_viewport"].value = viewport
+        prog["u_texture_size"].value = tuple(float(v) for v in texture_size)
+        self.ctx.blend_func = BLEND_PREMULTIPLIED
+        self._glyph_vaos[program].render(moderngl.TRIANGLE_STRIP, vertices=4,
+                                         instances=len(rows))
 
-        # Title and caption, top left, on a translucent panel.
+    def _glyph_rows(self, text: str, style: str, px: int, x: float, y: float, color,
+                    rows: list) -> None:
+        """Instances for one line of text whose top-left corner is at (x, y)."""
+        x, y = round(x), round(y)
+        for dx, g in self.atlas.layout(text, style, px):
+            rows.append((x + dx, y, g.width, g.height, g.u, g.v, g.width, g.height, *color))
+
+    def _panel_row(self, x, y, w, h, color, rows: list) -> None:
+        g = self.atlas.solid
+        rows.append((round(x), round(y), round(w), round(h), g.u + 0.5, g.v + 0.5, 1.0, 1.0,
+                     *color))
+
+    def _title_block(self, hud: HudInfo, width: int, title_px: int, body_px: int, pad: int):
+        """The title and caption panel as one cached texture, rewrapped and redrawn only when
+        the words or the screen size change: (texture, width, height) or None."""
+        key = (hud.title, hud.caption, hud.note, width, title_px, body_px, pad)
+        if self._block is not None and self._block[0] == key:
+            return self._block[1:]
+        ink, dim = (0.96, 0.96, 0.93, 1.0), (0.78, 0.8, 0.84, 1.0)
         lines = []
         # The title wraps short of the gizmo in the top-right corner.
         for line in wrap(hud.title, "bold", title_px, 0.62 * width):
@@ -289,17 +345,45 @@ class Renderer:
         for paragraph in (hud.caption, hud.note):
             for line in wrap(paragraph, "sans", body_px, 0.36 * width):
                 lines.append((line, "sans", body_px, dim))
-        if lines:
-            block_w = max(text_width(t, s, px) for t, s, px, _ in lines) + 2 * pad
-            block_h = sum(line_height(s, px) for _, s, px, _ in lines) + 2 * pad
-            self._panel(margin + dx, margin + dy, block_w, block_h, (0.0, 0.0, 0.0, 0.45),
-                        viewport)
-            y = margin + dy + pad
-            for text, style, px, color in lines:
-                self._text(text, style, px, margin + dx + pad, y, color, viewport)
-                y += line_height(style, px)
+        if self._block is not None and self._block[1] is not None:
+            self._block[1].release()
+        if not lines:
+            self._block = (key, None, 0, 0)
+            return self._block[1:]
+        image = block_image(lines, pad, PANEL)
+        h, w = image.shape[:2]
+        texture = self.ctx.texture((w, h), 4, np.ascontiguousarray(image).tobytes(), alignment=1)
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.repeat_x = texture.repeat_y = False
+        self._block = (key, texture, w, h)
+        return self._block[1:]
+
+    def render_hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size,
+                   drift: tuple[float, float] = (0.0, 0.0)) -> None:
+        """The HUD over the current framebuffer, at its full resolution, in three draw calls:
+        the cached title block, the gizmo's lines and discs, and every other panel and line of
+        text as glyph-atlas instances."""
+        width, height = size
+        self.ctx.viewport = (0, 0, width, height)
+        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        self.ctx.enable(moderngl.BLEND)
+        dx, dy = drift
+        viewport = (float(width), float(height))
+        margin = max(4, round(0.022 * height))
+        title_px = max(10, round(0.036 * height))
+        body_px = max(9, round(0.021 * height))
+        ink = (0.96, 0.96, 0.93, 1.0)
+        pad = max(3, body_px // 2)
+
+        # Title and caption, top left, on a translucent panel: one cached texture.
+        texture, block_w, block_h = self._title_block(hud, width, title_px, body_px, pad)
+        if texture is not None:
+            self._quads("image", texture, (block_w, block_h),
+                        [(round(margin + dx), round(margin + dy), block_w, block_h,
+                          0, 0, block_w, block_h, 1.0, 1.0, 1.0, 1.0)], viewport)
 
         # Angles and sensor distance, bottom left, in a fixed-width font so digits do not jitter.
+        rows: list[tuple] = []
         theta = [f"θ{chr(0x2080 + i)}" if has_greek() else f"t{i}" for i in range(1, 7)]
         angles = "  ".join(f"{t} {math.degrees(a):.1f}°" for t, a in zip(theta, view.angles))
         if view.sensor_r == 0:
@@ -310,64 +394,72 @@ class Renderer:
                else f"eye {view.eye_distance:.1f}, fov {view.field_of_view:.0f}°")
         status = [angles, f"{sensor}   {eye}"]
         mono_h = line_height("mono", body_px)
-        block_w = max(text_width(t, "mono", body_px) for t in status) + 2 * pad
+        advance = text_width("0", "mono", body_px)
+        block_w = max(len(t) for t in status) * advance + 2 + 2 * pad
         block_h = mono_h * len(status) + 2 * pad
         y0 = height - margin - block_h - dy
-        self._panel(margin + dx, y0, block_w, block_h, (0.0, 0.0, 0.0, 0.45), viewport)
+        self._panel_row(margin + dx, y0, block_w, block_h, PANEL, rows)
         for i, text in enumerate(status):
-            self._text(text, "mono", body_px, margin + dx + pad, y0 + pad + i * mono_h, ink,
-                       viewport)
+            self._glyph_rows(text, "mono", body_px, margin + dx + pad, y0 + pad + i * mono_h,
+                             ink, rows)
 
-        self._gizmo(view, hud.axes, size, margin, body_px)
-        self._marker_labels(gpu, view, size, body_px)
+        self._gizmo(view, hud.axes, size, margin, body_px, rows)
+        self._marker_labels(gpu, view, size, body_px, rows)
+        self._quads("glyphs", self.atlas.texture, (self.atlas.size, self.atlas.size), rows,
+                    viewport)
+        self.ctx.disable(moderngl.BLEND)
 
-    def _gizmo(self, view: ViewState, axes, size, margin: int, body_px: int) -> None:
+    def _gizmo(self, view: ViewState, axes, size, margin: int, body_px: int,
+               rows: list) -> None:
         """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
-        pointing towards the sensor (out of the 3D image, into the 4th dimension)."""
+        pointing towards the sensor (out of the 3D image, into the 4th dimension). Its lines are
+        drawn now; its labels go to ``rows``."""
         width, height = size
         viewport = (float(width), float(height))
         radius = max(14.0, 0.09 * height)
         cx = width - margin - radius - body_px
         cy = margin + radius + body_px
         rot = view.rotation()
-        items = [((cx, cy), (cx, cy), (0.0, 0.0, 0.0, 0.45), 2 * (radius + body_px))]
-        ends = []
+        items = [((cx, cy), (cx, cy), PANEL, 2 * (radius + body_px))]
         for i in np.argsort(rot[2]):  # back to front along the eye's z
             v = rot[:, i]
             tip = (cx + 0.78 * radius * v[0], cy - 0.78 * radius * v[1])
             rgba = (*AXIS_COLORS[i], 1.0)
             items.append(((cx, cy), tip, rgba, max(1.5, 0.018 * radius * 2)))
             items.append((tip, tip, rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * v[3]))))
-            ends.append((i, v))
-        self.ctx.enable(moderngl.BLEND)
-        self._overlay(items, viewport)
-        for i, v in ends:
             label = axes[i]
             lw = text_width(label, "bold", body_px)
             lx = cx + 0.78 * radius * v[0] + (0.35 * body_px if v[0] >= 0 else -lw - 0.35 * body_px)
             ly = cy - 0.78 * radius * v[1] - 0.6 * body_px
-            self._text(label, "bold", body_px, lx, ly, (*AXIS_COLORS[i], 1.0), viewport)
+            self._glyph_rows(label, "bold", body_px, lx, ly, rgba, rows)
+        self._overlay(items, viewport)
         caption = "4D axes"
-        cw = text_width(caption, "sans", max(8, body_px - 2))
-        self._text(caption, "sans", max(8, body_px - 2), cx - cw / 2, cy + radius + 0.1 * body_px,
-                   (0.75, 0.77, 0.8, 1.0), viewport)
+        small = max(8, body_px - 2)
+        cw = text_width(caption, "sans", small)
+        self._glyph_rows(caption, "sans", small, cx - cw / 2, cy + radius + 0.1 * body_px,
+                         (0.75, 0.77, 0.8, 1.0), rows)
 
-    def _marker_labels(self, gpu: GpuMesh, view: ViewState, size, body_px: int) -> None:
+    def _marker_labels(self, gpu: GpuMesh, view: ViewState, size, body_px: int,
+                       rows: list) -> None:
         markers = [m for m in gpu.mesh.markers if m.label]
         if not markers:
             return
         width, height = size
-        ct = clip_transform(view, width / height)
+        ct = self.clip_transform(view, size)
         pixels, ok = ct.to_pixels(np.array([m.position for m in markers]), width, height)
         for m, (x, y), visible in zip(markers, pixels, ok):
             if visible:
-                self._text(m.label, "bold", body_px, x + 0.6 * body_px, y - 1.3 * body_px,
-                           (*m.material.color, 1.0), (float(width), float(height)))
+                self._glyph_rows(m.label, "bold", body_px, x + 0.6 * body_px, y - 1.3 * body_px,
+                                 (*m.material.color, 1.0), rows)
 
     def release(self) -> None:
         self.text.release()
-        for vao in [*self._empty.values(), self._overlay_vao]:
+        self.atlas.release()
+        if self._block is not None and self._block[1] is not None:
+            self._block[1].release()
+        for vao in [*self._empty.values(), self._overlay_vao, *self._glyph_vaos.values()]:
             vao.release()
         self._overlay_buffer.release()
+        self._glyph_buffer.release()
         for prog in self.programs.values():
             prog.release()

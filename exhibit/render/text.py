@@ -106,3 +106,131 @@ class TextCache:
             item.texture.release()
         self._items.clear()
         self.white.release()
+
+
+# ---------------------------------------------------------------------- cached blocks and glyphs
+
+def block_image(lines: list[tuple[str, str, int, tuple]], pad: int,
+                panel: tuple[float, float, float, float]) -> np.ndarray:
+    """A text panel as one premultiplied RGBA image (h, w, 4) uint8, top row first: the panel
+    colour under every line's coverage in its own colour, composited exactly as drawing the panel
+    and then each line with "over" blending would. ``lines``: (text, style, size, rgba)."""
+    width = int(math.ceil(max(text_width(t, s, px) for t, s, px, _ in lines))) + 2 * pad
+    height = sum(line_height(s, px) for _, s, px, _ in lines) + 2 * pad
+    color = np.zeros((height, width, 3), dtype=np.float32)
+    alpha = np.full((height, width), float(panel[3]), dtype=np.float32)
+    color[:] = np.asarray(panel[:3], dtype=np.float32) * panel[3]
+    y = pad
+    for text, style, px, rgba in lines:
+        cover = rasterise(text, style, px).astype(np.float32) / 255.0 * float(rgba[3])
+        h, w = cover.shape
+        w = min(w, width - pad)
+        cover = cover[:, :w]
+        region = (slice(y, y + h), slice(pad, pad + w))
+        color[region] = (np.asarray(rgba[:3], dtype=np.float32) * cover[..., None]
+                         + color[region] * (1.0 - cover[..., None]))
+        alpha[region] = cover + alpha[region] * (1.0 - cover)
+        y += line_height(style, px)
+    out = np.concatenate([color, alpha[..., None]], axis=-1)
+    return np.clip(np.rint(out * 255.0), 0, 255).astype(np.uint8)
+
+
+@dataclass
+class Glyph:
+    """Where a glyph sits in the atlas (texels) and how it is placed: its image's left edge is
+    ``left`` pixels from the pen position, its top at the line's top."""
+
+    u: int
+    v: int
+    width: int
+    height: int
+    left: int
+
+
+class GlyphAtlas:
+    """Every glyph the HUD has shown, rasterised once by Pillow at its pixel size into one
+    single-channel texture (shelf packing): a line of text is then a run of quads placed at whole
+    pixels, drawn with every other atlas text in one instanced call, so a number that changes
+    costs a small instance-buffer write instead of a new texture. Glyphs are placed texel for
+    pixel (NEAREST), as crisp as whole-line rasterising; monospaced text advances by the font's
+    fixed advance, so digits never jitter, and proportional text keeps Pillow's kerning (pen
+    positions are the lengths of the line's prefixes). When the atlas fills up it starts again
+    empty (the HUD uses a few hundred glyphs, so that is rare)."""
+
+    SIZE = 1024
+
+    def __init__(self, ctx: moderngl.Context, size: int = SIZE):
+        self.ctx = ctx
+        self.size = size
+        self.texture = ctx.texture((size, size), 1, dtype="f1")
+        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        self.texture.repeat_x = self.texture.repeat_y = False
+        self.texture.write(np.zeros((size, size), dtype=np.uint8).tobytes())
+        self._glyphs: dict[tuple[str, int, str], Glyph] = {}
+        self._layouts: OrderedDict[tuple[str, str, int], list[tuple[int, Glyph]]] = OrderedDict()
+        self.resets = 0
+        self._clear()
+
+    def _clear(self) -> None:
+        self._glyphs.clear()
+        self._layouts.clear()
+        # A 2x2 solid texel block at the origin: panels are glyph quads stretched over it.
+        self.texture.write(np.full((2, 2), 255, dtype=np.uint8).tobytes(), viewport=(0, 0, 2, 2))
+        self.solid = Glyph(0, 0, 2, 2, 0)
+        self._x, self._y, self._shelf = 4, 0, 4
+
+    def glyph(self, char: str, style: str, size: int) -> Glyph:
+        key = (style, size, char)
+        found = self._glyphs.get(key)
+        if found is not None:
+            return found
+        f = font(style, size)
+        ascent, descent = f.getmetrics()
+        left, _, right, _ = f.getbbox(char)
+        left = min(int(math.floor(left)), 0) - 1
+        width = max(int(math.ceil(right)) - left + 1, 1)
+        height = ascent + descent
+        image = Image.new("L", (width, height), 0)
+        ImageDraw.Draw(image).text((-left, 0), char, font=f, fill=255)
+        if self._x + width + 1 > self.size:
+            self._x, self._y, self._shelf = 0, self._y + self._shelf + 1, 0
+        if self._y + height > self.size or width > self.size:
+            self.resets += 1
+            self._clear()
+        glyph = Glyph(self._x, self._y, width, height, left)
+        self.texture.write(np.ascontiguousarray(np.asarray(image)).tobytes(),
+                           viewport=(glyph.u, glyph.v, width, height), alignment=1)
+        self._x += width + 1
+        self._shelf = max(self._shelf, height)
+        self._glyphs[key] = glyph
+        return glyph
+
+    def layout(self, text: str, style: str, size: int) -> list[tuple[int, Glyph]]:
+        """(x offset of the glyph image, glyph) for each visible character of one line."""
+        key = (text, style, size)
+        found = self._layouts.get(key)
+        if found is not None:
+            self._layouts.move_to_end(key)
+            return found
+        f = font(style, size)
+        resets = self.resets
+        out = []
+        if style == "mono":
+            advance = f.getlength("0")
+            pens = [i * advance for i in range(len(text))]
+        else:
+            pens = [f.getlength(text[:i]) for i in range(len(text))]
+        for pen, char in zip(pens, text):
+            if char.isspace():
+                continue
+            glyph = self.glyph(char, style, size)
+            out.append((int(round(pen)) + 1 + glyph.left, glyph))
+        if self.resets != resets:  # the atlas was emptied while laying out: lay out again
+            return self.layout(text, style, size)
+        self._layouts[key] = out
+        while len(self._layouts) > 256:
+            self._layouts.popitem(last=False)
+        return out
+
+    def release(self) -> None:
+        self.texture.release()
