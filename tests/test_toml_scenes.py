@@ -157,3 +157,28 @@ def test_broken_scene_files_stop_no_command(tmp_path):
     assert checked.returncode == 2 and "Traceback" not in checked.stdout + checked.stderr
     for name in BROKEN:
         assert str(tmp_path / name) in checked.stdout, name
+    for name in ("literal.toml", "minus.toml"):  # formulas: named by their key
+        assert f"{tmp_path / name}: surface[0].f2: " in checked.stdout, checked.stdout
+
+
+@pytest.mark.parametrize("formula, reason", [
+    ("x/sin(pi)", "division by zero"), ("tan(pi/2) + x", "infinite"),
+    ("x + sqrt(-1)", ""), ("((x^64)^64)^64", "degree"), ("sin(" * 200 + "x" + ")" * 200, ""),
+    ("log(-1 - x^2)", ""),
+])
+def test_formulas_that_cannot_be_built_are_refused_at_load(tmp_path, formula, reason):
+    path = write(tmp_path, GOOD.replace("x*y - z*w - a", formula))
+    with pytest.raises(ExhibitError) as info:
+        load_scene_file(path)
+    assert str(info.value).startswith(f"{path}: surface[0].f2: "), str(info.value)
+    assert reason in str(info.value)
+
+
+def test_a_warm_start_remembers_checked_formulas_and_needs_no_sympy(tmp_path):
+    """The box check needs sympy (half a second); a pass is remembered beside the mesh cache."""
+    env = {**os.environ, "EXHIBIT_CACHE_DIR": str(tmp_path / "cache")}
+    code = ("import sys; from exhibit import scenes; scenes.load(); "
+            "print('sympy' in sys.modules, len(scenes.problems()))")
+    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                           text=True, check=True).stdout.split() for _ in range(2)]
+    assert runs == [["True", "0"], ["False", "0"]]

@@ -8,7 +8,7 @@ from pathlib import Path
 from exhibit.errors import ExhibitError
 from exhibit.resources import shipped
 from exhibit.scenes.base import Parameter, Preset, Scene
-from exhibit.scenes import collision, gallery, hopf, offsets
+from exhibit.scenes import checked, collision, gallery, hopf, offsets
 from exhibit.scenes.toml_scene import load_scene_file
 
 #: Where curators' scene files live: the repository's configs/scenes, then every folder in
@@ -112,6 +112,7 @@ def load(reload: bool = False) -> tuple[dict[str, Scene], list[tuple[str, str]]]
             except Exception as exc:  # noqa: BLE001 - one curator's file never stops the rest
                 LOAD_ERRORS.append((str(path), f"{path}: cannot load: {type(exc).__name__}: "
                                                f"{str(exc)[:200]}"))
+    checked.save()
     _loaded = True
     return dict(_REGISTRY), list(LOAD_ERRORS)
 

@@ -83,7 +83,7 @@ def build_cached(scene: Scene, overrides: Mapping[str, object] | None = None,
         log.warning("mesh cache %s is unusable (%s); rebuilding", path, exc)
     mesh = scene.build(params, resolution)
     try:
-        _store(folder, path, mesh.to_bytes())
+        store(folder, path, mesh.to_bytes())
     except Exception as exc:  # noqa: BLE001 - the cache is an optimisation
         log.warning("could not write the mesh cache %s: %s", path, exc)
     return mesh, False
@@ -118,7 +118,7 @@ def _read_entry(path: Path) -> bytes | None:
         os.close(fd)
 
 
-def _store(folder: Path, path: Path, data: bytes) -> None:
+def store(folder: Path, path: Path, data: bytes) -> None:
     """Write ``data`` to ``path`` atomically through a temporary file only this call created.
 
     O_EXCL|O_NOFOLLOW with a random name: a file or symlink planted in the folder is never

@@ -51,6 +51,7 @@ from exhibit.schema import Model, read_bytes, read_toml, validate
 from exhibit.schema.types import (MAX_COORDINATE, Angle, Caption, Distance, HalfHeight, Name,
                                   Number, Numbers, Resolution, Text, distance_to_r, fail,
                                   numbers_check, text_check)
+from exhibit.scenes import checked
 from exhibit.surfaces.expressions import MAX_LENGTH, ExpressionError, check_expression, \
     compile_field
 from exhibit.surfaces.mesh import Material, Mesh4D
@@ -187,9 +188,12 @@ def load_scene_file(path: Path) -> Scene:
                  version=hashlib.sha256(read_bytes(path)).hexdigest()[:16])
 
 
-def _check(path, key, text, variables, defaults, box=None) -> str:
+def _check(path, key, text, variables, defaults, box) -> str:
+    """The formula, checked on its box (symbolically and on samples): a formula that cannot be
+    evaluated there is refused now, by file and key, not when the kiosk builds it."""
     try:
-        check_expression(text, variables, defaults)
+        check_expression(text, variables, defaults)  # cheap: syntax, names, sizes
+        checked.check(text, variables, defaults, box)
     except ExpressionError as exc:
         raise ConfigError(f"{path}: {key}: {exc}") from None
     return text
