@@ -182,3 +182,11 @@ def test_a_warm_start_remembers_checked_formulas_and_needs_no_sympy(tmp_path):
     runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                            text=True, check=True).stdout.split() for _ in range(2)]
     assert runs == [["True", "0"], ["False", "0"]]
+
+
+def test_a_parameter_that_breaks_a_formula_is_an_error_not_a_crash(tmp_path):
+    """Checked at the defaults; a visitor's or curator's value can still divide by zero."""
+    path = write(tmp_path, GOOD.replace("x*y - z*w - a", "x/(a - 0.4) - y"))
+    scene = load_scene_file(path)
+    with pytest.raises(ExhibitError, match=r"surface\[0\]: cannot be built .*division by zero"):
+        scene.build({"a": 0.4}, resolution=6)

@@ -43,7 +43,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import Field, PlainValidator
 
-from exhibit.errors import ConfigError
+from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Scene
 from exhibit.scenes.implicit_scene import mesh_implicit
@@ -178,8 +178,12 @@ def load_scene_file(path: Path) -> Scene:
 
     def build(params: dict, resolution: int) -> Mesh4D:
         mesh = Mesh4D()
-        for make in specs:
-            mesh.surfaces.append(make(params, resolution))
+        for index, make in enumerate(specs):
+            try:
+                mesh.surfaces.append(make(params, resolution))
+            except ExpressionError as exc:  # e.g. x/(a-1) with a = 1: checked at the defaults
+                raise ExhibitError(f"{path}: surface[{index}]: cannot be built with "
+                                   f"{params}: {exc}") from None
         return mesh
 
     return Scene(name=spec.name, title=spec.title, caption=spec.caption,
