@@ -1,30 +1,48 @@
-"""`exhibit status [--json] [--max-age S] [--file PATH]`: is the kiosk alive, and what is it doing?
+"""`exhibit status [--json] [--max-age S] [--max-lost S] [--file PATH] [--prometheus FILE]`: is
+the kiosk alive, and what is it doing?
 
 Reads the health file the running kiosk rewrites every second (exhibit.kiosk.health) and prints
-a summary for staff: mode, scene, frame rate, devices, uptime and how old the file is. The exit
-code is for monitoring scripts: 0 fresh, 1 stale, missing or broken (with a one-line reason; a
-FIFO, device or oversized file in its place is broken, and is refused without hanging), 2 a bad
-argument. Without --file it looks at $EXHIBIT_STATE_DIR (else the XDG state folder) and then at
-the service's /var/lib/exhibit, so it works from a staff shell on the kiosk without sudo. Text
-from the file is printed without control characters or escape sequences, so a tampered file
-cannot drive the staff terminal.
+a summary for staff: mode, scene, frame rate, devices (with how long a missing one has been
+missing), uptime and how old the file is. The exit code is for monitoring scripts:
+
+- 0: fresh, and every configured device connected or missing for at most --max-lost seconds;
+- 1: stale, missing or broken (with a one-line reason; a FIFO, device or oversized file in its
+  place is broken, and is refused without hanging);
+- 2: a bad argument;
+- 3: fresh, but a configured device has been missing for longer than --max-lost (default 60 s):
+  ``lost`` (it was connected, then went away) or ``waiting`` (never connected since the kiosk
+  started), named with how long on stderr. A file from an older kiosk, without the durations,
+  never gives 3;
+- with --prometheus FILE: 0 once the metrics file is written, whatever it says (the metrics are
+  the product, and alerts come from them), 4 if it could not be written.
+
+Without --file it looks at $EXHIBIT_STATE_DIR (else the XDG state folder) and then at the
+service's /var/lib/exhibit, so it works from a staff shell on the kiosk without sudo. Text from
+the file is printed without control characters or escape sequences, so a tampered file cannot
+drive the staff terminal.
 """
 
 from __future__ import annotations
 
 import json
-import math
 import re
 import sys
 import time
 from pathlib import Path
 
-from exhibit.errors import ExhibitError
-from exhibit.kiosk.health import (HealthError, candidate_paths, format_duration, freshness,
-                                  read_health)
+from exhibit.commands import _args
+from exhibit.kiosk.health import (MISSING_STATES, HealthError, candidate_paths, format_duration,
+                                  freshness, missing_devices, read_health)
 
-HELP = "health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken)"
+HELP = ("health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken, 3 a "
+        "device missing for longer than --max-lost; --prometheus FILE: 0 once written)")
 DEFAULT_MAX_AGE = 10.0
+#: Seconds a configured device may be missing before status exits 3: a replug or a board's
+#: reset takes a few seconds; a minute is a device someone has to look at.
+DEFAULT_MAX_LOST = 60.0
+EXIT_STALE = 1
+EXIT_DEVICE_MISSING = 3
+EXIT_METRICS_UNWRITTEN = 4
 #: Terminal escape sequences, removed whole (parameters included): CSI (ESC [ or 8-bit 0x9B),
 #: strings (OSC, DCS, SOS, PM, APC: ESC ] P X ^ _ up to BEL or ST) and two-byte ESC sequences.
 _ESCAPES = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]?|\x9b[0-?]*[ -/]*[@-~]?"
@@ -33,20 +51,29 @@ _ESCAPES = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]?|\x9b[0-?]*[ -/]*[@-~]?"
 
 def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true",
-                        help="print the health data as JSON, with path, age_s, fresh and reason")
-    parser.add_argument("--max-age", type=float, default=DEFAULT_MAX_AGE, metavar="S",
+                        help="print the health data as JSON, with path, age_s, fresh, reason and "
+                             "devices_missing")
+    parser.add_argument("--max-age", type=_args.seconds(), default=DEFAULT_MAX_AGE, metavar="S",
                         help=f"seconds after which the file counts as stale (default "
                              f"{DEFAULT_MAX_AGE:g}; the kiosk writes it every second)")
+    parser.add_argument("--max-lost", type=_args.number(0, 1e7), default=DEFAULT_MAX_LOST,
+                        metavar="S",
+                        help=f"exit 3 when a configured device has been missing (lost, or "
+                             f"waiting: never connected since the start) for longer than S "
+                             f"seconds (default {DEFAULT_MAX_LOST:g})")
     parser.add_argument("--file", type=Path, metavar="PATH",
                         help="read this health file instead of looking in the usual places")
+    parser.add_argument("--prometheus", type=Path, metavar="FILE",
+                        help="write the health as Prometheus metrics to FILE (atomically; for "
+                             "node_exporter's textfile collector) instead of the summary; exit 0 "
+                             "once written, whatever the health, 4 if it cannot be written")
 
 
 def run(args) -> int:
-    if not (math.isfinite(args.max_age) and args.max_age > 0):
-        raise ExhibitError(f"--max-age must be a positive number of seconds, got {args.max_age:g}")
     paths = [args.file] if args.file else candidate_paths()
     path = next((p for p in paths if p.exists()), paths[0])
     now = time.time()
+    quiet = args.prometheus is not None  # a timer every 15 s: the file speaks, not the journal
     try:
         data = read_health(path)
     except HealthError as exc:
@@ -56,28 +83,61 @@ def run(args) -> int:
                       "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file")
         if args.json:
             _print_json({"path": str(path), "fresh": False, "reason": reason})
+        if args.prometheus is not None:
+            return _write_metrics(args.prometheus, None, "missing" if exc.missing else "broken")
         print(f"exhibit status: {'MISSING' if exc.missing else 'BROKEN'}: {printable(reason)}",
               file=sys.stderr)
-        return 1
+        return EXIT_STALE
     fresh, age, reason = freshness(data, args.max_age, now=now)
+    missing = missing_devices(data, args.max_lost, age) if fresh else []
     if args.json:
         _print_json({**data, "path": str(path), "age_s": round(age, 3), "fresh": fresh,
-                     "reason": reason})
-    else:
-        print(summary(data, path, age, fresh))
+                     "reason": reason, "devices_missing": missing})
+    elif not quiet:
+        print(summary(data, path, age, fresh, missing))
+    if args.prometheus is not None:
+        return _write_metrics(args.prometheus, data, "ok" if fresh else "stale", age)
     if not fresh:
         print(f"exhibit status: STALE: {printable(reason)}", file=sys.stderr)
-        return 1
+        return EXIT_STALE
+    if missing:
+        print("exhibit status: DEVICE MISSING: "
+              + "; ".join(printable(_missing_text(m, args.max_lost)) for m in missing),
+              file=sys.stderr)
+        return EXIT_DEVICE_MISSING
     return 0
 
 
-def summary(data: dict, path: Path, age: float, fresh: bool) -> str:
+def _missing_text(m: dict, max_lost: float) -> str:
+    how = ("waiting (never connected since the start)" if m["state"] == "waiting"
+           else m["state"])
+    return (f"{m['device']} ({m['url']}) {how} for {format_duration(m['missing_s'])} "
+            f"(more than {max_lost:g} s)")
+
+
+def _write_metrics(target: Path, data: dict | None, status: str, age: float | None = None) -> int:
+    from exhibit.kiosk.metrics import render, write_metrics
+
+    try:
+        write_metrics(target, render(data, status, age))
+    except OSError as exc:
+        why = exc.strerror or str(exc)
+        hint = (": is node_exporter (prometheus-node-exporter) installed?"
+                if isinstance(exc, FileNotFoundError) else "")
+        print(f"exhibit status: cannot write the metrics file {printable(target)}: "
+              f"{printable(why)}{hint}", file=sys.stderr)
+        return EXIT_METRICS_UNWRITTEN
+    return 0
+
+
+def summary(data: dict, path: Path, age: float, fresh: bool,
+            missing: list[dict] | None = None) -> str:
     """The staff-facing text: one header line, then one aligned line per topic."""
     def get(key, fmt="{}"):
         value = data.get(key)
         return "?" if value is None else printable(fmt.format(value))
 
-    head = "OK" if fresh else "STALE"
+    head = "STALE" if not fresh else "DEVICE MISSING" if missing else "OK"
     updated = format_duration(max(age, 0.0))
     lines = [f"exhibit kiosk: {head} (updated {updated} ago, pid {get('pid')})"]
     uptime = data.get("uptime_s")
@@ -94,7 +154,8 @@ def summary(data: dict, path: Path, age: float, fresh: bool) -> str:
         width = max(map(len, urls))
         for i, (url, device) in enumerate(zip(urls, devices)):
             rows.append(("devices" if i == 0 else "",
-                         f"{url:<{width}}  {printable(device['state'])}"))
+                         f"{url:<{width}}  {printable(device['state'])}"
+                         f"{_how_long(device, age)}"))
     else:
         rows.append(("devices", "none"))
     failed = [f for f in (data.get("scenes_failed") or []) if isinstance(f, dict)]
@@ -112,6 +173,15 @@ def summary(data: dict, path: Path, age: float, fresh: bool) -> str:
     rows.append(("file", printable(path)))
     lines += [f"  {name:<8}  {value}" for name, value in rows]
     return "\n".join(lines)
+
+
+def _how_long(device: dict, age: float) -> str:
+    """" for 3 min 5 s (never connected)" for a missing device whose kiosk knows how long."""
+    missing = device.get("missing_s")
+    if device.get("state") not in MISSING_STATES or missing is None:
+        return ""
+    text = f" for {format_duration(float(missing) + max(age, 0.0))}"
+    return text + " (never connected)" if device["state"] == "waiting" else text
 
 
 def printable(text) -> str:

@@ -1,9 +1,9 @@
 """All configured devices at once: open them, poll them all without blocking, merge events.
 
 One faulty backend never stops the others: a device that is absent waits (WAITING if it was
-never connected, LOST if it went away), and an unexpected exception from a backend (a bug, a driver surprise) is caught, shown in its status
-and the backend is reopened later, because on a museum floor a frozen exhibit is worse than a
-missing knob.
+never connected, LOST if it went away), and an unexpected exception from a backend (a bug, a
+driver surprise) is caught, shown in its status and the backend is reopened later, because on
+a museum floor a frozen exhibit is worse than a missing knob.
 The traceback of such an exception is logged once per backend and kind of exception, not at
 every poll or reopen (every 2 s for as long as the bug lasts, which on an unattended kiosk can be
 months); later ones only count up in the backend's status detail.

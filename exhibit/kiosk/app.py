@@ -79,6 +79,10 @@ def _rss_kb() -> int:
         return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 
 
+def _round(seconds: float | None) -> float | None:
+    return None if seconds is None else round(seconds, 1)
+
+
 def _fd_count() -> int:
     try:
         return len(os.listdir("/proc/self/fd"))
@@ -281,8 +285,12 @@ class Kiosk:
         p95 = float(np.percentile(self.stats.times, 95)) * 1000 if self.stats.times else 0.0
         self.stats.times.clear()
         self._last_report = now
-        devices = [{"url": s.get("url", ""), "state": s.get("state", "")}
-                   for s in self.devices.statuses()]
+        # Per device: its state, seconds in it, and seconds it has been missing (null when
+        # connected), for `exhibit status --max-lost` and the metrics (exhibit.kiosk.health).
+        devices = [{"name": s.get("name", ""), "url": s.get("url", ""),
+                    "state": s.get("state", ""), "state_s": _round(s.get("state_s")),
+                    "missing_s": _round(s.get("missing_s"))}
+                   for s in self.devices.statuses(now)]
         mode = scene = None
         if self.state is not None:
             mode, scene = self.state.mode, self.state.frame.scene

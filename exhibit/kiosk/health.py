@@ -1,13 +1,19 @@
 """The kiosk's health file: what the running exhibit is doing, rewritten about once a second.
 
-The app writes ``{"time", "pid", "fps", "frame_ms_p95", "mode", "scene", "devices": [{"url",
-"state"}], "uptime_s", "gl_errors", "rss_kb", "fds", "frames", "frame_errors", "problems": [str],
-"scenes_failed": [{"scene", "reason"}]}``: "frames" drawn and "frame_errors" (frames that raised)
-since the start, "problems" one line each for people (scenes skipped, frames failing), and "mode"
-and "scene" null when no scene could be prepared (the screen shows a notice). `exhibit status`
-(staff, monitoring scripts) reads it. Writes are atomic (a temporary file in the same folder,
-then os.replace), so a reader never sees half a file, and the file is world-readable (0644) so
-staff can read it without sudo: nothing in it is secret.
+The app writes ``{"time", "pid", "fps", "frame_ms_p95", "mode", "scene", "devices": [{"name",
+"url", "state", "state_s", "missing_s"}], "uptime_s", "gl_errors", "rss_kb", "fds", "frames",
+"frame_errors", "problems": [str], "scenes_failed": [{"scene", "reason"}]}``: "frames" drawn and
+"frame_errors" (frames that raised) since the start, "problems" one line each for people (scenes
+skipped, frames failing), and "mode" and "scene" null when no scene could be prepared (the screen
+shows a notice). Per device, "state" is one of exhibit.devices.base.State's values ("waiting":
+never connected since the start, "lost": connected once, then gone), "state_s" the seconds it
+has been in that state and "missing_s" the seconds since it was last connected (or since the
+start, if never), null while connected; all as of "time". Files from kiosks older than these
+three device keys have only "url" and "state", and are read as before (durations unknown).
+`exhibit status` (staff, monitoring scripts, the Prometheus metrics) reads it. Writes are
+atomic (a temporary file in the same folder, then os.replace), so a reader never sees half a
+file, and the file is world-readable (0644) so staff can read it without sudo: nothing in it is
+secret.
 
 Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
 ~/.local/state/exhibit/health.json. The systemd unit sets EXHIBIT_STATE_DIR=/var/lib/exhibit.
@@ -26,8 +32,8 @@ from pathlib import Path
 from exhibit.errors import ExhibitError
 
 __all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "MAX_HEALTH_BYTES", "HealthError", "state_dir",
-           "default_path", "candidate_paths", "write_health", "read_health", "freshness",
-           "format_duration"]
+           "default_path", "candidate_paths", "write_health", "write_atomic", "read_health",
+           "freshness", "missing_devices", "device_label", "format_duration"]
 
 HEALTH_FILE = "health.json"
 #: Where the service's StateDirectory=exhibit puts the file (exhibit.service).
@@ -53,7 +59,18 @@ _FIELDS = {
     "gl_errors": (int, "a whole number"),
     "rss_kb": (int, "a whole number"),
     "fds": (int, "a whole number"),
+    "frames": (int, "a whole number"),
+    "frame_errors": (int, "a whole number"),
 }
+#: Optional keys of each "devices" entry (besides the required "url" and "state" strings).
+_DEVICE_FIELDS = {
+    "name": (str, "a string"),
+    "state_s": (_NUMBER, "a number"),
+    "missing_s": (_NUMBER, "a number"),
+}
+#: States in which a device delivers nothing (exhibit.devices.base.MISSING, without importing
+#: the device layer into every reader); "lost" is counted in files written before "waiting".
+MISSING_STATES = ("waiting", "connecting", "lost", "reconnecting")
 
 
 class HealthError(ExhibitError):
@@ -104,16 +121,28 @@ def write_health(path: str | os.PathLike, data: Mapping) -> None:
     path = Path(path)
     text = json.dumps(_finite(dict(data)), allow_nan=False, separators=(",", ":")) + "\n"
     path.parent.mkdir(parents=True, exist_ok=True)
+    write_atomic(path, text)
+
+
+def write_atomic(path: str | os.PathLike, text: str, mode: int = 0o644) -> None:
+    """Replace the file at ``path`` with ``text`` (UTF-8) at once: a reader sees the old file or
+    the new one, never a part. The text goes to a temporary ``.NAME.PID.tmp`` in the same folder,
+    created with O_CREAT|O_EXCL|O_NOFOLLOW (a planted file or link of that name is removed, never
+    written through), given ``mode`` whatever the umask, then renamed over ``path``. Its name
+    does not end in .prom or .json, so a collector globbing ``*.prom`` never reads it half
+    written. Raises OSError (the folder missing or read-only, a full disk) and leaves no
+    temporary file behind."""
+    path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
     try:
         try:
-            fd = os.open(tmp, flags, 0o644)
+            fd = os.open(tmp, flags, mode)
         except FileExistsError:  # left by a crash, or planted: unlink never follows a link
             os.unlink(tmp)
-            fd = os.open(tmp, flags, 0o644)
+            fd = os.open(tmp, flags, mode)
         try:
-            os.fchmod(fd, 0o644)  # the service's UMask would make it private to the kiosk user
+            os.fchmod(fd, mode)  # the service's UMask would make it private to the kiosk user
             view = memoryview(text.encode("utf-8"))
             while view:
                 view = view[os.write(fd, view):]
@@ -241,7 +270,40 @@ def _problems(data: dict) -> list[str]:
                                                        for k in ("url", "state")):
                 problems.append(f"key 'devices[{i}]': expected {{\"url\": str, \"state\": str}}, "
                                 f"got {device!r}")
+                continue
+            for key, (types, wanted) in _DEVICE_FIELDS.items():
+                value = device.get(key)
+                if value is None:
+                    continue
+                if isinstance(value, bool) or not isinstance(value, types):
+                    problems.append(f"key 'devices[{i}].{key}': expected {wanted}, got {value!r}")
+                elif types is _NUMBER and not 0 <= value <= MAX_NUMBER:
+                    problems.append(f"key 'devices[{i}].{key}': expected seconds in "
+                                    f"[0, 2**53], got {value!r}")
     return problems
+
+
+def device_label(device: Mapping) -> str:
+    """What to call a device from the health file: its config name, else its URL."""
+    name = device.get("name")
+    return name if isinstance(name, str) and name else str(device.get("url", "?"))
+
+
+def missing_devices(data: Mapping, max_lost: float, age: float = 0.0) -> list[dict]:
+    """The devices of health data (read with read_health) missing for longer than ``max_lost``
+    seconds by now, ``age`` seconds after the file's "time": [{"device", "url", "state",
+    "missing_s"}]. A device in a missing state without "missing_s" (a file from an older kiosk)
+    is not counted: how long it has been gone is unknown."""
+    out = []
+    for device in data.get("devices") or []:
+        missing = device.get("missing_s")
+        if device.get("state") not in MISSING_STATES or missing is None:
+            continue
+        missing = float(missing) + max(0.0, age)
+        if missing > max_lost:
+            out.append({"device": device_label(device), "url": device["url"],
+                        "state": device["state"], "missing_s": round(missing, 1)})
+    return out
 
 
 def _finite(value):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import stat
 import subprocess
 import sys
@@ -274,11 +275,111 @@ def test_status_json(cli, tmp_path):
     assert missing["fresh"] is False and "no health file" in missing["reason"]
 
 
-def test_status_bad_max_age_is_a_usage_error(cli, tmp_path):
-    result = status(cli, tmp_path / "health.json", "--max-age", "-1")
-    assert result.returncode == 2
-    assert result.stderr.strip() == ("exhibit status: error: --max-age must be a positive "
-                                     "number of seconds, got -1")
+@pytest.mark.parametrize("option", ["--max-age", "--max-lost"])
+@pytest.mark.parametrize("text", ["-1", "nan", "inf", "1e999", "1e9", "x", "", "0x10"])
+def test_status_bad_numbers_are_a_usage_error(capsys, tmp_path, option, text):
+    with pytest.raises(SystemExit) as info:
+        main(["status", "--file", str(tmp_path / "health.json"), f"{option}={text}"])
+    assert info.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"exhibit status: error: argument {option}: ")
+
+
+def test_status_max_age_zero_is_refused_and_max_lost_zero_is_not(capsys, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample())
+    with pytest.raises(SystemExit):
+        main(["status", "--file", str(path), "--max-age", "0"])
+    assert main(["status", "--file", str(path), "--max-lost", "0"]) == 0  # no durations: old file
+
+
+# ---------------------------------------------------------------------- devices missing
+
+def devices(*entries) -> list[dict]:
+    return [dict(zip(("name", "url", "state", "state_s", "missing_s"), e)) for e in entries]
+
+
+CONTROLLER = "serial:///dev/exhibit-controller?baud=115200"
+
+
+def test_status_exits_3_when_a_device_is_lost_for_longer_than_max_lost(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(devices=devices(("controller", CONTROLLER, "lost", 125.0, 125.0),
+                                              ("kb", "keyboard://", "connected", 9.0, None))))
+    result = status(cli, path)
+    assert result.returncode == 3
+    assert result.stdout.startswith("exhibit kiosk: DEVICE MISSING (updated ")
+    assert f"{CONTROLLER}  lost for 2 min 5 s" in result.stdout
+    assert "keyboard://" in result.stdout and "connected\n" in result.stdout
+    assert result.stderr == (f"exhibit status: DEVICE MISSING: controller ({CONTROLLER}) lost "
+                             "for 2 min 5 s (more than 60 s)\n")
+    assert status(cli, path, "--max-lost", "200").returncode == 0
+    assert status(cli, path, "--max-lost", "124").returncode == 3
+
+
+def test_status_tells_waiting_from_lost(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(devices=devices(
+        ("controller", CONTROLLER, "lost", 1.5, 61.5),
+        ("knobs", "hidraw://2341:8037", "waiting", 3700.0, 3700.0))))
+    result = status(cli, path)
+    assert result.returncode == 3
+    assert re.search(r"hidraw://2341:8037 +waiting for 1 h 1 min \(never connected\)\n",
+                     result.stdout)
+    assert re.search(r"controller\?baud=115200 +lost for 1 min 1 s\n", result.stdout)
+    assert result.stderr.count("\n") == 1
+    assert f"controller ({CONTROLLER}) lost for 1 min 1 s (more than 60 s); " in result.stderr
+    assert "knobs (hidraw://2341:8037) waiting (never connected since the start) for 1 h 1 min" \
+        in result.stderr
+    data = json.loads(status(cli, path, "--json").stdout)
+    assert [(m["device"], m["state"]) for m in data["devices_missing"]] == [
+        ("controller", "lost"), ("knobs", "waiting")]
+
+
+def test_the_file_age_counts_towards_the_time_missing(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(time=time.time() - 5,
+                              devices=devices(("c", CONTROLLER, "lost", 57.0, 57.0))))
+    assert status(cli, path).returncode == 3  # 57 s as written, 62 s by now
+
+
+def test_a_short_loss_and_a_reconnect_in_progress(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(devices=devices(("c", CONTROLLER, "reconnecting", 0.4, 30.0))))
+    result = status(cli, path)
+    assert result.returncode == 0 and "reconnecting for 30.0 s" in result.stdout
+    assert status(cli, path, "--max-lost", "10").returncode == 3
+
+
+def test_stale_wins_over_a_missing_device(cli, tmp_path):
+    path = tmp_path / "health.json"
+    write_health(path, sample(time=time.time() - 60,
+                              devices=devices(("c", CONTROLLER, "lost", 500.0, 500.0))))
+    result = status(cli, path)
+    assert result.returncode == 1 and "STALE" in result.stderr and "DEVICE" not in result.stderr
+
+
+def test_an_older_kiosks_file_without_durations_is_read_as_before(cli, tmp_path):
+    """Files written before state_s / missing_s: states shown, never exit 3 (how long is
+    unknown)."""
+    path = tmp_path / "health.json"
+    write_health(path, sample(devices=[{"url": CONTROLLER, "state": "lost"}]))
+    result = status(cli, path, "--max-lost", "0")
+    assert result.returncode == 0 and f"{CONTROLLER}  lost\n" in result.stdout
+
+
+@pytest.mark.parametrize("device, message", [
+    ({"url": "x", "state": "lost", "missing_s": "long"}, "devices[0].missing_s': expected a num"),
+    ({"url": "x", "state": "lost", "missing_s": -1}, "devices[0].missing_s': expected seconds"),
+    ({"url": "x", "state": "lost", "state_s": 1e300}, "devices[0].state_s': expected seconds"),
+    ({"url": "x", "state": "lost", "state_s": True}, "devices[0].state_s': expected a number"),
+    ({"url": "x", "state": "lost", "name": 7}, "devices[0].name': expected a string"),
+])
+def test_device_durations_are_checked_on_read(tmp_path, device, message):
+    path = tmp_path / "health.json"
+    path.write_text(json.dumps({"time": 1, "devices": [device]}))
+    with pytest.raises(HealthError, match=re.escape(message)):
+        read_health(path)
 
 
 # ---------------------------------------------------------------------- hostile health files

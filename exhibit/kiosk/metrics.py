@@ -1,0 +1,183 @@
+"""The kiosk's health as Prometheus metrics, for node_exporter's textfile collector.
+
+`exhibit status --prometheus FILE` renders the health file (exhibit.kiosk.health) in the
+Prometheus text exposition format (version 0.0.4) and writes it atomically, so a museum that
+already runs node_exporter on its machines watches every kiosk with the Prometheus it has: no
+new server, no open port on the kiosk. Run every 15 s by exhibit-metrics.timer.
+
+The file is written whatever the health file says, because an alert needs a value to fire on:
+with no health file, a stale one or a broken one, ``exhibit_up`` is 0 and ``exhibit_health``
+says which (``{status="missing"} 1``), with no free-text reason (a label whose value changes
+with every message would make a new time series each time). The kiosk's own numbers (frame
+rate, mode, devices...) are only written from a fresh file: a dead kiosk's last frame rate is
+not a current one.
+
+Label values come from the health file (device names and URLs from the config, scene names) and
+are made safe: control and invisible characters are removed, the value is cut to
+MAX_LABEL_CHARS, and backslash, double quote and line feed are escaped as the format requires.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from collections.abc import Mapping
+
+from exhibit.devices.base import State
+from exhibit.kiosk.health import MODES, device_label, write_atomic
+
+__all__ = ["HEALTH_STATUSES", "FAMILIES", "render", "write_metrics", "escape_label"]
+
+#: exhibit_health's status label: fresh, too old (or its process gone), no file, unreadable.
+HEALTH_STATUSES = ("ok", "stale", "missing", "broken")
+#: exhibit_mode's label: the two modes, and "notice" when no scene could be prepared.
+MODE_LABELS = (*MODES, "notice")
+MAX_LABEL_CHARS = 200
+#: At most this many devices are written (a config has a handful; a corrupt file could have more).
+MAX_DEVICES = 64
+
+#: name -> (type, help), in the order they are written.
+FAMILIES = {
+    "exhibit_up": ("gauge", "1 when the kiosk's health file is fresh (the kiosk is running), "
+                            "else 0"),
+    "exhibit_health": ("gauge", "The health file's status: 1 for the one that holds (ok, stale, "
+                                "missing, broken)"),
+    "exhibit_health_age_seconds": ("gauge", "Seconds since the kiosk last wrote its health "
+                                            "file"),
+    "exhibit_last_update_timestamp_seconds": ("gauge", "When the kiosk last wrote its health "
+                                                       "file (unix time)"),
+    "exhibit_fps": ("gauge", "Frames drawn per second over the last second"),
+    "exhibit_frame_time_p95_seconds": ("gauge", "95th percentile of the frame time over the "
+                                                "last second"),
+    "exhibit_mode": ("gauge", "1 for the kiosk's mode (attract, visitor; notice: no scene could "
+                              "be prepared)"),
+    "exhibit_scene_info": ("gauge", "The scene on screen, as its label"),
+    "exhibit_device_state": ("gauge", "1 for each configured device's state (waiting: never "
+                                      "connected since the start; lost: connected, then gone)"),
+    "exhibit_device_state_seconds": ("gauge", "Seconds each device has been in its state"),
+    "exhibit_device_missing_seconds": ("gauge", "Seconds since each device was last connected "
+                                                "(since the start if never); 0 while connected"),
+    "exhibit_uptime_seconds": ("gauge", "Seconds since the kiosk process started"),
+    "exhibit_frames_total": ("counter", "Frames drawn since the kiosk started"),
+    "exhibit_frame_errors_total": ("counter", "Frames that raised an error since the kiosk "
+                                              "started"),
+    "exhibit_gl_errors_total": ("counter", "OpenGL errors since the kiosk started"),
+    "exhibit_scenes_failed": ("gauge", "Scenes skipped because they could not be prepared"),
+    "exhibit_problems": ("gauge", "Problems the kiosk reports for people (see exhibit status)"),
+    "exhibit_resident_memory_bytes": ("gauge", "Resident memory of the kiosk process"),
+    "exhibit_open_fds": ("gauge", "Open file descriptors of the kiosk process"),
+}
+
+
+def render(data: Mapping | None, status: str, age: float | None = None) -> str:
+    """The metrics text for health ``data`` (read with read_health; None when there is none),
+    its ``status`` (one of HEALTH_STATUSES) and ``age`` in seconds (None if unknown)."""
+    if status not in HEALTH_STATUSES:
+        raise ValueError(f"status must be one of {HEALTH_STATUSES}, got {status!r}")
+    samples: dict[str, list[tuple[dict, object]]] = {name: [] for name in FAMILIES}
+
+    def add(name, value, **labels):
+        if _is_number(value):
+            samples[name].append((labels, value))
+
+    add("exhibit_up", int(status == "ok"))
+    for s in HEALTH_STATUSES:
+        add("exhibit_health", int(s == status), status=s)
+    if data is not None:
+        if age is not None:
+            add("exhibit_health_age_seconds", round(max(age, 0.0), 3))
+        add("exhibit_last_update_timestamp_seconds", data.get("time"))
+    if data is not None and status == "ok":
+        _kiosk(data, add)
+    lines = []
+    for name, (kind, text) in FAMILIES.items():
+        if not samples[name]:
+            continue
+        lines.append(f"# HELP {name} {_escape_help(text)}")
+        lines.append(f"# TYPE {name} {kind}")
+        for labels, value in samples[name]:
+            body = ",".join(f'{k}="{escape_label(v)}"' for k, v in labels.items())
+            lines.append(f"{name}{{{body}}} {_number(value)}" if body
+                         else f"{name} {_number(value)}")
+    return "\n".join(lines) + "\n"
+
+
+def _kiosk(data: Mapping, add) -> None:
+    add("exhibit_fps", data.get("fps"))
+    p95 = data.get("frame_ms_p95")
+    if _is_number(p95):
+        add("exhibit_frame_time_p95_seconds", round(p95 / 1000.0, 6))
+    mode = data.get("mode") if data.get("mode") in MODES else "notice"
+    for m in MODE_LABELS:
+        add("exhibit_mode", int(m == mode), mode=m)
+    if isinstance(data.get("scene"), str):
+        add("exhibit_scene_info", 1, scene=data["scene"])
+    seen: set[tuple[str, str]] = set()
+    for device in (data.get("devices") or [])[:MAX_DEVICES]:
+        labels = {"device": _clean(device_label(device)), "url": _clean(device["url"])}
+        key = (labels["device"], labels["url"])
+        n = 2
+        while key in seen:  # two devices that clean up to one name: keep both series apart
+            key = (f"{labels['device']}#{n}", labels["url"])
+            n += 1
+        seen.add(key)
+        labels["device"] = key[0]
+        state = _clean(device["state"])
+        states = [s.value for s in State]
+        for s in states + ([state] if state not in states else []):
+            add("exhibit_device_state", int(s == state), **labels, state=s)
+        add("exhibit_device_state_seconds", device.get("state_s"), **labels)
+        missing = device.get("missing_s")
+        if state == State.CONNECTED.value and missing is None and "state_s" in device:
+            missing = 0  # a current kiosk writes null while connected; an old one knows nothing
+        add("exhibit_device_missing_seconds", missing, **labels)
+    add("exhibit_uptime_seconds", data.get("uptime_s"))
+    add("exhibit_frames_total", data.get("frames"))
+    add("exhibit_frame_errors_total", data.get("frame_errors"))
+    add("exhibit_gl_errors_total", data.get("gl_errors"))
+    for name, key in (("exhibit_scenes_failed", "scenes_failed"), ("exhibit_problems", "problems")):
+        if isinstance(data.get(key), list):
+            add(name, len(data[key]))
+    rss = data.get("rss_kb")
+    if _is_number(rss) and rss >= 0:
+        add("exhibit_resident_memory_bytes", rss * 1024)
+    fds = data.get("fds")
+    if _is_number(fds) and fds >= 0:  # -1: could not be counted
+        add("exhibit_open_fds", fds)
+
+
+def write_metrics(path: str | os.PathLike, text: str) -> None:
+    """Replace the metrics file at ``path`` atomically (world-readable: node_exporter runs as
+    another user). Its folder must exist: node_exporter's package creates it, and a missing one
+    means the collector is not installed. Raises OSError."""
+    write_atomic(path, text, mode=0o644)
+
+
+def _clean(value) -> str:
+    """A label value without control or invisible characters (C0, DEL, C1, bidi overrides,
+    lone surrogates), whitespace runs as they are but line breaks and tabs as spaces, at most
+    MAX_LABEL_CHARS long."""
+    text = str(value)
+    out = "".join(c if c.isprintable() else " " if c.isspace() else "" for c in text)
+    return out[:MAX_LABEL_CHARS]
+
+
+def escape_label(value) -> str:
+    """A label value for the text format: cleaned (_clean), then backslash, double quote and
+    line feed escaped."""
+    return (_clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n"))
+
+
+def _escape_help(text: str) -> str:
+    return text.replace("\\", "\\\\").replace("\n", "\\n")
+
+
+def _is_number(value) -> bool:
+    return (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
+def _number(value) -> str:
+    if isinstance(value, int):
+        return str(value)
+    return repr(float(value))
