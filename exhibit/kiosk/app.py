@@ -19,6 +19,11 @@ It survives what it can, because a crash is a black screen until someone comes:
   tells visitors and `exhibit status` what is wrong, and keeps the watchdog quiet.
 * GLFW errors (exhibit.render.window) and device backends that raise (DeviceSet) are logged,
   never fatal; losing the input focus neither iconifies nor stops the fullscreen window.
+
+Under systemd the log goes to the journal in its native protocol (exhibit.kiosk.journal), and
+every record, the mode and scene changes and the errors among them, carries the mode and the
+scene on screen as the fields EXHIBIT_MODE and EXHIBIT_SCENE (`journalctl -u exhibit
+EXHIBIT_SCENE=hopf`); EXHIBIT_MODE is "notice" when no scene could be prepared.
 """
 
 from __future__ import annotations
@@ -39,6 +44,7 @@ from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.errors import ExhibitError
+from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.state import KioskState
@@ -135,6 +141,7 @@ class Kiosk:
 
     def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
                  health_path: Path | None = None):
+        journal.install()  # stderr is the journal (a service): structured fields from here on
         self.config = config
         self.window = window
         self.clock = clock
@@ -164,6 +171,8 @@ class Kiosk:
             log.critical("no scene could be prepared: the kiosk shows a notice until it is "
                          "fixed and restarted")
             self.problems.append("no scene could be prepared: the screen shows a notice")
+        self._log_fields: dict[str, str | None] = {}
+        self._update_log_fields()
         self.stats = FrameStats()
         self.errors = FrameErrors()
         self.frames = 0
@@ -256,12 +265,16 @@ class Kiosk:
         if self.state is None:
             self.window.notice(list(NOTICE), self.drift(start))
         else:
-            mode = self.state.mode
+            mode, scene = self.state.mode, self.state.frame.scene
             frame = self.state.update(events, start)
-            if frame.mode != mode:
-                angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
-                log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene,
-                         angles)
+            if frame.mode != mode or frame.scene != scene:
+                fields = self._update_log_fields()
+                if frame.mode != mode:
+                    angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
+                    log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene,
+                             angles, extra=fields)
+                else:
+                    log.info("scene %s (%s mode)", frame.scene, frame.mode, extra=fields)
             self._draw(frame, start)
         error = self.window.ctx.error
         if error != "GL_NO_ERROR":
@@ -271,6 +284,18 @@ class Kiosk:
                 log.error("GL error: %s (%d so far)", error, n)
         self.window.swap()
         self.stats.times.append(self.clock() - start)
+
+    def _update_log_fields(self) -> dict[str, str | None]:
+        """The journal fields for what is on screen, set for every record from now on (errors
+        included) and returned for the record about the change itself."""
+        if self.state is None:
+            fields = {"EXHIBIT_MODE": "notice", "EXHIBIT_SCENE": None}
+        else:
+            fields = {"EXHIBIT_MODE": self.state.mode, "EXHIBIT_SCENE": self.state.frame.scene}
+        if fields != self._log_fields:
+            journal.set_context(**fields)
+            self._log_fields = fields
+        return fields
 
     def drift(self, now: float) -> tuple[float, float]:
         """Where the text panels sit now: a slow Lissajous path within drift_px (burn-in care)."""
