@@ -42,8 +42,15 @@ FILES = {
     "99-exhibit.rules": "etc/udev/rules.d/99-exhibit.rules",
     "exhibit-modules.conf": "etc/modules-load.d/exhibit.conf",
     "exhibit-sysctl.conf": "etc/sysctl.d/90-exhibit.conf",
+    "exhibit-metrics.service": "etc/systemd/system/exhibit-metrics.service",
+    "exhibit-metrics.timer": "etc/systemd/system/exhibit-metrics.timer",
 }
+#: The kiosk's two services (the display and the app).
 UNITS = ("exhibit.service", "exhibit-kiosk.service")
+START = "systemctl start exhibit.service exhibit-metrics.timer"
+#: What `systemctl enable` gets: the kiosk, and the timer that refreshes its Prometheus metrics
+#: (exhibit-metrics.service, run by the timer, is not enabled itself).
+ENABLE = (*UNITS, "exhibit-metrics.timer")
 # Folders the service cannot see (ProtectHome=, PrivateTmp=) or that do not survive a reboot.
 _HIDDEN = ("/home", "/root", "/run/user", "/tmp", "/var/tmp", "/run")
 _SAFE_PATH = re.compile(r"^/[A-Za-z0-9._+/-]*$")
@@ -208,7 +215,7 @@ def steps(need_user: bool = True) -> list[list[str]]:
         ["udevadm", "trigger", "--action=add", "--subsystem-match=tty",
          "--subsystem-match=hidraw", "--subsystem-match=usb"],
         ["systemctl", "daemon-reload"],
-        ["systemctl", "enable", *UNITS],
+        ["systemctl", "enable", *ENABLE],
     ]
     return commands
 
@@ -270,7 +277,7 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
         out(f"\n{'steps it would run' if dry_run and on_target else 'remaining steps'} ({where}):")
         for command in todo:
             out("  " + shlex.join(command))
-        out("  systemctl start exhibit.service    # or reboot; takes over tty1")
+        out(f"  {START}    # or reboot; takes over tty1")
         return 0
 
     for command in todo:
@@ -286,7 +293,7 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
         if not Path(program).exists():
             out(f"note: {program} is missing: apt-get install {package} ({why})")
     out("\ninstalled and enabled. Start now (takes over tty1) or reboot:\n"
-        "  systemctl start exhibit.service\n"
+        f"  {START}\n"
         "then check: systemctl status exhibit; journalctl -u exhibit -b; exhibit status")
     return 0
 

@@ -30,13 +30,21 @@ def blocks(language: str) -> list[str]:
 
 
 def shell_lines(text: str) -> list[list[str]]:
-    """Each command of a shell block as words, continuation lines joined, comments dropped."""
+    """Each command of a shell block as words: continuation lines joined, comments dropped, and
+    commands joined by &&, ||, ; or | taken apart."""
     commands = []
     for line in text.replace("\\\n", " ").splitlines():
-        words = shlex.split(line, comments=True)
-        if words:
-            commands.append(words)
-    return commands
+        lexer = shlex.shlex(line, posix=True, punctuation_chars=True)
+        lexer.whitespace_split = True
+        words: list[str] = []
+        for token in lexer:
+            if token in ("&&", "||", ";", "|"):
+                commands.append(words)
+                words = []
+            else:
+                words.append(token)
+        commands.append(words)
+    return [words for words in commands if words]
 
 
 def section(title: str) -> str:
