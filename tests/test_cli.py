@@ -79,7 +79,7 @@ def test_a_full_disk_is_one_line(tmp_path):
 NUMERIC_OPTIONS = [("devices", "--wait"), ("monitor", "--rate"), ("monitor", "--duration"),
                    ("record", "--duration"), ("simulate", "--duration"),
                    ("simulate", "--protocol-version"), ("sweep", "--samples"),
-                   ("sweep", "--distances")]
+                   ("sweep", "--distances"), ("status", "--max-age"), ("status", "--max-lost")]
 HOSTILE = ["nan", "inf", "-inf", "1e-320", "1e308", "-1", "0", "1e999", "", "x", "0x10",
            "9" * 400, "1_000", " 3 ", "+inf", "NaN", "-0", "3,", ",", "inf,nan"]
 

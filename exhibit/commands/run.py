@@ -8,6 +8,7 @@ import math
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
+from exhibit.kiosk import journal
 from exhibit.kiosk.config import load_kiosk_config
 
 HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
@@ -37,6 +38,7 @@ def run(args) -> int:
         raise ExhibitError(f"--screenshot: folder {screenshot.parent} does not exist")
     config = load_kiosk_config(args.config)  # ConfigError: every problem, exit 2
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
+    journal.install()  # under systemd: native journal records with the scene and mode as fields
     # When the watchdog kills a hung loop (SIGABRT), every thread's stack goes to the journal.
     faulthandler.enable()
 
