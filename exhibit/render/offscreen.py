@@ -59,6 +59,7 @@ class Headless:
         self.ctx = ctx or headless_context()
         self.renderer = Renderer(self.ctx)
         self._targets: dict[tuple[tuple[int, int], int], Offscreen] = {}
+        self._pipeline = None
 
     def activate(self) -> None:
         """Make this context current again (another context in the process may have taken it)."""
@@ -78,6 +79,29 @@ class Headless:
         self.renderer.render(gpu, view, target.framebuffer, options or RenderOptions(), hud)
         return target.read()
 
+    @property
+    def pipeline(self):
+        """The kiosk's frame pipeline on this context (exhibit.render.frame.FramePipeline)."""
+        if self._pipeline is None:
+            from exhibit.render.frame import FramePipeline
+            self._pipeline = FramePipeline(self.ctx, self.renderer, DEFAULT_SAMPLES)
+        return self._pipeline
+
+    def draw_frame(self, gpu, view, size, options=None, hud=None, quality=None) -> Offscreen:
+        """A whole kiosk frame at a quality level (default: FXAA at full scale) into a
+        single-sampled target, as a window's screen gets it; read() it for the picture."""
+        from exhibit.render.options import RenderOptions
+        from exhibit.render.quality import LADDER
+        self.activate()
+        target = self.target(size, 0)
+        self.pipeline.draw(gpu, view, target.framebuffer, target.size,
+                           options or RenderOptions(), hud, quality or LADDER[1])
+        return target
+
+    def frame(self, gpu, view, size, options=None, hud=None, quality=None) -> np.ndarray:
+        """draw_frame()'s picture: (height, width, 3) uint8, top row first."""
+        return self.draw_frame(gpu, view, size, options, hud, quality).read()
+
     def ids(self, gpu, view, size) -> np.ndarray:
         """(height, width) int triangle ids + 1 (0 = background), no multisampling."""
         self.activate()
@@ -91,6 +115,8 @@ class Headless:
         for target in self._targets.values():
             target.release()
         self._targets.clear()
+        if self._pipeline is not None:
+            self._pipeline.release()
         self.renderer.release()
         self.ctx.release()
 

@@ -3,6 +3,10 @@
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from exhibit.render.quality import Quality
 
 #: Dark blue-grey gradient: the tori's greens and reds read well on it and it does not glare.
 BACKGROUND = ((0.16, 0.18, 0.23), (0.03, 0.035, 0.05))
@@ -34,6 +38,9 @@ class RenderOptions:
     #: Shift of the text panels in pixels (x right, y down): the kiosk moves them slowly so no
     #: overlay burns into the screen.
     hud_drift: tuple[float, float] = (0.0, 0.0)
+    #: A quality level (exhibit.render.quality) for a window to draw a whole kiosk frame at
+    #: (offscreen scene, FXAA or MSAA, render scale); None: the direct path.
+    quality: Quality | None = None
 
     def width_scale(self, height: int) -> float:
         if self.line_scale is not None:

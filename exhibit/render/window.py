@@ -63,7 +63,9 @@ class Window:
 
     def __init__(self, size: tuple[int, int] = (1280, 720), title: str = "exhibit",
                  fullscreen: bool = False, samples: int = 4, visible: bool = True,
-                 vsync: bool = True, monitor: int = 0):
+                 vsync: bool = True, monitor: int = 0, msaa_samples: int = 4):
+        """``samples``: the window's own multisampling (the direct path); ``msaa_samples``:
+        the offscreen multisampling of kiosk frames at an "msaa" quality level."""
         import glfw
 
         self._glfw = glfw
@@ -101,6 +103,22 @@ class Window:
         glfw.swap_interval(1 if vsync else 0)
         self.ctx = moderngl.create_context(require=REQUIRED_VERSION)
         self.renderer = Renderer(self.ctx)
+        self.msaa_samples = msaa_samples
+        self._pipeline = None
+        self._timer = None
+        #: What drawing the latest kiosk frame cost (ms; exhibit.render.frame.FrameTimer).
+        self.frame_ms: float | None = None
+
+    @property
+    def refresh_hz(self) -> float | None:
+        """The refresh rate of the monitor the window is on (the primary one when windowed)."""
+        glfw = self._glfw
+        try:
+            monitor = glfw.get_window_monitor(self.handle) or glfw.get_primary_monitor()
+            mode = glfw.get_video_mode(monitor) if monitor else None
+            return float(mode.refresh_rate) if mode and mode.refresh_rate > 0 else None
+        except Exception:  # noqa: BLE001 - the governor then assumes 60 Hz
+            return None
 
     @property
     def size(self) -> tuple[int, int]:
@@ -108,9 +126,20 @@ class Window:
 
     def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
              hud: HudInfo | None = None) -> None:
-        """Render one frame into the back buffer (call swap() to show it)."""
+        """Render one frame into the back buffer (call swap() to show it). With
+        ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
+        timed into ``frame_ms``."""
         self._glfw.make_context_current(self.handle)
-        self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
+        if options.quality is None:
+            self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
+            return
+        from exhibit.render.frame import FramePipeline, FrameTimer
+        if self._pipeline is None:
+            self._pipeline = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
+            self._timer = FrameTimer(self.ctx)
+        self._timer.begin()
+        self._pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality)
+        self.frame_ms = self._timer.end()
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         """Lines of text centred on a dark screen (call swap() to show it): what the kiosk shows
@@ -160,6 +189,9 @@ class Window:
     def close(self) -> None:
         if self.handle is None:
             return
+        if self._pipeline is not None:
+            self._pipeline.release()
+            self._timer.release()
         self.renderer.release()
         self.ctx.release()
         self._glfw.destroy_window(self.handle)

@@ -51,7 +51,9 @@ const float v_w = 0.0;
 #endif
 out vec4 f_color;
 void main() {
-    f_color = vec4(shade(v_normal, v_to_eye, v_w), 1.0);
+    // Alpha 254/255 marks a surface pixel for the FXAA pass (composite.glsl), which leaves the
+    // already antialiased lines (alpha 255 or fractional) alone; it is opaque to the eye.
+    f_color = vec4(shade(v_normal, v_to_eye, v_w), 254.0 / 255.0);
 }
 #endif
 #endif

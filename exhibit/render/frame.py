@@ -1,0 +1,205 @@
+"""A kiosk frame at a quality level (exhibit.render.quality): the 3D scene drawn offscreen at
+the level's render scale, with multisampling or not, then composite passes to the screen that lay
+it over the background and antialias it with FXAA (or just resolve and upscale it), then the HUD
+at the screen's full resolution, always crisp:
+
+    antialiasing  scale 1                                 scale s < 1
+    fxaa          scene -> FXAA+bg -> screen               scene -> FXAA+bg (size s) -> upscale
+    msaa          MSAA scene -> resolve -> plain+bg        MSAA scene -> resolve -> upscale+bg
+    none          the direct path (Renderer.render)        scene -> upscale+bg
+
+The scene target holds premultiplied colour cleared to transparent, so the background costs a few
+instructions in a pass that runs anyway, and the screen is never cleared. On software GL every
+full-screen pass costs several milliseconds at 1080p whatever it does, so there is never more than
+one at full size. FrameTimer measures what a frame costs the GPU (timer queries) or, on software
+GL where the "GPU" is the same CPU cores, the wall time of the frame's work up to glFinish.
+"""
+
+from __future__ import annotations
+
+import time
+from collections import OrderedDict, deque
+
+import moderngl
+
+from exhibit.render import shaders
+from exhibit.render.options import RenderOptions
+from exhibit.render.quality import Quality, software_renderer
+from exhibit.render.renderer import HudInfo, Renderer
+
+#: Targets kept for recently used (size, antialiasing) pairs; a benchmark alternating levels
+#: must not reallocate every frame, and a kiosk needs one or two.
+MAX_TARGETS = 6
+
+
+class SceneTarget:
+    """Where the scene is drawn: colour (texture, or MSAA renderbuffer resolved into one) and
+    depth, of one size."""
+
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], samples: int):
+        self.ctx, self.size, self.samples = ctx, size, samples
+        self.texture = ctx.texture(size, 4)
+        self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        self.texture.repeat_x = self.texture.repeat_y = False
+        if samples:
+            self._color = ctx.renderbuffer(size, 4, samples=samples)
+            self._depth = ctx.depth_renderbuffer(size, samples=samples)
+            self.framebuffer = ctx.framebuffer([self._color], self._depth)
+            self._resolved = ctx.framebuffer([self.texture])
+        else:
+            self._color = None
+            self._depth = ctx.depth_renderbuffer(size)
+            self.framebuffer = ctx.framebuffer([self.texture], self._depth)
+            self._resolved = None
+
+    def resolve(self) -> None:
+        if self._resolved is not None:
+            self.ctx.copy_framebuffer(self._resolved, self.framebuffer)
+
+    def release(self) -> None:
+        for obj in (self.framebuffer, self._resolved, self._color, self._depth, self.texture):
+            if obj is not None:
+                obj.release()
+
+
+class FramePipeline:
+    """Draws whole kiosk frames at any quality level into a destination framebuffer (a
+    window's screen, or an offscreen single-sampled one)."""
+
+    def __init__(self, ctx: moderngl.Context, renderer: Renderer, samples: int = 4):
+        self.ctx = ctx
+        self.renderer = renderer
+        #: MSAA samples used by "msaa" levels (0 or 1: msaa falls back to none).
+        self.samples = min(samples, ctx.max_samples) if samples > 1 else 0
+        program = shaders.program
+        self.programs = {
+            "fxaa": program(ctx, "composite.glsl", ("FXAA",)),
+            "plain": program(ctx, "composite.glsl"),
+            "upscale": program(ctx, "composite.glsl", ("UPSCALE",)),
+        }
+        self._vaos = {k: ctx.vertex_array(p, []) for k, p in self.programs.items()}
+        self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
+
+    def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
+        key = (tuple(size), samples, kind)
+        found = self._targets.get(key)
+        if found is not None:
+            self._targets.move_to_end(key)
+            return found
+        target = self._targets[key] = SceneTarget(self.ctx, tuple(size), samples)
+        while len(self._targets) > MAX_TARGETS:
+            self._targets.popitem(last=False)[1].release()
+        return target
+
+    @staticmethod
+    def scene_size(size: tuple[int, int], scale: float) -> tuple[int, int]:
+        return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
+
+    def draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
+             options: RenderOptions, hud: HudInfo | None, quality: Quality) -> None:
+        """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``)."""
+        ctx, renderer = self.ctx, self.renderer
+        options = quality.options(options)
+        size = (int(size[0]), int(size[1]))
+        aa = quality.antialiasing
+        if aa == "msaa" and not self.samples:
+            aa = "none"
+        scene_size = self.scene_size(size, quality.scale)
+        if aa == "none" and scene_size == size:
+            renderer.render(gpu, view, destination, options, hud, size=size)
+            return
+        target = self.target(scene_size, self.samples if aa == "msaa" else 0)
+        target.framebuffer.use()
+        ctx.viewport = (0, 0, *scene_size)
+        ctx.depth_mask = True
+        target.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        renderer.render_scene(gpu, view, scene_size, options)
+        target.resolve()
+        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        source = target.texture
+        if scene_size == size:
+            self._pass("fxaa" if aa == "fxaa" else "plain", source, destination, size, options)
+        else:
+            if aa == "fxaa":
+                smooth = self.target(scene_size, 0, "fxaa")
+                self._pass("fxaa", source, smooth.framebuffer, scene_size, options)
+                source = smooth.texture
+            self._pass("upscale", source, destination, size, options)
+        if options.hud and hud is not None:
+            renderer.render_hud(gpu, view, hud, size, options.hud_drift)
+
+    def _pass(self, key: str, source, destination, size, options: RenderOptions) -> None:
+        destination.use()
+        self.ctx.viewport = (0, 0, *size)
+        prog = self.programs[key]
+        top, bottom = options.background
+        source.use(0)
+        for name, value in (("u_scene", 0), ("u_size", (float(size[0]), float(size[1]))),
+                            ("u_top", tuple(top)), ("u_bottom", tuple(bottom))):
+            if name in prog:
+                prog[name].value = value
+        self._vaos[key].render(moderngl.TRIANGLES, vertices=3)
+
+    def release(self) -> None:
+        for target in self._targets.values():
+            target.release()
+        self._targets.clear()
+        for vao in self._vaos.values():
+            vao.release()
+        for prog in self.programs.values():
+            prog.release()
+
+
+class FrameTimer:
+    """How long each frame's drawing takes, in milliseconds, for the frame governor.
+
+    On a real GPU: GL timer queries around the frame, read two frames later (by then they are
+    done, so reading never stalls the pipeline). On software GL (and where a query cannot be
+    made) the GPU is the CPU: the wall time from begin() to a glFinish at end(), which costs
+    nothing there because presenting the frame waits for the rasteriser anyway."""
+
+    LATENCY = 2
+
+    def __init__(self, ctx: moderngl.Context, clock=time.perf_counter, wall: bool | None = None):
+        self.ctx = ctx
+        self.clock = clock
+        if wall is None:
+            wall = software_renderer(ctx.info.get("GL_RENDERER", ""))
+        self._queries: deque = deque()
+        self._free: list = []
+        self._current = None
+        self.mode = "wall" if wall else "gpu"
+        self._start = 0.0
+        #: The latest measured frame time (ms), None before the first.
+        self.last_ms: float | None = None
+
+    def begin(self) -> None:
+        if self.mode == "gpu":
+            try:
+                query = self._free.pop() if self._free else self.ctx.query(time=True)
+                query.mglo.begin()
+                self._current = query
+                return
+            except Exception:  # noqa: BLE001 - no timer queries: measure wall time instead
+                self.mode = "wall"
+        self._start = self.clock()
+
+    def end(self) -> float | None:
+        """Finish measuring this frame; returns the newest completed measurement (ms)."""
+        if self.mode == "gpu" and self._current is not None:
+            self._current.mglo.end()
+            self._queries.append(self._current)
+            self._current = None
+            if len(self._queries) > self.LATENCY:
+                query = self._queries.popleft()
+                self.last_ms = query.elapsed / 1e6
+                self._free.append(query)
+            return self.last_ms
+        self.ctx.finish()
+        self.last_ms = (self.clock() - self._start) * 1000.0
+        return self.last_ms
+
+    def release(self) -> None:
+        # moderngl queries have no release(); they go with their context.
+        self._queries.clear()
+        self._free.clear()
