@@ -17,13 +17,18 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import PlainValidator
+from pydantic_core import PydanticCustomError
 
 from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
 from exhibit.schema.layers import leaves, merge, source_of
-from exhibit.schema.types import Integer, Number, Numbers, QuitKeys, Resolution, Text
+from exhibit.schema.types import (Integer, Number, Numbers, QuitKeys, Resolution, Text, fail,
+                                  number_check)
 
 DEFAULT_CONFIG = shipped("configs", "kiosk.toml")
 #: Where an installed kiosk keeps its site settings (docs/DEPLOYMENT.md).
@@ -70,6 +75,77 @@ class Maintenance(Model):
     quit_keys: QuitKeys = ()
 
 
+# ---------------------------------------------------------------------- [quality]: the governor
+
+#: exhibit.render.quality's ladder, named here so the config layer imports no GL code.
+QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "scale-75", "scale-50")
+MESH_LEVELS = {"full": 0, "reduced": 1, "low": 2}   # mesh resolution x1, x0.75, x0.5
+
+
+def _choice(*options: str) -> Any:
+    """One of ``options`` (a string)."""
+    def check(value: Any) -> str:
+        if not isinstance(value, str) or value not in options:
+            raise fail("must be one of " + ", ".join(f'"{o}"' for o in options), value)
+        return value
+    return Annotated[str, PlainValidator(check)]
+
+
+def _auto_or_number(low: float, high: float) -> Any:
+    """"auto" (the governor's choice), or a number in [low, high]."""
+    number = number_check(low, high)
+
+    def check(value: Any):
+        if value == "auto":
+            return "auto"
+        try:
+            return number(value)
+        except PydanticCustomError:
+            raise fail(f'must be "auto" or a number in [{low:g}, {high:g}]', value) from None
+    return Annotated[Any, PlainValidator(check)]
+
+
+class QualitySection(Model):
+    level: _choice("auto", *QUALITY_LEVELS) = "auto"
+    lowest: _choice("auto", *QUALITY_LEVELS) = "auto"
+    antialiasing: _choice("auto", "msaa", "fxaa", "none") = "auto"
+    mesh: _choice("auto", *MESH_LEVELS) = "auto"
+    effects: _choice("auto", "full", "lean") = "auto"
+    render_scale: _auto_or_number(0.25, 1.0) = "auto"
+    target_fps: _auto_or_number(10, 240) = "auto"
+    step_interval_s: Number(1, 600) = 4.0
+    calm_s: Number(0, 60) = 1.5
+    headroom: Number(0.3, 0.95) = 0.7
+
+
+@dataclass(frozen=True)
+class QualityConfig:
+    """[quality], resolved: a pin is None when the governor chooses."""
+
+    level: str = "auto"
+    lowest: str = "auto"
+    antialiasing_pin: str | None = None
+    mesh_pin: int | None = None
+    effects_pin: str | None = None
+    scale_pin: float | None = None
+    target_fps: float | None = None
+    step_interval_s: float = 4.0
+    calm_s: float = 1.5
+    headroom: float = 0.7
+
+
+def _quality(section: QualitySection) -> QualityConfig:
+    def pin(value):
+        return None if value == "auto" else value
+    return QualityConfig(
+        level=section.level, lowest=section.lowest,
+        antialiasing_pin=pin(section.antialiasing),
+        mesh_pin=None if section.mesh == "auto" else MESH_LEVELS[section.mesh],
+        effects_pin=pin(section.effects), scale_pin=pin(section.render_scale),
+        target_fps=pin(section.target_fps), step_interval_s=section.step_interval_s,
+        calm_s=section.calm_s, headroom=section.headroom)
+
+
 class KioskFile(Model):
     display: Display = Display()
     content: Content = Content()
@@ -77,6 +153,7 @@ class KioskFile(Model):
     attract: Attract = Attract()
     burn_in: BurnIn = BurnIn()
     maintenance: Maintenance = Maintenance()
+    quality: QualitySection = QualitySection()
 
 
 @dataclass(frozen=True)
@@ -99,6 +176,8 @@ class KioskConfig:
     drift_px: float = 12.0
     drift_period_s: float = 600.0
     quit_keys: tuple[str, ...] = ()
+    #: [quality]: what the frame governor may change, and what is pinned
+    quality: QualityConfig = QualityConfig()
     #: the site file layered over the shipped defaults (None: the defaults alone)
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
@@ -201,7 +280,7 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
         values.update(idle_timeout_s=spec.attract.idle_timeout_s, blend_s=spec.attract.blend_s,
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
-                      quit_keys=spec.maintenance.quit_keys)
+                      quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality))
         values["sources"] = {".".join(key): (value, origin.get(key, last))
                              for key, value in leaves(doc)}
         for key, env in (("devices.config", "EXHIBIT_DEVICES_CONFIG"),

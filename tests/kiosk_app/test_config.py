@@ -50,6 +50,20 @@ KIOSK = [
     ("drift_px = 12 ", "drift_px = 1e9 ", "burn_in.drift_px", "must lie in"),
     ('quit_keys = "ctrl+alt+shift+q"', 'quit_keys = "q"', "maintenance.quit_keys",
      "at least two"),
+    ('level = "auto" ', 'level = "ultra" ', "quality.level", 'one of "auto", "msaa"'),
+    ('lowest = "auto" ', 'lowest = 3 ', "quality.lowest", "must be one of"),
+    ('antialiasing = "auto" ', 'antialiasing = "smaa" ', "quality.antialiasing",
+     'one of "auto", "msaa", "fxaa", "none"'),
+    ('mesh = "auto" ', 'mesh = "tiny" ', "quality.mesh", "must be one of"),
+    ('effects = "auto" ', 'effects = "none" ', "quality.effects", "must be one of"),
+    ('render_scale = "auto" ', 'render_scale = 0.1 ', "quality.render_scale",
+     'must be "auto" or a number in [0.25, 1]'),
+    ('render_scale = "auto" ', 'render_scale = nan ', "quality.render_scale", "must be"),
+    ('target_fps = "auto" ', 'target_fps = 1000 ', "quality.target_fps", "[10, 240]"),
+    ("step_interval_s = 4 ", "step_interval_s = 0 ", "quality.step_interval_s", "must lie in"),
+    ("calm_s = 1.5 ", "calm_s = -1 ", "quality.calm_s", "must lie in"),
+    ("headroom = 0.7 ", "headroom = 1.5 ", "quality.headroom", "must lie in"),
+    ("[quality]", "[quality]\nsharpness = 2", "quality.sharpness", "unknown key"),
 ]
 
 
@@ -205,3 +219,20 @@ def test_device_commands_read_the_kiosk_config(tmp_path, cli):
         assert result.returncode == 0, result.stderr
         names = [d["name"] for d in json.loads(result.stdout)["configured"]]
         assert names == ["only-keys"]
+
+
+def test_quality_pins(tree):
+    edit(tree / "kiosk.toml", 'antialiasing = "auto" ', 'antialiasing = "none" ')
+    edit(tree / "kiosk.toml", 'mesh = "auto" ', 'mesh = "reduced" ')
+    edit(tree / "kiosk.toml", 'render_scale = "auto" ', "render_scale = 0.8 ")
+    edit(tree / "kiosk.toml", 'target_fps = "auto" ', "target_fps = 30 ")
+    q = load_kiosk_config(tree / "kiosk.toml").quality
+    assert (q.antialiasing_pin, q.mesh_pin, q.effects_pin, q.scale_pin, q.target_fps) == (
+        "none", 1, None, 0.8, 30.0)
+    assert q.level == "auto" and q.step_interval_s == 4.0
+
+
+def test_quality_levels_are_the_renderers():
+    from exhibit.kiosk.config import MESH_LEVELS, QUALITY_LEVELS
+    from exhibit.render.quality import LEVEL_NAMES, MESH_FACTORS
+    assert QUALITY_LEVELS == LEVEL_NAMES and len(MESH_LEVELS) == len(MESH_FACTORS)

@@ -1,0 +1,253 @@
+"""The frame governor: holds the kiosk's frame time at a target by stepping the picture's quality
+down, and back up, one level of exhibit.render.quality's ladder at a time. Pure logic on a clock
+and the frame times it is given, so it is tested with a fake clock and made-up frame times.
+
+* The target is the display's refresh interval when vsync is on (60 Hz when the display does not
+  say), else 1 / display.fps_limit; [quality] target_fps overrides it.
+* Frame times are what drawing a frame costs (exhibit.render.frame.FrameTimer: GPU timer
+  queries, or on software GL the wall time up to glFinish), never the wait for vsync, so the
+  governor sees its headroom.
+* It steps down when the median of the last ``window_s`` of frames is above ``down`` x target,
+  and up when nearly all of them (the 90th percentile) are below ``up`` x target. Decisions never
+  flicker: at most one step every ``step_interval_s``, none in the first moments at a new level
+  or scene (their first frames are not typical), none while a visitor turns a control quickly
+  (and for ``calm_s`` after), and a step up that had to be taken back within two intervals is
+  not tried again for ``backoff_s``, doubling each time it fails again (up to an hour).
+* [quality] in kiosk.toml pins a whole level, or any of its settings (the governor then only
+  moves the others), and can set the lowest level it may go to.
+
+``health()`` is what the health file carries: the level's name and the measured frame time.
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass
+
+from exhibit.render.quality import LADDER, Quality, ladder, software_renderer
+
+#: When the display does not say its refresh rate.
+DEFAULT_REFRESH_HZ = 60.0
+#: The longest wait before trying a step up again that failed before.
+MAX_BACKOFF_S = 3600.0
+#: A visitor turning a view faster than this (degrees per second, any of the six angles or the
+#: eye's orbit) is "turning a control quickly": no decisions meanwhile.
+FAST_DEG_S = 30.0
+#: ... or moving the sensor faster than this, in r = 1/distance per second.
+FAST_R_S = 0.1
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How the governor decides (kiosk.toml [quality]; ranges in configs/kiosk.toml)."""
+
+    target_ms: float = 1000.0 / DEFAULT_REFRESH_HZ
+    step_interval_s: float = 4.0
+    window_s: float = 2.0
+    settle_s: float = 0.5
+    down: float = 1.1
+    up: float = 0.7
+    calm_s: float = 1.5
+    backoff_s: float = 30.0
+    #: Fewest frames in the window for a decision (a slow frame rate still decides: the window
+    #: then spans at most step_interval_s).
+    min_frames: int = 5
+
+
+def percentile(values, q: float) -> float:
+    """The q-th percentile (0..100) by linear interpolation, as numpy's default."""
+    ordered = sorted(values)
+    if not ordered:
+        return math.nan
+    pos = (len(ordered) - 1) * q / 100.0
+    low = int(math.floor(pos))
+    high = min(low + 1, len(ordered) - 1)
+    return ordered[low] + (ordered[high] - ordered[low]) * (pos - low)
+
+
+def pick(frame_ms: list[float], target_ms: float, down: float = Settings.down) -> int:
+    """The level a governor starting at the top settles on, given each level's typical frame
+    time: the first (best) one within ``down`` x target, else the last. `exhibit bench kiosk`
+    reports it as the level chosen at a size."""
+    for i, ms in enumerate(frame_ms):
+        if ms <= target_ms * down:
+            return i
+    return len(frame_ms) - 1
+
+
+class Governor:
+    """Chooses the quality level frame by frame. ``levels``: the ladder (best first); ``start``:
+    the level to begin at; ``pinned``: a fixed level (one level, no decisions)."""
+
+    def __init__(self, levels: tuple[Quality, ...] = LADDER, settings: Settings = Settings(),
+                 now: float = 0.0, start: int = 0, pinned: bool = False):
+        if not levels:
+            raise ValueError("a governor needs at least one level")
+        self.levels = tuple(levels)
+        self.settings = settings
+        self.pinned = pinned or len(self.levels) == 1
+        self.index = max(0, min(start, len(self.levels) - 1))
+        self._frames: deque[tuple[float, float]] = deque()
+        self._changed = now          # last step (or start): the interval counts from here
+        self._settled = now + settings.settle_s
+        self._calm_until = -math.inf
+        self._last_up: tuple[float, int] | None = None   # (when, level stepped up to)
+        self._backoff: dict[int, tuple[float, float]] = {}  # level -> (until, current length)
+        self._previous: tuple | None = None  # (scene, view, time) of the last observed frame
+        #: The latest frame time given (ms) and the recent median, for the health file.
+        self.frame_ms: float | None = None
+        self.steps = 0
+
+    @property
+    def quality(self) -> Quality:
+        return self.levels[self.index]
+
+    # ------------------------------------------------------------------ what happens on screen
+
+    def observe(self, mode: str, scene: str, view, now: float) -> None:
+        """The frame about to be drawn: a new scene restarts the measurement (its frames cost
+        differently), and a visitor turning the view quickly holds decisions back."""
+        previous, self._previous = self._previous, (scene, view, now)
+        if previous is None:
+            return
+        last_scene, last_view, then = previous
+        if scene != last_scene:
+            self._restart(now)
+            return
+        if mode == "visitor" and now > then and fast(last_view, view, now - then):
+            self.busy(now)
+
+    def busy(self, now: float) -> None:
+        """A visitor is turning a control quickly: no decision until calm_s after the last."""
+        self._calm_until = now + self.settings.calm_s
+
+    def _restart(self, now: float) -> None:
+        self._frames.clear()
+        self._settled = now + self.settings.settle_s
+
+    # ------------------------------------------------------------------ frame times
+
+    def update(self, frame_ms: float | None, now: float) -> bool:
+        """Record one frame's time (ms; None or not finite: no measurement) and maybe step;
+        returns whether the level changed."""
+        if frame_ms is None or not math.isfinite(frame_ms) or frame_ms < 0:
+            return False
+        self.frame_ms = frame_ms
+        if self.pinned:
+            return False
+        s = self.settings
+        if now < self._settled:
+            return False
+        self._frames.append((now, frame_ms))
+        horizon = now - min(s.window_s, s.step_interval_s)
+        while self._frames and self._frames[0][0] < horizon:
+            self._frames.popleft()
+        if (now - self._changed < s.step_interval_s or now < self._calm_until
+                or len(self._frames) < s.min_frames):
+            return False
+        times = [ms for _, ms in self._frames]
+        if percentile(times, 50) > s.target_ms * s.down and self.index < len(self.levels) - 1:
+            if self._last_up is not None and now - self._last_up[0] <= 2 * s.step_interval_s:
+                level = self._last_up[1]   # that step up did not hold: wait longer next time
+                length = min(self._backoff.get(level, (0.0, s.backoff_s / 2))[1] * 2,
+                             MAX_BACKOFF_S)
+                self._backoff[level] = (now + length, length)
+            self._last_up = None
+            return self._step(self.index + 1, now)
+        if (self.index > 0 and percentile(times, 90) < s.target_ms * s.up
+                and now >= self._backoff.get(self.index - 1, (-math.inf, 0.0))[0]):
+            self._last_up = (now, self.index - 1)
+            return self._step(self.index - 1, now)
+        return False
+
+    def _step(self, index: int, now: float) -> bool:
+        self.index = index
+        self.steps += 1
+        self._changed = now
+        self._restart(now)
+        return True
+
+    @property
+    def recent_ms(self) -> float | None:
+        """The median frame time of the current window (None before any)."""
+        return percentile([ms for _, ms in self._frames], 50) if self._frames else self.frame_ms
+
+    def health(self) -> dict:
+        """For the health file: the level's name and settings, the measured frame time and the
+        target (ms)."""
+        recent = self.recent_ms
+        q = self.quality
+        return {"quality": q.name,
+                "quality_detail": {"antialiasing": q.antialiasing, "mesh": q.mesh,
+                                   "effects": q.effects, "render_scale": q.scale,
+                                   "level": self.index + 1, "levels": len(self.levels),
+                                   "pinned": self.pinned, "steps": self.steps},
+                "frame_ms": None if recent is None else round(recent, 2),
+                "target_ms": round(self.settings.target_ms, 2)}
+
+
+def fast(a, b, dt: float) -> bool:
+    """Whether the view moved from a to b in dt seconds faster than a visitor turning a knob
+    slowly: any angle (or the eye's orbit) above FAST_DEG_S, or the sensor above FAST_R_S."""
+    if dt <= 0:
+        return False
+    angles = list(zip(a.angles, b.angles)) + [(a.eye_azimuth, b.eye_azimuth),
+                                               (a.eye_incidence, b.eye_incidence)]
+    turn = max(abs(math.remainder(y - x, 2 * math.pi)) for x, y in angles)
+    return (math.degrees(turn) / dt > FAST_DEG_S
+            or abs(b.sensor_r - a.sensor_r) / dt > FAST_R_S)
+
+
+# ---------------------------------------------------------------------- the kiosk's governor
+
+def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bool]:
+    """The ladder for this kiosk: its [quality] pins applied, MSAA left out on software GL
+    (unless pinned), cut at the lowest level allowed. Returns (levels, pinned)."""
+    q = quality_config
+    if q is not None and q.level != "auto":
+        base = next(level for level in LADDER if level.name == q.level)
+        levels = ladder(q.antialiasing_pin, q.mesh_pin, q.effects_pin, q.scale_pin,
+                        levels=(base,))
+        return levels, True
+    levels = LADDER
+    if q is not None and q.lowest != "auto":
+        cut = next(i for i, level in enumerate(LADDER) if level.name == q.lowest)
+        levels = LADDER[:cut + 1]
+    aa = q.antialiasing_pin if q is not None else None
+    if aa is None and software_renderer(renderer):
+        levels = tuple(level for level in levels if level.antialiasing != "msaa") or levels
+    if q is not None:
+        levels = ladder(aa, q.mesh_pin, q.effects_pin, q.scale_pin, levels=levels)
+    return levels, len(levels) == 1
+
+
+def target_ms(config, refresh_hz: float | None) -> float:
+    """The frame time to hold: [quality] target_fps, else the refresh interval with vsync (60 Hz
+    when unknown), else 1 / fps_limit."""
+    q = getattr(config, "quality", None)
+    if q is not None and q.target_fps is not None:
+        return 1000.0 / q.target_fps
+    if config.vsync:
+        hz = refresh_hz if refresh_hz and 10 <= refresh_hz <= 1000 else DEFAULT_REFRESH_HZ
+        return 1000.0 / hz
+    return 1000.0 / config.fps_limit
+
+
+def for_kiosk(config, window, now: float) -> Governor:
+    """The governor of a running kiosk, from its config and window (a real Window or a test's
+    stand-in: a missing renderer name counts as a GPU, a missing refresh rate as 60 Hz)."""
+    info = getattr(getattr(window, "ctx", None), "info", None) or {}
+    renderer = info.get("GL_RENDERER", "") if isinstance(info, dict) else ""
+    q = getattr(config, "quality", None)
+    levels, pinned = kiosk_levels(q, renderer)
+    settings = Settings(target_ms=target_ms(config, getattr(window, "refresh_hz", None)))
+    if q is not None:
+        settings = Settings(target_ms=settings.target_ms, step_interval_s=q.step_interval_s,
+                            calm_s=q.calm_s, up=q.headroom)
+    return Governor(levels, settings, now=now, pinned=pinned)
+
+
+def mesh_levels(governor: Governor) -> list[int]:
+    """The mesh levels the kiosk must load at start-up: those of every level it may use."""
+    return sorted({q.mesh for q in governor.levels})
