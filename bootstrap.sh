@@ -28,6 +28,7 @@ apt_test=(
   systemd                  # kiosk: systemd-analyze verify/security on the units (tests/kiosk)
   cage xwayland grim       # deploy: the kiosk on cage as in docs/DEPLOYMENT.md, frame grabbed (tests/deploy)
   libwayland-client0 libwayland-egl1 libwayland-cursor0 libxkbcommon0  # deploy: GLFW's Wayland build
+  prometheus               # kiosk: promtool checks `exhibit status --prometheus` (tests/kiosk)
 )
 
 say() { printf 'bootstrap: %s\n' "$*" >&2; }

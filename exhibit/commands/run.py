@@ -5,6 +5,7 @@ from __future__ import annotations
 import faulthandler
 import logging
 import math
+import os
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
@@ -41,6 +42,10 @@ def run(args) -> int:
     journal.install()  # under systemd: native journal records with the scene and mode as fields
     # When the watchdog kills a hung loop (SIGABRT), every thread's stack goes to the journal.
     faulthandler.enable()
+    # On a Wayland compositor (cage) draw as a native client: pyGLFW's default build is X11's,
+    # which there goes through Xwayland (black frames on cage). Read when glfw is imported.
+    if os.environ.get("WAYLAND_DISPLAY"):
+        os.environ.setdefault("PYGLFW_LIBRARY_VARIANT", "wayland")
 
     from exhibit.kiosk.app import Kiosk, open_window
     from exhibit.kiosk.health import default_path
