@@ -47,6 +47,7 @@ from exhibit.errors import ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
+from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
 from exhibit.kiosk.state import KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo
@@ -160,6 +161,7 @@ class Kiosk:
         self.devices = DeviceSet(device_config, clock=clock).open()
         mapper = Mapper(device_config.mapping,
                         ActivityDetector(threshold=device_config.activity_threshold))
+        self.governor = for_kiosk(config, window, clock())  # picture quality vs frame time
         content, timelines = self._prepare(timelines)
         now = clock()
         self.started = now
@@ -198,9 +200,7 @@ class Kiosk:
                     if params is None:  # a content scene: its default parameters
                         params = tuple(sorted(scenes.get(name).resolve().items()))
                     if (name, params) not in self.gpu and (name, params) not in failed:
-                        mesh, _ = build_cached(scenes.get(name), dict(params),
-                                               self.config.resolution.get(name))
-                        self.gpu[(name, params)] = self.window.renderer.upload(mesh)
+                        self.gpu[(name, params)] = self._upload_levels(name, params)
                 except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
                     failed.add((name, params))
                     reason = f"{type(exc).__name__}: {exc}"
@@ -217,6 +217,26 @@ class Kiosk:
                 log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
                 self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
         return content, kept
+
+    def _upload_levels(self, name: str, params) -> dict:
+        """The scene's mesh at every mesh level the governor may use, built or loaded now, at
+        start-up, never during a visitor's session (exhibit.kiosk.governor). A coarser level
+        that fails uses the finer one; the finest failing fails the scene."""
+        scene, meshes, by_resolution = scenes.get(name), {}, {}
+        for level in mesh_levels(self.governor):
+            resolution = level_resolution(scene, self.config.resolution.get(name), level)
+            try:
+                if resolution not in by_resolution:
+                    mesh, _ = build_cached(scene, dict(params), resolution)
+                    by_resolution[resolution] = self.window.renderer.upload(mesh)
+                meshes[level] = by_resolution[resolution]
+            except Exception as exc:  # noqa: BLE001 - a coarser mesh is only an economy
+                if not meshes:
+                    raise
+                log.warning("scene %s: no mesh at resolution %d (%s); using a finer one", name,
+                            resolution, exc)
+                meshes[level] = meshes[max(meshes)]
+        return meshes
 
     # ------------------------------------------------------------------ input from the window
 
@@ -337,7 +357,8 @@ class Kiosk:
                     "devices": devices, "uptime_s": round(now - self.started, 1),
                     "gl_errors": self.stats.gl_errors, "rss_kb": _rss_kb(), "fds": _fd_count(),
                     "frames": self.frames, "frame_errors": self.errors.total,
-                    "problems": problems, "scenes_failed": self.scenes_failed})
+                    "problems": problems, "scenes_failed": self.scenes_failed,
+                    **self.governor.health()})  # quality level, frame_ms, target_ms
             except OSError as exc:
                 log.warning("cannot write the health file %s: %s", self.health_path, exc)
 
@@ -401,8 +422,15 @@ class Kiosk:
 
     def _draw(self, frame, now: float) -> None:
         hud = HudInfo(title=frame.title, caption=frame.caption, axes=scenes.get(frame.scene).axes)
-        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now))
-        self.window.draw(self.gpu[(frame.scene, frame.params)], frame.view, options, hud)
+        quality = self.governor.quality
+        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality)
+        self.governor.observe(frame.mode, frame.scene, frame.view, now)
+        self.window.draw(self.gpu[(frame.scene, frame.params)][quality.mesh], frame.view,
+                         options, hud)
+        if self.governor.update(getattr(self.window, "frame_ms", None), now):
+            log.info("quality %s (frames took %.1f ms, the target is %.1f ms)",
+                     self.governor.quality.describe(), self.governor.recent_ms or 0.0,
+                     self.governor.settings.target_ms)
 
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
@@ -425,8 +453,8 @@ def open_window(config: KioskConfig, windowed: bool):
                            "`exhibit render --figure 8 --out figure-8.png`")
     try:
         return Window(size=config.size, title="exhibit",
-                      fullscreen=config.fullscreen and not windowed, samples=config.samples,
-                      vsync=config.vsync, monitor=config.monitor)
+                      fullscreen=config.fullscreen and not windowed, samples=0,
+                      msaa_samples=config.samples, vsync=config.vsync, monitor=config.monitor)
     except RenderUnavailable as exc:
         raise ExhibitError(f"{exc}. Headless, render pictures instead: "
                            "`exhibit render --figure 8 --out figure-8.png`") from None

@@ -251,3 +251,10 @@ def for_kiosk(config, window, now: float) -> Governor:
 def mesh_levels(governor: Governor) -> list[int]:
     """The mesh levels the kiosk must load at start-up: those of every level it may use."""
     return sorted({q.mesh for q in governor.levels})
+
+
+def level_resolution(scene, configured: int | None, level: int) -> int:
+    """A scene's mesh resolution at a mesh level: content.resolution (else the scene's own)
+    times the level's factor."""
+    from exhibit.render.quality import mesh_resolution
+    return mesh_resolution(int(configured or scene.default_resolution), level)
