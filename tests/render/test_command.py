@@ -65,3 +65,20 @@ def test_bench_json_keys(gl, capsys):
     (row,) = report["results"]
     assert set(row) >= {"triangles", "pipeline_ms", "cpu_baseline_ms", "floor_ms"}
     assert row["triangles"] > 500 and all(row[k] > 0 for k in row)
+
+
+def test_bench_kiosk_json(gl, capsys):
+    assert main(["bench", "kiosk", "--json", "--size", "160x90", "--frames", "3",
+                 "--scenes", "hopf", "--levels", "fxaa,scale-50"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["size"] == [160, 90] and report["renderer"]
+    assert [level["name"] for level in report["levels"]] == ["fxaa", "scale-50"]
+    for level in report["levels"]:
+        assert set(level) >= {"name", "frame_ms", "floor_ms", "antialiasing", "triangles"}
+        assert level["frame_ms"] > 0 and level["floor_ms"] > 0 and level["triangles"] > 100
+    assert report["chosen"] in {"fxaa", "scale-50"}
+
+
+def test_bench_kiosk_bad_level(capsys):
+    assert main(["bench", "kiosk", "--levels", "ultra"]) == 2
+    assert "no level 'ultra'" in capsys.readouterr().err

@@ -1,0 +1,168 @@
+"""`exhibit bench kiosk [--size WxH] [--json]`: whole kiosk frames, headless, at every quality
+level of the governor's ladder, with the shipped config's scenes (content.scenes, at
+content.resolution and each level's mesh factor) and effects (live silhouettes, curves, the HUD
+with the scene's title and caption), against the pass-through floor of the same triangles.
+
+For each scene the levels and the floor are timed frame by frame in turn (so a noisy machine slows
+all alike), the view turning every frame as a visitor's would; a frame is timed from its first
+GL call to glFinish (what the kiosk's governor measures on software GL). A level's frame_ms is the
+median over its frames of the slowest scene (the one the governor must hold the target for), and
+floor_ms is that scene's floor: the same triangles, same size, flat pass-through shader, depth
+test, one clear. ``chosen`` is the level a governor starting at the top settles on at this size
+(exhibit.kiosk.governor.pick) for the config's target (vsync: 60 Hz here, as headless there is no
+display; else fps_limit). Numpy is held to one BLAS thread while timing (exhibit.commands.bench).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import statistics
+import time
+
+import moderngl
+
+from exhibit.errors import ExhibitError
+
+HELP = "whole kiosk frames at each quality level vs the pass-through floor (shipped config)"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--size", default="1920x1080", metavar="WxH",
+                        help="frame size (default: %(default)s)")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.add_argument("--frames", default="12", metavar="N",
+                        help="timed frames per level and scene (default: %(default)s)")
+    parser.add_argument("--config", help="kiosk config (default: the layered site config)")
+    parser.add_argument("--scenes", metavar="NAME,...",
+                        help="only these scenes (default: the config's content.scenes)")
+    parser.add_argument("--levels", metavar="NAME,...",
+                        help="only these levels (default: the whole ladder)")
+
+
+def run(args) -> int:
+    from exhibit import scenes
+    from exhibit.commands.render import parse_size
+    from exhibit.kiosk.config import load_kiosk_config
+    from exhibit.kiosk.governor import level_resolution, pick, target_ms
+    from exhibit.render import Headless, HudInfo, RenderOptions, describe
+    from exhibit.render.bench import cpu_model
+    from exhibit.render.quality import LADDER, software_renderer
+    from exhibit.scenes.cache import build_cached
+
+    size = parse_size(args.size)
+    try:
+        frames = int(args.frames)
+    except ValueError:
+        raise ExhibitError("--frames must be a whole number") from None
+    if not 3 <= frames <= 1000:
+        raise ExhibitError("--frames must lie in [3, 1000]")
+    config = load_kiosk_config(args.config, check_linked=False)
+    names = list(config.scenes)
+    if args.scenes:
+        names = [n.strip() for n in args.scenes.split(",") if n.strip()]
+        for name in names:
+            scenes.get(name)  # an unknown name is a one-line error
+    levels = list(LADDER)
+    if args.levels:
+        wanted = [n.strip() for n in args.levels.split(",") if n.strip()]
+        unknown = [n for n in wanted if n not in {q.name for q in LADDER}]
+        if unknown:
+            raise ExhibitError(f"--levels: no level {unknown[0]!r} (levels: "
+                               f"{', '.join(q.name for q in LADDER)})")
+        levels = [q for q in LADDER if q.name in wanted]
+
+    headless = Headless()
+    ctx, renderer = headless.ctx, headless.renderer
+    renderer_name = describe(ctx)
+    floor_target = headless.target(size, 0)
+    per_scene = []
+    try:
+        for name in names:
+            scene = scenes.get(name)
+            params = scene.resolve()
+            gpus = {}
+            for level in sorted({q.mesh for q in levels}):
+                resolution = level_resolution(scene, config.resolution.get(name), level)
+                mesh, _ = build_cached(scene, params, resolution)
+                gpus[level] = renderer.upload(mesh)
+            hud = HudInfo(scene.title, scene.caption, tuple(scene.axes))
+            options = RenderOptions(hud=config.hud)
+            times = {q.name: [] for q in levels}
+            floors = {level: [] for level in gpus}
+
+            def floor(gpu, view):
+                fbo = floor_target.framebuffer
+                fbo.use()
+                ctx.viewport = (0, 0, *size)
+                ctx.depth_mask = True
+                fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
+                ctx.enable(moderngl.DEPTH_TEST)
+                renderer.draw_surfaces(gpu, view, size, key="floor")
+                ctx.disable(moderngl.DEPTH_TEST)
+
+            def timed(draw, into, warm):
+                start = time.perf_counter()
+                draw()
+                ctx.finish()
+                if not warm:
+                    into.append((time.perf_counter() - start) * 1e3)
+
+            for i in range(frames + 2):  # two warm-up rounds
+                turn = 0.02 * i
+                angles = scene.view.angles
+                view = scene.view.replace(angles=(angles[0] + turn, angles[1] + 0.5 * turn,
+                                                  *angles[2:]))
+                for q in levels:
+                    timed(lambda: headless.draw_frame(gpus[q.mesh], view, size, options, hud, q),
+                          times[q.name], i < 2)
+                for level, gpu in gpus.items():
+                    timed(lambda: floor(gpu, view), floors[level], i < 2)
+            rows = {}
+            for q in levels:
+                frame_ms = statistics.median(times[q.name])
+                floor_ms = statistics.median(floors[q.mesh])
+                rows[q.name] = {"frame_ms": round(frame_ms, 2), "floor_ms": round(floor_ms, 2),
+                                "triangles": gpus[q.mesh].triangle_count}
+            per_scene.append((name, rows))
+            for gpu in gpus.values():
+                gpu.release()
+        error = ctx.error
+    finally:
+        headless.release()
+    if error != "GL_NO_ERROR":
+        raise ExhibitError(f"OpenGL reported {error} during the benchmark")
+
+    report_levels = []
+    for q in levels:
+        name, row = max(((n, rows[q.name]) for n, rows in per_scene),
+                        key=lambda item: item[1]["frame_ms"])
+        report_levels.append({
+            "name": q.name, "frame_ms": row["frame_ms"], "floor_ms": row["floor_ms"],
+            "antialiasing": q.antialiasing, "triangles": row["triangles"],
+            "ratio": round(row["frame_ms"] / row["floor_ms"], 2), "scene": name,
+            "mesh_factor": [1.0, 0.75, 0.5][q.mesh], "effects": q.effects,
+            "render_scale": q.scale,
+            "scenes": {n: rows[q.name] for n, rows in per_scene}})
+    target = target_ms(config, None)
+    candidates = [r for r in report_levels
+                  if not (r["antialiasing"] == "msaa" and software_renderer(renderer_name))]
+    candidates = candidates or report_levels
+    chosen = candidates[pick([r["frame_ms"] for r in candidates], target)]["name"]
+    report = {"size": list(size), "renderer": renderer_name, "levels": report_levels,
+              "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
+              "cpu": cpu_model(), "cpus": os.cpu_count(), "scenes": names,
+              "load_average": [round(x, 2) for x in os.getloadavg()]}
+    if args.json:
+        print(json.dumps(report, indent=2))
+        return 0
+    print(f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; {size[0]}x{size[1]}; "
+          f"{len(names)} scenes, medians of {frames} frames; load {report['load_average']}")
+    print(f"{'level':>9} {'aa':>5} {'slowest scene':>20} {'triangles':>9} {'frame':>9} "
+          f"{'floor':>8} {'ratio':>6}")
+    for r in report_levels:
+        mark = "  <- chosen" if r["name"] == chosen else ""
+        print(f"{r['name']:>9} {r['antialiasing']:>5} {r['scene']:>20} {r['triangles']:>9} "
+              f"{r['frame_ms']:>7.1f}ms {r['floor_ms']:>6.1f}ms {r['ratio']:>5.2f}x{mark}")
+    print(f"target {target:.1f} ms per frame; the governor settles on {chosen}")
+    return 0
