@@ -11,6 +11,9 @@ floor_ms is that scene's floor: the same triangles, same size, flat pass-through
 test, one clear. ``chosen`` is the level a governor starting at the top settles on at this size
 (exhibit.kiosk.governor.pick) for the config's target (vsync: 60 Hz here, as headless there is no
 display; else fps_limit). Numpy is held to one BLAS thread while timing (exhibit.commands.bench).
+With --ssim, each level's picture of the scene's own view is compared with MSAA 4x at full
+scale and full mesh (exhibit.render.ssim): over the whole frame, and over the edges alone (where
+the MSAA picture differs from one without antialiasing, grown by 3 pixels).
 """
 
 from __future__ import annotations
@@ -38,6 +41,9 @@ def add_arguments(parser) -> None:
                         help="only these scenes (default: the config's content.scenes)")
     parser.add_argument("--levels", metavar="NAME,...",
                         help="only these levels (default: the whole ladder)")
+    parser.add_argument("--ssim", action="store_true",
+                        help="also compare each level's picture with MSAA 4x at full scale "
+                             "(SSIM of the whole frame and of the edges alone)")
 
 
 def run(args) -> int:
@@ -124,6 +130,22 @@ def run(args) -> int:
                 floor_ms = statistics.median(floors[q.mesh])
                 rows[q.name] = {"frame_ms": round(frame_ms, 2), "floor_ms": round(floor_ms, 2),
                                 "triangles": gpus[q.mesh].triangle_count}
+            if args.ssim:
+                from exhibit.render.quality import Quality
+                from exhibit.render.ssim import edge_mask, ssim
+                view = scene.view
+                reference = headless.frame(gpus[0], view, size, options, hud,
+                                           Quality("msaa", "msaa"))
+                plain = headless.frame(gpus[0], view, size, options, hud, Quality("none", "none"))
+                edges = edge_mask(reference, plain)
+                for q in levels:
+                    if q.mesh not in gpus:
+                        continue
+                    picture = headless.frame(gpus[q.mesh], view, size, options, hud, q)
+                    rows[q.name]["ssim"] = round(ssim(picture, reference), 4)
+                    rows[q.name]["ssim_edges"] = round(ssim(picture, reference, mask=edges), 4)
+                rows["none"] = {"ssim": round(ssim(plain, reference), 4),
+                                "ssim_edges": round(ssim(plain, reference, mask=edges), 4)}
             per_scene.append((name, rows))
             for gpu in gpus.values():
                 gpu.release()
@@ -144,6 +166,10 @@ def run(args) -> int:
             "mesh_factor": [1.0, 0.75, 0.5][q.mesh], "effects": q.effects,
             "render_scale": q.scale,
             "scenes": {n: rows[q.name] for n, rows in per_scene}})
+        if args.ssim:
+            for key in ("ssim", "ssim_edges"):
+                report_levels[-1][key] = round(statistics.mean(
+                    rows[q.name][key] for _, rows in per_scene), 4)
     target = target_ms(config, None)
     candidates = [r for r in report_levels
                   if not (r["antialiasing"] == "msaa" and software_renderer(renderer_name))]
@@ -153,6 +179,9 @@ def run(args) -> int:
               "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
               "cpu": cpu_model(), "cpus": os.cpu_count(), "scenes": names,
               "load_average": [round(x, 2) for x in os.getloadavg()]}
+    if args.ssim:  # no antialiasing at all, for comparison
+        report["no_antialiasing"] = {key: round(statistics.mean(
+            rows["none"][key] for _, rows in per_scene), 4) for key in ("ssim", "ssim_edges")}
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
@@ -162,7 +191,14 @@ def run(args) -> int:
           f"{'floor':>8} {'ratio':>6}")
     for r in report_levels:
         mark = "  <- chosen" if r["name"] == chosen else ""
+        quality = (f"  SSIM {r['ssim']:.4f}, edges {r['ssim_edges']:.4f}" if "ssim" in r
+                   else "")
         print(f"{r['name']:>9} {r['antialiasing']:>5} {r['scene']:>20} {r['triangles']:>9} "
-              f"{r['frame_ms']:>7.1f}ms {r['floor_ms']:>6.1f}ms {r['ratio']:>5.2f}x{mark}")
+              f"{r['frame_ms']:>7.1f}ms {r['floor_ms']:>6.1f}ms {r['ratio']:>5.2f}x"
+              f"{quality}{mark}")
+    if args.ssim:
+        none = report["no_antialiasing"]
+        print(f"no antialiasing: SSIM {none['ssim']:.4f}, edges {none['ssim_edges']:.4f} "
+              "(all against MSAA 4x at full scale)")
     print(f"target {target:.1f} ms per frame; the governor settles on {chosen}")
     return 0

@@ -31,8 +31,10 @@ def ssim(a: np.ndarray, b: np.ndarray, data_range: float = 255.0,
          mask: np.ndarray | None = None) -> float:
     """Mean SSIM of two pictures of the same shape ((h, w) grey or (h, w, 3) RGB); with a
     boolean ``mask`` of that (h, w), the mean over the windows centred on its pixels only."""
-    return float(np.mean(ssim_map(a, b, data_range)[_valid(mask)] if mask is not None
-                         else ssim_map(a, b, data_range)))
+    values = ssim_map(a, b, data_range)
+    if mask is not None:
+        values = values[_valid(mask)]
+    return float(values.mean()) if values.size else 1.0   # an empty mask: nothing differs
 
 
 def _valid(mask: np.ndarray) -> np.ndarray:
