@@ -148,6 +148,8 @@ def summary(data: dict, path: Path, age: float, fresh: bool,
                 f"(95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)"),
         ("uptime", "?" if uptime is None else format_duration(float(uptime))),
     ]
+    if data.get("quality") is not None:
+        rows.append(("quality", quality_line(data)))
     devices = data.get("devices") or []
     if devices:
         urls = [printable(d["url"]) for d in devices]
@@ -182,6 +184,28 @@ def _how_long(device: dict, age: float) -> str:
         return ""
     text = f" for {format_duration(float(missing) + max(age, 0.0))}"
     return text + " (never connected)" if device["state"] == "waiting" else text
+
+
+def quality_line(data: dict) -> str:
+    """The frame governor's level, e.g. ``scale-50 (level 6 of 6, auto; fxaa, mesh x0.5, lean,
+    scale 0.5), frames 19.1 ms for a 16.7 ms target``; whatever is missing or odd shows as ?."""
+    detail = data.get("quality_detail")
+    detail = detail if isinstance(detail, dict) else {}
+
+    def num(value, fmt):
+        return fmt.format(value) if isinstance(value, (int, float)) \
+            and not isinstance(value, bool) else "?"
+
+    mesh = detail.get("mesh")
+    factor = {0: "1", 1: "0.75", 2: "0.5"}.get(mesh, "?") if isinstance(mesh, int) else "?"
+    how = "pinned" if detail.get("pinned") is True else "auto"
+    parts = [printable(detail.get("antialiasing", "?")), f"mesh x{factor}",
+             printable(detail.get("effects", "?")),
+             f"scale {num(detail.get('render_scale'), '{:g}')}"]
+    return (f"{printable(data.get('quality'))} (level {num(detail.get('level'), '{}')} of "
+            f"{num(detail.get('levels'), '{}')}, {how}; {', '.join(parts)}), frames "
+            f"{num(data.get('frame_ms'), '{:.1f}')} ms for a {num(data.get('target_ms'), '{:.1f}')}"
+            " ms target")
 
 
 def printable(text) -> str:

@@ -470,3 +470,22 @@ def test_the_health_file_is_not_written_through_a_planted_link(tmp_path):
     write_health(path, sample())
     assert victim.read_text() == "keep" and (victim.stat().st_mode & 0o777) == 0o600
     assert read_health(path)["scene"] == sample()["scene"]
+
+
+def test_status_shows_the_quality_level(tmp_path, capsys):
+    path = tmp_path / "health.json"
+    write_health(path, sample(quality="scale-50", frame_ms=19.1, target_ms=16.67,
+                              quality_detail={"antialiasing": "fxaa", "mesh": 2,
+                                              "effects": "lean", "render_scale": 0.5,
+                                              "level": 6, "levels": 6, "pinned": False}))
+    assert main(["status", "--file", str(path), "--max-lost", "1e6"]) in (0, 3)
+    assert ("quality   scale-50 (level 6 of 6, auto; fxaa, mesh x0.5, lean, scale 0.5), "
+            "frames 19.1 ms for a 16.7 ms target") in capsys.readouterr().out
+
+
+def test_status_survives_an_odd_quality_detail(tmp_path, capsys):
+    path = tmp_path / "health.json"
+    write_health(path, sample(quality="x\x1b[2J", quality_detail=[1], frame_ms="fast"))
+    main(["status", "--file", str(path)])
+    out = capsys.readouterr().out
+    assert "quality   x (level ? of ?, auto; ?, mesh x?, ?, scale ?), frames ? ms" in out
