@@ -13,7 +13,10 @@ from exhibit.errors import ExhibitError
 from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
 from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
 from exhibit.surfaces import progress
-from exhibit.surfaces.curves import chain_segments
+from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette
+from exhibit.surfaces.exact_silhouette import (ParametricExact, RefineStats,
+                                               parametric_silhouette)
+from exhibit.surfaces.mesh import Material
 
 HELP = "silhouette curves of a scene for the orthographic view along two axes"
 
@@ -43,22 +46,40 @@ def run(args) -> int:
     resolution = parse_resolution(args.resolution)
     with progress.on_terminal():
         mesh = scene.build(overrides, resolution)
-    e = np.eye(4)
+    stats = RefineStats()
     curves = []
     for surface in mesh.surfaces:
-        # The stored normals span the same plane as the gradients, so s has the same zero set.
-        n1, n2 = surface.normals[:, 0], surface.normals[:, 1]
-        values = silhouette_function(n1, n2, e[along[0]], e[along[1]])
-        segments = zero_set_segments(surface.positions, surface.triangles, values)
-        for points, closed in chain_segments(segments):
-            if closed:
+        # Every exported point is refined onto the exact silhouette of the surface's own
+        # equations (or parametrisation); points that do not converge are dropped, points near
+        # singular points excluded (surfaces/exact_silhouette.py).
+        for curve in exact_silhouette_curves(surface, along, stats):
+            points = curve.points
+            if curve.closed:
                 points = np.vstack([points, points[:1]])
-            curves.append(np.round(points, 9).tolist())
+            curves.append(points.tolist())
     if args.json:
-        print(json.dumps({"axes": list(scene.axes), "curves": curves}))
+        print(json.dumps({"axes": list(scene.axes), "curves": curves, **stats.to_json()}))
         return 0
     print(f"{len(curves)} silhouette curve(s) of {scene.name} along "
           f"{scene.axes[along[0]]}, {scene.axes[along[1]]}:")
     for i, curve in enumerate(curves, 1):
         print(f"  curve {i}: {len(curve)} points")
+    print(f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
+          f"{stats.dropped} dropped (no convergence), {stats.excluded} excluded (near singular "
+          "points)")
     return 0
+
+
+def exact_silhouette_curves(surface, along, stats: RefineStats):
+    exact = surface.exact
+    if isinstance(exact, ImplicitPart):
+        return fixed_silhouette(exact, along, "silhouette", Material(), stats)
+    if isinstance(exact, ParametricExact):
+        return parametric_silhouette(surface, exact, along, "silhouette", Material(), stats)
+    # Without the exact surface nothing can be refined: every traced point counts as dropped.
+    e = np.eye(4)
+    values = silhouette_function(surface.normals[:, 0], surface.normals[:, 1], e[along[0]],
+                                 e[along[1]])
+    segments = zero_set_segments(surface.positions, surface.triangles, values)
+    stats.dropped += 2 * len(segments)
+    return []

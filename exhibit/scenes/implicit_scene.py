@@ -9,8 +9,9 @@ import numpy as np
 
 from exhibit.geometry.silhouette import silhouette_function
 from exhibit.surfaces.curves import zero_set_curves
+from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, refine_curves
 from exhibit.surfaces.expressions import ScalarField, compile_field
-from exhibit.surfaces.implicit import ImplicitResult, polygonize, project_onto
+from exhibit.surfaces.implicit import ImplicitResult, polygonize
 from exhibit.surfaces.mesh import Curve, Material, Surface
 
 
@@ -38,17 +39,21 @@ def mesh_implicit(name: str, f1_text: str, f2_text: str, axes, params: dict, lo,
     f2 = compile_field(f2_text, axes, params)
     result = polygonize(name, f1, f2, lo, hi, resolution, material, seed=seed_for(name),
                         progress=progress)
-    return ImplicitPart(result, f1, f2)
+    part = ImplicitPart(result, f1, f2)
+    result.surface.exact = part
+    return part
 
 
 def fixed_silhouette(part: ImplicitPart, along: tuple[int, int], name: str,
-                     material: Material) -> list[Curve]:
+                     material: Material, stats: RefineStats | None = None) -> list[Curve]:
     """Silhouette curves for the orthographic projection along two coordinate axes (Lemma 3(c)).
 
     Traced as the zero set of s = (n1·e_a)(n2·e_b) - (n1·e_b)(n2·e_a), n1 = ∇f1, n2 = ∇f2, on the
-    mesh, then each point is Newton-projected onto the exact curve f1 = f2 = s = 0 (s built
-    symbolically), so the curve is as accurate as the surface's vertices, not the triangles.
-    Vertices where a gradient is not finite count as silhouette points; no point is NaN."""
+    mesh; then every point is Newton-refined onto the exact curve f1 = f2 = s = 0 (s built
+    symbolically from the scene's own f1, f2) to a scale-free residual of 1e-9. Points that do not
+    converge are dropped, points near a singular point or curve are excluded (singular points are
+    never silhouettes), and curves are split there (`surfaces/exact_silhouette.py`). ``stats``,
+    when given, accumulates the counts."""
     surface = part.surface
     if len(surface.triangles) == 0:
         return []
@@ -57,13 +62,30 @@ def fixed_silhouette(part: ImplicitPart, along: tuple[int, int], name: str,
     with np.errstate(all="ignore"):
         values = silhouette_function(part.f1.gradient(p), part.f2.gradient(p), e[along[0]],
                                      e[along[1]])
-    values = np.where(np.isfinite(values), values, 0.0)  # on the silhouette, as singular points
+    # A vertex where a gradient is not finite gets a sign change around it; refinement decides.
+    values = np.where(np.isfinite(values), values, 0.0)
     curves = zero_set_curves(surface, values, name, material)
-    g1, g2 = part.f1.gradient_expressions, part.f2.gradient_expressions
-    a, b = along
-    s = ScalarField(g1[a] * g2[b] - g1[b] * g2[a], part.f1.symbols)
-    edge = float(np.max(np.ptp(p, axis=0))) / max(part.result.stats.resolution, 1)
-    for curve in curves:
-        points, _, _ = project_onto((part.f1, part.f2, s), curve.points, 2.0 * edge)
-        curve.points = points[np.all(np.isfinite(points), axis=1)]
-    return [curve for curve in curves if len(curve.points) >= 2]
+    system = SilhouetteSystem(part.f1, part.f2, along)
+    edge = cell_size(part)
+    refined, counts = refine_curves(system, curves, 2.0 * edge, part.result.singular_positions,
+                                    exclusion_radius(part))
+    if stats is not None:
+        stats.add(counts)
+    for i, curve in enumerate(refined):
+        curve.name = name if i == 0 else f"{name} {i + 1}"
+    return refined
+
+
+def cell_size(part: ImplicitPart) -> float:
+    """The polygonizer's largest cell edge for this part."""
+    info = part.surface.info
+    if "cell_size" in info:
+        return float(info["cell_size"])
+    p = part.surface.positions
+    return float(np.max(np.ptp(p, axis=0))) / max(part.result.stats.resolution, 1)
+
+
+def exclusion_radius(part: ImplicitPart) -> float:
+    """Silhouette points closer than this to a singular point the polygonizer found are excluded:
+    half a cell, the distance below which the mesh cannot tell a singular point's sheets apart."""
+    return 0.5 * cell_size(part)

@@ -57,6 +57,9 @@ class Surface:
     singular: np.ndarray | None = None  # (V,) bool
     #: How the part was made (kind, max_residual, singular_points, seconds, ...), for `inspect`.
     info: dict = field(default_factory=dict)
+    #: The exact surface behind the mesh when it was just built (the implicit part with its f1,
+    #: f2, or the parametrisation), for exact silhouettes; never stored in the cache.
+    exact: object = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.positions = np.ascontiguousarray(self.positions, dtype=np.float64).reshape(-1, 4)

@@ -156,4 +156,8 @@ def tessellate(name: str, function: PointFunction, s_interval: Interval, t_inter
     surface.info = {"kind": "parametric", "max_residual": None, "singular_points":
                     int(surface.singular.sum()), "seconds": time.perf_counter() - started,
                     "resolution": [rows, cols]}
+    from exhibit.surfaces.exact_silhouette import ParametricExact
+
+    surface.exact = ParametricExact(function, tangents, s_interval, t_interval,
+                                    np.stack([S, T], -1).reshape(-1, 2)[keep])
     return surface

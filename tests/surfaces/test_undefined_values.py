@@ -11,6 +11,7 @@ from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
 from exhibit.surfaces import analyse
 from exhibit.surfaces.expressions import compile_field
 from exhibit.surfaces.implicit import polygonize
+from exhibit.surfaces.exact_silhouette import RefineStats
 from exhibit.surfaces.mesh import Material
 from exhibit.surfaces.parametric import Interval, tessellate
 
@@ -49,14 +50,18 @@ def test_implicit_surface_undefined_everywhere_is_empty():
 
 def test_gradients_that_are_not_finite_make_singular_vertices_and_finite_silhouettes():
     """sqrt(max(x, 0)) is finite for x < 0 but its gradient is not (0 · ∞): those vertices stay,
-    with zero normals flagged singular, and the silhouette traced through them has no NaN."""
+    with zero normals flagged singular, and the silhouette traced through them has no NaN.
+    Here s = -0.1/√x never vanishes where it is defined: the sign changes the mesh shows are
+    all at non-finite gradients, so every traced point is dropped, none kept unrefined."""
     part = mesh_implicit("half", "sqrt(max(x, 0)) + y^2 + z^2 + w^2 - 1", "w - 0.2*y", XYZW,
                          {}, [-1.2] * 4, [1.2] * 4, 10, Material())
     surface = part.surface
     assert np.all(np.isfinite(surface.positions)) and np.all(np.isfinite(surface.normals))
     assert np.any(surface.singular)
-    curves = fixed_silhouette(part, (0, 1), "silhouette", Material())
-    assert curves and all(np.all(np.isfinite(c.points)) for c in curves)
+    stats = RefineStats()
+    curves = fixed_silhouette(part, (0, 1), "silhouette", Material(), stats)
+    assert all(np.all(np.isfinite(c.points)) for c in curves)
+    assert stats.dropped > 0 and stats.refined == 0 and curves == []
 
 
 def _fields(*texts):
