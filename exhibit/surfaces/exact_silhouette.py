@@ -136,9 +136,12 @@ class SilhouetteSystem:
         moved = np.linalg.norm(x - points, axis=1)
         converged = (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & \
             np.isfinite(x).all(axis=1)
-        excluded = converged & self.excluded(x, singular_points, exclusion_radius)
+        # Excluded first: a point pulled towards a singular set (where Newton slows down or
+        # the residual's normalisation vanishes) is counted there, not as a failure to converge.
+        excluded = np.isfinite(x).all(axis=1) & self.excluded(x, singular_points,
+                                                              exclusion_radius)
         keep = converged & ~excluded
-        stats = RefineStats(refined=int(keep.sum()), dropped=int((~converged).sum()),
+        stats = RefineStats(refined=int(keep.sum()), dropped=int((~converged & ~excluded).sum()),
                             excluded=int(excluded.sum()),
                             max_residual=float(residual[keep].max()) if keep.any() else 0.0)
         return x, keep, stats
@@ -242,9 +245,9 @@ class ParametricExact:
         moved = np.linalg.norm(points - start_points, axis=1)
         converged = (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & inside & \
             np.isfinite(points).all(axis=1)
-        excluded = converged & ~(independence >= EXCLUSION_RATIO)
+        excluded = np.isfinite(points).all(axis=1) & ~(independence >= EXCLUSION_RATIO)
         keep = converged & ~excluded
-        stats = RefineStats(refined=int(keep.sum()), dropped=int((~converged).sum()),
+        stats = RefineStats(refined=int(keep.sum()), dropped=int((~converged & ~excluded).sum()),
                             excluded=int(excluded.sum()),
                             max_residual=float(residual[keep].max()) if keep.any() else 0.0)
         return points, keep, stats
