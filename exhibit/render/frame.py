@@ -34,10 +34,14 @@ MAX_TARGETS = 6
 
 class SceneTarget:
     """Where the scene is drawn: colour (texture, or MSAA renderbuffer resolved into one) and
-    depth, of one size."""
+    depth, of one size; with ``sheets``, also a float texture the surface pass writes each
+    pixel's sheet and depth plane to (the intersection curves' input, intersect.glsl), bound
+    only in ``sheet_framebuffer``."""
 
-    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], samples: int):
+    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], samples: int,
+                 sheets: bool = False):
         self.ctx, self.size, self.samples = ctx, size, samples
+        self.sheet_texture = self.sheet_framebuffer = None
         self.texture = ctx.texture(size, 4)
         self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = self.texture.repeat_y = False
@@ -51,13 +55,24 @@ class SceneTarget:
             self._depth = ctx.depth_renderbuffer(size)
             self.framebuffer = ctx.framebuffer([self.texture], self._depth)
             self._resolved = None
+        if sheets:
+            self.sheet_texture = ctx.texture(size, 4, dtype="f4", samples=samples or 0)
+            if not samples:   # a multisampled texture has no filter (read with texelFetch)
+                self.sheet_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self.sheet_framebuffer = ctx.framebuffer(
+                [self._color if samples else self.texture, self.sheet_texture], self._depth)
+
+    def clear(self) -> None:
+        """Colour to transparent, depth to 1 (and the sheets to empty)."""
+        (self.sheet_framebuffer or self.framebuffer).clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
 
     def resolve(self) -> None:
         if self._resolved is not None:
             self.ctx.copy_framebuffer(self._resolved, self.framebuffer)
 
     def release(self) -> None:
-        for obj in (self.framebuffer, self._resolved, self._color, self._depth, self.texture):
+        for obj in (self.sheet_framebuffer, self.framebuffer, self._resolved, self._color,
+                    self._depth, self.texture, self.sheet_texture):
             if obj is not None:
                 obj.release()
 
@@ -81,12 +96,14 @@ class FramePipeline:
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
 
     def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
+        """A cached target; kind "sheets" has the intersection curves' sheet buffer."""
         key = (tuple(size), samples, kind)
         found = self._targets.get(key)
         if found is not None:
             self._targets.move_to_end(key)
             return found
-        target = self._targets[key] = SceneTarget(self.ctx, tuple(size), samples)
+        target = self._targets[key] = SceneTarget(self.ctx, tuple(size), samples,
+                                                  sheets=kind == "sheets")
         while len(self._targets) > MAX_TARGETS:
             self._targets.popitem(last=False)[1].release()
         return target
@@ -105,15 +122,17 @@ class FramePipeline:
         if aa == "msaa" and not self.samples:
             aa = "none"
         scene_size = self.scene_size(size, quality.scale)
-        if aa == "none" and scene_size == size:
+        inked = options.intersections and options.surfaces and bool(gpu.surfaces)
+        if aa == "none" and scene_size == size and not inked:
             renderer.render(gpu, view, destination, options, hud, size=size)
             return
-        target = self.target(scene_size, self.samples if aa == "msaa" else 0)
+        target = self.target(scene_size, self.samples if aa == "msaa" else 0,
+                             "sheets" if inked else "scene")
         target.framebuffer.use()
         ctx.viewport = (0, 0, *scene_size)
         ctx.depth_mask = True
-        target.framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        renderer.render_scene(gpu, view, scene_size, options)
+        target.clear()
+        renderer.render_scene(gpu, view, scene_size, options, sheets=target if inked else None)
         target.resolve()
         ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
         source = target.texture

@@ -62,6 +62,8 @@ class GpuMesh:
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
     #: Largest distance of any point from the origin (for the 4D depth colour ramp).
     radius: float = 1.0
+    #: A few hundred of the surfaces' vertices (the renderer's depth scale for intersections).
+    sample: np.ndarray | None = None
 
     @property
     def triangle_count(self) -> int:
@@ -108,7 +110,8 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         vbo = ctx.buffer(surface_vertices(surface).tobytes())
         ibo = ctx.buffer(np.ascontiguousarray(surface.triangles, dtype=np.int32).tobytes())
         gpu = GpuSurface(surface.name, surface.material.color, vbo, ibo, len(surface.triangles))
-        for key in ("surface", "surface_depth", "silhouette", "ids", "floor"):
+        for key in ("surface", "surface_depth", "surface_sheets", "surface_depth_sheets",
+                    "silhouette", "ids", "floor"):
             prog = programs[key]
             fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
             gpu.vaos[key] = ctx.vertex_array(prog, [(vbo, fmt, *used)], index_buffer=ibo,

@@ -22,6 +22,12 @@ class RenderOptions:
     depth_colour: bool = False
     #: Solid surfaces (off: only their silhouettes, curves and markers, unoccluded by them).
     surfaces: bool = True
+    #: Intersection curves of the 3D image: where sheets of the projected surfaces cross, inked
+    #: as a crisp curve (kiosk frames and Headless.frame; the direct path has no sheet buffer).
+    intersections: bool = True
+    #: Width in px (at 720 px) of the intersection curves (at most 2.5 px: the pass looks one
+    #: pixel around each pixel).
+    intersection_width: float = 2.0
     #: Curves, wire meshes and markers.
     curves: bool = True
     #: Title, caption, angles, sensor distance, axes gizmo, marker labels.

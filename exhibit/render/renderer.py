@@ -40,6 +40,18 @@ PANEL = (0.0, 0.0, 0.0, 0.45)
 BLEND_OVER = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
               moderngl.ONE_MINUS_SRC_ALPHA)
 BLEND_PREMULTIPLIED = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
+#: Intersection curves (intersect.glsl): two front pixels belong to different sheets when their
+#: 4D depths differ by more than SHEET_GAP x the mesh's radius (different parts are offset by
+#: SHEET_OFFSET x radius, so they always do); ink colour; the widest curve the 3x3
+#: neighbourhood can draw, as a half width in pixels.
+SHEET_GAP = 0.05
+SHEET_OFFSET = 16.0
+#: Smallest crossing the curves show: the sine of the angle between the two sheets (depth
+#: scaled to pixels by the mesh's extent on screen, from DEPTH_SAMPLE of its vertices).
+MIN_CROSSING = 0.2
+DEPTH_SAMPLE = 256
+INTERSECTION_INK = (0.05, 0.05, 0.07)
+INTERSECTION_MAX_HALF_WIDTH = 1.25
 
 
 @dataclass(frozen=True)
@@ -71,6 +83,10 @@ class Renderer:
         self.programs = {
             "surface": p(ctx, "surface.glsl"),
             "surface_depth": p(ctx, "surface.glsl", ("DEPTH_COLOUR",)),
+            "surface_sheets": p(ctx, "surface.glsl", ("GBUFFER",)),
+            "surface_depth_sheets": p(ctx, "surface.glsl", ("DEPTH_COLOUR", "GBUFFER")),
+            "intersect": p(ctx, "intersect.glsl"),
+            "intersect_ms": p(ctx, "intersect.glsl", ("MULTISAMPLE",)),
             "ids": p(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
             "silhouette": p(ctx, "silhouette.glsl"),
             "curves": p(ctx, "curves.glsl"),
@@ -82,7 +98,7 @@ class Renderer:
             "floor": p(ctx, "floor.glsl"),
         }
         self._empty = {name: ctx.vertex_array(self.programs[name], [])
-                       for name in ("text", "background")}
+                       for name in ("text", "background", "intersect", "intersect_ms")}
         self._overlay_buffer = ctx.buffer(reserve=64 * OVERLAY_FLOATS * 4, dynamic=True)
         self._overlay_vao = ctx.vertex_array(
             self.programs["overlay"],
@@ -174,9 +190,14 @@ class Renderer:
             self.render_hud(gpu, view, hud, size, options.hud_drift)
 
     def render_scene(self, gpu: GpuMesh, view: ViewState, size: tuple[int, int],
-                     options: RenderOptions = RenderOptions()) -> None:
+                     options: RenderOptions = RenderOptions(), sheets=None) -> None:
         """Surfaces, live silhouettes, curves and markers into the current framebuffer (its
-        viewport set, colour and depth cleared): everything that lives in the 4D scene."""
+        viewport set, colour and depth cleared): everything that lives in the 4D scene.
+
+        ``sheets`` (exhibit.render.frame.SceneTarget with sheets, cleared): the surfaces are
+        drawn into its framebuffer with the per-pixel sheet and depth plane beside the colour,
+        and the intersection curves of the 3D image are inked from them (intersect.glsl);
+        everything else goes to its colour-only framebuffer."""
         ctx = self.ctx
         width, height = size
         scale = options.width_scale(height)
@@ -186,8 +207,16 @@ class Renderer:
 
         # Surfaces.
         ctx.enable(moderngl.DEPTH_TEST)
+        inked = sheets is not None and options.surfaces and options.intersections and gpu.surfaces
         if options.surfaces:
-            self.draw_surfaces(gpu, view, size, options.depth_colour)
+            if inked:
+                sheets.sheet_framebuffer.use()
+                ctx.viewport = (0, 0, width, height)
+            self.draw_surfaces(gpu, view, size, options.depth_colour, sheets=bool(inked))
+        if inked:
+            sheets.framebuffer.use()
+            ctx.viewport = (0, 0, width, height)
+            self.draw_intersections(gpu, sheets, size, options, view)
 
         # Live silhouettes and Lemma 2 points: depth-tested against the surfaces, no depth writes.
         ctx.enable(moderngl.BLEND)
@@ -220,12 +249,54 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.depth_func = "<"
 
+    def _depth_scale(self, gpu: GpuMesh, view: ViewState, size) -> float:
+        """Pixels per unit of window depth, from a sample of the mesh's vertices on screen: the
+        intersection pass measures crossing angles with depth in the same units as x and y."""
+        sample = gpu.sample
+        if sample is None:
+            points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
+            sample = np.concatenate(points) if points else np.zeros((1, 4))
+            sample = gpu.sample = sample[::max(1, len(sample) // DEPTH_SAMPLE)]
+        ndc, ok = self.clip_transform(view, size).to_ndc(sample)
+        if ok.sum() < 2:
+            return 1.0
+        ndc = ndc[ok]
+        span = np.ptp(ndc, axis=0)
+        pixels = max(span[0] * size[0], span[1] * size[1]) * 0.5
+        depth = span[2] * 0.5
+        return float(pixels / depth) if depth > 1e-12 else 1.0
+
+    def draw_intersections(self, gpu: GpuMesh, sheets, size, options: RenderOptions,
+                           view: ViewState | None = None) -> None:
+        """Ink where sheets of the 3D image cross (one full-screen pass over the current,
+        colour-only framebuffer; the surfaces were drawn with ``sheets=True`` into ``sheets``).
+        Leaves the depth test on and blending off."""
+        ctx = self.ctx
+        key = "intersect_ms" if sheets.samples else "intersect"
+        prog = self.programs[key]
+        sheets.sheet_texture.use(0)
+        half = 0.5 * options.intersection_width * options.width_scale(size[1])
+        self._set(prog, u_geometry=0, u_size=(float(size[0]), float(size[1])),
+                  u_depth_scale=self._depth_scale(gpu, view, size) if view is not None else 1.0,
+                  u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
+                  u_sheet_gap=SHEET_GAP * gpu.radius, u_min_angle=MIN_CROSSING, u_ink=INTERSECTION_INK)
+        ctx.disable(moderngl.DEPTH_TEST)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = BLEND_OVER
+        self._empty[key].render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.BLEND)
+        ctx.enable(moderngl.DEPTH_TEST)
+
     def draw_surfaces(self, gpu: GpuMesh, view: ViewState, size, depth_colour: bool = False,
-                      key: str | None = None) -> None:
+                      key: str | None = None, sheets: bool = False) -> None:
         """The surface pass alone (depth test on, current framebuffer): also what the benchmark
-        times against its CPU baseline and its pass-through floor (key="floor")."""
+        times against its CPU baseline and its pass-through floor (key="floor"). With
+        ``sheets`` the current framebuffer has a second, float attachment for each pixel's sheet
+        and depth plane (the intersection curves' input)."""
         ctx = self.ctx
         key = key or ("surface_depth" if depth_colour else "surface")
+        if sheets:
+            key += "_sheets"
         prog = self.programs[key]
         self.set_pipeline(prog, view, size)
         if "u_lights" in prog:
@@ -236,8 +307,8 @@ class Renderer:
         self._set(prog, u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
         self._clip_distances(key != "floor")   # the floor writes no gl_ClipDistance
         ctx.polygon_offset = (1.0, 1.0)
-        for surface in gpu.surfaces:
-            self._set(prog, u_color=tuple(surface.color))
+        for i, surface in enumerate(gpu.surfaces):
+            self._set(prog, u_color=tuple(surface.color), u_sheet=SHEET_OFFSET * i * gpu.radius)
             surface.vaos[key].render(moderngl.TRIANGLES)
         ctx.polygon_offset = (0.0, 0.0)
         self._clip_distances(False)

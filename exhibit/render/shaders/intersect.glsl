@@ -1,0 +1,72 @@
+// Intersection curves of the 3D image: where one sheet of the projected surface passes through
+// another (or through another part), ink the crossing as an antialiased curve instead of the
+// z-buffer's staircase. One full-screen pass over the scene after the surfaces, reading what
+// the surface pass wrote beside the colour (surface.glsl, GBUFFER): per pixel the front sheet's
+// 4D depth w (offset per part) and the plane of its window depth, z(x) = z + dz/dx dx + dz/dy dy.
+//
+// For the pixel p (sheet A in front) and each of its 8 neighbours q (sheet B in front):
+//  * A and B are different sheets when their w differ by more than u_sheet_gap: the same 3D
+//    point is the image of two 4D points (a mesh edge or a fold of one sheet is continuous in w);
+//  * their depth planes cross near p, at an angle (coinciding sheets z-fight, and two halves
+//    meeting at a fold are nearly parallel, instead): the line
+//    h(x) = zA(x) - zB(x) = 0 passes within the curve's half width of p's centre. At an
+//    occluding contour (A ends at its silhouette in front of B) the planes are far apart in
+//    depth there, so their crossing is far away. There is no sign test between p and q: the
+//    colours are depth-tested with a polygon offset that differs per triangle, so next to the
+//    crossing the "wrong" sheet may be in front by a fraction of a pixel; the planes here are
+//    the true ones (clip z / clip w, no offset);
+//  * the crossing line h = 0 is exact to float precision within the two triangles, so its
+//    distance from p's centre, |h(p)| / |grad h|, gives an analytic coverage: a crisp curve at
+//    subpixel position, whatever the pixel grid.
+// The ink is blended over the scene's colour only (the second attachment is not bound here).
+uniform vec2 u_size;
+uniform float u_half_width;   // half the curve's width in pixels
+uniform float u_sheet_gap;    // smallest w difference between two sheets
+uniform float u_min_angle;    // smallest crossing: sine of the angle between the planes
+uniform float u_depth_scale;  // window depth to pixels
+uniform vec3 u_ink;
+#if defined MULTISAMPLE
+uniform sampler2DMS u_geometry;
+#define FETCH(p) texelFetch(u_geometry, p, 0)
+#else
+uniform sampler2D u_geometry;
+#define FETCH(p) texelFetch(u_geometry, p, 0)
+#endif
+
+#if defined VERTEX_SHADER
+void main() {
+    vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID >> 1) * 4 - 1));
+    gl_Position = vec4(p, 0.0, 1.0);
+}
+#endif
+
+#if defined FRAGMENT_SHADER
+out vec4 f_color;
+
+void main() {
+    ivec2 p = ivec2(gl_FragCoord.xy);
+    ivec2 hi = ivec2(u_size) - 1;
+    vec4 a = FETCH(p);
+    float coverage = 0.0;
+    if (a.y > 0.0) {
+        for (int i = 0; i < 8; i++) {
+            ivec2 o = ivec2(i < 3 ? -1 : (i < 5 ? 0 : 1), i < 3 ? i - 1 : (i < 5 ? 2 * i - 7 : i - 6));
+            vec4 b = FETCH(clamp(p + o, ivec2(0), hi));
+            vec2 d = vec2(o);
+            vec2 grad = a.zw - b.zw;                      // gradient of h = zA - zB
+            float hp = a.y - (b.y - dot(b.zw, d));        // h at p (B's plane carried from q)
+            float g = length(grad);
+            // Sheets that coincide in 3D (the two halves of a torus symmetric in w, seen from
+            // infinitely far in 4D) z-fight rather than cross, and near a fold both are steep
+            // and nearly parallel: ask for a crossing angle between the planes' normals, with
+            // depth scaled to pixels (u_depth_scale, from the mesh's extent on screen).
+            vec3 na = vec3(-u_depth_scale * a.zw, 1.0), nb = vec3(-u_depth_scale * b.zw, 1.0);
+            bool crossing = b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap
+                            && length(cross(na, nb)) > u_min_angle * length(na) * length(nb);
+            float dist = crossing ? abs(hp) / g : 1e9;
+            coverage = max(coverage, clamp(u_half_width + 0.5 - dist, 0.0, 1.0));
+        }
+    }
+    f_color = vec4(u_ink, coverage);
+}
+#endif
