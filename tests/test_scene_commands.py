@@ -26,8 +26,10 @@ def test_inspect_reports_every_key(capsys):
     parts = run_json(capsys, "inspect", "collision", "--param", "rs=0.7", "--param", "vc=0.2",
                      "--resolution", "16", "--json")["parts"]
     keys = {"name", "kind", "vertices", "triangles", "components", "euler_characteristic",
-            "boundary_edges", "nonmanifold_edges", "max_residual", "singular_points", "seconds"}
+            "boundary_edges", "nonmanifold_edges", "max_residual", "singular_points", "seconds",
+            "boundary_box_distance", "singular_gap", "box_diagonal"}
     assert set(parts[0]) == keys
+    assert parts[0]["boundary_box_distance"] == 0.0  # closed
     assert parts[0]["components"] == 2 and parts[0]["euler_characteristic"] == 4
     assert parts[0]["max_residual"] <= 1e-9 and parts[0]["boundary_edges"] == 0
 

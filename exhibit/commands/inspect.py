@@ -5,9 +5,12 @@ from __future__ import annotations
 
 import json
 
+import numpy as np
+
 from exhibit import scenes
 from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
 from exhibit.surfaces import analyse, progress
+from exhibit.surfaces.metrics import boundary_box_distance, distance_to_mesh
 
 HELP = "build a scene and check its mesh: components, Euler characteristic, edges, residuals"
 
@@ -32,7 +35,30 @@ def part_report(surface) -> dict:
         "max_residual": info.get("max_residual"),
         "singular_points": info.get("singular_points", 0),
         "seconds": round(float(info.get("seconds", 0.0)), 4),
+        **exactness(surface),
     }
+
+
+def exactness(surface) -> dict:
+    """For implicit parts: how far the boundary is from the box's faces (0: the surface is cut
+    exactly at the box, or closed) and how far the traced singular set is from the mesh."""
+    box = surface.info.get("box")
+    if box is None:
+        return {"boundary_box_distance": None, "singular_gap": None}
+    report = {"boundary_box_distance": boundary_box_distance(surface.positions, surface.triangles,
+                                                             *box)}
+    result = getattr(surface.exact, "result", None)
+    singular = None if result is None else result.singular_positions
+    if singular is None:
+        report["singular_gap"] = None
+    elif len(singular) == 0:
+        report["singular_gap"] = 0.0
+    else:
+        report["singular_gap"] = float(distance_to_mesh(singular, surface.positions,
+                                                        surface.triangles).max())
+    diagonal = float(np.linalg.norm(np.subtract(box[1], box[0])))
+    report["box_diagonal"] = diagonal
+    return report
 
 
 def run(args) -> int:
@@ -53,6 +79,10 @@ def run(args) -> int:
               f"{p['boundary_edges']} boundary / {p['nonmanifold_edges']} non-manifold edges, "
               f"max residual {residual}, {p['singular_points']} singular points, "
               f"{p['seconds']:.2f} s")
+        if p["boundary_box_distance"] is not None:
+            gap = "-" if p["singular_gap"] is None else f"{p['singular_gap']:.2g}"
+            print(f"    boundary off the box by {p['boundary_box_distance']:.1e}, singular set "
+                  f"off the mesh by {gap} (box diagonal {p['box_diagonal']:.3g})")
     for curve in mesh.curves:
         print(f"  {curve.name}: curve, {len(curve.points)} points{' (closed)' if curve.closed else ''}")
     for marker in mesh.markers:

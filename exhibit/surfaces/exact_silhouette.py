@@ -176,8 +176,10 @@ def refine_curves(system: SilhouetteSystem, curves: list[Curve], max_move: float
     out: list[Curve] = []
     for curve in curves:
         x, keep, s = system.refine(curve.points, max_move, singular_points, exclusion_radius)
+        runs = split_runs(x, keep, curve.closed)
+        s.refined = sum(len(points) for points, _ in runs)  # a lone kept point is no curve
         stats.add(s)
-        for points, closed in split_runs(x, keep, curve.closed):
+        for points, closed in runs:
             out.append(Curve(curve.name, points, curve.material, closed))
     return out, stats
 
@@ -289,8 +291,10 @@ def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int
     for points, closed in chain_segments(segments[:, :, :4], scale):
         st = np.array([lookup[tuple(np.round(p / scale).astype(np.int64))] for p in points])
         x, keep, s = exact.refine(st, along, 2.0 * edge)
+        runs = split_runs(x, keep, closed)
+        s.refined = sum(len(run) for run, _ in runs)
         total.add(s)
-        for run, run_closed in split_runs(x, keep, closed):
+        for run, run_closed in runs:
             out.append(Curve(name if not out else f"{name} {len(out) + 1}", run, material,
                              run_closed))
     if stats is not None:

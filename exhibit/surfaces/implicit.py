@@ -44,6 +44,8 @@ NEWTON_ITERATIONS = 40
 NEWTON_TOLERANCE = 1e-13
 #: Corner values beyond this count as non-finite: the crossing test multiplies two of them.
 LARGEST_VALUE = 1e150
+#: Cells the grid reaches beyond the box on every side before the mesh is cut at the box.
+PAD = 1.5
 
 _PAIRS = list(itertools.combinations(range(4), 2))  # the 6 coordinate planes of a square
 _OTHERS = [tuple(d for d in range(4) if d not in pair) for pair in _PAIRS]
@@ -62,6 +64,9 @@ class PolygonizeStats:
     unconverged: int = 0
     max_residual: float = 0.0
     seconds: float = 0.0
+    #: Vertices made where the mesh was cut at the box's faces (and how many of them Newton
+    #: could not put on the surface within the face: those stay on the face, off the surface).
+    box_cut: tuple[int, int] = (0, 0)
     levels: list[int] = field(default_factory=list)
 
 
@@ -191,6 +196,101 @@ def project_onto(fields, points: np.ndarray, max_move: float):
     return x, singular, unconverged
 
 
+class _Face:
+    """x_axis = bound as a field for project_onto."""
+
+    def __init__(self, axis: int, bound: float):
+        self.axis, self.bound = axis, bound
+
+    def value(self, points):
+        return points[..., self.axis] - self.bound
+
+    def gradient(self, points):
+        g = np.zeros(points.shape)
+        g[..., self.axis] = 1.0
+        return g
+
+
+def _box_depth(points, lo, hi, scale):
+    """How far inside the box each point is, per face (N, 8), in units of each axis's cell."""
+    return np.concatenate([(points - lo) / scale, (hi - points) / scale], axis=1)
+
+
+@np.errstate(all="ignore")
+def _clip_to_box(fields, vertices, triangles, singular, lo, hi, cell):
+    """Cut the mesh at the box: triangles outside are dropped, triangles across a face are cut
+    there, and each cut vertex is Newton-projected onto f1 = f2 = 0 within its face (x_k = bound
+    exactly), so the boundary is the surface's own intersection with the face, a smooth polyline.
+    Cut points are shared between the two triangles at an edge, so no crack opens."""
+    scale = (hi - lo) / max((hi - lo).max(), 1e-300)
+    depth = _box_depth(vertices, lo, hi, scale)
+    inside = depth.min(axis=1)
+    if len(triangles) == 0 or np.all(inside[triangles] >= 0):
+        return vertices, triangles, singular, (0, 0)
+    tri = triangles.astype(np.int64)
+    n_in = (inside[tri] >= 0).sum(axis=1)
+    keep = tri[n_in == 3]
+    cut_one = tri[n_in == 1]  # one corner inside
+    cut_two = tri[n_in == 2]  # two corners inside
+
+    def rotate(t, want_inside):
+        """Rotate each triangle so its odd corner comes first (orientation kept)."""
+        flag = (inside[t] >= 0) == want_inside
+        first = np.argmax(flag, axis=1)
+        rows = np.arange(len(t))[:, None]
+        return t[rows, (first[:, None] + np.arange(3)) % 3]
+
+    one = rotate(cut_one, True)  # a inside; b, c outside
+    two = rotate(cut_two, False)  # a outside; b, c inside
+    edges = np.concatenate([one[:, [0, 1]], one[:, [0, 2]], two[:, [1, 0]], two[:, [2, 0]]])
+    key = np.sort(edges, axis=1)
+    unique, index = np.unique(key, axis=0, return_inverse=True)
+    index = index.reshape(-1)
+    # the crossing of min-depth = 0 along each edge: bisect on the piecewise-linear depth
+    a_pts, b_pts = vertices[unique[:, 0]], vertices[unique[:, 1]]
+    a_in = inside[unique[:, 0]] >= 0
+    p_in = np.where(a_in[:, None], a_pts, b_pts)
+    p_out = np.where(a_in[:, None], b_pts, a_pts)
+    t_lo, t_hi = np.zeros(len(unique)), np.ones(len(unique))
+    for _ in range(60):
+        mid = (t_lo + t_hi) / 2
+        m = p_in + mid[:, None] * (p_out - p_in)
+        ok = _box_depth(m, lo, hi, scale).min(axis=1) >= 0
+        t_lo, t_hi = np.where(ok, mid, t_lo), np.where(ok, t_hi, mid)
+    start = p_in + t_lo[:, None] * (p_out - p_in)
+    face = np.argmin(_box_depth(start, lo, hi, scale), axis=1)
+    bound = np.where(face < 4, lo[face % 4], hi[face % 4])
+    axis = face % 4
+    new = start.copy()
+    failed = np.zeros(len(unique), dtype=bool)
+    for k in range(4):
+        for b in (lo[k], hi[k]):
+            sel = (axis == k) & (bound == b)
+            if not sel.any():
+                continue
+            moved, sing, unconv = project_onto(tuple(fields) + (_Face(k, b),), start[sel],
+                                               2.0 * cell)
+            moved[:, k] = b
+            new[sel] = moved
+            failed[sel] = sing | unconv
+    base = len(vertices)
+    # the index arrays were concatenated: split them back
+    n1, n2 = len(one), len(two)
+    ab1 = base + index[:n1]
+    ac1 = base + index[n1:2 * n1]
+    ba2 = base + index[2 * n1:2 * n1 + n2]
+    ca2 = base + index[2 * n1 + n2:]
+    pieces = [keep,
+              np.stack([one[:, 0], ab1, ac1], 1),
+              np.stack([ba2, two[:, 1], two[:, 2]], 1),
+              np.stack([ba2, two[:, 2], ca2], 1)]
+    all_vertices = np.concatenate([vertices, new])
+    all_singular = np.concatenate([singular, np.zeros(len(new), dtype=bool)])
+    used, triangles = keep_vertices(np.ones(len(all_vertices), dtype=bool),
+                                    np.concatenate(pieces).astype(np.int64))
+    return all_vertices[used], triangles, all_singular[used], (len(new), int(failed.sum()))
+
+
 @np.errstate(all="ignore")
 def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi,
                resolution: int, material: Material | None = None, seed: int = 0,
@@ -213,12 +313,16 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     stats = PolygonizeStats(resolution=resolution)
     h = (domain_hi - domain_lo) / resolution
     shift = np.random.default_rng(seed).uniform(0.05, 0.95, size=4)
-    origin = domain_lo - shift * h  # the grid covers the box with one extra (partial) cell
-    size = 1 << math.ceil(math.log2(resolution + 1))
+    # The grid reaches PAD cells beyond the box on every side, so the mesh overshoots the box
+    # and the cut at its faces (_clip_to_box) is a clean one, not the cells' outline.
+    origin = domain_lo - (PAD + shift) * h
+    span = resolution + 2 * math.ceil(PAD) + 1
+    size = 1 << math.ceil(math.log2(span))
     if prune:
-        cells = _prune(f1, f2, origin, h, size, domain_lo, domain_hi, stats, progress)
+        cells = _prune(f1, f2, origin, h, size, domain_lo - PAD * h, domain_hi + PAD * h, stats,
+                       progress)
     else:
-        axes = [np.arange(resolution + 1)] * 4
+        axes = [np.arange(span)] * 4
         cells = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 4).astype(np.int64)
         stats.boxes_tested = len(cells)
     stats.cells = len(cells)
@@ -299,6 +403,9 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
         np.where(use_ac[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1)),
     ])
 
+    vertices, triangles, singular, stats.box_cut = _clip_to_box(
+        (f1, f2), vertices, triangles, singular, domain_lo, domain_hi, float(h.max()))
+
     # Drop vertices off the formulas' domain (with their triangles); positions are finite.
     at_vertices = _evaluate(f1, f2, vertices)
     keep, triangles = keep_vertices(np.isfinite(at_vertices).all(axis=1), triangles)
@@ -317,5 +424,7 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     stats.seconds = time.perf_counter() - started
     surface.info = {"kind": "implicit", "max_residual": stats.max_residual,
                     "singular_points": stats.singular_points, "seconds": stats.seconds,
-                    "resolution": resolution, "cells": stats.cells}
+                    "resolution": resolution, "cells": stats.cells,
+                    "box": [domain_lo.tolist(), domain_hi.tolist()],
+                    "cell_size": float(h.max()), "box_cut": list(stats.box_cut)}
     return ImplicitResult(surface, stats, singular_points)
