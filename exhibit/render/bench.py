@@ -11,7 +11,10 @@ frame by frame in turn (so a noisy machine slows all three alike):
   what rasterising these triangles costs at all.
 
 frame_ms adds the rest of a kiosk frame: background, live silhouettes (geometry shader), curves
-and the HUD. Every frame turns the view a little, as a visitor would.
+and the HUD. intersections_ms is what the intersection curves of the 3D image add to the
+surface pass: the same surfaces drawn with each pixel's sheet and depth plane beside the colour,
+then the full-screen pass that inks the crossings (sheets_ms), less pipeline_ms. Every frame
+turns the view a little, as a visitor would.
 """
 
 from __future__ import annotations
@@ -149,6 +152,7 @@ def run(args) -> int:
     ctx, renderer = headless.ctx, headless.renderer
     target = headless.target(size, samples)
     fbo = target.framebuffer
+    sheets = headless.pipeline.target(size, samples, "sheets")
     hud = HudInfo(scene.title, scene.caption, tuple(scene.axes))
     results = []
     try:
@@ -166,7 +170,20 @@ def run(args) -> int:
                 ctx.enable(moderngl.DEPTH_TEST)
                 draw()
 
+            def with_sheets(v):
+                sheets.framebuffer.use()
+                ctx.viewport = (0, 0, *size)
+                ctx.depth_mask = True
+                sheets.clear()
+                ctx.enable(moderngl.DEPTH_TEST)
+                sheets.sheet_framebuffer.use()
+                renderer.draw_surfaces(gpu, v, size, sheets=True)
+                sheets.framebuffer.use()
+                renderer.draw_intersections(gpu, sheets, size, options, v)
+
+            options = RenderOptions()
             variants = {
+                "sheets_ms": with_sheets,
                 "pipeline_ms": lambda v: surfaces_only(
                     lambda: renderer.draw_surfaces(gpu, v, size)),
                 "cpu_baseline_ms": lambda v: surfaces_only(lambda: baseline.draw(v, size)),
@@ -186,6 +203,7 @@ def run(args) -> int:
                         times[key].append((time.perf_counter() - start) * 1000.0)
             row = {"triangles": gpu.triangle_count}
             row.update({k: round(statistics.median(v), 2) for k, v in times.items()})
+            row["intersections_ms"] = round(row["sheets_ms"] - row["pipeline_ms"], 2)
             results.append(row)
             baseline.release()
             gpu.release()
@@ -203,9 +221,10 @@ def run(args) -> int:
     print(f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; "
           f"{size[0]}x{size[1]}, {samples or 'no'} MSAA samples; medians of {frames} frames")
     print(f"{'triangles':>10} {'pipeline':>10} {'cpu base':>10} {'floor':>10} "
-          f"{'pipe/floor':>10} {'base/pipe':>10} {'full frame':>11}")
+          f"{'pipe/floor':>10} {'base/pipe':>10} {'full frame':>11} {'intersect':>10}")
     for r in results:
         print(f"{r['triangles']:>10} {r['pipeline_ms']:>8.1f}ms {r['cpu_baseline_ms']:>8.1f}ms "
               f"{r['floor_ms']:>8.1f}ms {r['pipeline_ms'] / r['floor_ms']:>9.2f}x "
-              f"{r['cpu_baseline_ms'] / r['pipeline_ms']:>9.2f}x {r['frame_ms']:>9.1f}ms")
+              f"{r['cpu_baseline_ms'] / r['pipeline_ms']:>9.2f}x {r['frame_ms']:>9.1f}ms "
+              f"{r['intersections_ms']:>+8.1f}ms")
     return 0

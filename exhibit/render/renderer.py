@@ -249,22 +249,32 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.depth_func = "<"
 
-    def _depth_scale(self, gpu: GpuMesh, view: ViewState, size) -> float:
-        """Pixels per unit of window depth, from a sample of the mesh's vertices on screen: the
-        intersection pass measures crossing angles with depth in the same units as x and y."""
+    def _screen_extent(self, gpu: GpuMesh, view: ViewState, size):
+        """(pixels per unit of window depth, scissor box) from a sample of the mesh's vertices
+        on screen: the intersection pass measures crossing angles with depth in the same units
+        as x and y, and runs only over the box around the surfaces (padded, since the sample
+        leaves vertices out; the whole screen when a vertex is clipped, e.g. near the sensor)."""
         sample = gpu.sample
         if sample is None:
             points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
             sample = np.concatenate(points) if points else np.zeros((1, 4))
             sample = gpu.sample = sample[::max(1, len(sample) // DEPTH_SAMPLE)]
+        width, height = size
         ndc, ok = self.clip_transform(view, size).to_ndc(sample)
         if ok.sum() < 2:
-            return 1.0
+            return 1.0, None
+        box = None
+        if ok.all():
+            lo, hi = ndc[:, :2].min(axis=0), ndc[:, :2].max(axis=0)
+            pad = 0.1 * (hi - lo) + 8.0 / np.array([width, height])
+            x0, y0 = np.floor((np.clip(lo - pad, -1, 1) + 1) * 0.5 * (width, height)).astype(int)
+            x1, y1 = np.ceil((np.clip(hi + pad, -1, 1) + 1) * 0.5 * (width, height)).astype(int)
+            box = (int(x0), int(y0), int(x1 - x0), int(y1 - y0))
         ndc = ndc[ok]
         span = np.ptp(ndc, axis=0)
-        pixels = max(span[0] * size[0], span[1] * size[1]) * 0.5
+        pixels = max(span[0] * width, span[1] * height) * 0.5
         depth = span[2] * 0.5
-        return float(pixels / depth) if depth > 1e-12 else 1.0
+        return (float(pixels / depth) if depth > 1e-12 else 1.0), box
 
     def draw_intersections(self, gpu: GpuMesh, sheets, size, options: RenderOptions,
                            view: ViewState | None = None) -> None:
@@ -276,14 +286,17 @@ class Renderer:
         prog = self.programs[key]
         sheets.sheet_texture.use(0)
         half = 0.5 * options.intersection_width * options.width_scale(size[1])
+        scale, box = self._screen_extent(gpu, view, size) if view is not None else (1.0, None)
         self._set(prog, u_geometry=0, u_size=(float(size[0]), float(size[1])),
-                  u_depth_scale=self._depth_scale(gpu, view, size) if view is not None else 1.0,
+                  u_depth_scale=scale,
                   u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
                   u_sheet_gap=SHEET_GAP * gpu.radius, u_min_angle=MIN_CROSSING, u_ink=INTERSECTION_INK)
         ctx.disable(moderngl.DEPTH_TEST)
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = BLEND_OVER
+        ctx.scissor = box
         self._empty[key].render(moderngl.TRIANGLES, vertices=3)
+        ctx.scissor = None
         ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)
 

@@ -63,8 +63,10 @@ def test_bench_json_keys(gl, capsys):
     report = json.loads(capsys.readouterr().out)
     assert report["size"] == [96, 72] and report["renderer"]
     (row,) = report["results"]
-    assert set(row) >= {"triangles", "pipeline_ms", "cpu_baseline_ms", "floor_ms"}
-    assert row["triangles"] > 500 and all(row[k] > 0 for k in row)
+    assert set(row) >= {"triangles", "pipeline_ms", "cpu_baseline_ms", "floor_ms", "sheets_ms",
+                        "intersections_ms"}
+    # intersections_ms is a difference of two medians: noise can make it negative.
+    assert row["triangles"] > 500 and all(row[k] > 0 for k in row if k != "intersections_ms")
 
 
 def test_bench_kiosk_json(gl):

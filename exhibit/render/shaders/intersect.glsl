@@ -43,30 +43,43 @@ void main() {
 #if defined FRAGMENT_SHADER
 out vec4 f_color;
 
+// The coverage of the crossing of sheet a (at p) with sheet b (at p + o), 0 if none.
+float crossing(vec4 a, vec4 b, ivec2 o) {
+    vec2 d = vec2(o);
+    vec2 grad = a.zw - b.zw;                      // gradient of h = zA - zB
+    float hp = a.y - (b.y - dot(b.zw, d));        // h at p (B's plane carried from q)
+    float g = length(grad);
+    // Sheets that coincide in 3D (the two halves of a torus symmetric in w, seen from
+    // infinitely far in 4D) z-fight rather than cross, and near a fold both are steep and
+    // nearly parallel: ask for a crossing angle between the planes' normals, with depth scaled
+    // to pixels (u_depth_scale, from the mesh's extent on screen).
+    vec3 na = vec3(-u_depth_scale * a.zw, 1.0), nb = vec3(-u_depth_scale * b.zw, 1.0);
+    bool crosses = b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap
+                   && length(cross(na, nb)) > u_min_angle * length(na) * length(nb);
+    float dist = crosses ? abs(hp) / g : 1e9;
+    return clamp(u_half_width + 0.5 - dist, 0.0, 1.0);
+}
+
+bool other(vec4 a, vec4 b) { return b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap; }
+
 void main() {
     ivec2 p = ivec2(gl_FragCoord.xy);
     ivec2 hi = ivec2(u_size) - 1;
     vec4 a = FETCH(p);
-    float coverage = 0.0;
-    if (a.y > 0.0) {
-        for (int i = 0; i < 8; i++) {
-            ivec2 o = ivec2(i < 3 ? -1 : (i < 5 ? 0 : 1), i < 3 ? i - 1 : (i < 5 ? 2 * i - 7 : i - 6));
-            vec4 b = FETCH(clamp(p + o, ivec2(0), hi));
-            vec2 d = vec2(o);
-            vec2 grad = a.zw - b.zw;                      // gradient of h = zA - zB
-            float hp = a.y - (b.y - dot(b.zw, d));        // h at p (B's plane carried from q)
-            float g = length(grad);
-            // Sheets that coincide in 3D (the two halves of a torus symmetric in w, seen from
-            // infinitely far in 4D) z-fight rather than cross, and near a fold both are steep
-            // and nearly parallel: ask for a crossing angle between the planes' normals, with
-            // depth scaled to pixels (u_depth_scale, from the mesh's extent on screen).
-            vec3 na = vec3(-u_depth_scale * a.zw, 1.0), nb = vec3(-u_depth_scale * b.zw, 1.0);
-            bool crossing = b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap
-                            && length(cross(na, nb)) > u_min_angle * length(na) * length(nb);
-            float dist = crossing ? abs(hp) / g : 1e9;
-            coverage = max(coverage, clamp(u_half_width + 0.5 - dist, 0.0, 1.0));
-        }
+    vec4 b[8];
+    ivec2 o[8] = ivec2[8](ivec2(0, 1), ivec2(0, -1), ivec2(1, 0), ivec2(-1, 0),
+                          ivec2(1, 1), ivec2(1, -1), ivec2(-1, 1), ivec2(-1, -1));
+    bool any_other = false;
+    for (int i = 0; i < 8; i++) {
+        b[i] = FETCH(clamp(p + o[i], ivec2(0), hi));
+        any_other = any_other || other(a, b[i]);
     }
+    // Almost every pixel has the same sheet all around: stop there (on a software rasteriser a
+    // discard that kills a whole block of pixels skips the rest of the shader for it).
+    if (a.y <= 0.0 || !any_other) discard;
+    float coverage = 0.0;
+    for (int i = 0; i < 8; i++) coverage = max(coverage, crossing(a, b[i], o[i]));
+    if (coverage <= 0.0) discard;
     f_color = vec4(u_ink, coverage);
 }
 #endif
