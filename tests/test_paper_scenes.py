@@ -20,15 +20,17 @@ def test_initial_colliding_point_matches_the_closed_form(figure):
                                atol=1e-8)
 
 
-def test_figure_15_is_two_sheets_meeting_on_a_singular_circle_at_t0():
-    """Equal radii: at t = 0 the sphere touches the cylinder along a circle; the surface there
-    has dependent normals, so the paper's 'connected' surface is joined through singular points."""
+def test_figure_15_is_two_sheets_meeting_at_two_singular_points_at_t0():
+    """Equal radii: at t = 0 the sphere touches the cylinder along the circle x = 0,
+    y² + z² = 1, but the surface's normals are dependent only at two of its points,
+    (0, ±1, 0, 0), where the two sheets meet: the paper's 'connected' surface is joined there."""
     part = collision.build_part(collision.FIGURE_PARAMS[15], 24)
     points = part.result.singular_positions
-    assert len(points) >= 1
+    assert len(points) == 2
     np.testing.assert_allclose(points[:, 3], 0.0, atol=1e-6)  # at t = 0
-    np.testing.assert_allclose(points[:, 0], 0.0, atol=1e-6)  # on the circle x = 0
-    np.testing.assert_allclose(np.hypot(points[:, 1], points[:, 2]), 1.0, atol=1e-6)
+    np.testing.assert_allclose(points[:, 0], 0.0, atol=1e-6)  # x = 0
+    np.testing.assert_allclose(np.sort(points[:, 1]), [-1.0, 1.0], atol=1e-6)
+    np.testing.assert_allclose(points[:, 2], 0.0, atol=1e-6)
 
 
 def _offset_of_parabola(radius):

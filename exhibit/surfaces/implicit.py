@@ -35,7 +35,7 @@ from exhibit.surfaces import progress as progress_line
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.mesh import Material, Surface
 from exhibit.surfaces.parametric import finite_directions, keep_vertices
-from exhibit.surfaces.singular import find_singular_points
+from exhibit.surfaces.singular import find_singular_points, trace_singular_set
 
 #: σ_min/σ_max of the Jacobian below which a vertex counts as a singular point.
 SINGULAR_RATIO = 1e-6
@@ -67,6 +67,8 @@ class PolygonizeStats:
     #: Vertices made where the mesh was cut at the box's faces (and how many of them Newton
     #: could not put on the surface within the face: those stay on the face, off the surface).
     box_cut: tuple[int, int] = (0, 0)
+    #: Vertices moved onto the traced singular set so the mesh reaches it.
+    snapped: int = 0
     levels: list[int] = field(default_factory=list)
 
 
@@ -194,6 +196,41 @@ def project_onto(fields, points: np.ndarray, max_move: float):
     unconverged = (active | runaway) & ~singular
     x[singular | runaway] = start[singular | runaway]
     return x, singular, unconverged
+
+
+def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
+                       enough: float, rounds: int = 3) -> int:
+    """Close the gap between the mesh and the traced singular set. Near a pinch or a cusp of the
+    surface the grid cannot separate the sheets, and the dual mesh folds over short of the
+    singular set. Each sample of the set claims its nearest vertex within ``radius``, and each
+    claimed vertex moves onto its nearest claiming sample (an exact point of the surface, marked
+    singular, with zero normals); samples still farther than ``enough`` from the triangles claim
+    again among the vertices not yet moved. Returns how many vertices moved."""
+    from exhibit.surfaces.metrics import distance_to_mesh
+
+    positions = surface.positions
+    moved = np.zeros(len(positions), dtype=bool)
+    todo = np.arange(len(traced))
+    for _ in range(rounds):
+        best: dict[int, tuple[float, int]] = {}
+        for k in todo:
+            d = np.linalg.norm(positions - traced[k], axis=1)
+            d[moved] = np.inf
+            v = int(np.argmin(d))
+            if d[v] < radius and (v not in best or d[v] < best[v][0]):
+                best[v] = (float(d[v]), int(k))
+        if not best:
+            break
+        for v, (_, k) in best.items():
+            positions[v] = traced[k]
+            moved[v] = True
+        gap = distance_to_mesh(traced, positions, surface.triangles)
+        todo = np.flatnonzero(gap > enough)
+        if len(todo) == 0:
+            break
+    surface.normals[moved] = 0.0
+    surface.singular[moved] = True
+    return int(moved.sum())
 
 
 class _Face:
@@ -420,11 +457,18 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
         progress("searching for singular points")
     singular_points = find_singular_points(f1, f2, vertices, float(h.max()),
                                            float(np.max(domain_hi - domain_lo)))
+    if len(singular_points):
+        if progress:
+            progress("tracing the singular set")
+        cell = float(h.max())
+        singular_points = trace_singular_set(f1, f2, singular_points, cell / 4, 3 * cell)
+        stats.snapped = reach_singular_set(surface, singular_points, 1.5 * cell, cell / 8)
     stats.singular_points = len(singular_points)
     stats.seconds = time.perf_counter() - started
     surface.info = {"kind": "implicit", "max_residual": stats.max_residual,
                     "singular_points": stats.singular_points, "seconds": stats.seconds,
                     "resolution": resolution, "cells": stats.cells,
                     "box": [domain_lo.tolist(), domain_hi.tolist()],
-                    "cell_size": float(h.max()), "box_cut": list(stats.box_cut)}
+                    "cell_size": float(h.max()), "box_cut": list(stats.box_cut),
+                    "snapped_to_singular_set": stats.snapped}
     return ImplicitResult(surface, stats, singular_points)

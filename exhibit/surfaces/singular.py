@@ -99,3 +99,75 @@ def find_singular_points(f1: ScalarField, f2: ScalarField, vertices: np.ndarray,
     keys = np.round(points / (cell_size / 4)).astype(np.int64)
     _, first = np.unique(keys, axis=0, return_index=True)
     return points[np.sort(first)]
+
+
+@np.errstate(all="ignore")
+def _search_from(f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: float) -> np.ndarray:
+    """Gauss-Newton on (f1, f2, minors) from each seed; the points it converges to within
+    ``reach`` of their seed (the rest are dropped)."""
+    cache = f1.__dict__.setdefault("_singular_systems", {})
+    system = cache.get(id(f2))
+    if system is None:
+        system = cache[id(f2)] = _SingularSystem(f1, f2)
+    x = seeds.copy()
+    going = np.ones(len(x), dtype=bool)
+    for _ in range(ITERATIONS):
+        if not going.any():
+            break
+        r = system.residual(x[going])
+        j = system.jacobian(x[going])
+        jtj = np.einsum("aki,akj->aij", j, j)
+        jtr = np.einsum("aki,ak->ai", j, r)
+        finite = np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
+        going[np.flatnonzero(going)[~finite]] = False
+        jtj, jtr = jtj[finite], jtr[finite]
+        mu = 1e-12 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] * np.eye(4)
+        delta = (np.linalg.pinv(jtj + mu) @ jtr[..., None])[..., 0]
+        x[going] -= delta
+    r = system.residual(x)
+    scale = 1.0 + np.abs(system.residual(seeds)).max(axis=1)
+    found = going & (np.abs(r).max(axis=1) <= TOLERANCE * scale) & \
+        (np.linalg.norm(x - seeds, axis=1) <= reach)
+    return x[found]
+
+
+def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spacing: float,
+                       reach: float, rounds: int = 6, limit: int = 20000) -> np.ndarray:
+    """The singular set sampled every ``spacing`` along its curves: from the points the search
+    found, new searches start at the midpoints of pairs closer than ``reach`` but farther apart
+    than ``spacing``, round after round, so gaps along a singular curve fill in (an isolated
+    singular point has no partner and stays alone)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 4)
+    for _ in range(rounds):
+        if len(points) < 2 or len(points) > limit:
+            break
+        mids = []
+        for start in range(0, len(points), 256):
+            chunk = points[start:start + 256]
+            d = np.linalg.norm(chunk[:, None] - points[None], axis=-1)
+            i, j = np.nonzero((d > spacing) & (d < reach))
+            i = i + start
+            keep = i < j
+            # only pairs with no point of the set already between them
+            a, b = points[i[keep]], points[j[keep]]
+            mids.append((a + b) / 2)
+        mids = np.concatenate(mids) if mids else np.zeros((0, 4))
+        if len(mids) == 0:
+            break
+        nearest = np.array([np.linalg.norm(points - m, axis=1).min() for m in mids])
+        mids = mids[nearest > spacing / 2]
+        if len(mids) == 0:
+            break
+        keys = np.round(mids / (spacing / 2)).astype(np.int64)
+        _, first = np.unique(keys, axis=0, return_index=True)
+        new = _search_from(f1, f2, mids[np.sort(first)], reach)
+        if len(new) == 0:
+            break
+        distance = np.array([np.linalg.norm(points - p, axis=1).min() for p in new])
+        new = new[distance > spacing / 4]
+        if len(new) == 0:
+            break
+        keys = np.round(new / (spacing / 4)).astype(np.int64)
+        _, first = np.unique(keys, axis=0, return_index=True)
+        points = np.concatenate([points, new[np.sort(first)]])
+    return points
