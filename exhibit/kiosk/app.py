@@ -303,7 +303,9 @@ class Kiosk:
             if n & (n - 1) == 0:  # the 1st, 2nd, 4th, 8th...: a few lines, even over months
                 log.error("GL error: %s (%d so far)", error, n)
         self.window.swap()
-        self.stats.times.append(self.clock() - start)
+        end = self.clock()
+        self.stats.times.append(end - start)
+        self.governor.frame_done((end - start) * 1000.0, end)
 
     def _update_log_fields(self) -> dict[str, str | None]:
         """The journal fields for what is on screen, set for every record from now on (errors

@@ -16,7 +16,9 @@ and the frame times it is given, so it is tested with a fake clock and made-up f
 * [quality] in kiosk.toml pins a whole level, or any of its settings (the governor then only
   moves the others), and can set the lowest level it may go to.
 
-``health()`` is what the health file carries: the level's name and the measured frame time.
+``health()`` is what the health file carries: the level's name and the measured frame time, and
+the longest whole frame (poll, update, draw, swap) since start-up, ``frame_ms_max``, counted from
+STARTUP_S after the first frame (the first frames compile shaders and fill caches).
 """
 
 from __future__ import annotations
@@ -36,6 +38,8 @@ MAX_BACKOFF_S = 3600.0
 FAST_DEG_S = 30.0
 #: ... or moving the sensor faster than this, in r = 1/distance per second.
 FAST_R_S = 0.1
+#: Whole frames in the first seconds after the first one are start-up, not hitches.
+STARTUP_S = 5.0
 
 
 @dataclass(frozen=True)
@@ -98,6 +102,10 @@ class Governor:
         #: The latest frame time given (ms) and the recent median, for the health file.
         self.frame_ms: float | None = None
         self.steps = 0
+        #: The longest whole frame (ms) after start-up, when (s after the first frame), how many.
+        self.frame_ms_max: float | None = None
+        self.frame_ms_max_at: float | None = None
+        self._first_frame: float | None = None
 
     @property
     def quality(self) -> Quality:
@@ -168,6 +176,16 @@ class Governor:
         self._restart(now)
         return True
 
+    def frame_done(self, frame_ms: float, now: float) -> None:
+        """A whole frame's wall time (ms; poll to swap), for the longest since start-up."""
+        if self._first_frame is None:
+            self._first_frame = now
+        if not math.isfinite(frame_ms) or now - self._first_frame < STARTUP_S:
+            return
+        if self.frame_ms_max is None or frame_ms > self.frame_ms_max:
+            self.frame_ms_max = frame_ms
+            self.frame_ms_max_at = now - self._first_frame
+
     @property
     def recent_ms(self) -> float | None:
         """The median frame time of the current window (None before any)."""
@@ -184,6 +202,10 @@ class Governor:
                                    "level": self.index + 1, "levels": len(self.levels),
                                    "pinned": self.pinned, "steps": self.steps},
                 "frame_ms": None if recent is None else round(recent, 2),
+                "frame_ms_max": (None if self.frame_ms_max is None
+                                 else round(self.frame_ms_max, 2)),
+                "frame_ms_max_at_s": (None if self.frame_ms_max_at is None
+                                      else round(self.frame_ms_max_at, 1)),
                 "target_ms": round(self.settings.target_ms, 2)}
 
 

@@ -25,9 +25,9 @@ class RenderOptions:
     #: Intersection curves of the 3D image: where sheets of the projected surfaces cross, inked
     #: as a crisp curve (kiosk frames and Headless.frame; the direct path has no sheet buffer).
     intersections: bool = True
-    #: Width in px (at 720 px) of the intersection curves (at most 2.5 px: the pass looks one
-    #: pixel around each pixel).
-    intersection_width: float = 2.0
+    #: Width in px (at 720 px) of the intersection curves' core (at most 1 px: the pass looks
+    #: one pixel around each pixel), plus a 1 px antialiased rim.
+    intersection_width: float = 1.0
     #: Curves, wire meshes and markers.
     curves: bool = True
     #: Title, caption, angles, sensor distance, axes gizmo, marker labels.

@@ -43,7 +43,8 @@ BLEND_PREMULTIPLIED = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
 #: Intersection curves (intersect.glsl): two front pixels belong to different sheets when their
 #: 4D depths differ by more than SHEET_GAP x the mesh's radius (different parts are offset by
 #: SHEET_OFFSET x radius, so they always do); ink colour; the widest curve the 3x3
-#: neighbourhood can draw, as a half width in pixels.
+#: neighbourhood draws whole, as a half width in pixels (a 1 px core and a 1 px antialiased rim:
+#: a pixel up to 1 px from the crossing always has a neighbour across it).
 SHEET_GAP = 0.05
 SHEET_OFFSET = 16.0
 #: Smallest crossing the curves show: the sine of the angle between the two sheets (depth
@@ -51,7 +52,7 @@ SHEET_OFFSET = 16.0
 MIN_CROSSING = 0.2
 DEPTH_SAMPLE = 256
 INTERSECTION_INK = (0.05, 0.05, 0.07)
-INTERSECTION_MAX_HALF_WIDTH = 1.25
+INTERSECTION_MAX_HALF_WIDTH = 0.5
 
 
 @dataclass(frozen=True)

@@ -150,6 +150,21 @@ def test_health_carries_the_level_and_the_frame_time():
     assert h["quality_detail"]["antialiasing"] == "fxaa" and h["quality_detail"]["level"] == 2
 
 
+def test_longest_frame_after_start_up():
+    """frame_ms_max: the longest whole frame, not counting the first STARTUP_S seconds."""
+    from exhibit.kiosk.governor import STARTUP_S
+    g = governor()
+    assert g.health()["frame_ms_max"] is None
+    g.frame_done(900.0, 100.0)                      # the first frame: start-up
+    g.frame_done(300.0, 100.0 + STARTUP_S / 2)      # still start-up
+    for i in range(50):
+        g.frame_done(20.0 + (i == 30) * 60.0, 100.0 + STARTUP_S + i * 0.02)
+    g.frame_done(math.nan, 110.0)
+    h = g.health()
+    assert h["frame_ms_max"] == 80.0
+    assert h["frame_ms_max_at_s"] == pytest.approx(STARTUP_S + 0.6, abs=0.05)
+
+
 def test_pick():
     assert pick([10, 20, 30], 16.7) == 0
     assert pick([30, 18, 10], 16.7) == 1          # within 10 %

@@ -75,7 +75,9 @@ void main() {
         any_other = any_other || other(a, b[i]);
     }
     // Almost every pixel has the same sheet all around: stop there (on a software rasteriser a
-    // discard that kills a whole block of pixels skips the rest of the shader for it).
+    // discard that kills a whole block of pixels skips the rest of the shader for it). Every
+    // pixel within one pixel of a crossing has one of its 8 neighbours across it, which is why
+    // the curve's half width is at most half a pixel plus its antialiased rim.
     if (a.y <= 0.0 || !any_other) discard;
     float coverage = 0.0;
     for (int i = 0; i < 8; i++) coverage = max(coverage, crossing(a, b[i], o[i]));
