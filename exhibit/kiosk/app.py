@@ -61,6 +61,8 @@ FAILING_EXIT_S = 60.0
 FAILING_EXIT = 70  # EX_SOFTWARE
 #: Failed frames after the first of their kind are summed up in one line at most this often.
 ERROR_REPORT_S = 10.0
+#: A whole frame longer than this after start-up is logged (the 1st, 2nd, 4th, 8th... of them).
+SLOW_FRAME_MS = 100.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
 NOTICE = ("This exhibit is resting for a moment.",
           "(no scene could be prepared: see `exhibit status` and the journal)")
@@ -76,6 +78,7 @@ class FrameStats:
 
     times: list[float] = field(default_factory=list)
     gl_errors: int = 0
+    slow_frames: int = 0
 
 
 def _rss_kb() -> int:
@@ -306,6 +309,13 @@ class Kiosk:
         end = self.clock()
         self.stats.times.append(end - start)
         self.governor.frame_done((end - start) * 1000.0, end)
+        if self.governor.frame_ms_max_at is not None and (end - start) * 1000.0 > SLOW_FRAME_MS:
+            self.stats.slow_frames += 1
+            n = self.stats.slow_frames
+            if n & (n - 1) == 0:
+                scene = self.state.frame.scene if self.state is not None else None
+                log.warning("slow frame: %.0f ms (scene %s; %d so far)", (end - start) * 1000.0,
+                            scene, n)
 
     def _update_log_fields(self) -> dict[str, str | None]:
         """The journal fields for what is on screen, set for every record from now on (errors

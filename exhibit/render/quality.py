@@ -8,7 +8,8 @@ A level sets four things, and the ladder gives them up in this order, cheapest l
    or "none" (only by pinning it);
 2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS; the
    kiosk loads every level's meshes at start-up, never during a visitor's session);
-3. effects: "full", or "lean" (thinner live silhouettes and curves, a flat background);
+3. effects: "full", or "lean" (thinner live silhouettes and curves, a flat background, no
+   intersection curves: their sheet buffer and pass cost 10-20 ms at 1080p on software GL);
 4. scale: the render scale of the 3D picture (the HUD always stays at full resolution and crisp;
    FXAA upscales the picture).
 """
@@ -60,7 +61,7 @@ class Quality:
         middle = tuple(0.5 * (a + b) for a, b in zip(top, bottom))
         return replace(base, background=(middle, middle),
                        silhouette_width=base.silhouette_width * LEAN_WIDTH,
-                       curve_width=base.curve_width * LEAN_WIDTH)
+                       curve_width=base.curve_width * LEAN_WIDTH, intersections=False)
 
     def describe(self) -> str:
         return (f"{self.name}: {self.antialiasing}, mesh x{MESH_FACTORS[self.mesh]:g}, "

@@ -98,6 +98,7 @@ def test_ladder_pins_and_mesh_resolution():
     lean = LADDER[4].options(RenderOptions())
     assert lean.silhouette_width < RenderOptions().silhouette_width
     assert lean.background[0] == lean.background[1]
+    assert not lean.intersections and LADDER[3].options(RenderOptions()).intersections
 
 
 def test_ssim():
