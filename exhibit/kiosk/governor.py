@@ -7,8 +7,8 @@ and the frame times it is given, so it is tested with a fake clock and made-up f
 * Frame times are what drawing a frame costs (exhibit.render.frame.FrameTimer: GPU timer
   queries, or on software GL the wall time up to glFinish), never the wait for vsync, so the
   governor sees its headroom.
-* It steps down when the median of the last ``window_s`` of frames is above ``down`` x target,
-  and up when nearly all of them (the 90th percentile) are below ``up`` x target. Decisions never
+* It steps down when the median of the last ``window_s`` of frames is above ``down`` x target
+  (at once, without waiting for ``step_interval_s``, when it is above ``far`` x target), and up when nearly all of them (the 90th percentile) are below ``up`` x target. Decisions never
   flicker: at most one step every ``step_interval_s``, none in the first moments at a new level
   or scene (their first frames are not typical), none while a visitor turns a control quickly
   (and for ``calm_s`` after), and a step up that had to be taken back within two intervals is
@@ -39,7 +39,7 @@ FAST_DEG_S = 30.0
 #: ... or moving the sensor faster than this, in r = 1/distance per second.
 FAST_R_S = 0.1
 #: Whole frames in the first seconds after the first one are start-up, not hitches.
-STARTUP_S = 5.0
+STARTUP_S = 10.0
 
 
 @dataclass(frozen=True)
@@ -57,6 +57,10 @@ class Settings:
     #: Fewest frames in the window for a decision (a slow frame rate still decides: the window
     #: then spans at most step_interval_s).
     min_frames: int = 5
+    #: Far too slow (the median above this x target): step down without waiting for
+    #: step_interval_s, so starting at the best level on a slow machine costs seconds of
+    #: 100 ms frames, not half a minute (steps up still wait).
+    far: float = 2.0
 
 
 def percentile(values, q: float) -> float:
@@ -151,10 +155,13 @@ class Governor:
         horizon = now - min(s.window_s, s.step_interval_s)
         while self._frames and self._frames[0][0] < horizon:
             self._frames.popleft()
-        if (now - self._changed < s.step_interval_s or now < self._calm_until
-                or len(self._frames) < s.min_frames):
+        if now < self._calm_until or len(self._frames) < s.min_frames:
             return False
         times = [ms for _, ms in self._frames]
+        if (now - self._changed < s.step_interval_s
+                and not (percentile(times, 50) > s.target_ms * s.far
+                         and self.index < len(self.levels) - 1)):
+            return False
         if percentile(times, 50) > s.target_ms * s.down and self.index < len(self.levels) - 1:
             if self._last_up is not None and now - self._last_up[0] <= 2 * s.step_interval_s:
                 level = self._last_up[1]   # that step up did not hold: wait longer next time
