@@ -27,6 +27,8 @@ from exhibit.render.options import RenderOptions
 from exhibit.render.quality import Quality, software_renderer
 from exhibit.render.renderer import HudInfo, Renderer
 
+#: Pixels per side of a tile of the intersection pass's gate (intersect.glsl's TILE).
+TILE = 8
 #: Targets kept for recently used (size, antialiasing) pairs; a benchmark alternating levels
 #: must not reallocate every frame, and a kiosk needs one or two.
 MAX_TARGETS = 6
@@ -42,6 +44,8 @@ class SceneTarget:
                  sheets: bool = False):
         self.ctx, self.size, self.samples = ctx, size, samples
         self.sheet_texture = self.sheet_framebuffer = None
+        self.gate_texture = self.gate_framebuffer = None
+        self.gate_size = (0, 0)
         self.texture = ctx.texture(size, 4)
         self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = self.texture.repeat_y = False
@@ -61,6 +65,11 @@ class SceneTarget:
                 self.sheet_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self.sheet_framebuffer = ctx.framebuffer(
                 [self._color if samples else self.texture, self.sheet_texture], self._depth)
+            if not samples:   # the intersection pass's gate: one texel per 4 x 4 pixels
+                self.gate_size = (-(-size[0] // TILE), -(-size[1] // TILE))
+                self.gate_texture = ctx.texture(self.gate_size, 1)
+                self.gate_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+                self.gate_framebuffer = ctx.framebuffer([self.gate_texture])
 
     def clear(self) -> None:
         """Colour to transparent, depth to 1 (and the sheets to empty)."""
@@ -72,7 +81,8 @@ class SceneTarget:
 
     def release(self) -> None:
         for obj in (self.sheet_framebuffer, self.framebuffer, self._resolved, self._color,
-                    self._depth, self.texture, self.sheet_texture):
+                    self._depth, self.texture, self.sheet_texture, self.gate_framebuffer,
+                    self.gate_texture):
             if obj is not None:
                 obj.release()
 

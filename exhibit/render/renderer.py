@@ -86,7 +86,8 @@ class Renderer:
             "surface_depth": p(ctx, "surface.glsl", ("DEPTH_COLOUR",)),
             "surface_sheets": p(ctx, "surface.glsl", ("GBUFFER",)),
             "surface_depth_sheets": p(ctx, "surface.glsl", ("DEPTH_COLOUR", "GBUFFER")),
-            "intersect": p(ctx, "intersect.glsl"),
+            "intersect": p(ctx, "intersect.glsl", ("TILES",)),
+            "intersect_gate": p(ctx, "intersect.glsl", ("GATE",)),
             "intersect_ms": p(ctx, "intersect.glsl", ("MULTISAMPLE",)),
             "ids": p(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
             "silhouette": p(ctx, "silhouette.glsl"),
@@ -99,7 +100,8 @@ class Renderer:
             "floor": p(ctx, "floor.glsl"),
         }
         self._empty = {name: ctx.vertex_array(self.programs[name], [])
-                       for name in ("text", "background", "intersect", "intersect_ms")}
+                       for name in ("text", "background", "intersect", "intersect_gate",
+                                   "intersect_ms")}
         self._overlay_buffer = ctx.buffer(reserve=64 * OVERLAY_FLOATS * 4, dynamic=True)
         self._overlay_vao = ctx.vertex_array(
             self.programs["overlay"],
@@ -292,11 +294,33 @@ class Renderer:
                   u_depth_scale=scale,
                   u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
                   u_sheet_gap=SHEET_GAP * gpu.radius, u_min_angle=MIN_CROSSING, u_ink=INTERSECTION_INK)
-        ctx.disable(moderngl.DEPTH_TEST)
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = BLEND_OVER
-        ctx.scissor = box
-        self._empty[key].render(moderngl.TRIANGLES, vertices=3)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
+        if sheets.samples:
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = BLEND_OVER
+            ctx.scissor = box
+            self._empty[key].render(moderngl.TRIANGLES, vertices=3)
+        else:
+            # The gate, one pixel per tile, then one point per tile, drawn only where the gate
+            # found two sheets: the ink's 9 taps run on the tiles along the crossings alone.
+            framebuffer = ctx.fbo
+            gate = self.programs["intersect_gate"]
+            self._set(gate, u_geometry=0, u_size=(float(size[0]), float(size[1])),
+                      u_sheet_gap=SHEET_GAP * gpu.radius, u_depth_scale=scale,
+                      u_min_angle=MIN_CROSSING)
+            sheets.gate_framebuffer.use()
+            ctx.viewport = (0, 0, *sheets.gate_size)
+            self._empty["intersect_gate"].render(moderngl.TRIANGLES, vertices=3)
+            framebuffer.use()
+            ctx.viewport = (0, 0, *size)
+            sheets.gate_texture.use(1)
+            self._set(prog, u_gate=1, u_tiles_x=sheets.gate_size[0])
+            ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
+            ctx.blend_func = BLEND_OVER
+            ctx.scissor = box
+            self._empty[key].render(moderngl.POINTS,
+                                    vertices=sheets.gate_size[0] * sheets.gate_size[1])
+            ctx.disable(moderngl.PROGRAM_POINT_SIZE)
         ctx.scissor = None
         ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)

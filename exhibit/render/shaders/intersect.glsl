@@ -25,6 +25,7 @@ uniform float u_sheet_gap;    // smallest w difference between two sheets
 uniform float u_min_angle;    // smallest crossing: sine of the angle between the planes
 uniform float u_depth_scale;  // window depth to pixels
 uniform vec3 u_ink;
+#define TILE 8
 #if defined MULTISAMPLE
 uniform sampler2DMS u_geometry;
 #define FETCH(p) texelFetch(u_geometry, p, 0)
@@ -34,13 +35,45 @@ uniform sampler2D u_geometry;
 #endif
 
 #if defined VERTEX_SHADER
+#if defined TILES
+// One point per TILE x TILE block of pixels, drawn (as a TILE-pixel square) only where the gate
+// pass found two sheets in or around the block; elsewhere it is sent outside the clip volume.
+uniform sampler2D u_gate;
+uniform int u_tiles_x;
+void main() {
+    ivec2 t = ivec2(gl_VertexID % u_tiles_x, gl_VertexID / u_tiles_x);
+    vec2 c = (vec2(t) * float(TILE) + 0.5 * float(TILE)) / u_size * 2.0 - 1.0;
+    gl_Position = texelFetch(u_gate, t, 0).r > 0.5 ? vec4(c, 0.0, 1.0) : vec4(2.0, 2.0, 2.0, 1.0);
+    gl_PointSize = float(TILE);
+}
+#else
 void main() {
     vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID >> 1) * 4 - 1));
     gl_Position = vec4(p, 0.0, 1.0);
 }
 #endif
+#endif
 
-#if defined FRAGMENT_SHADER
+#if defined FRAGMENT_SHADER && defined GATE
+// The gate, one pixel per TILE x TILE block: whether the block and a one-pixel border around it
+// hold two sheets (w apart by more than u_sheet_gap). A pixel can only be inked where it and a
+// neighbour are different sheets, both inside its block's bordered footprint.
+out vec4 f_gate;
+void main() {
+    ivec2 base = ivec2(gl_FragCoord.xy) * TILE - 1;
+    ivec2 hi = ivec2(u_size) - 1;
+    float lo = 1e30, up = -1e30;
+    for (int j = 0; j < TILE + 2; j++) {
+        for (int i = 0; i < TILE + 2; i++) {
+            vec4 t = FETCH(clamp(base + ivec2(i, j), ivec2(0), hi));
+            if (t.y > 0.0) { lo = min(lo, t.x); up = max(up, t.x); }
+        }
+    }
+    f_gate = vec4(up - lo > u_sheet_gap ? 1.0 : 0.0);
+}
+#endif
+
+#if defined FRAGMENT_SHADER && !defined GATE
 out vec4 f_color;
 
 // The coverage of the crossing of sheet a (at p) with sheet b (at p + o), 0 if none.
