@@ -69,3 +69,20 @@ def test_bad_input_gets_one_line_and_exit_2(cli, args, fragment):
     assert result.returncode == 2, result.stderr
     assert fragment in result.stderr
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("resolution", ["16", "24"])
+def test_inspect_reports_the_cut_and_the_singular_gap_of_the_cusp(capsys, resolution):
+    """The pipe of y² = x³ leaves its box (cut exactly on the faces) and pinches along a circle
+    of singular points (the mesh reaches it to 0.5% of the box diagonal)."""
+    part = run_json(capsys, "inspect", "offset-cusp", "--resolution", resolution,
+                    "--json")["parts"][0]
+    assert part["boundary_edges"] > 0 and part["boundary_box_distance"] <= 1e-9
+    assert 0 <= part["singular_gap"] <= 0.005 * part["box_diagonal"]
+
+
+def test_silhouette_json_reports_the_refinement(capsys):
+    out = run_json(capsys, "silhouette", "offset-cusp", "--along", "u,v", "--resolution", "20",
+                   "--json")
+    assert out["refined"] > 100 and out["excluded"] > 0 and out["dropped"] >= 0
+    assert 0 < out["max_residual"] <= 1e-9
