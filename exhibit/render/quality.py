@@ -9,7 +9,7 @@ A level sets four things, and the ladder gives them up in this order, cheapest l
 2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS; the
    kiosk loads every level's meshes at start-up, never during a visitor's session);
 3. effects: "full", or "lean" (thinner live silhouettes and curves, a flat background, no
-   intersection curves: their sheet buffer and pass cost 10-20 ms at 1080p on software GL);
+   intersection curves: their sheet buffer and passes cost 7-11 ms at 1080p on software GL);
 4. scale: the render scale of the 3D picture (the HUD always stays at full resolution and crisp;
    FXAA upscales the picture).
 """
