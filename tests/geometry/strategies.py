@@ -21,5 +21,7 @@ def angles(n: int):
 
 
 def vectors(dim: int = 4, min_norm: float = 1e-3):
-    return st.lists(st.floats(-10, 10, allow_nan=False), min_size=dim, max_size=dim).map(
+    # no subnormals: LAPACK's det warns (divide by zero) on them, and the tests treat it as an error
+    return st.lists(st.floats(-10, 10, allow_nan=False, allow_subnormal=False), min_size=dim,
+                    max_size=dim).map(
         np.array).filter(lambda v: np.linalg.norm(v) >= min_norm)
