@@ -281,9 +281,10 @@ class Renderer:
 
     def draw_intersections(self, gpu: GpuMesh, sheets, size, options: RenderOptions,
                            view: ViewState | None = None) -> None:
-        """Ink where sheets of the 3D image cross (one full-screen pass over the current,
-        colour-only framebuffer; the surfaces were drawn with ``sheets=True`` into ``sheets``).
-        Leaves the depth test on and blending off."""
+        """Ink where sheets of the 3D image cross, over ``sheets.framebuffer`` (colour only; the
+        surfaces were drawn with ``sheets=True`` into ``sheets.sheet_framebuffer``): a gate pass
+        at one texel per tile, then one point per marked tile (a multisampled target: one
+        full-screen pass). Leaves the depth test on and blending off."""
         ctx = self.ctx
         key = "intersect_ms" if sheets.samples else "intersect"
         prog = self.programs[key]
@@ -293,7 +294,8 @@ class Renderer:
         self._set(prog, u_geometry=0, u_size=(float(size[0]), float(size[1])),
                   u_depth_scale=scale,
                   u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
-                  u_sheet_gap=SHEET_GAP * gpu.radius, u_min_angle=MIN_CROSSING, u_ink=INTERSECTION_INK)
+                  u_sheet_gap=SHEET_GAP * gpu.radius, u_min_angle=MIN_CROSSING,
+                  u_ink=INTERSECTION_INK)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         if sheets.samples:
             ctx.enable(moderngl.BLEND)
@@ -303,7 +305,7 @@ class Renderer:
         else:
             # The gate, one pixel per tile, then one point per tile, drawn only where the gate
             # found two sheets: the ink's 9 taps run on the tiles along the crossings alone.
-            framebuffer = ctx.fbo
+            framebuffer = sheets.framebuffer
             gate = self.programs["intersect_gate"]
             self._set(gate, u_geometry=0, u_size=(float(size[0]), float(size[1])),
                       u_sheet_gap=SHEET_GAP * gpu.radius, u_depth_scale=scale,
