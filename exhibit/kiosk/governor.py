@@ -12,8 +12,9 @@ and the frame times it is given, so it is tested with a fake clock and made-up f
   when nearly all of them (the 90th percentile) are below ``up`` x target. Decisions never
   flicker: at most one step every ``step_interval_s`` (but for far too slow steps down), none
   in the first moments at a new level or scene (their first frames are not typical), none
-  while a visitor turns a control quickly (and for ``calm_s`` after), and a step up that had to be taken back within two intervals is
-  not tried again for ``backoff_s``, doubling each time it fails again (up to an hour).
+  while a visitor turns a control quickly (and for ``calm_s`` after), and a step up that had to
+  be taken back within two intervals is not tried again for ``backoff_s``, doubling each time
+  it fails again (up to an hour).
 * [quality] in kiosk.toml pins a whole level, or any of its settings (the governor then only
   moves the others), and can set the lowest level it may go to.
 
