@@ -213,12 +213,15 @@ def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
     todo = np.arange(len(traced))
     for _ in range(rounds):
         best: dict[int, tuple[float, int]] = {}
-        for k in todo:
-            d = np.linalg.norm(positions - traced[k], axis=1)
-            d[moved] = np.inf
-            v = int(np.argmin(d))
-            if d[v] < radius and (v not in best or d[v] < best[v][0]):
-                best[v] = (float(d[v]), int(k))
+        free = np.flatnonzero(~moved)
+        for start in range(0, len(todo), 64):
+            ks = todo[start:start + 64]
+            d = np.linalg.norm(traced[ks][:, None] - positions[free][None], axis=-1)
+            nearest = np.argmin(d, axis=1)
+            for k, j, dist in zip(ks, nearest, d[np.arange(len(ks)), nearest]):
+                v = int(free[j])
+                if dist < radius and (v not in best or dist < best[v][0]):
+                    best[v] = (float(dist), int(k))
         if not best:
             break
         for v, (_, k) in best.items():

@@ -77,15 +77,19 @@ def distance_to_mesh(points, positions, triangles, candidates: int = 24) -> np.n
     starts = np.searchsorted(sorted_v, np.arange(len(positions)))
     ends = np.searchsorted(sorted_v, np.arange(len(positions)), side="right")
     out = np.empty(len(points))
-    for i, p in enumerate(points):
-        d = np.linalg.norm(positions - p, axis=1)
-        near = np.argpartition(d, min(candidates, len(d) - 1))[:candidates]
-        cand = np.unique(np.concatenate([owners[starts[v]:ends[v]] for v in near]))
-        if len(cand) == 0:
-            out[i] = float(d.min())
-            continue
-        t = tris[cand]
-        q = np.repeat(p[None], len(cand), axis=0)
-        out[i] = float(point_triangle_distance(q, positions[t[:, 0]], positions[t[:, 1]],
-                                               positions[t[:, 2]]).min())
+    k = min(candidates, len(positions) - 1)
+    for start in range(0, len(points), 64):
+        chunk = points[start:start + 64]
+        d = np.linalg.norm(chunk[:, None] - positions[None], axis=-1)
+        nearest = np.argpartition(d, k, axis=1)[:, :candidates] if k > 0 else \
+            np.zeros((len(chunk), 1), dtype=np.int64)
+        for i, (p, near) in enumerate(zip(chunk, nearest)):
+            cand = np.unique(np.concatenate([owners[starts[v]:ends[v]] for v in near]))
+            if len(cand) == 0:
+                out[start + i] = float(d[i].min())
+                continue
+            t = tris[cand]
+            q = np.repeat(p[None], len(cand), axis=0)
+            out[start + i] = float(point_triangle_distance(
+                q, positions[t[:, 0]], positions[t[:, 1]], positions[t[:, 2]]).min())
     return out

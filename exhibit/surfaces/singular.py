@@ -131,6 +131,15 @@ def _search_from(f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: flo
     return x[found]
 
 
+def nearest_distance(a: np.ndarray, b: np.ndarray, chunk: int = 128) -> np.ndarray:
+    """For each point of a, the distance to the nearest point of b."""
+    out = np.empty(len(a))
+    for start in range(0, len(a), chunk):
+        d = np.linalg.norm(a[start:start + chunk, None] - b[None], axis=-1)
+        out[start:start + chunk] = d.min(axis=1)
+    return out
+
+
 def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spacing: float,
                        reach: float, rounds: int = 6, limit: int = 20000) -> np.ndarray:
     """The singular set sampled every ``spacing`` along its curves: from the points the search
@@ -154,16 +163,16 @@ def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spa
         mids = np.concatenate(mids) if mids else np.zeros((0, 4))
         if len(mids) == 0:
             break
-        nearest = np.array([np.linalg.norm(points - m, axis=1).min() for m in mids])
-        mids = mids[nearest > spacing / 2]
-        if len(mids) == 0:
-            break
         keys = np.round(mids / (spacing / 2)).astype(np.int64)
         _, first = np.unique(keys, axis=0, return_index=True)
-        new = _search_from(f1, f2, mids[np.sort(first)], reach)
+        mids = mids[np.sort(first)]
+        mids = mids[nearest_distance(mids, points) > spacing / 2]
+        if len(mids) == 0:
+            break
+        new = _search_from(f1, f2, mids, reach)
         if len(new) == 0:
             break
-        distance = np.array([np.linalg.norm(points - p, axis=1).min() for p in new])
+        distance = nearest_distance(new, points)
         new = new[distance > spacing / 4]
         if len(new) == 0:
             break
