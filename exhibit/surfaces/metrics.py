@@ -83,13 +83,17 @@ def distance_to_mesh(points, positions, triangles, candidates: int = 24) -> np.n
         d = np.linalg.norm(chunk[:, None] - positions[None], axis=-1)
         nearest = np.argpartition(d, k, axis=1)[:, :candidates] if k > 0 else \
             np.zeros((len(chunk), 1), dtype=np.int64)
-        for i, (p, near) in enumerate(zip(chunk, nearest)):
-            cand = np.unique(np.concatenate([owners[starts[v]:ends[v]] for v in near]))
-            if len(cand) == 0:
-                out[start + i] = float(d[i].min())
-                continue
-            t = tris[cand]
-            q = np.repeat(p[None], len(cand), axis=0)
-            out[start + i] = float(point_triangle_distance(
-                q, positions[t[:, 0]], positions[t[:, 1]], positions[t[:, 2]]).min())
+        # every (point, triangle at one of its nearest vertices) pair, at once
+        v = nearest.ravel()
+        count = ends[v] - starts[v]
+        total = int(count.sum())
+        out[start:start + len(chunk)] = d.min(axis=1)  # a vertex is an upper bound
+        if total == 0:
+            continue
+        which = np.repeat(np.repeat(np.arange(len(chunk)), nearest.shape[1]), count)
+        first = np.repeat(starts[v] - (np.cumsum(count) - count), count) + np.arange(total)
+        t = tris[owners[first]]
+        dist = point_triangle_distance(chunk[which], positions[t[:, 0]], positions[t[:, 1]],
+                                       positions[t[:, 2]])
+        np.minimum.at(out, start + which, dist)
     return out
