@@ -104,3 +104,50 @@ def test_every_antialiasing_inks_the_crossing(gl):
         inked, _ = draw(gl, mesh, True, quality)
         plain, _ = draw(gl, mesh, False, quality)
         assert (luma(plain) - luma(inked)).max() > 0.15, quality.name
+
+
+def components(mask: np.ndarray) -> list[int]:
+    """Sizes of the 8-connected components of a boolean image, largest first."""
+    seen = np.zeros_like(mask)
+    sizes = []
+    for start in zip(*np.nonzero(mask)):
+        if seen[start]:
+            continue
+        seen[start] = True
+        stack, size = [start], 0
+        while stack:
+            y, x = stack.pop()
+            size += 1
+            for dy in (-1, 0, 1):
+                for dx in (-1, 0, 1):
+                    q = (y + dy, x + dx)
+                    if (0 <= q[0] < mask.shape[0] and 0 <= q[1] < mask.shape[1]
+                            and mask[q] and not seen[q]):
+                        seen[q] = True
+                        stack.append(q)
+        sizes.append(size)
+    return sorted(sizes, reverse=True)
+
+
+def test_the_hopf_tori_crossings_at_the_kiosks_mesh_size(gl):
+    """The attract timeline's hypersphere (Figure 7: the sensor at distance 3) at the kiosk's
+    resolution 48: where the tori pass through each other the crossing is inked as long,
+    unbroken curves; without them there is no ink, only the staircase between two colours."""
+    import math
+    scene = scenes.get("hopf")
+    gpu = gl.renderer.upload(scene.build({}, 48))
+    view = scene.view.replace(angles=(0.0, 0.0, 0.0, math.radians(20), 0.0, 0.0),
+                              half_height=2.2).with_sensor_distance(3.0)
+    size = (640, 360)
+    options = dict(hud=False, silhouettes=False, curves=False, line_scale=1.0)
+    inked = gl.frame(gpu, view, size, RenderOptions(**options), None, Quality("f", "fxaa"))
+    plain = gl.frame(gpu, view, size, RenderOptions(intersections=False, **options), None,
+                     Quality("f", "fxaa"))
+    gpu.release()
+    ink = luma(plain) - luma(inked) > 0.1
+    sizes = components(ink)
+    assert ink.sum() > 300, ink.sum()
+    # The red torus passes through the grey one along an arc some 250 px long: one unbroken
+    # curve. (Near the outline, where the surfaces are lit at grazing angles and dark, the ink
+    # darkens them by less than the threshold here, so the fainter curves count in pieces.)
+    assert sizes[0] > 250, sizes[:10]
