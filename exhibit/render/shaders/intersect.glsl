@@ -56,20 +56,25 @@ void main() {
 
 #if defined FRAGMENT_SHADER && defined GATE
 // The gate, one pixel per TILE x TILE block: whether the block and a one-pixel border around it
-// hold two sheets (w apart by more than u_sheet_gap). A pixel can only be inked where it and a
+// hold two sheets (w apart by more than u_sheet_gap) at an angle. A pixel can only be inked where it and a
 // neighbour are different sheets, both inside its block's bordered footprint.
 out vec4 f_gate;
 void main() {
     ivec2 base = ivec2(gl_FragCoord.xy) * TILE - 1;
     ivec2 hi = ivec2(u_size) - 1;
-    float lo = 1e30, up = -1e30;
+    vec3 lo = vec3(1e30), up = vec3(-1e30);   // w and the depth slopes
     for (int j = 0; j < TILE + 2; j++) {
         for (int i = 0; i < TILE + 2; i++) {
             vec4 t = FETCH(clamp(base + ivec2(i, j), ivec2(0), hi));
-            if (t.y > 0.0) { lo = min(lo, t.x); up = max(up, t.x); }
+            if (t.y > 0.0) { lo = min(lo, t.xzw); up = max(up, t.xzw); }
         }
     }
-    f_gate = vec4(up - lo > u_sheet_gap ? 1.0 : 0.0);
+    // Two planes crossing at an angle theta have slopes (depth scaled to pixels) at least theta
+    // apart, so a footprint whose slopes all agree (sheets that coincide and z-fight, as the two
+    // halves of a torus symmetric in w seen from infinitely far) has no crossing to ink.
+    vec3 spread = up - lo;
+    bool angled = u_depth_scale * max(spread.y, spread.z) > 0.7 * u_min_angle;
+    f_gate = vec4(spread.x > u_sheet_gap && angled ? 1.0 : 0.0);
 }
 #endif
 
