@@ -214,6 +214,8 @@ def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
     for _ in range(rounds):
         best: dict[int, tuple[float, int]] = {}
         free = np.flatnonzero(~moved)
+        if len(free) == 0:  # a singular set that covers the whole mesh
+            break
         for start in range(0, len(todo), 64):
             ks = todo[start:start + 64]
             d = np.linalg.norm(traced[ks][:, None] - positions[free][None], axis=-1)

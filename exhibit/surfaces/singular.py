@@ -141,16 +141,22 @@ def nearest_distance(a: np.ndarray, b: np.ndarray, chunk: int = 128) -> np.ndarr
 
 
 def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spacing: float,
-                       reach: float, rounds: int = 6, limit: int = 20000) -> np.ndarray:
+                       reach: float, rounds: int = 6, limit: int = 4000,
+                       max_pairs: int = 200_000) -> np.ndarray:
     """The singular set sampled every ``spacing`` along its curves: from the points the search
     found, new searches start at the midpoints of pairs closer than ``reach`` but farther apart
     than ``spacing``, round after round, so gaps along a singular curve fill in (an isolated
-    singular point has no partner and stays alone)."""
+    singular point has no partner and stays alone).
+
+    A singular set that is not made of curves (a formula like x - min(x, y) is singular on a
+    whole region) would make the pairs grow without bound: tracing stops at ``limit`` points or
+    ``max_pairs`` pairs in a round, keeping what it has, so a curator's formula cannot exhaust
+    the memory."""
     points = np.asarray(points, dtype=float).reshape(-1, 4)
     for _ in range(rounds):
         if len(points) < 2 or len(points) > limit:
             break
-        mids = []
+        mids, pairs = [], 0
         for start in range(0, len(points), 256):
             chunk = points[start:start + 256]
             d = np.linalg.norm(chunk[:, None] - points[None], axis=-1)
@@ -160,6 +166,11 @@ def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spa
             # only pairs with no point of the set already between them
             a, b = points[i[keep]], points[j[keep]]
             mids.append((a + b) / 2)
+            pairs += len(a)
+            if pairs > max_pairs:
+                break
+        if pairs > max_pairs:
+            break
         mids = np.concatenate(mids) if mids else np.zeros((0, 4))
         if len(mids) == 0:
             break

@@ -35,3 +35,16 @@ def test_figure_15_singular_points_are_on_the_mesh():
     assert len(points) == 2
     gap = distance_to_mesh(points, part.surface.positions, part.surface.triangles)
     assert gap.max() <= 1e-12
+
+
+def test_a_singular_region_neither_exhausts_memory_nor_fails():
+    """x - min(x, y) vanishes with its gradient on the whole half-space x <= y: its singular
+    set is a region, not curves. Tracing it must stop at its caps (the fuzz found this one
+    growing past 7 GB), and reaching it must cope with every vertex moved."""
+    from exhibit.surfaces.expressions import compile_field
+    from exhibit.surfaces.implicit import polygonize
+    V = ("x", "y", "z", "w")
+    surface = polygonize("region", compile_field("-((-(x)) + (min(x, y)))", V, {}),
+                         compile_field("x^2 + y^2 + z^2 + w^2 - 1", V), [-1.2] * 4, [1.2] * 4,
+                         5, seed=0).surface
+    assert np.isfinite(surface.positions).all()
