@@ -164,7 +164,7 @@ def run(args) -> int:
     try:
         gpu = headless.renderer.upload(mesh)
         if frames is None:
-            save_png(headless.image(gpu, view, size, options, hud, samples), out)
+            save_png(headless.still(gpu, view, size, options, hud, samples), out)
             print(out)
             return 0
         images = []

@@ -102,6 +102,24 @@ class Headless:
         """draw_frame()'s picture: (height, width, 3) uint8, top row first."""
         return self.draw_frame(gpu, view, size, options, hud, quality).read()
 
+    def still(self, gpu, view, size, options=None, hud=None,
+              samples: int = DEFAULT_SAMPLES) -> np.ndarray:
+        """A picture through the kiosk's frame pipeline at full quality (MSAA with ``samples``,
+        else no antialiasing), so `exhibit render` shows what the kiosk shows, intersection
+        curves included."""
+        from dataclasses import replace
+
+        from exhibit.render.frame import FramePipeline
+        from exhibit.render.quality import LADDER
+        self.activate()
+        wanted = samples if samples > 1 else 0
+        if self._pipeline is None or self._pipeline.samples != min(wanted, self.ctx.max_samples):
+            if self._pipeline is not None:
+                self._pipeline.release()
+            self._pipeline = FramePipeline(self.ctx, self.renderer, wanted)
+        quality = LADDER[0] if wanted else replace(LADDER[1], name="none", antialiasing="none")
+        return self.frame(gpu, view, size, options, hud, quality)
+
     def ids(self, gpu, view, size) -> np.ndarray:
         """(height, width) int triangle ids + 1 (0 = background), no multisampling."""
         self.activate()
