@@ -68,32 +68,7 @@ def find_singular_points(f1: ScalarField, f2: ScalarField, vertices: np.ndarray,
     seeds = vertices[ratio < SEED_RATIO_PER_CELL * cell_size / box_size]
     if len(seeds) == 0:
         return np.zeros((0, 4))
-    cache = f1.__dict__.setdefault("_singular_systems", {})
-    system = cache.get(id(f2))
-    if system is None:
-        system = cache[id(f2)] = _SingularSystem(f1, f2)
-    x = seeds.copy()
-    going = np.ones(len(x), dtype=bool)  # searches not stopped by a non-finite value
-    for _ in range(ITERATIONS):
-        r = system.residual(x[going])
-        j = system.jacobian(x[going])
-        # Gauss-Newton: solve (JᵀJ + μI) δ = Jᵀr with a tiny damping for rank-deficient J.
-        jtj = np.einsum("aki,akj->aij", j, j)
-        jtr = np.einsum("aki,ak->ai", j, r)
-        finite = np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
-        going[np.flatnonzero(going)[~finite]] = False
-        jtj, jtr = jtj[finite], jtr[finite]
-        mu = 1e-12 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] * np.eye(4)
-        try:
-            delta = np.linalg.solve(jtj + mu + 1e-300 * np.eye(4), jtr[..., None])[..., 0]
-        except np.linalg.LinAlgError:  # singular in floating point: the damping was too small
-            delta = (np.linalg.pinv(jtj + mu) @ jtr[..., None])[..., 0]
-        x[going] -= delta
-    r = system.residual(x)
-    scale = 1.0 + np.abs(system.residual(seeds)).max(axis=1)
-    found = going & (np.abs(r).max(axis=1) <= TOLERANCE * scale) & \
-        (np.linalg.norm(x - seeds, axis=1) <= 3 * cell_size)
-    points = x[found]
+    points = _search_from(f1, f2, seeds, 3 * cell_size)
     if len(points) == 0:
         return np.zeros((0, 4))
     keys = np.round(points / (cell_size / 4)).astype(np.int64)
@@ -121,6 +96,8 @@ def _search_from(f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: flo
         finite = np.isfinite(jtj).all(axis=(1, 2)) & np.isfinite(jtr).all(axis=1)
         going[np.flatnonzero(going)[~finite]] = False
         jtj, jtr = jtj[finite], jtr[finite]
+        if len(jtj) == 0:
+            continue
         mu = 1e-12 * np.trace(jtj, axis1=1, axis2=2)[:, None, None] * np.eye(4)
         delta = (np.linalg.pinv(jtj + mu) @ jtr[..., None])[..., 0]
         x[going] -= delta
