@@ -17,7 +17,7 @@ import time
 from dataclasses import dataclass, field
 from typing import Callable
 
-from exhibit.errors import ExhibitError
+from exhibit.errors import ConfigError, ExhibitError
 
 __all__ = ["DeviceError", "State", "MISSING", "Kind", "Event", "Capabilities", "Backend",
            "Clock", "release_events"]
@@ -27,6 +27,10 @@ Clock = Callable[[], float]
 
 class DeviceError(ExhibitError):
     """A device problem a person can fix: a bad URL, a bad layout or config, a missing port."""
+
+
+class DeviceConfigError(DeviceError, ConfigError):
+    """Problems in a device config or HID layout file, each ``file: key: reason``."""
 
 
 class State(str, enum.Enum):

@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
 
-from exhibit.devices.base import DeviceError, Kind
+from exhibit.devices.base import DeviceConfigError, DeviceError, Kind
 from exhibit.devices.mapping import PARAMS, Binding, MappingConfig, ParamLimits
 from exhibit.devices.url import backend_for_url
 from exhibit.errors import ConfigError
@@ -50,10 +50,6 @@ RATE_LIMITS = {"angle": 1440.0, "sensor": 20.0}
 
 _Step = Number(-STEP_LIMITS["angle"], STEP_LIMITS["angle"])
 _Rate = Number(0.0, RATE_LIMITS["angle"])
-
-
-class DeviceConfigError(DeviceError, ConfigError):
-    """Problems in a device config, each ``file: key: reason``."""
 
 
 @dataclass(frozen=True)
@@ -101,7 +97,9 @@ class DevicesFile(Model):
 
 
 def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | None:
-    """The binding a [[mapping.bind]] table describes, or None after naming its problem."""
+    """The binding a [[mapping.bind]] table describes, or None after naming its problem.
+    ``devices`` are the names configured (a device whose URL is wrong is still named, so its
+    bindings get no second error); none configured: any name (devices come from --device)."""
     if devices and spec.device not in devices and spec.device != "*":
         return problem(f"{where}.device", f"no device {spec.device!r} (configured: "
                                           f"{', '.join(devices)})")
@@ -182,8 +180,7 @@ def parse_config(doc: dict, source: str = "<config>", base: Path | None = None) 
 
     bindings = []
     for i, b in enumerate(m.bind):
-        binding = _binding(b, f"mapping.bind[{i}]", devices or dict.fromkeys(spec.devices),
-                           problem)
+        binding = _binding(b, f"mapping.bind[{i}]", spec.devices, problem)
         if binding is not None:
             bindings.append(binding)
     if problems:

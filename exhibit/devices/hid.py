@@ -25,8 +25,8 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field as PydanticField
 
-from exhibit.devices.base import (Backend, Capabilities, DeviceError, Event, Kind, State,
-                                  release_events)
+from exhibit.devices.base import (Backend, Capabilities, DeviceConfigError, DeviceError, Event,
+                                  Kind, State, release_events)
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
@@ -152,7 +152,6 @@ class LayoutFile(Model):
 
 def parse_layout(doc: dict, source: str) -> Layout:
     """A Layout from a parsed TOML document; DeviceError names the file and every bad key."""
-    from exhibit.devices.config import DeviceConfigError
     from exhibit.devices.url import parse_vid_pid
 
     try:
@@ -197,7 +196,6 @@ def parse_layout(doc: dict, source: str) -> Layout:
 
 
 def _read(path: Path) -> dict:
-    from exhibit.devices.config import DeviceConfigError
 
     try:
         return read_toml(path)

@@ -200,12 +200,13 @@ def site_config_path(path: str | Path | None = None) -> Path | None:
 
 
 def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_dir: bool
-          ) -> Path | None:
-    """A referenced file or folder: $ENV if set, else relative to the file that names it, else
-    relative to the shipped configs."""
+          ) -> tuple[Path | None, str]:
+    """A referenced file or folder, and what named it: $ENV if set, else relative to the file
+    that names it, else relative to the shipped configs."""
     if os.environ.get(env):
-        path, where = Path(os.environ[env]), f"{key} (from ${env})"
+        path, where, named_by = Path(os.environ[env]), f"{key} (from ${env})", f"${env}"
     else:
+        named_by = str(origin)
         path, where = origin.parent / raw, key
         fallback = DEFAULT_CONFIG.parent / raw
         if check_file_ref(path, want_dir) and not check_file_ref(fallback, want_dir):
@@ -213,8 +214,8 @@ def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_
     reason = check_file_ref(path, want_dir)
     if reason:
         problems.append(f"{origin}: {where}: {reason}")
-        return None
-    return path
+        return None, named_by
+    return path, named_by
 
 
 def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True) -> KioskConfig:
@@ -271,25 +272,21 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
                 problems.append(f"{where('content', 'resolution', name)}: "
                                 f"content.resolution.{name}: no such scene")
         values["resolution"] = {k: v for k, v in c.resolution.items() if k in known}
-        values["devices_config"] = _path(problems, where("devices", "config"),
-                                         spec.devices.config, "devices.config",
-                                         "EXHIBIT_DEVICES_CONFIG", False)
-        values["attract_dir"] = _path(problems, where("attract", "timelines"),
-                                      spec.attract.timelines, "attract.timelines",
-                                      "EXHIBIT_ATTRACT_DIR", True)
+        values["sources"] = {".".join(key): (value, origin.get(key, last))
+                             for key, value in leaves(doc)}
+        for name, section, key, env, want_dir in (
+                ("devices_config", "devices", "config", "EXHIBIT_DEVICES_CONFIG", False),
+                ("attract_dir", "attract", "timelines", "EXHIBIT_ATTRACT_DIR", True)):
+            path, named_by = _path(problems, where(section, key),
+                                   getattr(getattr(spec, section), key), f"{section}.{key}", env,
+                                   want_dir)
+            values[name] = path
+            if path is not None:  # --show: the resolved path, and what named it
+                values["sources"][f"{section}.{key}"] = (str(path), named_by)
         values.update(idle_timeout_s=spec.attract.idle_timeout_s, blend_s=spec.attract.blend_s,
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
                       quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality))
-        values["sources"] = {".".join(key): (value, origin.get(key, last))
-                             for key, value in leaves(doc)}
-        for key, env in (("devices.config", "EXHIBIT_DEVICES_CONFIG"),
-                         ("attract.timelines", "EXHIBIT_ATTRACT_DIR")):
-            field_name = "devices_config" if key == "devices.config" else "attract_dir"
-            if values[field_name] is not None:
-                values["sources"][key] = (str(values[field_name]),
-                                          f"${env}" if os.environ.get(env)
-                                          else values["sources"].get(key, (None, last))[1])
 
     if check_linked and spec is not None:
         if values["devices_config"] is not None:

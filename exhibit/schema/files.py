@@ -25,7 +25,7 @@ def _kind(mode: int) -> str:
                        (stat.S_ISSOCK, "a socket")):
         if test(mode):
             return name
-    return "not a regular file"
+    return "a special file"
 
 
 def read_bytes(path: str | Path, limit: int = MAX_CONFIG_BYTES) -> bytes:

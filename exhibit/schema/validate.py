@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import typing
 from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
@@ -34,8 +35,6 @@ def where(loc: tuple) -> str:
 
 def _allowed(model: type[BaseModel], loc: tuple) -> list[str] | None:
     """The keys a table at ``loc`` may have, found by walking the model's annotations."""
-    import typing
-
     current: Any = model
     for part in loc:
         if isinstance(current, type) and issubclass(current, BaseModel):

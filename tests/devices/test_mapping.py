@@ -178,3 +178,14 @@ def test_bad_toml_file_names_the_file(tmp_path):
         load_config(f)
     with pytest.raises(DeviceError, match=r"nope.toml: cannot read"):
         load_config(tmp_path / "nope.toml")
+
+
+def test_a_wrong_url_is_one_problem_not_one_per_binding():
+    """The device is configured, only its URL is wrong: its bindings are not also 'no device'."""
+    doc = {"devices": {"k": {"url": "keyboard://"}, "c": {"url": "serail:///dev/x"}},
+           "mapping": {"bind": [{"device": "c", "input": "axis 1", "param": "theta1"}]}}
+    with pytest.raises(DeviceError) as info:
+        parse_config(doc, "museum.toml")
+    assert info.value.problems == [
+        "museum.toml: devices.c.url: device URL 'serail:///dev/x': unknown scheme 'serail' "
+        "(one of serial://, hid://, hidraw://, sim://, replay://, keyboard://)"]
