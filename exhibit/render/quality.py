@@ -8,8 +8,10 @@ A level sets four things, and the ladder gives them up in this order, cheapest l
    or "none" (only by pinning it);
 2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS; the
    kiosk loads every level's meshes at start-up, never during a visitor's session);
-3. effects: "full", or "lean" (thinner live silhouettes and curves, a flat background, no
-   intersection curves: their sheet buffer and passes cost 7-11 ms at 1080p on software GL);
+3. effects: "full", or "lean" (thinner live silhouettes and curves, no intersection curves:
+   their sheet buffer and passes cost 7-11 ms at 1080p on software GL). The background keeps its
+   gradient: the composite pass computes it per pixel either way, so flattening it saved nothing
+   and was most of lean's SSIM drop (0.995 -> 0.917);
 4. scale: the render scale of the 3D picture (the HUD always stays at full resolution and crisp;
    FXAA upscales the picture).
 """
@@ -57,10 +59,7 @@ class Quality:
         """The render options of this level over ``base`` (the kiosk's own toggles)."""
         if self.effects == "full":
             return base
-        top, bottom = base.background
-        middle = tuple(0.5 * (a + b) for a, b in zip(top, bottom))
-        return replace(base, background=(middle, middle),
-                       silhouette_width=base.silhouette_width * LEAN_WIDTH,
+        return replace(base, silhouette_width=base.silhouette_width * LEAN_WIDTH,
                        curve_width=base.curve_width * LEAN_WIDTH, intersections=False)
 
     def describe(self) -> str:

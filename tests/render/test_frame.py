@@ -97,7 +97,7 @@ def test_ladder_pins_and_mesh_resolution():
     assert mesh_resolution(48, 2) == 24 and mesh_resolution(6, 2) == 4
     lean = LADDER[4].options(RenderOptions())
     assert lean.silhouette_width < RenderOptions().silhouette_width
-    assert lean.background[0] == lean.background[1]
+    assert lean.background == RenderOptions().background   # the gradient stays
     assert not lean.intersections and LADDER[3].options(RenderOptions()).intersections
 
 
