@@ -52,7 +52,8 @@ def depth_range(view: ViewState) -> tuple[float, float]:
 
 
 def eye_matrix(view: ViewState, aspect: float) -> np.ndarray:
-    """4x4 map of the 3D image (X, Y, Z, H) to clip coordinates: zoom, eye perspective, depth."""
+    """4x4 map of the 3D image (X, Y, Z, H) to clip coordinates: zoom, eye perspective, depth,
+    and the lens shift that puts ``view.center`` at the middle of the screen."""
     if not (math.isfinite(aspect) and aspect > 0):
         raise ValueError(f"aspect ratio must be positive, got {aspect}")
     r2 = view.eye_r
@@ -67,6 +68,9 @@ def eye_matrix(view: ViewState, aspect: float) -> np.ndarray:
     m[2, 3] = beta
     m[3, 2] = -r2
     m[3, 3] = 1.0
+    # The lens shift: ndc -= center / (half extent), i.e. clip -= that times clip w.
+    m[0] -= view.center[0] / (view.half_height * aspect) * m[3]
+    m[1] -= view.center[1] / view.half_height * m[3]
     return m
 
 

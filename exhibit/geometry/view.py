@@ -68,6 +68,10 @@ class ViewState:
     eye_r: float = 1.0 / 8.0
     #: Visible half-height of the picture at the origin, in scene units.
     half_height: float = 2.0
+    #: The point of the 3D image's plane through the origin (scene units, x right, y up) shown
+    #: at the centre of the screen: a lens shift, moving the whole picture without changing its
+    #: perspective, so framing can place it beside the text panels (exhibit.geometry.framing).
+    center: tuple[float, float] = (0.0, 0.0)
     #: The front clipping plane: distance from the origin towards the eye (inf = off) and pitch
     #: (radians, tilting it about the screen's x-axis, as in Figure 8).
     front_distance: float = math.inf
@@ -81,6 +85,7 @@ class ViewState:
         set_ = object.__setattr__
         set_(self, "angles", _floats(self.angles, 6, "angles"))
         set_(self, "offset", _floats(self.offset, 4, "offset"))
+        set_(self, "center", _floats(self.center, 2, "center"))
         if self.reading not in READINGS:
             raise ValueError(f"reading must be one of {READINGS}, got {self.reading!r}")
         for name in ("sensor_r", "eye_r"):

@@ -68,6 +68,33 @@ def wrap(text: str, style: str, size: int, width: float) -> list[str]:
     return lines
 
 
+def wrap_balanced(text: str, style: str, size: int, width: float) -> list[str]:
+    """Word wrap to a pixel width in as few lines as greedy wrapping needs, with the lines as
+    even as possible and never one word alone on the last line (an orphan reads as an
+    afterthought, and a ragged panel wastes the screen the picture needs).
+
+    The narrowest width that still gives the greedy line count is found by bisection; wrapping
+    to it evens the lines. A last line of one word then takes the previous line's last word
+    when that still fits the width."""
+    lines = wrap(text, style, size, width)
+    if len(lines) < 2:
+        return lines
+    low, high = max(text_width(w, style, size) for w in text.split()), float(width)
+    for _ in range(14):
+        middle = 0.5 * (low + high)
+        if len(wrap(text, style, size, middle)) <= len(lines):
+            high = middle
+        else:
+            low = middle
+    lines = wrap(text, style, size, high)
+    if len(lines[-1].split()) == 1 and len(lines[-2].split()) >= 3:
+        *head, moved = lines[-2].split()
+        candidate = f"{moved} {lines[-1]}"
+        if text_width(candidate, style, size) <= width:
+            lines[-2:] = [" ".join(head), candidate]
+    return lines
+
+
 @dataclass
 class TextTexture:
     texture: moderngl.Texture

@@ -1,0 +1,130 @@
+"""Framing by the picture: zoom and shift a view so the scene's 3D image lands in a given part of
+the screen (the area the text panels leave free), measured from the mesh at that very pose.
+
+Hand-set zooms went wrong as soon as a text panel grew or a pose changed (Figures 9-10 ran off
+the top, under the title). Here the view's own projection measures the image: every sample point
+in front of both centres is mapped with ``half_height = 1`` and no lens shift, which gives its
+position on the image plane through the origin. In those units the screen position is affine in
+the two things framing may change, ``half_height`` (a zoom: ndc = X / half_height) and
+``center`` (a lens shift: ndc = (X - center) / half_height), for an orthographic and a
+perspective eye alike, so the fit is solved exactly, not searched. The pose, the sensor and
+the eye are left alone: framing never changes what the picture shows, only where and how big.
+
+Pure numpy, no GL: the kiosk, `exhibit render` and the tests share it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+
+from exhibit.geometry.pipeline import clip_transform
+from exhibit.geometry.view import ViewState
+
+#: Framing may zoom in or out by at most this factor from the authored half_height: an image
+#: that is unbounded (a sheet through the sensor) must not shrink the rest to a dot.
+MAX_ZOOM = 6.0
+#: Points sampled from a mesh for its bounds: enough to be within a pixel of the hull of a
+#: smooth surface at kiosk resolutions.
+SAMPLE = 20_000
+
+
+@dataclass(frozen=True)
+class Bounds:
+    """The 3D image's extent on the image plane through the origin (scene units, y up)."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+    def union(self, other: "Bounds | None") -> "Bounds":
+        if other is None:
+            return self
+        return Bounds(min(self.x0, other.x0), min(self.y0, other.y0), max(self.x1, other.x1),
+                      max(self.y1, other.y1))
+
+
+def mesh_points(mesh, limit: int = SAMPLE) -> np.ndarray:
+    """What is drawn of a Mesh4D, as points (n, 4): surface vertices (evenly thinned to
+    ``limit``), curve points and markers."""
+    parts = [s.positions for s in mesh.surfaces if len(s.positions)]
+    surfaces = np.concatenate(parts) if parts else np.zeros((0, 4))
+    if len(surfaces) > limit:
+        surfaces = surfaces[:: int(math.ceil(len(surfaces) / limit))]
+    curves = [np.asarray(c.points, dtype=float) for c in mesh.curves if len(c.points)]
+    markers = [np.asarray(m.position, dtype=float)[None] for m in mesh.markers]
+    return np.concatenate([surfaces, *curves, *markers]) if (curves or markers) else surfaces
+
+
+def image_bounds(points: np.ndarray, view: ViewState) -> Bounds | None:
+    """The bounds of the points' images at ``view``'s pose (see the module docstring); points
+    behind a centre or cut by a clip plane do not count. None when none is seen."""
+    unit = view.replace(half_height=1.0, center=(0.0, 0.0))
+    ct = clip_transform(unit, 1.0)
+    clip = ct.clip(points)
+    ok = (clip[:, 3] > 1e-9) & np.all(ct.clip_distances(points) >= 0, axis=1)
+    if not ok.any():
+        return None
+    xy = clip[ok, :2] / clip[ok, 3:4]
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    return Bounds(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
+
+
+def fit(view: ViewState, bounds: Bounds, size: tuple[int, int],
+        areas: Iterable[Sequence[float]]) -> ViewState:
+    """``view`` with ``half_height`` and ``center`` chosen so ``bounds`` fills one of ``areas``
+    (rectangles (x0, y0, x1, y1) in pixels, y down) as largely as it can, centred in it. The
+    area where the picture comes out largest wins. Zoom is limited to MAX_ZOOM either way."""
+    width, height = size
+    aspect = width / height
+    bw, bh = max(bounds.x1 - bounds.x0, 1e-9), max(bounds.y1 - bounds.y0, 1e-9)
+    best = None
+    for x0, y0, x1, y1 in areas:
+        nx0, nx1 = 2 * x0 / width - 1, 2 * x1 / width - 1
+        ny0, ny1 = 1 - 2 * y1 / height, 1 - 2 * y0 / height   # NDC y up
+        if nx1 <= nx0 or ny1 <= ny0:
+            continue
+        half = max(bw / (aspect * (nx1 - nx0)), bh / (ny1 - ny0))
+        if best is None or half < best[0]:
+            best = (half, 0.5 * (nx0 + nx1), 0.5 * (ny0 + ny1))
+    if best is None:
+        return view
+    half = min(max(best[0], view.half_height / MAX_ZOOM), view.half_height * MAX_ZOOM)
+    _, mx, my = best
+    center = (0.5 * (bounds.x0 + bounds.x1) - mx * half * aspect,
+              0.5 * (bounds.y0 + bounds.y1) - my * half)
+    return view.replace(half_height=half, center=center)
+
+
+def frame(view: ViewState, points: np.ndarray, size: tuple[int, int],
+          areas: Iterable[Sequence[float]], poses: Iterable[ViewState] = ()) -> ViewState:
+    """``view`` framed so the image of ``points`` at its pose, and at every pose of ``poses``
+    (a timeline's samples: one zoom and shift for all of them, so nothing breathes), lies in
+    ``areas``. Unchanged when nothing is seen."""
+    bounds = None
+    for pose in (view, *poses):
+        b = image_bounds(points, pose)
+        if b is not None:
+            bounds = b.union(bounds)
+    if bounds is None:
+        return view
+    return fit(view, bounds, size, list(areas))
+
+
+def pixel_bounds(points: np.ndarray, view: ViewState, size: tuple[int, int]
+                 ) -> tuple[float, float, float, float] | None:
+    """(x0, y0, x1, y1) in pixels (y down) of the points' images at ``view``, for checks."""
+    width, height = size
+    ct = clip_transform(view, width / height)
+    clip = ct.clip(points)
+    ok = (clip[:, 3] > 1e-9) & np.all(ct.clip_distances(points) >= 0, axis=1)
+    if not ok.any():
+        return None
+    ndc = clip[ok, :2] / clip[ok, 3:4]
+    x = (ndc[:, 0] + 1) * 0.5 * width
+    y = (1 - ndc[:, 1]) * 0.5 * height
+    return float(x.min()), float(y.min()), float(x.max()), float(y.max())

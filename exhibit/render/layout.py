@@ -1,0 +1,226 @@
+"""Where the HUD's panels sit on a screen of a given size, and what is left for the picture.
+
+Pure layout (Pillow's font metrics, no GL), because three things must agree on it exactly: the
+HUD that draws the panels (exhibit.render.hud), the framing that fits the 3D image into the
+space the panels leave free (exhibit.geometry.framing, through :func:`free_rectangles`), and the
+marker labels that must stay off the panels. Were each to guess the others' sizes, the picture
+would slide under the caption as soon as someone changed a font size.
+
+Text is sized for a room, as a fraction of the screen height: the caption's capital letters are
+at least 1/45 of the height (24 px at 1080p, about 12 mm on a 55" screen, legible from 3 m), the
+title's larger; both come from the kiosk config's [text] table (``TextSizes``). Sizes are chosen
+by the measured cap height of the font (the height of "H"), not the nominal point size, because
+that is what a reader sees.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import NamedTuple
+
+from exhibit.render.text import font, line_height, text_width, wrap_balanced
+
+#: The smallest caption cap height the exhibit allows, as a fraction of the screen height.
+MIN_CAPTION_CAP = 1.0 / 45.0
+#: Beyond this sensor or eye distance the HUD shows ∞ (a number of 26163.17 means nothing).
+INFINITY_BEYOND = 1000.0
+
+
+@dataclass(frozen=True)
+class TextSizes:
+    """The HUD's text sizes as fractions of the screen height (cap heights: the height of a
+    capital letter, what the eye reads), and when a distance is shown as ∞."""
+
+    caption_cap: float = 0.024
+    title_cap: float = 0.034
+    infinity_beyond: float = INFINITY_BEYOND
+
+    def __post_init__(self) -> None:
+        if not (MIN_CAPTION_CAP - 1e-9 <= self.caption_cap <= 0.1):
+            raise ValueError(f"caption cap height {self.caption_cap:g} must lie in "
+                             f"[1/45, 0.1] of the screen height")
+        if not self.caption_cap < self.title_cap <= 0.15:
+            raise ValueError(f"title cap height {self.title_cap:g} must be larger than the "
+                             f"caption's ({self.caption_cap:g}) and at most 0.15")
+        if not (1.0 <= self.infinity_beyond <= 1e6):
+            raise ValueError(f"infinity_beyond {self.infinity_beyond:g} must lie in [1, 1e6]")
+
+
+@lru_cache(maxsize=256)
+def cap_height(style: str, px: int) -> int:
+    """The height in pixels of a capital H in ``style`` at font size ``px``."""
+    _, top, _, bottom = font(style, px).getbbox("H")
+    return int(bottom - top)
+
+
+@lru_cache(maxsize=256)
+def size_for_cap(style: str, cap_px: float) -> int:
+    """The smallest font size whose capitals are at least ``cap_px`` pixels tall."""
+    px = max(6, int(cap_px / 0.8))
+    while cap_height(style, px) < cap_px and px < 1000:
+        px += 1
+    while px > 6 and cap_height(style, px - 1) >= cap_px:
+        px -= 1
+    return px
+
+
+class Rect(NamedTuple):
+    """A rectangle in pixels, x right and y down from the top-left corner."""
+
+    x0: float
+    y0: float
+    x1: float
+    y1: float
+
+    @property
+    def width(self) -> float:
+        return self.x1 - self.x0
+
+    @property
+    def height(self) -> float:
+        return self.y1 - self.y0
+
+    def grow(self, by: float) -> "Rect":
+        return Rect(self.x0 - by, self.y0 - by, self.x1 + by, self.y1 + by)
+
+    def overlaps(self, other: "Rect") -> bool:
+        return (self.x0 < other.x1 and other.x0 < self.x1 and self.y0 < other.y1
+                and other.y0 < self.y1)
+
+    def contains(self, other: "Rect") -> bool:
+        return (self.x0 <= other.x0 and self.y0 <= other.y0 and other.x1 <= self.x1
+                and other.y1 <= self.y1)
+
+
+def format_distance(distance: float, beyond: float = INFINITY_BEYOND) -> str:
+    """A distance for people: ∞ beyond ``beyond``, else two decimals (fixed width 7)."""
+    if not math.isfinite(distance) or distance > beyond:
+        return f"{'∞':>7}"
+    return f"{distance:7.2f}"
+
+
+def format_angle(radians: float) -> str:
+    """An angle in degrees within (-180, 180], one decimal, fixed width 6."""
+    degrees = math.degrees(math.remainder(radians, 2 * math.pi))
+    if degrees <= -179.95:
+        degrees += 360.0
+    return f"{degrees:6.1f}°"
+
+
+def status_lines(view, beyond: float = INFINITY_BEYOND) -> list[str]:
+    """The numbers panel: six angles on two lines and the two distances, every field of fixed
+    width so nothing jitters while a knob turns. θ with plain digits: subscripts are too small
+    to read from a distance."""
+    a = [format_angle(x) for x in view.angles]
+    eye = format_distance(view.eye_distance, beyond).strip()
+    fov = "" if view.eye_r == 0 else f"  fov {view.field_of_view:3.0f}°"
+    return ["  ".join(f"θ{i + 1} {a[i]}" for i in range(3)),
+            "  ".join(f"θ{i + 1} {a[i]}" for i in range(3, 6)),
+            f"sensor {format_distance(view.sensor_distance, beyond)}   eye {eye:>5}{fov}"]
+
+
+#: The status panel is as wide as its widest possible lines (these), whatever the numbers.
+_WIDEST_STATUS = ["θ1 -179.9°  θ2 -179.9°  θ3 -179.9°",
+                  "sensor 9999.99   eye 99.99  fov 180°"]
+
+
+@dataclass(frozen=True)
+class HudLayout:
+    """The panels of one screen: rectangles in pixels, before the burn-in drift (``drift``
+    is how far the panels may move right and down; ``panels`` are grown by it)."""
+
+    size: tuple[int, int]
+    margin: int
+    title_px: int
+    body_px: int
+    pad: int
+    title_lines: tuple[str, ...]
+    caption_lines: tuple[str, ...]
+    title_block: Rect | None
+    status_block: Rect
+    gizmo_center: tuple[float, float]
+    gizmo_radius: float
+    gizmo_block: Rect
+    drift: float
+
+    @property
+    def panels(self) -> list[Rect]:
+        """Every panel, where it may be with the drift: nothing else should go there."""
+        boxes = [self.status_block, self.gizmo_block]
+        if self.title_block is not None:
+            boxes.insert(0, self.title_block)
+        return [Rect(b.x0, b.y0, b.x1 + self.drift, b.y1 + self.drift)
+                if b is not self.status_block
+                else Rect(b.x0, b.y0 - self.drift, b.x1 + self.drift, b.y1)
+                for b in boxes]
+
+
+def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...] = ("",),
+               sizes: TextSizes = TextSizes(), drift: float = 0.0) -> HudLayout:
+    """The panels for ``title`` and the caption paragraphs ``captions`` (the caption and a
+    note, each wrapped on its own) on a ``size`` screen."""
+    width, height = int(size[0]), int(size[1])
+    margin = max(4, round(0.022 * height))
+    title_px = size_for_cap("bold", sizes.title_cap * height)
+    body_px = size_for_cap("sans", sizes.caption_cap * height)
+    pad = max(3, body_px // 2)
+
+    # The gizmo, top right: a disc of radius + body_px around the axes, "4D axes" under it.
+    radius = max(14.0, 0.09 * height)
+    extent = radius + body_px
+    cx, cy = width - margin - extent, margin + extent
+    small = max(8, body_px - 2)
+    gizmo = Rect(cx - extent, margin, width - margin,
+                 max(cy + extent, cy + radius + 0.1 * body_px + line_height("sans", small)))
+
+    # Title and caption, top left, short of the gizmo; captions a little narrower (a measure of
+    # about 45 characters reads best).
+    room = gizmo.x0 - 2 * margin - 2 * pad - margin
+    title_lines = tuple(wrap_balanced(title, "bold", title_px, room)) if title else ()
+    caption_width = min(room, max(0.42 * width, 22 * body_px))
+    caption_lines: list[str] = []
+    for paragraph in captions:
+        if paragraph:
+            caption_lines += wrap_balanced(paragraph, "sans", body_px, caption_width)
+    lines = [(t, "bold", title_px) for t in title_lines] + \
+            [(t, "sans", body_px) for t in caption_lines]
+    block = None
+    if lines:
+        w = math.ceil(max(text_width(t, s, px) for t, s, px in lines)) + 2 * pad
+        h = sum(line_height(s, px) for _, s, px in lines) + 2 * pad
+        block = Rect(margin, margin, margin + w, margin + h)
+
+    # The numbers, bottom left, in a fixed-width font.
+    advance = text_width("0", "mono", body_px)
+    status_w = max(len(t) for t in _WIDEST_STATUS) * advance + 2 + 2 * pad
+    status_h = 3 * line_height("mono", body_px) + 2 * pad
+    status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
+    return HudLayout((width, height), margin, title_px, body_px, pad, title_lines,
+                     tuple(caption_lines), block, status, (cx, cy), radius, gizmo, drift)
+
+
+def free_rectangles(size: tuple[int, int], panels: list[Rect], margin: float) -> list[Rect]:
+    """The largest rectangles of the screen (inset by ``margin``) that keep ``margin`` away from
+    every panel: each is maximal (no side can move out without meeting a panel or the edge).
+    The picture is fitted into one of them (exhibit.geometry.framing picks the one where it
+    comes out largest)."""
+    width, height = size
+    screen = Rect(margin, margin, width - margin, height - margin)
+    blocks = [p.grow(margin) for p in panels]
+    xs = sorted({screen.x0, screen.x1, *[v for b in blocks for v in (b.x0, b.x1)
+                                         if screen.x0 < v < screen.x1]})
+    ys = sorted({screen.y0, screen.y1, *[v for b in blocks for v in (b.y0, b.y1)
+                                         if screen.y0 < v < screen.y1]})
+    found: list[Rect] = []
+    for i, x0 in enumerate(xs):
+        for x1 in xs[i + 1:]:
+            for j, y0 in enumerate(ys):
+                for y1 in ys[j + 1:]:
+                    r = Rect(x0, y0, x1, y1)
+                    if any(r.overlaps(b) for b in blocks):
+                        break   # a taller one overlaps too
+                    found.append(r)
+    maximal = [r for r in found if not any(o != r and o.contains(r) for o in found)]
+    return sorted(maximal, key=lambda r: -r.width * r.height)
