@@ -1,9 +1,13 @@
-"""`exhibit simulate controller [--script FILE]`: a simulated 6-axis controller on a pty.
+"""`exhibit simulate controller [--firmware ELF] [--script FILE] [--link PATH]`: a simulated
+6-axis controller on a pty.
 
 Prints the pseudo-terminal to open (first line of standard output, alone, for scripts) and runs
 until Ctrl-C or --duration. It speaks the real protocol (firmware/PROTOCOL.md), so anything that
 reads the board reads it: ``exhibit monitor --device controller=serial://PTY``, the kiosk, pyserial.
-Scripts are described in exhibit/devices/sim.py and docs/DEVICES.md.
+Without --firmware it is the protocol-level simulator (Python, instant); with it, the controller
+firmware itself runs in simavr (exhibit/devices/simavr.py), so the exhibit meets the real ADC
+scaling, timing, EEPROM and watchdog. Scripts are described in exhibit/devices/sim.py and
+docs/DEVICES.md; with --firmware a deflection is a voltage on the pot (-1 = 0 V, 0 = 2.5 V, 1 = 5 V).
 """
 
 from __future__ import annotations
@@ -29,6 +33,15 @@ def add_arguments(parser) -> None:
                              "the script's unplug/replug (like /dev/serial/by-id/...)")
     parser.add_argument("--duration", type=_args.seconds(), default=None,
                         help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument("--firmware", type=Path, default=None,
+                        help="run this controller firmware (.elf, e.g. firmware/build/controller/"
+                             "controller.elf) in simavr instead of the protocol-level simulator")
+    parser.add_argument("--harness", type=Path, default=None,
+                        help="the simavr harness (default: sim/harness beside the firmware's "
+                             "build, or firmware/build/sim/harness; make -C firmware sim)")
+    parser.add_argument("--eeprom", type=Path, default=None,
+                        help="with --firmware: keep the EEPROM (the stored calibration) in this "
+                             "file across runs (default: erased at start)")
     parser.add_argument("--protocol-version", type=_args.integer(0, 255), default=p.PROTOCOL_VERSION,
                         help="speak another protocol version (to check a host's refusal)")
 
@@ -40,7 +53,18 @@ def run(args) -> int:
         script = parse_script(text, str(args.script))
     if not 0 <= args.protocol_version <= 255:
         raise ExhibitError("--protocol-version must be 0..255")
-    sim = SimController(args.link, script=script, version=args.protocol_version)
+    if args.firmware is None:
+        if args.harness is not None or args.eeprom is not None:
+            raise ExhibitError("--harness and --eeprom go with --firmware")
+        sim = SimController(args.link, script=script, version=args.protocol_version)
+    else:
+        if args.protocol_version != p.PROTOCOL_VERSION:
+            raise ExhibitError("--protocol-version: the firmware speaks the version it was built "
+                               "with; leave out --firmware to simulate another")
+        from exhibit.devices.simavr import FirmwareController
+
+        sim = FirmwareController(args.firmware, args.link, harness=args.harness,
+                                 eeprom=args.eeprom, script=script)
     sim.start()
     try:
         print(sim.tty, flush=True)
@@ -49,6 +73,8 @@ def run(args) -> int:
         start = time.monotonic()
         while args.duration is None or time.monotonic() - start < args.duration:
             time.sleep(0.05)
+            if getattr(sim, "error", None) is not None:
+                raise sim.error
     except KeyboardInterrupt:
         pass
     finally:

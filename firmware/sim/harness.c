@@ -1,23 +1,37 @@
 /* Runs an AVR firmware in simavr with its UART bridged to a pseudo-terminal, so a host program
  * opens the pty as it would open the real board's serial port.
  *
- *   harness [--mcu atmega328p] [--freq 16000000] [--vcc 5000] [--speed X] FIRMWARE.elf
+ *   harness [--mcu atmega328p] [--freq 16000000] [--vcc 5000] [--speed X] [--eeprom FILE]
+ *           FIRMWARE.elf
  *
  * Prints "pty PATH" once the pty exists, then obeys lines on stdin, answering each with
  * "ok ..." (or "error ...") once it has taken effect:
  *   adc CH MV          drive ADC channel CH with MV millivolts
  *   pin PORT BIT LEVEL drive an input pin (e.g. "pin D 2 0": a button on PD2 pressed)
  *   run                start the CPU (it waits, so the host can open the pty first)
+ *   pause              stop the CPU (simulated time stands still: a hung line, no reset)
+ *   reset              the reset button (MCUSR says external)
+ *   uart HEX           bytes into the UART as if the host had sent them (e.g. a command)
+ *   tx HEX             bytes onto the line towards the host (noise), beside the firmware's
  *   time               report the simulated time: "ok time US"
+ *   stats              CPU load since the last stats: "ok stats bursts N max_burst CYCLES
+ *                      max_window CYCLES window CYCLES"; a burst is the CPU awake between two
+ *                      sleeps (one main-loop iteration, with the interrupts inside it), a window
+ *                      is one 10 ms slice of simulated time (the loop's budget)
  *   quit
  * and reports a CPU reset (watchdog, ...) with a line "reset at US" (simulated time) whenever it happens.
  * --speed X paces simulated time at X times real time (0: as fast as possible). Bytes the
- * firmware sends while nobody reads the pty are dropped, as on a real line. */
+ * firmware sends while nobody reads the pty are dropped, as on a real line.
+ * --eeprom FILE keeps the EEPROM in FILE, as the chip keeps it across power cycles: read at
+ * start (a missing file is an erased EEPROM, all 0xFF), written back whenever the firmware has
+ * changed it, so stopping the harness (an unplug) and starting it again (a replug) is a power
+ * cycle that keeps the stored calibration. */
 #define _GNU_SOURCE
 #include <errno.h>
 #include <stdarg.h>
 #include <fcntl.h>
 #include <poll.h>
+#include <signal.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -26,17 +40,20 @@
 #include <unistd.h>
 
 #include "avr_adc.h"
+#include "avr_eeprom.h"
 #include "avr_ioport.h"
 #include "avr_uart.h"
 #include "sim_avr.h"
 #include "sim_elf.h"
 #include "sim_irq.h"
+#include "sim_regbit.h"
 
 static avr_t *avr;
 static int master_fd = -1;
 static double sim_seconds(void);
 static double speed = 1.0;
-static int running, quitting;
+static int running;
+static volatile sig_atomic_t quitting;
 
 /* ---- UART <-> pty ---- */
 
@@ -130,6 +147,129 @@ static int open_pty(char *path, size_t cap)
     return fcntl(master_fd, F_SETFL, fcntl(master_fd, F_GETFL) | O_NONBLOCK);
 }
 
+/* ---- EEPROM kept in a file ---- */
+
+static const char *eeprom_path;
+static uint8_t ee_saved[4096];
+static uint32_t ee_size;
+
+/* simavr 1.6's EEPROM ioctls return -1 when they worked (a bug: their result is never set) and
+ * -2 for a bad argument; later versions return 0. So only below -1 is a failure. */
+static int eeprom_get(uint8_t *buf)
+{
+    avr_eeprom_desc_t d = { .ee = buf, .offset = 0, .size = ee_size };
+    return avr_ioctl(avr, AVR_IOCTL_EEPROM_GET, &d) < -1 ? -1 : 0;
+}
+
+static int eeprom_load(void)
+{
+    ee_size = avr->e2end + 1;
+    if (ee_size > sizeof ee_saved) {
+        fprintf(stderr, "harness: EEPROM of %u bytes is larger than supported\n", ee_size);
+        return -1;
+    }
+    memset(ee_saved, 0xFF, ee_size); /* erased */
+    FILE *f = fopen(eeprom_path, "rb");
+    if (f) {
+        size_t n = fread(ee_saved, 1, ee_size, f);
+        int extra = fgetc(f) != EOF;
+        fclose(f);
+        if (extra || n != ee_size) {
+            fprintf(stderr, "harness: %s: EEPROM image must be %u bytes\n", eeprom_path, ee_size);
+            return -1;
+        }
+    } else if (errno != ENOENT) {
+        fprintf(stderr, "harness: %s: %s\n", eeprom_path, strerror(errno));
+        return -1;
+    }
+    avr_eeprom_desc_t d = { .ee = ee_saved, .offset = 0, .size = ee_size };
+    if (avr_ioctl(avr, AVR_IOCTL_EEPROM_SET, &d) < -1) {
+        fprintf(stderr, "harness: cannot load the EEPROM image\n");
+        return -1;
+    }
+    return 0;
+}
+
+/* Writes the EEPROM image back when the firmware changed it: to a temporary file renamed over
+ * the old one, so a harness killed mid-write leaves the previous image, not half of one. */
+static void eeprom_sync(void)
+{
+    uint8_t now[sizeof ee_saved];
+    if (!eeprom_path || eeprom_get(now) < 0 || !memcmp(now, ee_saved, ee_size))
+        return;
+    char tmp[4200];
+    snprintf(tmp, sizeof tmp, "%s.tmp", eeprom_path);
+    FILE *f = fopen(tmp, "wb");
+    if (!f || fwrite(now, 1, ee_size, f) != ee_size || fclose(f) || rename(tmp, eeprom_path)) {
+        perror("harness: EEPROM image");
+        return;
+    }
+    memcpy(ee_saved, now, ee_size);
+}
+
+/* ---- CPU load: cycles awake between sleeps ---- */
+
+static uint64_t sim_cycles(void);
+static uint64_t burst_start, bursts, max_burst, window_start, window_busy, max_window;
+static int awake = 1;
+
+static void window_add(uint64_t from, uint64_t to)
+{
+    uint64_t w = avr->frequency / 100; /* 10 ms */
+    while (from < to) {
+        uint64_t end = window_start + w;
+        if (from >= end) { /* a new window: the last one is complete */
+            if (window_busy > max_window)
+                max_window = window_busy;
+            window_busy = 0;
+            window_start = from - (from - window_start) % w;
+            continue;
+        }
+        uint64_t upto = to < end ? to : end;
+        window_busy += upto - from;
+        from = upto;
+    }
+}
+
+/* The core calls sleep_hook (below) for every stretch of sleep, before it adds the stretch to
+ * avr->cycle; one avr_run() may sleep and wake again, so the state seen between calls misses
+ * sleeps. A burst ends where a sleep begins and starts where the last stretch ends. */
+static uint64_t sleep_until;
+
+static void sleep_begins(avr_cycle_count_t how_long)
+{
+    uint64_t c = sim_cycles();
+    if (awake) {
+        bursts++;
+        if (c - burst_start > max_burst)
+            max_burst = c - burst_start;
+        window_add(burst_start, c);
+        awake = 0;
+    }
+    sleep_until = c + 1 + how_long;
+}
+
+static void track_wake(void)
+{
+    if (!awake && avr->state != cpu_Sleeping) {
+        awake = 1;
+        burst_start = sleep_until;
+    }
+}
+
+static int hex_bytes(const char *hex, uint8_t *out, size_t cap)
+{
+    size_t n = 0;
+    unsigned v;
+    while (*hex == ' ')
+        hex++;
+    while (hex[0] && hex[1] && n < cap && sscanf(hex, "%2x", &v) == 1) {
+        out[n++] = (uint8_t)v;
+        hex += 2;
+    }
+    return *hex ? -1 : (int)n;
+}
+
 /* ---- commands on stdin ---- */
 
 static char cmd_buf[256];
@@ -167,9 +307,14 @@ static void redrive_pins(void)
 
 static uint64_t cycle_offset; /* keeps simulated time monotonic should a reset rewind avr->cycle */
 
+static uint64_t sim_cycles(void)
+{
+    return avr->cycle + cycle_offset;
+}
+
 static double sim_seconds(void)
 {
-    return (double)(avr->cycle + cycle_offset) / avr->frequency;
+    return (double)sim_cycles() / avr->frequency;
 }
 
 static void (*core_reset)(avr_t *);
@@ -211,6 +356,34 @@ static void command(char *line)
     } else if (strcmp(line, "run") == 0) {
         running = 1;
         reply("ok run");
+    } else if (strcmp(line, "pause") == 0) {
+        running = 0;
+        reply("ok pause");
+    } else if (strcmp(line, "reset") == 0) {
+        avr_reset(avr);
+        avr_regbit_set(avr, avr->reset_flags.extrf);
+        reply("ok reset");
+    } else if (strncmp(line, "uart ", 5) == 0 || strncmp(line, "tx ", 3) == 0) {
+        uint8_t bytes[sizeof in_buf];
+        int to_uart = line[0] == 'u';
+        int n = hex_bytes(line + (to_uart ? 5 : 3), bytes, sizeof bytes);
+        if (n < 0 || (to_uart && (size_t)n > sizeof in_buf - in_len)) {
+            reply("error bad or too many bytes: %s", line);
+            return;
+        }
+        if (to_uart) {
+            memcpy(in_buf + in_len, bytes, (size_t)n);
+            in_len += (size_t)n;
+        } else if (n && write(master_fd, bytes, (size_t)n) < 0 && errno != EAGAIN) {
+            perror("harness: pty write");
+        }
+        reply("ok %s %d", to_uart ? "uart" : "tx", n);
+    } else if (strcmp(line, "stats") == 0) {
+        window_add(sim_cycles(), sim_cycles()); /* close a finished window */
+        reply("ok stats bursts %llu max_burst %llu max_window %llu window %llu",
+              (unsigned long long)bursts, (unsigned long long)max_burst,
+              (unsigned long long)max_window, (unsigned long long)(avr->frequency / 100));
+        bursts = max_burst = max_window = 0;
     } else if (strcmp(line, "time") == 0) {
         reply("ok time %.0f", sim_seconds() * 1e6);
     } else if (strcmp(line, "quit") == 0) {
@@ -252,9 +425,16 @@ static double wall_now(void)
 
 /* The core advances avr->cycle over sleeps by itself; simavr's default callback would also
  * usleep in real time, which --speed replaces. */
+static void on_signal(int sig)
+{
+    (void)sig;
+    quitting = 1; /* the loop ends, the EEPROM is written back */
+}
+
 static void sleep_hook(avr_t *a, avr_cycle_count_t how_long)
 {
-    (void)a, (void)how_long;
+    (void)a;
+    sleep_begins(how_long);
 }
 
 static void service(int timeout_ms)
@@ -283,10 +463,13 @@ int main(int argc, char **argv)
             vcc = (uint32_t)strtoul(argv[++i], NULL, 0);
         else if (!strcmp(argv[i], "--speed") && i + 1 < argc)
             speed = strtod(argv[++i], NULL);
+        else if (!strcmp(argv[i], "--eeprom") && i + 1 < argc)
+            eeprom_path = argv[++i];
         else if (argv[i][0] != '-' && !elf)
             elf = argv[i];
         else {
-            fprintf(stderr, "usage: %s [--mcu M] [--freq HZ] [--vcc MV] [--speed X] FIRMWARE.elf\n",
+            fprintf(stderr, "usage: %s [--mcu M] [--freq HZ] [--vcc MV] [--speed X] [--eeprom FILE] "
+                            "FIRMWARE.elf\n",
                     argv[0]);
             return 2;
         }
@@ -318,7 +501,11 @@ int main(int argc, char **argv)
     fw.frequency = freq;
     fw.vcc = fw.avcc = fw.aref = vcc;
     avr_load_firmware(avr, &fw);
+    if (eeprom_path && eeprom_load())
+        return 1;
     avr->sleep = sleep_hook;
+    signal(SIGTERM, on_signal);
+    signal(SIGINT, on_signal);
     core_reset = avr->reset;
     avr->reset = reset_hook;
 
@@ -342,6 +529,7 @@ int main(int argc, char **argv)
             uint64_t before = avr->cycle;
             int state = avr_run(avr);
             if (state == cpu_Done || state == cpu_Crashed) {
+                eeprom_sync();
                 reply("exit %s", state == cpu_Done ? "done" : "crashed");
                 return state == cpu_Done ? 0 : 1;
             }
@@ -352,6 +540,7 @@ int main(int argc, char **argv)
                 redrive_pins();
                 reply("reset at %.0f", sim_seconds() * 1e6);
             }
+            track_wake();
         }
         int wait_ms = 0;
         if (speed > 0) {
@@ -360,6 +549,8 @@ int main(int argc, char **argv)
                 wait_ms = (int)(ahead * 1000);
         }
         service(wait_ms);
+        eeprom_sync();
     }
+    eeprom_sync();
     return 0;
 }

@@ -8,22 +8,17 @@ Simulated time runs at SPEED times real time; every timing check uses the device
 
 from __future__ import annotations
 
-import queue
-import subprocess
-import threading
 import time
 
 import pytest
 import serial
 
 from exhibit.devices import protocol as p
+from exhibit.devices.simavr import BUTTON_PINS, REST_MV, VCC_MV, Harness
 
 SPEED = 8
-VCC_MV = 5000
-REST_MV = 2500
 # Controller scaling constants (firmware/controller/config.h, documented in PROTOCOL.md).
 DEADZONE_C16, EDGE_C16, C16_MAX = 12 * 16, 16 * 16, 1023 * 16
-BUTTON_PINS = {1: 2, 2: 3, 3: 4, 4: 5}  # button -> PDn
 
 
 def c16(mv: int) -> int:
@@ -41,62 +36,6 @@ def expected_axis(mv: int, zero: int) -> int:
 
 # One ADC count is about 68 units of the +-32767 scale; allow two for the ADC's rounding.
 AXIS_TOL = 2 * 16 * p.AXIS_FULL_SCALE // (C16_MAX // 2)
-
-
-class Sim:
-    """The harness process: commands on stdin, replies and reset notices on stdout."""
-
-    def __init__(self, harness, elf, log):
-        self.log = open(log, "w")
-        self.proc = subprocess.Popen([str(harness), "--speed", str(SPEED), str(elf)],
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE,
-                                     stderr=self.log, text=True, bufsize=1)
-        self.replies: queue.Queue[str] = queue.Queue()
-        self.resets: list[float] = []  # simulated seconds
-        self._reader = threading.Thread(target=self._read, daemon=True)
-        self._reader.start()
-        line = self.replies.get(timeout=10)
-        assert line.startswith("pty "), line
-        self.pty = line.split(" ", 1)[1]
-
-    def _read(self):
-        for line in self.proc.stdout:
-            line = line.strip()
-            if line.startswith("reset at "):
-                self.resets.append(int(line.split()[-1]) / 1e6)
-            else:
-                self.replies.put(line)
-
-    def cmd(self, text: str) -> str:
-        self.proc.stdin.write(text + "\n")
-        self.proc.stdin.flush()
-        reply = self.replies.get(timeout=10)
-        assert reply.startswith("ok"), f"{text!r}: {reply}"
-        return reply
-
-    def adc(self, ch: int, mv: int):
-        self.cmd(f"adc {ch} {mv}")
-
-    def button(self, n: int, pressed: bool):
-        self.cmd(f"pin D {BUTTON_PINS[n]} {0 if pressed else 1}")  # active low
-
-    def sim_time(self) -> float:
-        return int(self.cmd("time").split()[-1]) / 1e6
-
-    def close(self):
-        if self.proc.poll() is None:
-            try:
-                self.cmd("quit")
-            except (AssertionError, BrokenPipeError, queue.Empty):
-                pass
-        try:
-            self.proc.wait(timeout=5)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        self.proc.stdin.close()
-        self.proc.stdout.close()
-        self.log.close()
 
 
 class Host:
@@ -146,8 +85,8 @@ class Host:
 
 @pytest.fixture(scope="module")
 def board(harness, avr_build, tmp_path_factory):
-    sim = Sim(harness, avr_build / "controller" / "controller.elf",
-              tmp_path_factory.mktemp("sim") / "harness.log")
+    sim = Harness(avr_build / "controller" / "controller.elf", harness=harness, speed=SPEED,
+                  log=tmp_path_factory.mktemp("sim") / "harness.log")
     host = None
     try:
         for ch in range(6):
@@ -155,7 +94,7 @@ def board(harness, avr_build, tmp_path_factory):
         for b in BUTTON_PINS:
             sim.button(b, False)
         host = Host(sim.pty)  # opened before the CPU starts: the boot frames are seen
-        sim.cmd("run")
+        sim.run()
         boot_cal = host.wait_type(p.Calibration)
         yield sim, host, boot_cal
     finally:
