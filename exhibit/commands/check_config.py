@@ -1,11 +1,17 @@
 """`exhibit check-config [FILE] [--show]`: check the kiosk config (the site file over the shipped
 defaults) and everything it names (device config, attract timelines, scene files); list every
-problem as file: key: reason, or with --show the effective settings and where each came from."""
+problem as file: key: reason, or with --show the effective settings and where each came from.
+
+It also plays every attract timeline (exhibit.kiosk.captions): a caption shown while the view
+contradicts its ``while`` condition, or too briefly to be read, is a problem here, though the
+kiosk still plays such a timeline (a wrong caption is no reason to show nothing)."""
 
 from __future__ import annotations
 
 import json
 
+from exhibit.kiosk.attract import load_timeline, timeline_paths
+from exhibit.kiosk.captions import caption_problems
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
 
 HELP = "check the kiosk configuration and all the files it names; exit 2 on any problem"
@@ -22,10 +28,13 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     try:
         config = load_kiosk_config(args.config)
+        problems = _caption_problems(config.attract_dir)
     except ConfigError as exc:
-        for problem in exc.problems:
+        problems = exc.problems
+    if problems:
+        for problem in problems:
             print(problem)
-        print(f"{len(exc.problems)} problem(s) found.")
+        print(f"{len(problems)} problem(s) found.")
         return 2
     if args.show:
         width = min(48, max(len(f"{k} = {_toml(v)}") for k, (v, _) in config.sources.items()))
@@ -37,6 +46,14 @@ def run(args) -> int:
     print(f"{config.path}: OK{layered}: {len(config.scenes)} scenes, devices "
           f"{config.devices_config}, attract {config.attract_dir}")
     return 0
+
+
+def _caption_problems(attract_dir) -> list[str]:
+    """Every caption of every timeline held to its condition and its reading time (the
+    timelines have been checked already, so they load)."""
+    if attract_dir is None:
+        return []
+    return [p for path in timeline_paths(attract_dir) for p in caption_problems(load_timeline(path))]
 
 
 def _toml(value) -> str:

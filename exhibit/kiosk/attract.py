@@ -12,7 +12,14 @@
     eye = [20, -60]                           # azimuth, incidence (degrees)
     half_height = 1.6                         # zoom (interpolated geometrically)
     caption = "..."                           # shown from this keyframe on
+    while = { sensor_distance = [2.9, 3.1] }  # optional: what the caption says of the view
     ease = "smooth"                           # into the next keyframe: smooth | linear | hold
+
+A caption that describes the view states it in ``while``, so `exhibit check-config` can play the
+timeline and report where the caption is shown while the view says otherwise:
+``sensor_distance = "inf"`` or ``[low, high]`` (high may be "inf"), ``sensor_motion = "closer"``,
+``"farther"`` or ``"still"``. The condition belongs to the caption: it holds until a keyframe sets
+a new caption (with its own ``while``, or none); a keyframe may also restate ``while`` alone.
 
 A timeline lasts until its last keyframe; the playlist plays the files in name order and loops.
 Limits: t 0..86400 s, angles and eye -3600..3600 degrees, sensor_distance "inf" or 0.05..1e6,
@@ -27,16 +34,29 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Literal
 
-from pydantic import Field
+from pydantic import Field, model_validator
 
 from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.view import ViewState
 from exhibit.schema import Model, read_toml, validate
-from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, HalfHeight, Name, Number, Numbers,
-                                  Seconds, distance_to_r)
+from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, DistanceRange, HalfHeight, Name,
+                                  Number, Numbers, Seconds, distance_to_r)
 
 EASES = ("smooth", "linear", "hold")
+MOTIONS = ("closer", "farther", "still")
+
+
+@dataclass(frozen=True)
+class Condition:
+    """What a caption says about the view, for `exhibit check-config` to hold it to.
+
+    ``sensor_r``: the range of r = 1/d the sensor must stay in (None: any); ``motion``: the
+    sensor must move closer (r grows), farther (r shrinks) or stay still."""
+
+    sensor_r: tuple[float, float] | None = None
+    sensor_distance: tuple[float, float] | None = None  # as written, for messages
+    motion: str | None = None
 
 
 @dataclass(frozen=True)
@@ -48,6 +68,9 @@ class Keyframe:
     half_height: float
     caption: str
     ease: str
+    condition: Condition | None = None
+    #: the keyframe whose caption (and condition) is shown from here: where a problem is reported
+    caption_from: int = 0
 
 
 @dataclass(frozen=True)
@@ -67,7 +90,7 @@ class Timeline:
         """The view and caption ``t`` seconds into the timeline (clamped to its ends)."""
         frames = self.keyframes
         t = min(max(t, 0.0), self.duration)
-        index = max(i for i, k in enumerate(frames) if k.t <= t)
+        index = self.index_at(t)
         a = frames[index]
         if index == len(frames) - 1 or a.ease == "hold":
             return self._view(a, a, 0.0), a.caption
@@ -76,6 +99,10 @@ class Timeline:
         if a.ease == "smooth":
             u = u * u * (3 - 2 * u)
         return self._view(a, b, u), a.caption
+
+    def index_at(self, t: float) -> int:
+        """The keyframe in force ``t`` seconds in (its caption is the one shown)."""
+        return max(i for i, k in enumerate(self.keyframes) if k.t <= t)
 
     def _view(self, a: Keyframe, b: Keyframe, u: float) -> ViewState:
         def mix(x, y):
@@ -87,6 +114,24 @@ class Timeline:
                                       eye_incidence=mix(a.eye[1], b.eye[1]), half_height=half)
 
 
+class WhileSpec(Model):
+    """``while = { ... }``: the state of the view a caption describes."""
+
+    sensor_distance: DistanceRange | None = None
+    sensor_motion: Literal[MOTIONS] | None = None
+
+    @model_validator(mode="after")
+    def _not_empty(self):
+        if self.sensor_distance is None and self.sensor_motion is None:
+            raise ValueError("states no condition: give sensor_distance or sensor_motion")
+        return self
+
+    def condition(self) -> Condition:
+        d = self.sensor_distance
+        r = None if d is None else (distance_to_r(d[1]), distance_to_r(d[0]))
+        return Condition(r, d, self.sensor_motion)
+
+
 class KeyframeSpec(Model):
     t: Seconds
     angles: Numbers(6, -MAX_ANGLE, MAX_ANGLE) | None = None
@@ -94,6 +139,7 @@ class KeyframeSpec(Model):
     eye: Numbers(2, -MAX_ANGLE, MAX_ANGLE) | None = None
     half_height: HalfHeight | None = None
     caption: Caption | None = None
+    while_: WhileSpec | None = Field(None, alias="while")
     ease: Literal[EASES] = "smooth"
 
 
@@ -153,12 +199,22 @@ def load_timeline(path: Path) -> Timeline:
             previous.eye if raw.eye is None else tuple(math.radians(a) for a in raw.eye),
             previous.half_height if raw.half_height is None else raw.half_height,
             previous.caption if raw.caption is None else raw.caption,
-            raw.ease)
+            raw.ease,
+            _condition(previous, raw),
+            previous.caption_from if raw.caption is None and raw.while_ is None else i)
         frames.append(previous)
     if problems:
         raise ConfigError(problems)
     return Timeline(spec.name or path.stem, str(path), spec.scene, params, base_view,
                     tuple(frames))
+
+
+def _condition(previous: Keyframe, raw: KeyframeSpec) -> Condition | None:
+    """The condition in force from this keyframe: its own, else the caption's it keeps (a new
+    caption without ``while`` states none)."""
+    if raw.while_ is not None:
+        return raw.while_.condition()
+    return previous.condition if raw.caption is None else None
 
 
 def timeline_paths(folder: Path) -> list[Path]:

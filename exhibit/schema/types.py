@@ -145,6 +145,30 @@ Name = Text(100)
 Caption = Text(2000, multiline=True, empty_ok=True)
 
 
+def _distance_range(value: Any) -> tuple[float, float]:
+    """A range of distances for a condition: "inf" (at infinity) or [low, high], either end a
+    distance (high may be "inf"), low <= high."""
+    want = 'must be "inf" or [low, high] distances with low <= high (high may be "inf")'
+    one = number_check(MIN_DISTANCE, MAX_DISTANCE, inf_ok=True)
+    if value == "inf":
+        return (math.inf, math.inf)
+    if not isinstance(value, (list, tuple)) or len(value) != 2:
+        raise fail(want, value)
+    out = []
+    for i, v in enumerate(value):
+        try:
+            out.append(one(v))
+        except PydanticCustomError as exc:
+            raise fail(f"item {i + 1} {exc.message()}", show=False) from None
+    if out[0] > out[1]:
+        raise fail(want, value)
+    return (out[0], out[1])
+
+
+#: A range of sensor distances, as a caption's condition states it.
+DistanceRange = Annotated[tuple[float, float], PlainValidator(_distance_range)]
+
+
 def distance_to_r(distance: float) -> float:
     """r = 1/d, the form every view uses (r = 0 is a sensor at infinity)."""
     return 0.0 if math.isinf(distance) else 1.0 / distance

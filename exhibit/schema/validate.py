@@ -38,7 +38,7 @@ def _allowed(model: type[BaseModel], loc: tuple) -> list[str] | None:
     current: Any = model
     for part in loc:
         if isinstance(current, type) and issubclass(current, BaseModel):
-            field = current.model_fields.get(str(part))
+            field = _fields(current).get(str(part))
             if field is None:
                 return None
             current = field.annotation
@@ -54,7 +54,13 @@ def _allowed(model: type[BaseModel], loc: tuple) -> list[str] | None:
         if not args:
             return None
         current = args[-1]
-    return sorted(current.model_fields)
+    return sorted(_fields(current))
+
+
+def _fields(model: type[BaseModel]) -> dict:
+    """A model's fields by the key written in the file (a field named ``while_`` is written
+    ``while``, a Python keyword)."""
+    return {field.alias or name: field for name, field in model.model_fields.items()}
 
 
 def problems(exc: ValidationError, source, model: type[BaseModel]) -> list[str]:

@@ -1,0 +1,199 @@
+"""Captions that stay true: a keyframe's ``while`` states what its caption claims about the view,
+and `exhibit check-config` plays the timeline and reports where the claim is false, or where a
+caption is shown too briefly to be read."""
+
+import shutil
+from pathlib import Path
+
+import pytest
+
+from exhibit.cli import main
+from exhibit.errors import ConfigError
+from exhibit.kiosk.attract import load_playlist, load_timeline
+from exhibit.kiosk.captions import caption_problems, reading_time
+
+CONFIGS = Path(__file__).resolve().parents[2] / "configs"
+
+#: The shipped 01-hypersphere.toml as it was (issue 14), with the conditions its captions state:
+#: from t = 28 to 36 "At distance 2" stays up while the sensor goes back out to infinity.
+OLD_HYPERSPHERE = """
+scene = "hopf"
+preset = "figure-6"
+[[keyframe]]
+t = 0
+sensor_distance = "inf"
+caption = "Three doughnuts on the surface of a 4D ball, seen from far away."
+while = { sensor_distance = "inf" }
+[[keyframe]]
+t = 6
+angles = [0, 0, 0, 20, 0, 0]
+caption = "Now the 4D viewpoint moves closer."
+while = { sensor_motion = "closer" }
+[[keyframe]]
+t = 14
+sensor_distance = 3
+caption = "At distance 3 (Figure 7) the green doughnut has grown."
+while = { sensor_distance = [2.9, 3.1] }
+[[keyframe]]
+t = 22
+sensor_distance = 2
+caption = "At distance 2 (Figure 8) green fills the world."
+while = { sensor_distance = [1.9, 2.1] }
+ease = "hold"
+[[keyframe]]
+t = 28
+sensor_distance = 2
+[[keyframe]]
+t = 36
+sensor_distance = "inf"
+angles = [30, -20, -15, 0, 0, 0]
+caption = "Turning in 4D."
+"""
+
+
+def write(tmp_path, text, name="t.toml"):
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def test_the_old_hypersphere_timeline_is_caught_where_the_caption_lies(tmp_path):
+    problems = caption_problems(load_timeline(write(tmp_path, OLD_HYPERSPHERE)))
+    path = tmp_path / "t.toml"
+    assert problems == [
+        # the last caption is shown for an instant only
+        f"{path}: keyframe[5].caption: shown for 0.0 s (the timeline ends here), too short to "
+        "read: 3 words need 3.0 s (0.4 s a word, at least 3 s)",
+        # "At distance 3" while the sensor moves on to 2
+        f"{path}: keyframe[2].while.sensor_distance: the caption is shown at t = 15.3..22.0 s "
+        "with the sensor at 2..2.9, outside [2.9, 3.1]",
+        # "At distance 2" while the sensor moves back out: the bug the issue reports
+        f"{path}: keyframe[3].while.sensor_distance: the caption is shown at t = 29.1..36.0 s "
+        "with the sensor at 2.11..inf, outside [1.9, 2.1]",
+    ]
+
+
+def test_motion_conditions(tmp_path):
+    text = """
+scene = "hopf"
+[[keyframe]]
+t = 0
+sensor_distance = "inf"
+caption = "It moves closer."
+while = { sensor_motion = "%s" }
+[[keyframe]]
+t = 5
+sensor_distance = 3
+caption = "It stays."
+while = { sensor_motion = "%s" }
+[[keyframe]]
+t = 10
+"""
+    assert caption_problems(load_timeline(write(tmp_path, text % ("closer", "still")))) == []
+    path = write(tmp_path, text % ("farther", "closer"))
+    assert caption_problems(load_timeline(path)) == [
+        f"{path}: keyframe[0].while.sensor_motion: the caption says 'farther', but the sensor "
+        "moves closer at t = 0.0..5.0 s",
+        f"{path}: keyframe[1].while.sensor_motion: the caption says the sensor moves closer, but "
+        "it stays at 3 all the while (t = 5..10 s)"]
+    path = write(tmp_path, text.replace("t = 10", "t = 10\nsensor_distance = 2")
+                 % ("closer", "still"))
+    assert caption_problems(load_timeline(path)) == [
+        f"{path}: keyframe[1].while.sensor_motion: the caption says 'still', but the sensor "
+        "moves at t = 5.0..10.0 s"]
+
+
+def test_a_condition_belongs_to_its_caption(tmp_path):
+    """A keyframe that keeps the caption keeps its condition; a new caption without ``while``
+    states none; ``while`` alone restates the condition of the caption shown."""
+    text = """
+scene = "hopf"
+[[keyframe]]
+t = 0
+sensor_distance = 3
+caption = "At distance 3."
+while = { sensor_distance = [2.9, 3.1] }
+[[keyframe]]
+t = 5
+[[keyframe]]
+t = 10
+sensor_distance = 2
+caption = "Anything."
+[[keyframe]]
+t = 15
+while = { sensor_distance = [1, 1.5] }
+[[keyframe]]
+t = 20
+"""
+    path = write(tmp_path, text)
+    timeline = load_timeline(path)
+    assert [k.caption_from for k in timeline.keyframes] == [0, 0, 2, 3, 3]
+    problems = caption_problems(timeline)
+    # keyframe[0]'s condition holds over 0..5 and, carried, over 5..10, where the sensor moves
+    assert problems[0].startswith(f"{path}: keyframe[0].while.sensor_distance: the caption is "
+                                  "shown at t = 5.")
+    assert problems[1] == (f"{path}: keyframe[3].while.sensor_distance: the caption is shown at "
+                           "t = 15.0..20.0 s with the sensor at 2, outside [1, 1.5]")
+    assert len(problems) == 2
+
+
+@pytest.mark.parametrize("condition, key, reason", [
+    ("{}", "keyframe[0].while", "states no condition: give sensor_distance or sensor_motion"),
+    ("{ sensor_distance = [3, 2] }", "keyframe[0].while.sensor_distance",
+     'must be "inf" or [low, high] distances with low <= high'),
+    ("{ sensor_distance = 2 }", "keyframe[0].while.sensor_distance", 'must be "inf" or [low'),
+    ("{ sensor_distance = [0, 2] }", "keyframe[0].while.sensor_distance",
+     "item 1 must lie in [0.05, 1e+06]"),
+    ("{ sensor_motion = \"nearer\" }", "keyframe[0].while.sensor_motion",
+     "must be 'closer', 'farther' or 'still'"),
+    ("{ sensor_distans = 2 }", "keyframe[0].while.sensor_distans",
+     "unknown key (allowed: sensor_distance, sensor_motion)"),
+    ("3", "keyframe[0].while", "must be a table"),
+])
+def test_bad_conditions_name_file_key_and_reason(tmp_path, condition, key, reason):
+    path = write(tmp_path, f'scene = "hopf"\n[[keyframe]]\nt = 0\nwhile = {condition}\n'
+                           '[[keyframe]]\nt = 5\n')
+    with pytest.raises(ConfigError) as info:
+        load_timeline(path)
+    assert any(p.startswith(f"{path}: {key}: ") and reason in p for p in info.value.problems), \
+        info.value.problems
+
+
+def test_unknown_keyframe_keys_list_while_as_written(tmp_path):
+    path = write(tmp_path, 'scene = "hopf"\n[[keyframe]]\nt = 0\nwhen = 1\n[[keyframe]]\nt = 5\n')
+    with pytest.raises(ConfigError) as info:
+        load_timeline(path)
+    assert "while" in info.value.problems[0] and "while_" not in info.value.problems[0]
+
+
+def test_reading_time():
+    assert reading_time("") == 0.0
+    assert reading_time("Closer still.") == 3.0
+    assert reading_time(" ".join(["word"] * 20)) == pytest.approx(8.0)
+
+
+def test_shipped_timelines_keep_their_captions_true():
+    timelines = load_playlist(CONFIGS / "attract")
+    assert [p for t in timelines for p in caption_problems(t)] == []
+    hopf = next(t for t in timelines if t.scene == "hopf")
+    # the captions that state a distance or a motion say so
+    stated = {k.caption: k.condition for k in hopf.keyframes if k.condition}
+    assert len(stated) >= 5
+    assert all(c.sensor_r or c.motion for c in stated.values())
+    for caption, condition in stated.items():
+        if "distance 2" in caption:
+            assert condition.sensor_distance == (1.9, 2.1)
+
+
+def test_check_config_reports_a_caption_that_lies(tmp_path, capsys):
+    tree = tmp_path / "configs"
+    shutil.copytree(CONFIGS, tree)
+    for old in (tree / "attract").glob("*.toml"):
+        old.unlink()
+    write(tree / "attract", OLD_HYPERSPHERE, "01-hypersphere.toml")
+    assert main(["check-config", str(tree / "kiosk.toml")]) == 2
+    out = capsys.readouterr().out.splitlines()
+    assert out[-1] == "3 problem(s) found."
+    assert any("01-hypersphere.toml: keyframe[3].while.sensor_distance: the caption is shown at "
+               "t = 29.1..36.0 s" in line for line in out)
+    assert main(["check-config"]) == 0  # the shipped timelines
