@@ -155,7 +155,7 @@ class FramePipeline:
                 source = smooth.texture
             self._pass("upscale", source, destination, size, options)
         if options.hud and hud is not None:
-            renderer.render_hud(gpu, view, hud, size, options.hud_drift)
+            renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text)
 
     def _pass(self, key: str, source, destination, size, options: RenderOptions) -> None:
         destination.use()

@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from exhibit.render.layout import TextSizes
+
 if TYPE_CHECKING:
     from exhibit.render.quality import Quality
 
@@ -47,6 +49,9 @@ class RenderOptions:
     #: A quality level (exhibit.render.quality) for a window to draw a whole kiosk frame at
     #: (offscreen scene, FXAA or MSAA, render scale); None: the direct path.
     quality: Quality | None = None
+    #: Text sizes as fractions of the screen height, and when a distance reads ∞
+    #: (exhibit.render.layout.TextSizes; the kiosk's [text] table).
+    text: TextSizes = TextSizes()
 
     def width_scale(self, height: int) -> float:
         if self.line_scale is not None:

@@ -9,7 +9,6 @@ Per frame only uniforms change, plus a few HUD instances and any text that chang
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import moderngl
@@ -19,9 +18,9 @@ from exhibit.geometry.pipeline import clip_transform
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import GpuMesh, upload
+from exhibit.render.hud import Hud
 from exhibit.render.options import RenderOptions
-from exhibit.render.text import (GlyphAtlas, TextCache, block_image, has_greek, line_height,
-                                 text_width, wrap)
+from exhibit.render.text import GlyphAtlas, TextCache
 from exhibit.surfaces.mesh import Mesh4D
 
 GL_CLIP_DISTANCE0 = 0x3000
@@ -29,12 +28,8 @@ GL_CLIP_DISTANCE1 = 0x3001
 #: NDC depth by which curves are pulled towards the viewer (surfaces are also pushed back by a
 #: slope-scaled polygon offset), so a curve lying on a surface is not half-buried in it.
 LINE_BIAS = 2e-4
-#: The paper's axis colours (Figures 6-8): x red, y orange, z green, w blue.
-AXIS_COLORS = ((0.9, 0.22, 0.18), (0.97, 0.6, 0.12), (0.25, 0.78, 0.3), (0.3, 0.5, 1.0))
 OVERLAY_FLOATS = 9  # a (2), b (2), rgba (4), width (1)
 GLYPH_FLOATS = 12   # rect (4), texel rect (4), rgba (4)
-#: The HUD's translucent panels.
-PANEL = (0.0, 0.0, 0.0, 0.45)
 #: Blending for everything drawn over the scene: straight alpha in, premultiplied out, so an
 #: offscreen scene cleared to transparent composites correctly over the background later.
 BLEND_OVER = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
@@ -113,8 +108,8 @@ class Renderer:
             for name in ("glyphs", "image")}
         self.text = TextCache(ctx)
         self.atlas = GlyphAtlas(ctx)
-        #: The title and caption panel: (key, texture, width, height), redrawn when they change.
-        self._block: tuple | None = None
+        #: The HUD's cached panels and layout (exhibit.render.hud).
+        self.hud = Hud(self)
         #: The last view's clip transform, so one frame computes it once for every pass.
         self._ct_key: tuple | None = None
         self._ct = None
@@ -442,132 +437,16 @@ class Renderer:
         rows.append((round(x), round(y), round(w), round(h), g.u + 0.5, g.v + 0.5, 1.0, 1.0,
                      *color))
 
-    def _title_block(self, hud: HudInfo, width: int, title_px: int, body_px: int, pad: int):
-        """The title and caption panel as one cached texture, rewrapped and redrawn only when
-        the words or the screen size change: (texture, width, height) or None."""
-        key = (hud.title, hud.caption, hud.note, width, title_px, body_px, pad)
-        if self._block is not None and self._block[0] == key:
-            return self._block[1:]
-        ink, dim = (0.96, 0.96, 0.93, 1.0), (0.78, 0.8, 0.84, 1.0)
-        lines = []
-        # The title wraps short of the gizmo in the top-right corner.
-        for line in wrap(hud.title, "bold", title_px, 0.62 * width):
-            lines.append((line, "bold", title_px, ink))
-        for paragraph in (hud.caption, hud.note):
-            for line in wrap(paragraph, "sans", body_px, 0.36 * width):
-                lines.append((line, "sans", body_px, dim))
-        if self._block is not None and self._block[1] is not None:
-            self._block[1].release()
-        if not lines:
-            self._block = (key, None, 0, 0)
-            return self._block[1:]
-        image = block_image(lines, pad, PANEL)
-        h, w = image.shape[:2]
-        texture = self.ctx.texture((w, h), 4, np.ascontiguousarray(image).tobytes(), alignment=1)
-        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        texture.repeat_x = texture.repeat_y = False
-        self._block = (key, texture, w, h)
-        return self._block[1:]
-
     def render_hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size,
-                   drift: tuple[float, float] = (0.0, 0.0)) -> None:
-        """The HUD over the current framebuffer, at its full resolution, in three draw calls:
-        the cached title block, the gizmo's lines and discs, and every other panel and line of
-        text as glyph-atlas instances."""
-        width, height = size
-        self.ctx.viewport = (0, 0, width, height)
-        self.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        self.ctx.enable(moderngl.BLEND)
-        dx, dy = drift
-        viewport = (float(width), float(height))
-        margin = max(4, round(0.022 * height))
-        title_px = max(10, round(0.036 * height))
-        body_px = max(9, round(0.021 * height))
-        ink = (0.96, 0.96, 0.93, 1.0)
-        pad = max(3, body_px // 2)
-
-        # Title and caption, top left, on a translucent panel: one cached texture.
-        texture, block_w, block_h = self._title_block(hud, width, title_px, body_px, pad)
-        if texture is not None:
-            self._quads("image", texture, (block_w, block_h),
-                        [(round(margin + dx), round(margin + dy), block_w, block_h,
-                          0, 0, block_w, block_h, 1.0, 1.0, 1.0, 1.0)], viewport)
-
-        # Angles and sensor distance, bottom left, in a fixed-width font so digits do not jitter.
-        rows: list[tuple] = []
-        theta = [f"θ{chr(0x2080 + i)}" if has_greek() else f"t{i}" for i in range(1, 7)]
-        angles = "  ".join(f"{t} {math.degrees(a):.1f}°" for t, a in zip(theta, view.angles))
-        if view.sensor_r == 0:
-            sensor = "sensor distance " + ("∞" if has_greek() else "inf") + "  (r = 0)"
-        else:
-            sensor = f"sensor distance {view.sensor_distance:.2f}  (r = {view.sensor_r:.3f})"
-        eye = ("eye " + ("∞" if has_greek() else "inf") if view.eye_r == 0
-               else f"eye {view.eye_distance:.1f}, fov {view.field_of_view:.0f}°")
-        status = [angles, f"{sensor}   {eye}"]
-        mono_h = line_height("mono", body_px)
-        advance = text_width("0", "mono", body_px)
-        block_w = max(len(t) for t in status) * advance + 2 + 2 * pad
-        block_h = mono_h * len(status) + 2 * pad
-        y0 = height - margin - block_h - dy
-        self._panel_row(margin + dx, y0, block_w, block_h, PANEL, rows)
-        for i, text in enumerate(status):
-            self._glyph_rows(text, "mono", body_px, margin + dx + pad, y0 + pad + i * mono_h,
-                             ink, rows)
-
-        self._gizmo(view, hud.axes, size, margin, body_px, rows)
-        self._marker_labels(gpu, view, size, body_px, rows)
-        self._quads("glyphs", self.atlas.texture, (self.atlas.size, self.atlas.size), rows,
-                    viewport)
-        self.ctx.disable(moderngl.BLEND)
-
-    def _gizmo(self, view: ViewState, axes, size, margin: int, body_px: int,
-               rows: list) -> None:
-        """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
-        pointing towards the sensor (out of the 3D image, into the 4th dimension). Its lines are
-        drawn now; its labels go to ``rows``."""
-        width, height = size
-        viewport = (float(width), float(height))
-        radius = max(14.0, 0.09 * height)
-        cx = width - margin - radius - body_px
-        cy = margin + radius + body_px
-        rot = view.rotation()
-        items = [((cx, cy), (cx, cy), PANEL, 2 * (radius + body_px))]
-        for i in np.argsort(rot[2]):  # back to front along the eye's z
-            v = rot[:, i]
-            tip = (cx + 0.78 * radius * v[0], cy - 0.78 * radius * v[1])
-            rgba = (*AXIS_COLORS[i], 1.0)
-            items.append(((cx, cy), tip, rgba, max(1.5, 0.018 * radius * 2)))
-            items.append((tip, tip, rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * v[3]))))
-            label = axes[i]
-            lw = text_width(label, "bold", body_px)
-            lx = cx + 0.78 * radius * v[0] + (0.35 * body_px if v[0] >= 0 else -lw - 0.35 * body_px)
-            ly = cy - 0.78 * radius * v[1] - 0.6 * body_px
-            self._glyph_rows(label, "bold", body_px, lx, ly, rgba, rows)
-        self._overlay(items, viewport)
-        caption = "4D axes"
-        small = max(8, body_px - 2)
-        cw = text_width(caption, "sans", small)
-        self._glyph_rows(caption, "sans", small, cx - cw / 2, cy + radius + 0.1 * body_px,
-                         (0.75, 0.77, 0.8, 1.0), rows)
-
-    def _marker_labels(self, gpu: GpuMesh, view: ViewState, size, body_px: int,
-                       rows: list) -> None:
-        markers = [m for m in gpu.mesh.markers if m.label]
-        if not markers:
-            return
-        width, height = size
-        ct = self.clip_transform(view, size)
-        pixels, ok = ct.to_pixels(np.array([m.position for m in markers]), width, height)
-        for m, (x, y), visible in zip(markers, pixels, ok):
-            if visible:
-                self._glyph_rows(m.label, "bold", body_px, x + 0.6 * body_px, y - 1.3 * body_px,
-                                 (*m.material.color, 1.0), rows)
+                   drift: tuple[float, float] = (0.0, 0.0), sizes=None) -> None:
+        """The HUD over the current framebuffer at its full resolution (exhibit.render.hud);
+        ``sizes``: exhibit.render.layout.TextSizes (None: the defaults)."""
+        self.hud.draw(gpu, view, hud, size, drift, sizes)
 
     def release(self) -> None:
         self.text.release()
         self.atlas.release()
-        if self._block is not None and self._block[1] is not None:
-            self._block[1].release()
+        self.hud.release()
         for vao in [*self._empty.values(), self._overlay_vao, *self._glyph_vaos.values()]:
             vao.release()
         self._overlay_buffer.release()

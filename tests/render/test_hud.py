@@ -18,7 +18,7 @@ def test_numbers_cost_no_new_texture(gl):
     hud = HudInfo(title="Hopf", caption="three tori")
     every_digit = view.replace(angles=tuple(np.radians([123.4, 56.7, 89.1, -1.0, 0.0, 0.0])))
     gl.image(gpu, every_digit, SIZE, RenderOptions(background=BLACK), hud, samples=0)
-    block = gl.renderer._block[1]
+    block = gl.renderer.hud.block[1]
     glyphs = len(gl.renderer.atlas._glyphs)
     textures = len(gl.renderer.text._items)
     pictures = []
@@ -27,7 +27,7 @@ def test_numbers_cost_no_new_texture(gl):
         pictures.append(gl.image(gpu, turned, SIZE, RenderOptions(background=BLACK), hud,
                                  samples=0))
     gpu.release()
-    assert gl.renderer._block[1] is block, "the title panel was redrawn"
+    assert gl.renderer.hud.block[1] is block, "the title panel was redrawn"
     assert len(gl.renderer.atlas._glyphs) == glyphs
     assert len(gl.renderer.text._items) == textures
     assert not np.array_equal(pictures[0], pictures[1])  # the numbers did change

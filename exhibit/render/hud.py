@@ -1,0 +1,230 @@
+"""The HUD a visitor reads: the title and caption panel, the numbers, the 4D axes gizmo and the
+marker labels, drawn over the finished picture at the screen's full resolution.
+
+Where everything goes comes from exhibit.render.layout (pure, shared with the framing), so the
+panels drawn here are exactly the ones the picture was fitted around. Text is sized there for a
+room (cap heights as a fraction of the screen height, RenderOptions.text).
+
+Marker labels ("first contact, t = ...") are what a caption points at, so they must always be
+readable: the marker is drawn again here, above the surfaces, with a dark halo (a hollow ring
+when the point itself is behind a sheet, exhibit.geometry.occlusion); its label sits in the first
+of a few places around it that is on the screen and off every panel and other label, on a halo
+of its own, with a leader line to the point whenever it is not right beside it.
+
+Three draw calls, as before: the cached title block, the overlay capsules (gizmo, marker discs,
+leader lines) and every other panel and glyph from the atlas.
+"""
+
+from __future__ import annotations
+
+import math
+
+import moderngl
+import numpy as np
+
+from exhibit.geometry.occlusion import hidden
+from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles, hud_layout,
+                                   status_lines)
+from exhibit.render.text import block_image, has_greek, line_height, text_width
+
+#: The HUD's translucent panels.
+PANEL = (0.0, 0.0, 0.0, 0.45)
+INK = (0.96, 0.96, 0.93, 1.0)
+DIM = (0.8, 0.82, 0.86, 1.0)
+HALO = (0.02, 0.02, 0.03, 0.85)
+#: The paper's axis colours (Figures 6-8): x red, y orange, z green, w blue.
+AXIS_COLORS = ((0.9, 0.22, 0.18), (0.97, 0.6, 0.12), (0.25, 0.78, 0.3), (0.3, 0.5, 1.0))
+
+
+class Hud:
+    """HUD state of one renderer: the cached title block and the latest layout."""
+
+    def __init__(self, renderer):
+        self.renderer = renderer
+        #: (key, texture, width, height) of the title and caption panel.
+        self.block: tuple | None = None
+        self._layout_key: tuple | None = None
+        self.layout: HudLayout | None = None
+        #: The latest labels drawn: (marker label, Rect, point (x, y), hidden), for checks.
+        self.labels: list[tuple[str, Rect, tuple[float, float], bool]] = []
+
+    def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
+        key = (tuple(size), hud.title, hud.caption, hud.note, sizes)
+        if key != self._layout_key:
+            self.layout = hud_layout(size, hud.title, (hud.caption, hud.note), sizes)
+            self._layout_key = key
+        return self.layout
+
+    def _title_block(self, layout: HudLayout):
+        """The title and caption panel as one cached texture, rewrapped and redrawn only when
+        the words or the screen size change: (texture, width, height) or None."""
+        key = (layout.title_lines, layout.caption_lines, layout.title_px, layout.body_px,
+               layout.pad)
+        if self.block is not None and self.block[0] == key:
+            return self.block[1:]
+        lines = [(t, "bold", layout.title_px, INK) for t in layout.title_lines]
+        lines += [(t, "sans", layout.body_px, DIM) for t in layout.caption_lines]
+        if self.block is not None and self.block[1] is not None:
+            self.block[1].release()
+        if not lines:
+            self.block = (key, None, 0, 0)
+            return self.block[1:]
+        image = block_image(lines, layout.pad, PANEL)
+        h, w = image.shape[:2]
+        ctx = self.renderer.ctx
+        texture = ctx.texture((w, h), 4, np.ascontiguousarray(image).tobytes(), alignment=1)
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.repeat_x = texture.repeat_y = False
+        self.block = (key, texture, w, h)
+        return self.block[1:]
+
+    def draw(self, gpu, view, hud, size, drift=(0.0, 0.0), sizes: TextSizes | None = None):
+        r = self.renderer
+        sizes = sizes or TextSizes()
+        width, height = size
+        r.ctx.viewport = (0, 0, width, height)
+        r.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        r.ctx.enable(moderngl.BLEND)
+        dx, dy = drift
+        viewport = (float(width), float(height))
+        layout = self.layout_for(size, hud, sizes)
+        body, pad = layout.body_px, layout.pad
+
+        texture, block_w, block_h = self._title_block(layout)
+        if texture is not None:
+            x, y = layout.title_block.x0, layout.title_block.y0
+            r._quads("image", texture, (block_w, block_h),
+                     [(round(x + dx), round(y + dy), block_w, block_h, 0, 0, block_w, block_h,
+                       1.0, 1.0, 1.0, 1.0)], viewport)
+
+        rows: list[tuple] = []
+        status = layout.status_block
+        r._panel_row(status.x0 + dx, status.y0 - dy, status.width, status.height, PANEL, rows)
+        mono_h = line_height("mono", body)
+        lines = status_lines(view, sizes.infinity_beyond)
+        if not has_greek():
+            lines = [t.replace("θ", "t").replace("∞", "inf").replace("°", "") for t in lines]
+        for i, text in enumerate(lines):
+            r._glyph_rows(text, "mono", body, status.x0 + dx + pad,
+                          status.y0 - dy + pad + i * mono_h, INK, rows)
+
+        items = self._gizmo(view, hud.axes, layout, rows)
+        items += self._marker_labels(gpu, view, size, layout, rows)
+        r._overlay(items, viewport)
+        r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
+        r.ctx.disable(moderngl.BLEND)
+
+    def _gizmo(self, view, axes, layout: HudLayout, rows: list) -> list[tuple]:
+        """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
+        pointing towards the sensor (out of the 3D image, into the 4th dimension). Returns its
+        capsules; its labels go to ``rows``."""
+        r = self.renderer
+        body = layout.body_px
+        radius = layout.gizmo_radius
+        cx, cy = layout.gizmo_center
+        rot = view.rotation()
+        items = [((cx, cy), (cx, cy), PANEL, 2 * (radius + body))]
+        for i in np.argsort(rot[2]):  # back to front along the eye's z
+            v = rot[:, i]
+            tip = (cx + 0.78 * radius * v[0], cy - 0.78 * radius * v[1])
+            rgba = (*AXIS_COLORS[i], 1.0)
+            items.append(((cx, cy), tip, rgba, max(1.5, 0.036 * radius)))
+            items.append((tip, tip, rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * v[3]))))
+            label = axes[i]
+            lw = text_width(label, "bold", body)
+            lx = tip[0] + (0.35 * body if v[0] >= 0 else -lw - 0.35 * body)
+            ly = tip[1] - 0.6 * body
+            r._glyph_rows(label, "bold", body, lx, ly, rgba, rows)
+        caption = "4D axes"
+        small = max(8, body - 2)
+        cw = text_width(caption, "sans", small)
+        r._glyph_rows(caption, "sans", small, cx - cw / 2, cy + radius + 0.1 * body,
+                      (0.75, 0.77, 0.8, 1.0), rows)
+        return items
+
+    def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list) -> list[tuple]:
+        """Labelled markers above the surfaces, labels placed on screen and off the panels."""
+        self.labels = []
+        markers = [m for m in gpu.mesh.markers if m.label]
+        if not markers:
+            return []
+        r = self.renderer
+        width, height = size
+        ct = r.clip_transform(view, size)
+        positions = np.array([m.position for m in markers])
+        pixels, ok = ct.to_pixels(positions, width, height)
+        behind = hidden(positions, gpu.mesh.surfaces, ct)
+        body = layout.body_px
+        scale = height / 720.0
+        taken = [p.grow(0.3 * body) for p in layout.panels]
+        items: list[tuple] = []
+        for m, (x, y), visible, covered in zip(markers, pixels, ok, behind):
+            if not visible:
+                continue
+            color = (*m.material.color, 1.0)
+            disc = max(9.0, 11.0 * scale)
+            label = place_label(m.label, (x, y), body, layout, taken)
+            taken.append(label.grow(0.3 * body))
+            # The leader: from the point to the label's nearest edge, when not right beside it.
+            nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
+            if covered or math.hypot(nx - x, ny - y) > 0.9 * body:
+                items.append(((x, y), (nx, ny), HALO, max(4.0, 5.0 * scale)))
+                items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
+            items.append(((x, y), (x, y), HALO, disc + max(4.0, 4.0 * scale)))
+            items.append(((x, y), (x, y), color, disc))
+            if covered:   # behind a sheet: a ring, the halo showing through its middle
+                items.append(((x, y), (x, y), HALO, 0.5 * disc))
+            self._halo_text(m.label, "bold", body, label.x0 + 0.25 * body, label.y0, color,
+                            rows)
+            self.labels.append((m.label, label, (float(x), float(y)), bool(covered)))
+        return items
+
+    def _halo_text(self, text, style, px, x, y, color, rows) -> None:
+        """Text on a dark halo: the glyphs drawn dark around it first, then in colour."""
+        r = self.renderer
+        k = max(1, round(px / 14))
+        for ox, oy in ((-k, 0), (k, 0), (0, -k), (0, k), (-k, -k), (k, k), (-k, k), (k, -k)):
+            r._glyph_rows(text, style, px, x + ox, y + oy, HALO, rows)
+        r._glyph_rows(text, style, px, x, y, color, rows)
+
+    def release(self) -> None:
+        if self.block is not None and self.block[1] is not None:
+            self.block[1].release()
+        self.block = None
+
+
+def place_label(text: str, point: tuple[float, float], px: int, layout: HudLayout,
+                taken: list[Rect]) -> Rect:
+    """Where a marker's label goes: the first of a few places around the point, nearest first,
+    that lies on the screen (inside the margin) and clear of every rectangle in ``taken``
+    (panels, other labels); else the place in the free area nearest the point."""
+    width, height = layout.size
+    w = text_width(text, "bold", px) + 0.5 * px
+    h = line_height("bold", px)
+    x, y = point
+    screen = Rect(layout.margin, layout.margin, width - layout.margin, height - layout.margin)
+    candidates = []
+    for d in (0.6, 2.0, 4.0, 7.0):
+        gap = d * px
+        candidates += [(x + gap, y - h - 0.3 * gap), (x + gap, y + 0.3 * gap),
+                       (x - gap - w, y - h - 0.3 * gap), (x - gap - w, y + 0.3 * gap),
+                       (x - w / 2, y - h - gap), (x - w / 2, y + gap)]
+    for cx, cy in candidates:
+        rect = Rect(cx, cy, cx + w, cy + h)
+        if screen.contains(rect) and not any(rect.overlaps(t) for t in taken):
+            return rect
+    # Everything near is taken: the nearest spot of the largest free rectangles.
+    best, best_d = None, math.inf
+    for area in free_rectangles(layout.size, taken, layout.margin / 2):
+        if area.width < w or area.height < h:
+            continue
+        cx = min(max(x - w / 2, area.x0), area.x1 - w)
+        cy = min(max(y - h / 2, area.y0), area.y1 - h)
+        d = math.hypot(cx + w / 2 - x, cy + h / 2 - y)
+        if d < best_d:
+            best, best_d = Rect(cx, cy, cx + w, cy + h), d
+    if best is not None:
+        return best
+    cx = min(max(x, screen.x0), screen.x1 - w)
+    cy = min(max(y, screen.y0), screen.y1 - h)
+    return Rect(cx, cy, cx + w, cy + h)
