@@ -10,6 +10,7 @@ from PIL import Image
 from exhibit import scenes
 from exhibit.cli import main
 from exhibit.render import HudInfo, RenderOptions
+from exhibit.render.layout import hud_layout
 from exhibit.render.text import rasterise
 from exhibit.surfaces.mesh import Mesh4D
 
@@ -76,8 +77,9 @@ def test_hud_text_is_placed_texel_for_pixel(gl):
     gpu.release()
     diff = np.abs(with_title.astype(int) - without.astype(int)).max(axis=-1)
     ys, xs = np.nonzero(diff)
-    glyphs = rasterise("Hopf", "bold", max(10, round(0.036 * size[1])))
-    coverage = glyphs[glyphs.any(axis=1)][:, glyphs.any(axis=0)]
+    glyphs = rasterise("Hopf", "bold", hud_layout(size, "Hopf").title_px)
+    gy, gx = np.nonzero(glyphs)   # the ink's bounding box (letters may have gaps between)
+    coverage = glyphs[gy.min():gy.max() + 1, gx.min():gx.max() + 1]
     drawn = diff[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
     assert drawn.shape == coverage.shape
     # The title colour is near white on a 45% black panel: coverage maps monotonically.
