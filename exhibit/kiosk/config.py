@@ -71,6 +71,37 @@ class BurnIn(Model):
     drift_period_s: Number(10, 86400) = 600.0
 
 
+#: The smallest caption cap height, a fraction of the screen height: exhibit.render.layout's,
+#: repeated so the config layer imports no GL code (a test checks the two agree).
+MIN_CAPTION_CAP = 1.0 / 45.0
+
+
+@dataclass(frozen=True)
+class TextConfig:
+    """[text], checked: exhibit.render.layout.TextSizes's fields."""
+
+    caption_cap: float = 0.024
+    title_cap: float = 0.034
+    infinity_beyond: float = 1000.0
+
+
+def _caption_cap(value: Any) -> float:
+    """A caption cap height: a fraction of the screen height, at least 1/45 (legible from a
+    few metres: 24 px capitals at 1080p) and at most 0.1."""
+    try:
+        return number_check(MIN_CAPTION_CAP, 0.1)(value)
+    except PydanticCustomError:
+        raise fail("the caption's capital letters must be a fraction of the screen height "
+                   "from 1/45 (0.0222: 24 px at 1080p, legible from a few metres) to 0.1",
+                   value) from None
+
+
+class Text_(Model):
+    caption_cap_height: Annotated[float, PlainValidator(_caption_cap)] = 0.024
+    title_cap_height: Number(MIN_CAPTION_CAP, 0.15) = 0.034
+    infinity_beyond: Number(1, 1e6) = 1000.0
+
+
 class Maintenance(Model):
     quit_keys: QuitKeys = ()
 
@@ -154,6 +185,7 @@ class KioskFile(Model):
     burn_in: BurnIn = BurnIn()
     maintenance: Maintenance = Maintenance()
     quality: QualitySection = QualitySection()
+    text: Text_ = Text_()
 
 
 @dataclass(frozen=True)
@@ -176,6 +208,8 @@ class KioskConfig:
     drift_px: float = 12.0
     drift_period_s: float = 600.0
     quit_keys: tuple[str, ...] = ()
+    #: [text]: the HUD's text sizes (fractions of the screen height) and when distances read ∞
+    text: TextConfig = TextConfig()
     #: [quality]: what the frame governor may change, and what is pinned
     quality: QualityConfig = QualityConfig()
     #: the site file layered over the shipped defaults (None: the defaults alone)
@@ -287,6 +321,14 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
                       quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality))
+        t = spec.text
+        if t.title_cap_height <= t.caption_cap_height:
+            problems.append(f"{where('text', 'title_cap_height')}: text.title_cap_height: must be "
+                            f"larger than text.caption_cap_height ({t.caption_cap_height:g}), "
+                            f"got {t.title_cap_height:g}")
+        else:
+            values["text"] = TextConfig(t.caption_cap_height, t.title_cap_height,
+                                       t.infinity_beyond)
 
     if check_linked and spec is not None:
         if values["devices_config"] is not None:

@@ -54,6 +54,11 @@ KIOSK = [
     ('lowest = "auto" ', 'lowest = 3 ', "quality.lowest", "must be one of"),
     ('antialiasing = "auto" ', 'antialiasing = "smaa" ', "quality.antialiasing",
      'one of "auto", "msaa", "fxaa", "none"'),
+    ("caption_cap_height = 0.024", "caption_cap_height = 0.02", "text.caption_cap_height",
+     "from 1/45 (0.0222: 24 px at 1080p"),
+    ("title_cap_height = 0.034", "title_cap_height = 0.023", "text.title_cap_height",
+     "must be larger than text.caption_cap_height (0.024), got 0.023"),
+    ("infinity_beyond = 1000", "infinity_beyond = 0", "text.infinity_beyond", "must lie in"),
     ('mesh = "auto" ', 'mesh = "tiny" ', "quality.mesh", "must be one of"),
     ('effects = "auto" ', 'effects = "none" ', "quality.effects", "must be one of"),
     ('render_scale = "auto" ', 'render_scale = 0.1 ', "quality.render_scale",
@@ -237,3 +242,18 @@ def test_quality_levels_are_the_renderers():
     from exhibit.kiosk.config import MESH_LEVELS, QUALITY_LEVELS
     from exhibit.render.quality import LEVEL_NAMES, MESH_FACTORS
     assert QUALITY_LEVELS == LEVEL_NAMES and len(MESH_LEVELS) == len(MESH_FACTORS)
+
+
+def test_text_sizes_reach_the_renderer(tmp_path):
+    """[text] in a site file changes the sizes the HUD draws; the config layer's floor is the
+    layout's (1/45 of the screen height), and its defaults are the renderer's."""
+    from exhibit.kiosk.config import MIN_CAPTION_CAP, TextConfig
+    from exhibit.render import layout
+    assert MIN_CAPTION_CAP == layout.MIN_CAPTION_CAP
+    defaults = layout.TextSizes()
+    assert TextConfig() == TextConfig(defaults.caption_cap, defaults.title_cap,
+                                      defaults.infinity_beyond)
+    site = tmp_path / "site.toml"
+    site.write_text("[text]\ncaption_cap_height = 0.03\ntitle_cap_height = 0.05\n")
+    config = load_kiosk_config(site, check_linked=False)
+    assert config.text == TextConfig(0.03, 0.05, 1000.0)
