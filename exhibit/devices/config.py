@@ -29,7 +29,7 @@ from pathlib import Path
 from typing import Any, Literal
 
 from exhibit.devices.base import DeviceConfigError, DeviceError, Kind
-from exhibit.devices.mapping import PARAMS, Binding, MappingConfig, ParamLimits
+from exhibit.devices.mapping import ACTIONS, PARAMS, Binding, MappingConfig, ParamLimits
 from exhibit.devices.url import backend_for_url
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
@@ -74,7 +74,7 @@ class BindSpec(Model):
     dead_zone: Number(0.0, 0.95) = 0.0
     curve: Number(0.2, 5.0) = 1.0
     invert: bool = False
-    action: Literal["home"] | None = None
+    action: Literal[ACTIONS] | None = None
 
 
 class MappingSpec(Model):
@@ -109,26 +109,30 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
         return problem(f"{where}.input", "expected 'axis N', 'delta N' or 'button N' (N from 1 "
                                          f"to 256), got {spec.input!r}")
     kind, index = _INPUTS[words[0]], int(words[1]) - 1
-    if kind is Kind.BUTTON:
-        if spec.action != "home" or spec.param is not None:
-            return problem(where, "a button takes action = \"home\" (no param)")
-        return Binding(spec.device, kind, index, action="home")
+    if kind is Kind.BUTTON and (spec.action is None) == (spec.param is None):
+        return problem(where, "a button takes either action = \"home\" or \"next-scene\", or a "
+                              "param it moves at rate while held")
+    if kind is Kind.BUTTON and spec.action is not None:
+        return Binding(spec.device, kind, index, action=spec.action)
     if spec.action is not None:
         return problem(f"{where}.action", "only buttons have actions")
     if spec.param is None:
         return problem(f"{where}.param", "missing (theta1..theta6 or sensor)")
     unit = "sensor" if spec.param == "sensor" else "angle"
-    if kind is Kind.REL:
-        for key in ("rate", "dead_zone", "curve"):
+    if kind is not Kind.ABS:
+        for key in ("dead_zone", "curve") + (("rate",) if kind is Kind.REL else ()):
             if key in spec.model_fields_set:
-                return problem(f"{where}.{key}", f"only for axes; a {words[0]} takes step")
+                return problem(f"{where}.{key}", f"only for axes; a {words[0]} takes "
+                                                 f"{'step' if kind is Kind.REL else 'rate'}")
+    if kind is Kind.REL:
         step = spec.step if spec.step is not None else (5.0 if unit == "angle" else 0.025)
         if abs(step) > STEP_LIMITS[unit]:
             return problem(f"{where}.step", f"must lie in [-{STEP_LIMITS[unit]:g}, "
                                             f"{STEP_LIMITS[unit]:g}] for {spec.param}, got {step}")
         return Binding(spec.device, kind, index, spec.param, step=step, invert=spec.invert)
     if spec.step is not None:
-        return problem(f"{where}.step", "only for deltas; an axis takes rate")
+        held = "an axis" if kind is Kind.ABS else "a button"
+        return problem(f"{where}.step", f"only for deltas; {held} takes rate")
     rate = spec.rate if spec.rate is not None else (90.0 if unit == "angle" else 0.25)
     if rate > RATE_LIMITS[unit]:
         return problem(f"{where}.rate", f"must lie in [0, {RATE_LIMITS[unit]:g}] for "

@@ -7,7 +7,11 @@ idle logic treat them alike. Key names are lower-case (GLFW's key names: "q", "s
 
 Default keys: seven axes, each a pair of keys (+ / -), held keys give full deflection:
 ``q/a w/s e/d r/f t/g y/h`` -> axes 1..6, ``u/j`` -> axis 7; mouse drag -> delta 1 (x) and
-delta 2 (y) in pixels; scroll wheel -> delta 3 in clicks; space -> button 1.
+delta 2 (y) in pixels; scroll wheel -> delta 3 in clicks; space -> button 1, n -> button 2 (the
+shipped mapping: home and next scene).
+
+:func:`key_name` is the window side's half: a GLFW key code to the name used here, so the kiosk
+and the staff viewer (`exhibit render --window`) read the same keys the same way.
 """
 
 from __future__ import annotations
@@ -17,12 +21,28 @@ from dataclasses import dataclass, field
 
 from exhibit.devices.base import Backend, Capabilities, Event, Kind, State
 
-__all__ = ["KeyboardBackend", "DEFAULT_KEYS"]
+__all__ = ["KeyboardBackend", "DEFAULT_KEYS", "BUTTON_KEYS", "key_name"]
 
 #: key -> (axis, direction)
 DEFAULT_KEYS = {k: (i, d) for i, pair in enumerate(("qa", "ws", "ed", "rf", "tg", "yh", "uj"))
                 for k, d in zip(pair, (1.0, -1.0))}
-BUTTON_KEYS = {"space": 0}
+BUTTON_KEYS = {"space": 0, "n": 1}
+#: GLFW key names for keys that have none of their own (glfw.get_key_name gives None for them).
+SPECIAL_KEYS = {"SPACE": "space", "ESCAPE": "escape", "UP": "up", "DOWN": "down",
+                "LEFT": "left", "RIGHT": "right"}
+
+
+def key_name(glfw, key: int) -> str | None:
+    """The name of GLFW key code ``key`` as :meth:`KeyboardBackend.key` takes it (the
+    layout's printable name, else a special key's), or None for a key with neither. ``glfw``
+    is the module, passed in: devices do not import the window system."""
+    name = glfw.get_key_name(key, 0)
+    if name:
+        return name.lower()
+    for special, text in SPECIAL_KEYS.items():
+        if key == getattr(glfw, f"KEY_{special}", None):
+            return text
+    return None
 
 
 @dataclass

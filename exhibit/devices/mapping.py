@@ -9,11 +9,17 @@ Which input drives which parameter is configuration (a list of bindings, see
   sensitivity curve ``|x| ** curve`` (1 = linear, 2 = fine control near rest). The held
   deflection is integrated over the time between event stamps (the controller's own sampling
   instants) and up to ``now``;
+- a held button bound to a parameter is a rate too (full deflection while held): the controller's
+  sensor buttons, a zoom rocker;
 - inversion per binding; several devices and bindings may drive one parameter at once;
 - angles wrap to (-180°, 180°] unless a parameter has limits;
 - the sensor moves in r = 1/d: r = 0 is the sensor at infinity (orthographic), a normal value
   that a knob reaches and rests on; r never goes below 0 (no "beyond infinity") nor above
   1 / ``sensor_min_distance``.
+
+Buttons may also do an action: ``home`` (every parameter back to its home value) or
+``next-scene`` (the kiosk moves on: :meth:`Mapper.switches_scene`). A button with no binding at all
+moves to the next scene too, so a knob box's unbound push buttons do something.
 
 Limits never make the view jump: a value the exhibit put outside them (an attract timeline, a
 scene's start pose) is not pulled back, it just cannot move further out.
@@ -31,11 +37,13 @@ from typing import Iterable
 
 from exhibit.devices.base import Event, Kind
 
-__all__ = ["PARAMS", "Binding", "ParamLimits", "MappingConfig", "Mapper", "ActivityDetector",
-           "shape"]
+__all__ = ["PARAMS", "ACTIONS", "Binding", "ParamLimits", "MappingConfig", "Mapper",
+           "ActivityDetector", "shape"]
 
 #: The seven parameters a device can drive, in order.
 PARAMS = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor")
+#: What a button can do instead of driving a parameter.
+ACTIONS = ("home", "next-scene")
 SENSOR = 6
 MAX_DT = 0.5  # a stalled loop does not turn into a lurch
 
@@ -49,11 +57,11 @@ class Binding:
     index: int  # 0-based channel
     param: str | None = None  # one of PARAMS; None for a button with an action
     step: float = 0.0  # REL: degrees (sensor: r) per detent
-    rate: float = 0.0  # ABS: degrees (sensor: r) per second at full deflection
+    rate: float = 0.0  # ABS, BUTTON: degrees (sensor: r) per second at full deflection / held
     dead_zone: float = 0.0
     curve: float = 1.0
     invert: bool = False
-    action: str | None = None  # BUTTON: "home" returns every parameter to its home value
+    action: str | None = None  # BUTTON: one of ACTIONS
 
 
 @dataclass(frozen=True)
@@ -151,11 +159,22 @@ class Mapper:
         self._by_channel: dict[tuple[str, Kind, int], list[Binding]] = {}
         for b in config.bindings:
             self._by_channel.setdefault((b.device, b.kind, b.index), []).append(b)
-        # ABS channel -> [held value, time integrated up to]
-        self._held: dict[tuple[str, int], list[float]] = {}
-        self._rates = [b for b in config.bindings if b.kind is Kind.ABS]
+        # held channel (device, kind, index) -> [held value, time integrated up to]: axes, and
+        # buttons that drive a parameter while held
+        self._held: dict[tuple[str, Kind, int], list[float]] = {}
+        self._rate_buttons = {key for key, binds in self._by_channel.items()
+                              if key[1] is Kind.BUTTON and any(b.param for b in binds)}
 
-    def _integrate(self, key: tuple[str, int], st: list[float], t: float, acc: list[float]) -> None:
+    def switches_scene(self, e: Event) -> bool:
+        """Whether ``e`` asks the kiosk for the next scene: a press of a ``next-scene`` button,
+        or of a button bound to nothing."""
+        if e.kind is not Kind.BUTTON or not e.value > 0:
+            return False
+        binds = self._by_channel.get((e.device, e.kind, e.index), ())
+        return not binds or any(b.action == "next-scene" for b in binds)
+
+    def _integrate(self, key: tuple[str, Kind, int], st: list[float], t: float,
+                   acc: list[float]) -> None:
         dt = t - st[1]
         if dt <= 0:
             return
@@ -163,7 +182,7 @@ class Mapper:
         if st[0] == 0.0:
             return
         dt = min(dt, MAX_DT)
-        for b in self._by_channel.get((key[0], Kind.ABS, key[1]), ()):
+        for b in self._by_channel.get(key, ()):
             if b.param is None:
                 continue
             v = shape(st[0], b.dead_zone, b.curve) * b.rate * dt
@@ -177,19 +196,18 @@ class Mapper:
             if not math.isfinite(e.value):  # a corrupt source must not poison the view
                 continue
             self.activity.observe(e)
-            if e.kind is Kind.ABS:
-                key = (e.device, e.index)
+            key = (e.device, e.kind, e.index)
+            if e.kind is Kind.ABS or key in self._rate_buttons:
                 st = self._held.get(key)
                 if st is None:
                     st = self._held[key] = [0.0, min(e.t, now)]
                 self._integrate(key, st, min(e.t, now), acc)
-                st[0] = e.value
-                continue
-            for b in self._by_channel.get((e.device, e.kind, e.index), ()):
+                st[0] = e.value if e.kind is Kind.ABS else float(e.value > 0)
+            for b in self._by_channel.get(key, ()):
                 if e.kind is Kind.REL and b.param is not None:
                     v = e.value * b.step
                     acc[PARAMS.index(b.param)] += -v if b.invert else v
-                elif e.kind is Kind.BUTTON and e.value and b.action == "home":
+                elif e.kind is Kind.BUTTON and e.value > 0 and b.action == "home":
                     home = True
         for key, st in self._held.items():
             self._integrate(key, st, now, acc)

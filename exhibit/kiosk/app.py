@@ -43,6 +43,7 @@ import numpy as np
 from exhibit import scenes
 from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
+from exhibit.devices.keyboard import key_name
 from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.errors import ExhibitError
 from exhibit.kiosk import journal
@@ -67,11 +68,6 @@ SLOW_FRAME_MS = 100.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
 NOTICE = ("This exhibit is resting for a moment.",
           "(no scene could be prepared: see `exhibit status` and the journal)")
-
-#: GLFW key names for keys that have none of their own (glfw.get_key_name gives None for them).
-_SPECIAL_KEYS = {"SPACE": "space", "ESCAPE": "escape", "UP": "up", "DOWN": "down",
-                 "LEFT": "left", "RIGHT": "right"}
-
 
 @dataclass
 class FrameStats:
@@ -249,11 +245,10 @@ class Kiosk:
         handle = self.window.handle
         glfw.set_input_mode(handle, glfw.CURSOR, glfw.CURSOR_HIDDEN)
         keyboard = self.devices.keyboard
-        names = {getattr(glfw, f"KEY_{k}"): v for k, v in _SPECIAL_KEYS.items()}
         quit_combo = set(self.config.quit_keys)
 
         def on_key(_window, key, _scancode, action, mods):
-            name = glfw.get_key_name(key, 0) or names.get(key)
+            name = key_name(glfw, key)
             if not name or action == glfw.REPEAT:
                 return
             pressed = action == glfw.PRESS

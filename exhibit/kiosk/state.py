@@ -4,7 +4,8 @@ by events and a clock, so it is tested without a window or devices.
 * Attract: the playlist of timelines plays and loops.
 * Real input (the mapping's activity detector ignores noise and drift) hands control to the
   visitor from the pose on screen, so nothing jumps.
-* A button press (other than a "home" button) moves to the next scene of the content list.
+* A "next-scene" button, or one bound to nothing, moves to the next scene of the content list
+  (Mapper.switches_scene).
 * After ``idle_timeout_s`` without real input, attract mode returns, gliding from the visitor's
   view into the timeline over ``blend_s`` when the scene is the same.
 
@@ -19,7 +20,7 @@ import math
 from dataclasses import dataclass
 
 from exhibit import scenes
-from exhibit.devices.base import Event, Kind
+from exhibit.devices.base import Event
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Playlist
@@ -66,8 +67,6 @@ class KioskState:
         self.content = content
         self.idle_timeout_s = idle_timeout_s
         self.blend_s = blend_s
-        self._home_buttons = {(b.device, b.index) for b in mapper.config.bindings
-                              if b.kind is Kind.BUTTON and b.action == "home"}
         self.mode = ATTRACT
         self.playlist.restart(now)
         self._blend_from: tuple[ViewState, float, str] | None = None
@@ -101,8 +100,7 @@ class KioskState:
         return Frame(VISITOR, scene_name, params, view, scene.title, scene.caption)
 
     def _scene_switches(self, events: list[Event]) -> int:
-        return sum(1 for e in events if e.kind is Kind.BUTTON and e.value > 0
-                   and (e.device, e.index) not in self._home_buttons)
+        return sum(1 for e in events if self.mapper.switches_scene(e))
 
     def _next_scene(self) -> Frame:
         if not self.content:

@@ -162,8 +162,9 @@ def test_default_config_binds_all_seven_parameters():
       "mapping": {"bind": [{"device": "k", "input": "axis 1", "param": "theta1"}]}},
      "mapping.bind[0].device: no device 'k' (configured: c)"),
     ({"devices": {"c": {"uri": "keyboard://"}}}, "devices.c.uri: unknown key (allowed: url)"),
-    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "param": "theta1"}]}},
-     "a button takes action = \"home\""),
+    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "param": "theta1",
+                            "action": "home"}]}},
+     "a button takes either action = \"home\" or \"next-scene\", or a param"),
 ])
 def test_bad_configs_name_the_key(doc, fragment):
     with pytest.raises(DeviceError) as info:

@@ -1,0 +1,163 @@
+"""Controls that reach everything (issue 14): with the shipped mapping the 6-axis controller alone
+turns θ1..θ6 and moves the sensor, driven through the real serial backend by the simulated
+controller on a pty; held buttons are rates; next-scene buttons; the keyboard's next-scene key."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from exhibit.devices.base import Event, Kind, State
+from exhibit.devices.config import load_config, parse_config
+from exhibit.devices.keyboard import KeyboardBackend, key_name
+from exhibit.devices.mapping import PARAMS, Mapper
+from exhibit.geometry.view import ViewState
+
+DEG = math.pi / 180
+
+
+def only(device: str):
+    """The shipped mapping with the bindings of one device only."""
+    config = load_config()
+    mapping = config.mapping
+    binds = tuple(b for b in mapping.bindings if b.device == device)
+    return dataclasses.replace(mapping, bindings=binds)
+
+
+def params_of(view: ViewState) -> list[float]:
+    return [*view.angles, view.sensor_r]
+
+
+def test_the_controller_alone_reaches_all_six_angles_and_the_sensor(loop, controller, sim, clock):
+    """Each stick, then the sensor buttons, over the real protocol: every parameter moves, and
+    nothing else but the one asked for."""
+    mapper = Mapper(only("controller"))
+    loop.until(lambda: controller.state is State.CONNECTED)
+    view = ViewState()
+
+    def drive(seconds: float) -> ViewState:
+        nonlocal view
+        for _ in range(round(seconds / 0.01)):
+            loop.step()
+            view = mapper.apply(view, loop.events, clock())
+            loop.events.clear()
+        return view
+
+    for axis in range(6):
+        before = params_of(view)
+        sim.set_axes([0.8 if i == axis else 0.0 for i in range(6)])
+        drive(0.5)
+        sim.set_axes([0.0] * 6)
+        drive(0.3)
+        moved = [i for i, (a, b) in enumerate(zip(before, params_of(view))) if abs(a - b) > 1e-9]
+        assert moved == [axis], (PARAMS[axis], moved)
+        # 0.5 s at 0.8 deflection, square curve after a 3 % dead zone, 90 degrees/s: ~26 degrees
+        assert 15 * DEG < view.angles[axis] - before[axis] < 35 * DEG
+
+    sim.set_buttons(0b0100)  # button 3 held: the sensor comes closer
+    drive(1.0)
+    sim.set_buttons(0)
+    drive(0.3)
+    assert view.sensor_r == pytest.approx(0.2, abs=0.03)  # 0.2 r/s for about a second
+    closest = view
+    sim.set_buttons(0b0100)
+    drive(3.0)
+    assert view.sensor_r == pytest.approx(0.5)  # held on: stops at the closest, distance 2
+    sim.set_buttons(0b1000)  # button 4 held: back out, to rest at infinity
+    drive(3.0)
+    sim.set_buttons(0)
+    drive(0.3)
+    assert view.sensor_r == 0.0 and closest.sensor_r > 0
+    assert view.angles == closest.angles  # the buttons moved the sensor only
+
+
+def test_controller_buttons_home_and_next_scene():
+    m = Mapper(only("controller"))
+    press = [Event(1.0, "controller", Kind.BUTTON, i, 1.0) for i in range(4)]
+    assert [m.switches_scene(e) for e in press] == [False, True, False, False]
+    assert not m.switches_scene(Event(1.0, "controller", Kind.BUTTON, 1, 0.0))  # a release
+    turned = ViewState(angles=(0.5,) * 6, sensor_r=0.3)
+    assert m.apply(turned, [press[0]], 1.0).angles == (0.0,) * 6  # home
+
+
+def test_a_held_button_is_a_rate_until_its_release_stamp():
+    m = Mapper(parse_config({"mapping": {"bind": [
+        {"device": "d", "input": "button 3", "param": "sensor", "rate": 0.1},
+        {"device": "d", "input": "button 4", "param": "theta2", "rate": 30, "invert": True},
+    ]}}, "t.toml").mapping)
+    v = m.apply(ViewState(), [Event(10.0, "d", Kind.BUTTON, 2, 1.0),
+                              Event(10.0, "d", Kind.BUTTON, 3, 1.0)], 10.0)
+    for frame in range(1, 11):  # frames at 10 Hz for a second
+        v = m.apply(v, [], 10.0 + frame / 10)
+    assert v.sensor_r == pytest.approx(0.1) and v.angles[1] == pytest.approx(-30 * DEG)
+    # released at 11.3 by its stamp, though the frame is at 11.4: 0.3 s more, no more
+    v = m.apply(v, [Event(11.3, "d", Kind.BUTTON, 2, 0.0), Event(11.3, "d", Kind.BUTTON, 3, 0.0)],
+                11.4)
+    assert v.sensor_r == pytest.approx(0.13) and v.angles[1] == pytest.approx(-39 * DEG)
+    assert m.apply(v, [], 20.0) is v
+    # a rate button is not a scene switch, a button bound to nothing is
+    assert not m.switches_scene(Event(0, "d", Kind.BUTTON, 2, 1.0))
+    assert m.switches_scene(Event(0, "d", Kind.BUTTON, 7, 1.0))
+
+
+@pytest.mark.parametrize("bind, fragment", [
+    ({"input": "button 1"}, "a button takes either action = \"home\" or \"next-scene\", or a param"),
+    ({"input": "button 1", "param": "sensor", "action": "home"}, "a button takes either"),
+    ({"input": "button 1", "param": "sensor", "step": 0.1},
+     "mapping.bind[0].step: only for deltas; a button takes rate"),
+    ({"input": "button 1", "param": "sensor", "curve": 2},
+     "mapping.bind[0].curve: only for axes; a button takes rate"),
+    ({"input": "button 1", "param": "sensor", "rate": 30},
+     "mapping.bind[0].rate: must lie in [0, 20] for sensor"),
+    ({"input": "delta 1", "action": "next-scene"}, "mapping.bind[0].action: only buttons"),
+    ({"input": "button 1", "action": "next"},
+     "mapping.bind[0].action: must be 'home' or 'next-scene'"),
+])
+def test_bad_button_bindings_name_the_key(bind, fragment):
+    from exhibit.devices.base import DeviceError
+    with pytest.raises(DeviceError) as info:
+        parse_config({"mapping": {"bind": [{"device": "d", **bind}]}}, "museum.toml")
+    assert fragment in str(info.value), str(info.value)
+
+
+def test_the_keyboard_has_a_next_scene_key(clock):
+    kb = KeyboardBackend(name="keyboard", clock=clock).open()
+    m = Mapper(only("keyboard"))
+    kb.key("n", True)
+    kb.key("n", False)
+    kb.key("space", True)
+    events = kb.poll()
+    assert [m.switches_scene(e) for e in events] == [True, False, False]
+    assert kb.capabilities.buttons == 2
+
+
+def test_the_keyboard_reaches_every_parameter_with_the_shipped_mapping(clock):
+    kb = KeyboardBackend(name="keyboard", clock=clock).open()
+    m = Mapper(only("keyboard"))
+    view = ViewState()
+    for i, plus in enumerate("qwertyu"):
+        before = params_of(view)
+        kb.key(plus, True, t=clock())
+        view = m.apply(view, kb.poll(), clock())
+        clock.advance(0.25)
+        kb.key(plus, False, t=clock())
+        view = m.apply(view, kb.poll(), clock())
+        moved = [j for j, (a, b) in enumerate(zip(before, params_of(view))) if a != b]
+        assert moved == [i], (plus, moved)
+
+
+class FakeGlfw:
+    """The few names key_name uses: printable keys have layout names, the rest codes."""
+    KEY_SPACE, KEY_ESCAPE, KEY_UP, KEY_DOWN, KEY_LEFT, KEY_RIGHT = 32, 256, 265, 264, 263, 262
+
+    @staticmethod
+    def get_key_name(key, scancode):
+        return {81: "q", 78: "N"}.get(key)
+
+
+def test_window_key_names_match_the_keyboard_backend():
+    assert key_name(FakeGlfw, 81) == "q" and key_name(FakeGlfw, 78) == "n"
+    assert key_name(FakeGlfw, 32) == "space" and key_name(FakeGlfw, 265) == "up"
+    assert key_name(FakeGlfw, 999) is None
