@@ -43,6 +43,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--samples", type=str, default="4", metavar="S",
                         help="multisampling samples per pixel, 0 = off (default: %(default)s)")
     parser.add_argument("--no-hud", action="store_true", help="no title, numbers or axes gizmo")
+    parser.add_argument("--no-fit", action="store_true",
+                        help="keep the view's own zoom (default: the picture is fitted into the "
+                             "space the text leaves free)")
     parser.add_argument("--no-silhouettes", action="store_true",
                         help="do not draw the live Lemma 3 silhouettes and Lemma 2 points")
     parser.add_argument("--depth-colour", action="store_true",
@@ -50,8 +53,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", metavar="FILE",
                         help="output .png (or, with --frames, a folder, .gif or .mp4)")
     parser.add_argument("--window", action="store_true",
-                        help="show it in a window instead (keys 1-6 turn the angles, Shift "
-                             "reverses, Up/Down move the sensor, D colours by 4D depth, Esc quits)")
+                        help="show it in a window instead, driven by the kiosk's keyboard keys "
+                             "(q/a w/s e/d r/f t/g y/h turn theta1..6, u/j move the sensor, "
+                             "space = home; c colours by 4D depth, Esc quits)")
 
 
 def _int(text: str, name: str, low: int, high: int) -> int:
@@ -160,6 +164,13 @@ def run(args) -> int:
                             depth_colour=args.depth_colour, hud=not args.no_hud)
     hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
     mesh = scene.build(params, resolution)
+    fit = not args.no_fit and (args.figure is None or scenes.figure(int(args.figure))[1].fit)
+    if fit and scene.fit and frames is None:
+        # The picture in the space the text leaves (exhibit.render.framer). Not animations:
+        # the sensor sweep's point is the image growing to fill the world.
+        from exhibit.render.framer import Framer
+        framer = Framer(size, options.text, hud=options.hud)
+        view = framer.view(mesh, view, scene.title, [(scene.caption, note)])
     headless = Headless()
     try:
         gpu = headless.renderer.upload(mesh)
@@ -180,13 +191,20 @@ def run(args) -> int:
 
 
 def _window(scene, params, view, note, size, resolution, samples) -> int:
-    from exhibit.render import HudInfo
-    from exhibit.render.window import Window, view as viewer
+    """The staff viewer: the kiosk's keyboard mapping (the device config `exhibit run` would
+    use) drives the view (exhibit.commands._viewer)."""
+    from exhibit.commands import _viewer
+    from exhibit.devices.config import load_config
+    from exhibit.kiosk.config import load_kiosk_config
+    from exhibit.render import HudInfo, RenderOptions
+    from exhibit.render.window import Window
 
+    devices = load_config(load_kiosk_config(check_linked=False).devices_config)
     window = Window(size, title=scene.title, samples=samples)
     try:
         gpu = window.renderer.upload(scene.build(params, resolution))
-        viewer(window, gpu, view, HudInfo(scene.title, scene.caption, tuple(scene.axes), note))
+        hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
+        _viewer.run(window, gpu, view, hud, devices, RenderOptions())
     finally:
         window.close()
     return 0

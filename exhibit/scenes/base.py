@@ -36,6 +36,9 @@ class Preset:
     view: ViewState
     params: Mapping[str, float] = field(default_factory=dict)
     caption: str = ""
+    #: Framed by the picture for the screen (exhibit.render.framer); False keeps the view as
+    #: given (Figure 8: the torus filling the world is the point).
+    fit: bool = True
 
 
 @dataclass(frozen=True)
@@ -53,6 +56,9 @@ class Scene:
     #: Changes whenever the scene's definition changes outside the code (e.g. its TOML file's
     #: hash), so cached meshes of the old definition are not reused.
     version: str = ""
+    #: The start view and presets are fitted into the screen's free area (exhibit.render.framer)
+    #: unless False.
+    fit: bool = True
 
     def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""

@@ -64,8 +64,10 @@ SCENE = Scene(
         Preset("figure-6", _view(math.inf), caption="The sensor at infinity."),
         Preset("figure-7", _view(3.0, half_height=2.2), caption="The sensor at distance 3."),
         # Zoomed out: at distance 2 the green torus's image spans ten times its size at infinity.
+        # Not framed: the green torus filling the world is the point of the figure.
         Preset("figure-8", _view(2.0, front_distance=0.6, front_pitch=0.5, half_height=5.0),
-               caption="The sensor at distance 2, with a tilted front clipping plane."),
+               caption="The sensor at distance 2, with a tilted front clipping plane.",
+               fit=False),
     ),
     default_resolution=64,
 )

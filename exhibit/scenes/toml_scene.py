@@ -27,6 +27,7 @@
     eye_azimuth = 20
     eye_incidence = -60
     half_height = 1.5
+    fit = true                             # framed into the screen's free area (default)
 
 Every problem is reported with the file and the key, and what was wrong: the structure by the
 typed layer (:mod:`exhibit.schema`), each formula by :func:`check_expression` on its own box.
@@ -132,6 +133,7 @@ class ViewSpec(Model):
     twist: Angle | None = None
     half_height: HalfHeight | None = None
     reading: Literal["screen", "object"] | None = None
+    fit: bool = True
 
 
 class SceneFile(Model):
@@ -188,7 +190,7 @@ def load_scene_file(path: Path) -> Scene:
 
     return Scene(name=spec.name, title=spec.title, caption=spec.caption,
                  parameters=tuple(parameters), build_mesh=build, view=_view(path, spec.view),
-                 axes=spec.axes, default_resolution=spec.resolution,
+                 axes=spec.axes, default_resolution=spec.resolution, fit=spec.view.fit,
                  version=hashlib.sha256(read_bytes(path)).hexdigest()[:16])
 
 
