@@ -16,11 +16,12 @@ buttons leave the visitor on the scene shown.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
 from exhibit import scenes
-from exhibit.devices.base import Event
+from exhibit.devices.base import Event, Kind
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Playlist
@@ -40,6 +41,10 @@ class Frame:
     view: ViewState
     title: str
     caption: str
+    #: The attract timeline shown ("" for a visitor).
+    timeline: str = ""
+    #: This frame does not continue the previous one: crossfade into it.
+    cut: bool = False
 
 
 def _blend(a: ViewState, b: ViewState, u: float) -> ViewState:
@@ -56,13 +61,22 @@ def _blend(a: ViewState, b: ViewState, u: float) -> ViewState:
                      sensor_r=mix(a.sensor_r, b.sensor_r),
                      eye_azimuth=angle(a.eye_azimuth, b.eye_azimuth),
                      eye_incidence=angle(a.eye_incidence, b.eye_incidence),
-                     half_height=mix(a.half_height, b.half_height))
+                     half_height=mix(a.half_height, b.half_height),
+                     center=(mix(a.center[0], b.center[0]), mix(a.center[1], b.center[1])))
+
+
+def unframed(scene_name: str, params, view: ViewState) -> ViewState:
+    """The framer when there is none: the view as the scene gives it."""
+    return view
 
 
 class KioskState:
     def __init__(self, playlist: Playlist, mapper: Mapper, content: tuple[str, ...],
-                 idle_timeout_s: float, blend_s: float, now: float):
+                 idle_timeout_s: float, blend_s: float, now: float, framer=unframed):
+        """``framer(scene name, params, view) -> view`` frames a scene's start view for the
+        screen (zoom and lens shift only)."""
         self.playlist = playlist
+        self.framer = framer
         self.mapper = mapper
         self.content = content
         self.idle_timeout_s = idle_timeout_s
@@ -70,15 +84,18 @@ class KioskState:
         self.mode = ATTRACT
         self.playlist.restart(now)
         self._blend_from: tuple[ViewState, float, str] | None = None
+        self._position = 0.0
         self.frame = self._attract_frame(now)
 
     # ------------------------------------------------------------------ frames
 
     def _attract_frame(self, now: float) -> Frame:
+        label = ""
         if self.playlist.timelines:
             timeline, view, caption = self.playlist.at(now)
             name, params = timeline.scene, tuple(sorted(timeline.params.items()))
             scene = scenes.get(name)
+            label = timeline.path or timeline.name
         else:
             name = self.content[0]
             scene = scenes.get(name)
@@ -93,7 +110,7 @@ class KioskState:
                 self._blend_from = None
             else:
                 view = _blend(start_view, view, max(u, 0.0))
-        return Frame(ATTRACT, name, params, view, scene.title, caption)
+        return Frame(ATTRACT, name, params, view, scene.title, caption, label)
 
     def _visitor_frame(self, scene_name: str, params, view: ViewState) -> Frame:
         scene = scenes.get(scene_name)
@@ -101,6 +118,21 @@ class KioskState:
 
     def _scene_switches(self, events: list[Event]) -> int:
         return sum(1 for e in events if self.mapper.switches_scene(e))
+
+    def _home_pressed(self, events: list[Event]) -> bool:
+        """A press of a button bound to "home" (the mapping's own home sets fixed angles; the
+        kiosk returns to the scene's start view instead)."""
+        return any(e.kind is Kind.BUTTON and e.value > 0 and any(
+            b.action == "home" and b.device == e.device and b.kind is e.kind
+            and b.index == e.index for b in self.mapper.config.bindings) for e in events)
+
+    def start_view(self, scene_name: str, params) -> ViewState:
+        """Where a scene starts, and where "home" returns: its own view, framed."""
+        return self.framer(scene_name, params, scenes.get(scene_name).view)
+
+    def _playlist_position(self, now: float) -> float:
+        total = sum(t.duration for t in self.playlist.timelines)
+        return (now - self.playlist.started) % total if total > 0 else 0.0
 
     def _next_scene(self) -> Frame:
         if not self.content:
@@ -110,16 +142,37 @@ class KioskState:
         name = self.content[index % len(self.content)]
         scene = scenes.get(name)
         params = tuple(sorted(scene.resolve().items()))
-        return self._visitor_frame(name, params, scene.view)
+        return self._visitor_frame(name, params, self.start_view(name, params))
 
     # ------------------------------------------------------------------ the step
 
     def update(self, events: list[Event], now: float) -> Frame:
+        previous = self.frame
+        frame = self._update(events, now)
+        if frame.mode == ATTRACT and previous.mode == ATTRACT:
+            # Another timeline, or the playlist starting again: not a continuation.
+            position = self._playlist_position(now)
+            cut = frame.timeline != previous.timeline or position < self._position
+            self._position = position
+        elif frame.mode == ATTRACT:   # back from a visitor: a glide when the scene is the same
+            self._position = self._playlist_position(now)
+            cut = frame.scene != previous.scene or frame.params != previous.params
+        else:
+            cut = (frame.scene != previous.scene or frame.params != previous.params
+                   or self._home_pressed(events))
+        if cut != frame.cut:
+            frame = self.frame = dataclasses.replace(frame, cut=cut)
+        return frame
+
+    def _update(self, events: list[Event], now: float) -> Frame:
         activity = self.mapper.activity
         before = activity.last_active
         view = self.mapper.apply(self.frame.view, events, now)
         active_now = activity.last_active is not None and activity.last_active != before
         switches = self._scene_switches(events)
+        if self._home_pressed(events):
+            # The scene's own start view, not the mapping's fixed angles.
+            view = self.start_view(self.frame.scene, self.frame.params)
 
         if self.mode == ATTRACT:
             if active_now or switches:

@@ -140,3 +140,45 @@ def test_a_button_switches_scene_and_home_does_not(state):
 def test_noise_free_idle_means_attract_forever(state):
     for t in range(0, 300, 7):
         assert state.update([], float(t)).mode == ATTRACT
+
+
+def test_home_returns_to_the_scenes_own_start_view_framed(timeline):
+    """Home is the scene on screen's start view (through the kiosk's framer), not all angles 0;
+    the jump there is a cut, so the kiosk crossfades."""
+    import tomllib
+    from exhibit import scenes
+    config = parse_config(tomllib.loads(DEVICES), "<test>")
+
+    def framer(name, params, view):
+        return view.replace(half_height=7.0, center=(0.5, -0.25))
+
+    state = KioskState(Playlist([timeline]), Mapper(config.mapping), ("hopf", "collision"),
+                       idle_timeout_s=30.0, blend_s=2.0, now=0.0, framer=framer)
+    frame = state.update([Event(1.0, "knobs", Kind.BUTTON, 5, 1.0)], 1.0)
+    assert frame.scene == "collision" and frame.cut
+    collision = scenes.get("collision").view
+    assert frame.view == framer("collision", (), collision)   # the next scene starts framed
+    turned = state.update([knob(2.0, 4)], 2.0)
+    assert not turned.cut and turned.view.angles != collision.angles
+    home = state.update([Event(3.0, "knobs", Kind.BUTTON, 0, 1.0)], 3.0)
+    assert home.scene == "collision" and home.cut
+    assert home.view.angles == collision.angles and home.view.angles != (0.0,) * 6
+    assert home.view.half_height == 7.0 and home.view.center == (0.5, -0.25)
+
+
+def test_cuts_mark_every_discontinuity_and_nothing_else(tmp_path, timeline):
+    """Timeline to timeline, the playlist looping, a scene switch: cut (crossfaded). Playing on,
+    the visitor taking over, and a glide back into the same scene: not cut."""
+    import tomllib
+    other = tmp_path / "other.toml"
+    other.write_text(TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"'))
+    config = parse_config(tomllib.loads(DEVICES), "<test>")
+    state = KioskState(Playlist([timeline, load_timeline(other)]), Mapper(config.mapping),
+                       ("hopf", "collision"), idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+    cuts = [t for t in range(0, 81) if state.update([], float(t)).cut]
+    assert cuts == [21, 40, 61, 80]   # into the second timeline, the loop, again, again
+    taken = state.update([knob(81.5)], 81.5)
+    assert taken.mode == VISITOR and not taken.cut
+    assert not state.update([], 100.0).cut
+    back = state.update([], 112.0)   # idle: the playlist starts again, on hopf
+    assert back.mode == ATTRACT and back.cut == (back.scene != taken.scene)
