@@ -273,8 +273,10 @@ class FirmwareController:
 
     # ---- plugging
 
-    def plug(self) -> None:
-        """Power on: a new harness, the inputs as they are now, the link pointed at its pty."""
+    def plug(self, run: bool = True) -> None:
+        """Power on: a new harness, the inputs as they are now, the link pointed at its pty.
+        ``run=False`` holds the CPU until :meth:`run`, so a host can open the port first and see
+        the boot frames (as a Nano's reset on opening the port shows them)."""
         with self._lock:
             if self.harness is not None:
                 return
@@ -290,12 +292,19 @@ class FirmwareController:
                 tmp.unlink(missing_ok=True)
                 os.symlink(h.pty, tmp)
                 os.replace(tmp, self.link)
-                h.run()
+                if run:
+                    h.run()
             except BaseException:
                 h.close()
                 raise
             self.harness, self.tty = h, h.pty
             self._paused_until = None
+
+    def run(self) -> None:
+        """Starts the CPU of a board plugged with ``run=False``."""
+        with self._lock:
+            if self.harness is not None:
+                self.harness.run()
 
     def unplug(self, hard: bool = False) -> None:
         """Power off: the link removed, the harness stopped (``hard``: killed, no goodbye)."""

@@ -16,28 +16,9 @@ import serial
 from exhibit.devices import protocol as p
 from exhibit.devices.simavr import BUTTON_PINS, REST_MV, VCC_MV, Harness
 
+from .controller_model import AXIS_TOL, c16, expected_axis
+
 SPEED = 8
-# Controller scaling constants (firmware/controller/config.h, documented in PROTOCOL.md).
-DEADZONE_C16, EDGE_C16, C16_MAX = 12 * 16, 16 * 16, 1023 * 16
-
-
-def c16(mv: int) -> int:
-    """What the 10-bit ADC reads for mv millivolts, in the firmware's 1/16-count unit."""
-    return mv * 1023 // VCC_MV * 16
-
-
-def expected_axis(mv: int, zero: int) -> int:
-    d = c16(mv) - zero
-    span = C16_MAX - zero if d >= 0 else zero
-    mag, rng = abs(d) - DEADZONE_C16, span - DEADZONE_C16 - EDGE_C16
-    out = 0 if mag <= 0 else min(p.AXIS_FULL_SCALE, round(mag * p.AXIS_FULL_SCALE / rng))
-    return out if d >= 0 else -out
-
-
-# One ADC count is about 68 units of the +-32767 scale; allow two for the ADC's rounding.
-AXIS_TOL = 2 * 16 * p.AXIS_FULL_SCALE // (C16_MAX // 2)
-
-
 class Host:
     """The exhibit's side: the pty opened with pyserial, bytes through the StreamDecoder."""
 
