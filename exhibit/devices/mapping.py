@@ -173,6 +173,12 @@ class Mapper:
         binds = self._by_channel.get((e.device, e.kind, e.index), ())
         return not binds or any(b.action == "next-scene" for b in binds)
 
+    def pressed(self, events: Iterable[Event], action: str) -> bool:
+        """Whether ``events`` press a button bound to ``action`` (one of ACTIONS)."""
+        return any(e.kind is Kind.BUTTON and e.value > 0 and any(
+            b.action == action for b in self._by_channel.get((e.device, e.kind, e.index), ()))
+            for e in events)
+
     def _integrate(self, key: tuple[str, Kind, int], st: list[float], t: float,
                    acc: list[float]) -> None:
         dt = t - st[1]

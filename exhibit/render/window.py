@@ -1,8 +1,8 @@
 """The window target: a GLFW window (fullscreen on the kiosk) whose context gets the same Renderer
 as the headless target. One process uses one kind of target: with Mesa, once EGL (the headless
 target) has been initialised, GLX refuses to make a window context current (BadAccess). The
-kiosk owns the loop; view() below is a small interactive viewer for staff (`exhibit render SCENE
---window`).
+kiosk owns the loop, and so does the staff viewer (`exhibit render SCENE --window`,
+exhibit.commands._viewer), with the kiosk's own keys.
 
 GLFW errors are logged, never raised: on a kiosk that runs for months, an error from the window
 system (a monitor unplugged, a focus change GLFW cannot follow) must not end the exhibit.
@@ -11,7 +11,6 @@ system (a monitor unplugged, a focus change GLFW cannot follow) must not end the
 from __future__ import annotations
 
 import logging
-import math
 import time
 
 import moderngl
@@ -124,22 +123,34 @@ class Window:
     def size(self) -> tuple[int, int]:
         return tuple(self._glfw.get_framebuffer_size(self.handle))
 
-    def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
-             hud: HudInfo | None = None) -> None:
-        """Render one frame into the back buffer (call swap() to show it). With
-        ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
-        timed into ``frame_ms``."""
-        self._glfw.make_context_current(self.handle)
-        if options.quality is None:
-            self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
-            return
+    def _kiosk_pipeline(self):
         from exhibit.render.frame import FramePipeline, FrameTimer
         if self._pipeline is None:
             self._pipeline = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
             self._timer = FrameTimer(self.ctx)
+        return self._pipeline
+
+    def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
+             hud: HudInfo | None = None, fade: float = 0.0) -> None:
+        """Render one frame into the back buffer (call swap() to show it). With
+        ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
+        timed into ``frame_ms``, with the captured frame laid over it at opacity ``fade``
+        (a crossfade: see capture())."""
+        self._glfw.make_context_current(self.handle)
+        if options.quality is None:
+            self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
+            return
+        pipeline = self._kiosk_pipeline()
         self._timer.begin()
-        self._pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality)
+        pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality,
+                      fade)
         self.frame_ms = self._timer.end()
+
+    def capture(self, gpu, view, options: RenderOptions, hud: HudInfo | None = None) -> None:
+        """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
+        the following draw()s with ``fade`` lay it over the new frames."""
+        self._glfw.make_context_current(self.handle)
+        self._kiosk_pipeline().capture(gpu, view, self.size, options, hud, options.quality)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         """Lines of text centred on a dark screen (call swap() to show it): what the kiosk shows
@@ -197,30 +208,3 @@ class Window:
         self._glfw.destroy_window(self.handle)
         self._glfw.terminate()
         self.handle = None
-
-
-#: Viewer keys: 1-6 turn θ1..θ6 (Shift: backwards), Up/Down move the sensor (r), D depth colour.
-ANGLE_STEP = math.radians(2.0)
-
-
-def view(window: Window, gpu, view_state, hud: HudInfo | None = None) -> None:
-    """A staff viewer: keys drive the six angles and the sensor until the window is closed."""
-    glfw = window._glfw
-    options = RenderOptions()
-    while not window.should_close:
-        shift = -1.0 if glfw.get_key(window.handle, glfw.KEY_LEFT_SHIFT) == glfw.PRESS else 1.0
-        angles = list(view_state.angles)
-        for i in range(6):
-            if glfw.get_key(window.handle, glfw.KEY_1 + i) == glfw.PRESS:
-                angles[i] += shift * ANGLE_STEP
-        r = view_state.sensor_r
-        if glfw.get_key(window.handle, glfw.KEY_UP) == glfw.PRESS:
-            r = min(r + 0.005, 0.95)
-        if glfw.get_key(window.handle, glfw.KEY_DOWN) == glfw.PRESS:
-            r = max(r - 0.005, 0.0)
-        if glfw.get_key(window.handle, glfw.KEY_ESCAPE) == glfw.PRESS:
-            break
-        options = RenderOptions(depth_colour=glfw.get_key(window.handle, glfw.KEY_D) == glfw.PRESS)
-        view_state = view_state.replace(angles=tuple(angles), sensor_r=r)
-        window.draw(gpu, view_state, options, hud)
-        window.swap()

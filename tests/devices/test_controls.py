@@ -161,3 +161,61 @@ def test_window_key_names_match_the_keyboard_backend():
     assert key_name(FakeGlfw, 81) == "q" and key_name(FakeGlfw, 78) == "n"
     assert key_name(FakeGlfw, 32) == "space" and key_name(FakeGlfw, 265) == "up"
     assert key_name(FakeGlfw, 999) is None
+
+
+# ---------------------------------------------------------------- the staff viewer's keys
+
+def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
+    """A key sequence gives the same views in the viewer as through the kiosk's keyboard://."""
+    from exhibit.commands._viewer import StaffControls
+
+    home = ViewState(angles=(0.1, -0.2, 0, 0, 0, 0))
+    staff = StaffControls(load_config(), home, clock=clock)
+    kb = KeyboardBackend(name="keyboard", clock=clock).open()
+    kiosk = Mapper(only("keyboard"))
+    a = b = home
+    for name, pressed in [("q", True), ("u", True), ("q", False), ("d", True), ("u", False),
+                          ("d", False), ("h", True), ("h", False)]:
+        staff.key(name, pressed)
+        kb.key(name, pressed)
+        a, b = staff.step(a, clock()), kiosk.apply(b, kb.poll(), clock())
+        clock.advance(0.2)
+    assert a == b
+    assert a.angles[0] > home.angles[0] and a.angles[2] < 0 and a.angles[5] < 0
+    assert a.sensor_r > 0 and not staff.depth_colour  # d turns theta3, it no longer colours
+    staff.key("space", True)
+    assert staff.step(a, clock()) == home  # home is the view the viewer opened with
+
+
+def test_the_staff_viewer_loop_takes_keys_from_the_window():
+    from types import SimpleNamespace
+
+    from exhibit.commands import _viewer
+    from exhibit.render.options import RenderOptions
+
+    callbacks = {}
+    glfw = SimpleNamespace(
+        PRESS=1, RELEASE=0, REPEAT=2, KEY_SPACE=32, KEY_ESCAPE=256, KEY_UP=265, KEY_DOWN=264,
+        KEY_LEFT=263, KEY_RIGHT=262, get_key_name=lambda key, sc: {81: "q", 67: "c"}.get(key),
+        set_key_callback=lambda h, f: callbacks.setdefault("key", f),
+        set_window_focus_callback=lambda h, f: callbacks.setdefault("focus", f))
+    drawn = []
+    script = {2: [(81, 1)], 3: [(81, 2)], 20: [(81, 0), (67, 1)], 25: [(256, 1)]}
+
+    class FakeWindow:
+        _glfw, handle, should_close = glfw, object(), False
+
+        def draw(self, gpu, view, options, hud):
+            drawn.append((view, options.depth_colour))
+
+        def swap(self):
+            for key, action in script.get(len(drawn), ()):
+                callbacks["key"](None, key, 0, action, 0)
+            if len(drawn) > 100:
+                raise AssertionError("Escape did not close the viewer")
+
+    _viewer.run(FakeWindow(), None, ViewState(), None, load_config(), RenderOptions())
+    assert len(drawn) == 25  # Escape after the 25th frame ends the loop
+    assert drawn[1][0].angles[0] == 0 and drawn[19][0].angles[0] > 0  # q held turns theta1
+    assert drawn[20][0].angles[0] == drawn[-1][0].angles[0]  # released: it stops
+    assert not drawn[19][1] and drawn[20][1]  # c: depth colour on
