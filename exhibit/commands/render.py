@@ -43,6 +43,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--samples", type=str, default="4", metavar="S",
                         help="multisampling samples per pixel, 0 = off (default: %(default)s)")
     parser.add_argument("--no-hud", action="store_true", help="no title, numbers or axes gizmo")
+    parser.add_argument("--no-fit", action="store_true",
+                        help="keep the view's own zoom (default: the picture is fitted into the "
+                             "space the text leaves free)")
     parser.add_argument("--no-silhouettes", action="store_true",
                         help="do not draw the live Lemma 3 silhouettes and Lemma 2 points")
     parser.add_argument("--depth-colour", action="store_true",
@@ -161,6 +164,13 @@ def run(args) -> int:
                             depth_colour=args.depth_colour, hud=not args.no_hud)
     hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
     mesh = scene.build(params, resolution)
+    fit = not args.no_fit and (args.figure is None or scenes.figure(int(args.figure))[1].fit)
+    if fit and scene.fit and frames is None:
+        # The picture in the space the text leaves (exhibit.render.framer). Not animations:
+        # the sensor sweep's point is the image growing to fill the world.
+        from exhibit.render.framer import Framer
+        framer = Framer(size, options.text, hud=options.hud)
+        view = framer.view(mesh, view, scene.title, [(scene.caption, note)])
     headless = Headless()
     try:
         gpu = headless.renderer.upload(mesh)
