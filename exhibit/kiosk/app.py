@@ -52,9 +52,12 @@ from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
 from exhibit.kiosk.state import KioskState
 from exhibit.render.options import RenderOptions
+from exhibit.render.framer import Framer
+from exhibit.render.layout import TextSizes
 from exhibit.render.renderer import HudInfo
 from exhibit.scenes.cache import build_cached
 from exhibit.surfaces import progress
+from exhibit.surfaces.mesh import Mesh4D
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -65,6 +68,8 @@ FAILING_EXIT = 70  # EX_SOFTWARE
 ERROR_REPORT_S = 10.0
 #: A whole frame longer than this after start-up is logged (the 1st, 2nd, 4th, 8th... of them).
 SLOW_FRAME_MS = 100.0
+#: Seconds of a crossfade between timelines and between scenes.
+CROSSFADE_S = 1.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
 NOTICE = ("This exhibit is resting for a moment.",
           "(no scene could be prepared: see `exhibit status` and the journal)")
@@ -163,12 +168,22 @@ class Kiosk:
                         ActivityDetector(threshold=device_config.activity_threshold))
         self.governor = for_kiosk(config, window, clock())  # picture quality vs frame time
         content, timelines = self._prepare(timelines)
+        #: Text sizes for the HUD, and the framing that keeps the picture clear of it.
+        self.text = TextSizes(config.text.caption_cap, config.text.title_cap,
+                              config.text.infinity_beyond)
+        self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px)
+        self._framed: dict[tuple, object] = {}
+        timelines = [self._frame_timeline(t) for t in timelines]
+        #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
+        self._shown: tuple | None = None
+        self._fade_start: float | None = None
         now = clock()
         self.started = now
         self.state = None
         if content or timelines:
             self.state = KioskState(Playlist(timelines), mapper, content,
-                                    config.idle_timeout_s, config.blend_s, now)
+                                    config.idle_timeout_s, config.blend_s, now,
+                                    framer=self._frame_view)
         else:
             log.critical("no scene could be prepared: the kiosk shows a notice until it is "
                          "fixed and restarted")
@@ -237,6 +252,40 @@ class Kiosk:
                             resolution, exc)
                 meshes[level] = meshes[max(meshes)]
         return meshes
+
+    # ------------------------------------------------------------------ framing
+
+    def _mesh(self, name: str, params) -> Mesh4D | None:
+        """The scene's mesh (any level: framing needs its bounds only), None without one."""
+        levels = self.gpu.get((name, tuple(params)))
+        mesh = getattr(next(iter(levels.values())), "mesh", None) if levels else None
+        return mesh if isinstance(mesh, Mesh4D) else None
+
+    def _frame_timeline(self, timeline):
+        """A timeline with one zoom and shift that keep it clear of the text (render.framer);
+        unchanged if the scene's mesh is not here or framing fails (never fatal)."""
+        mesh = self._mesh(timeline.scene, tuple(sorted(timeline.params.items())))
+        if mesh is None:
+            return timeline
+        try:
+            return self.framer.timeline(timeline, scenes.get(timeline.scene), mesh)
+        except Exception as exc:  # noqa: BLE001 - an unframed timeline still plays
+            log.warning("timeline %s not framed: %s", timeline.name, exc)
+            return timeline
+
+    def _frame_view(self, name: str, params, view):
+        """KioskState's framer: a scene's start view fitted into the free area (cached)."""
+        key = (name, tuple(params), view)
+        if key not in self._framed:
+            mesh = self._mesh(name, params)
+            framed = view
+            if mesh is not None:
+                try:
+                    framed = self.framer.scene_view(scenes.get(name), mesh, view)
+                except Exception as exc:  # noqa: BLE001 - the scene's own view will do
+                    log.warning("scene %s not framed: %s", name, exc)
+            self._framed[key] = framed
+        return self._framed[key]
 
     # ------------------------------------------------------------------ input from the window
 
@@ -439,10 +488,24 @@ class Kiosk:
     def _draw(self, frame, now: float) -> None:
         hud = HudInfo(title=frame.title, caption=frame.caption, axes=scenes.get(frame.scene).axes)
         quality = self.governor.quality
-        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality)
+        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality,
+                                text=self.text)
         self.governor.observe(frame.mode, frame.scene, frame.view, now)
-        self.window.draw(self.gpu[(frame.scene, frame.params)][quality.mesh], frame.view,
-                         options, hud)
+        gpu = self.gpu[(frame.scene, frame.params)][quality.mesh]
+        if frame.cut and self._shown is not None:
+            # Crossfade: the outgoing picture, drawn once more offscreen, fades out over the
+            # new one (never a black frame, never a hard cut).
+            self.window.capture(*self._shown)
+            self._fade_start = now
+        fade = 0.0
+        if self._fade_start is not None:
+            u = (now - self._fade_start) / CROSSFADE_S
+            if u >= 1.0:
+                self._fade_start = None
+            else:
+                fade = 1.0 - u * u * (3.0 - 2.0 * u)
+        self.window.draw(gpu, frame.view, options, hud, fade=fade)
+        self._shown = (gpu, frame.view, options, hud)
         if self.governor.update(getattr(self.window, "frame_ms", None), now):
             log.info("quality %s (frames took %.1f ms, the target is %.1f ms)",
                      self.governor.quality.describe(), self.governor.recent_ms or 0.0,

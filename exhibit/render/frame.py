@@ -89,7 +89,8 @@ class SceneTarget:
 
 class FramePipeline:
     """Draws whole kiosk frames at any quality level into a destination framebuffer (a
-    window's screen, or an offscreen single-sampled one)."""
+    window's screen, or an offscreen single-sampled one), and crossfades between two of them
+    (capture() the outgoing frame, then draw() the new ones with ``fade``)."""
 
     def __init__(self, ctx: moderngl.Context, renderer: Renderer, samples: int = 4):
         self.ctx = ctx
@@ -101,9 +102,12 @@ class FramePipeline:
             "fxaa": program(ctx, "composite.glsl", ("FXAA",)),
             "plain": program(ctx, "composite.glsl"),
             "upscale": program(ctx, "composite.glsl", ("UPSCALE",)),
+            "fade": program(ctx, "fade.glsl"),
         }
         self._vaos = {k: ctx.vertex_array(p, []) for k, p in self.programs.items()}
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
+        #: The outgoing frame of a crossfade: (texture, framebuffer), kept at the screen size.
+        self._snapshot: tuple | None = None
 
     def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
         """A cached target; kind "sheets" has the intersection curves' sheet buffer."""
@@ -122,9 +126,48 @@ class FramePipeline:
     def scene_size(size: tuple[int, int], scale: float) -> tuple[int, int]:
         return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
 
+    def capture(self, gpu, view, size: tuple[int, int], options: RenderOptions,
+                hud: HudInfo | None, quality: Quality) -> None:
+        """Draw a whole frame into the snapshot a crossfade starts from: the last frame of
+        what is leaving the screen (drawn again, so nothing has to be read back)."""
+        size = (int(size[0]), int(size[1]))
+        if self._snapshot is None or self._snapshot[0].size != size:
+            self.release_snapshot()
+            texture = self.ctx.texture(size, 4)
+            texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+            self._snapshot = (texture, self.ctx.framebuffer([texture]))
+        self.draw(gpu, view, self._snapshot[1], size, options, hud, quality)
+
+    def release_snapshot(self) -> None:
+        if self._snapshot is not None:
+            self._snapshot[1].release()
+            self._snapshot[0].release()
+            self._snapshot = None
+
     def draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
-             options: RenderOptions, hud: HudInfo | None, quality: Quality) -> None:
-        """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``)."""
+             options: RenderOptions, hud: HudInfo | None, quality: Quality,
+             fade: float = 0.0) -> None:
+        """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``);
+        with ``fade`` > 0 the captured snapshot is laid over it with that opacity."""
+        self._draw(gpu, view, destination, size, options, hud, quality)
+        if fade > 0.0 and self._snapshot is not None:
+            size = (int(size[0]), int(size[1]))
+            if self._snapshot[0].size == size:
+                ctx = self.ctx
+                destination.use()
+                ctx.viewport = (0, 0, *size)
+                ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+                ctx.enable(moderngl.BLEND)
+                ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
+                self._snapshot[0].use(0)
+                prog = self.programs["fade"]
+                prog["u_snapshot"].value = 0
+                prog["u_alpha"].value = float(min(fade, 1.0))
+                self._vaos["fade"].render(moderngl.TRIANGLES, vertices=3)
+                ctx.disable(moderngl.BLEND)
+
+    def _draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
+              options: RenderOptions, hud: HudInfo | None, quality: Quality) -> None:
         ctx, renderer = self.ctx, self.renderer
         options = quality.options(options)
         size = (int(size[0]), int(size[1]))
@@ -170,6 +213,7 @@ class FramePipeline:
         self._vaos[key].render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
+        self.release_snapshot()
         for target in self._targets.values():
             target.release()
         self._targets.clear()

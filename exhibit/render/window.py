@@ -123,22 +123,34 @@ class Window:
     def size(self) -> tuple[int, int]:
         return tuple(self._glfw.get_framebuffer_size(self.handle))
 
-    def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
-             hud: HudInfo | None = None) -> None:
-        """Render one frame into the back buffer (call swap() to show it). With
-        ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
-        timed into ``frame_ms``."""
-        self._glfw.make_context_current(self.handle)
-        if options.quality is None:
-            self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
-            return
+    def _kiosk_pipeline(self):
         from exhibit.render.frame import FramePipeline, FrameTimer
         if self._pipeline is None:
             self._pipeline = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
             self._timer = FrameTimer(self.ctx)
+        return self._pipeline
+
+    def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
+             hud: HudInfo | None = None, fade: float = 0.0) -> None:
+        """Render one frame into the back buffer (call swap() to show it). With
+        ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
+        timed into ``frame_ms``, with the captured frame laid over it at opacity ``fade``
+        (a crossfade: see capture())."""
+        self._glfw.make_context_current(self.handle)
+        if options.quality is None:
+            self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
+            return
+        pipeline = self._kiosk_pipeline()
         self._timer.begin()
-        self._pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality)
+        pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality,
+                      fade)
         self.frame_ms = self._timer.end()
+
+    def capture(self, gpu, view, options: RenderOptions, hud: HudInfo | None = None) -> None:
+        """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
+        the following draw()s with ``fade`` lay it over the new frames."""
+        self._glfw.make_context_current(self.handle)
+        self._kiosk_pipeline().capture(gpu, view, self.size, options, hud, options.quality)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         """Lines of text centred on a dark screen (call swap() to show it): what the kiosk shows

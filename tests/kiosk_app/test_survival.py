@@ -39,12 +39,17 @@ class FakeWindow:
         self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
         self.fail = 0
         self.drawn, self.notices = [], 0
+        self.fades, self.captured = [], []
 
-    def draw(self, gpu, view, options, hud):
+    def draw(self, gpu, view, options, hud, fade=0.0):
         if self.fail > 0:
             self.fail -= 1
             raise ZeroDivisionError("a bug in the renderer")
         self.drawn.append(gpu)
+        self.fades.append(fade)
+
+    def capture(self, gpu, view, options, hud):
+        self.captured.append(gpu)
 
     def notice(self, lines, drift=(0.0, 0.0)):
         self.notices += 1
@@ -197,3 +202,20 @@ def test_the_notice_is_drawn_in_a_real_window(tmp_path):
     assert picture.mean() < 60
     report = json.loads((tmp_path / "state" / "health.json").read_text())
     assert any("no scene could be prepared" in p for p in report["problems"])
+
+
+def test_a_cut_is_crossfaded_from_the_last_frame_shown(tmp_path, monkeypatch):
+    """The playlist looping (a cut): the kiosk captures the frame on screen, then lays it over
+    the new frames fading out over CROSSFADE_S; every frame is drawn (never a black one)."""
+    k, _ = kiosk(tmp_path, monkeypatch)
+    duration = sum(t.duration for t in k.state.playlist.timelines)
+    assert k.run(duration=1.5 * duration) == 0
+    window = k.window
+    assert len(window.drawn) == k.frames
+    assert len(window.captured) == 1, "one loop, one crossfade"
+    start = next(i for i, f in enumerate(window.fades) if f > 0)
+    fading = [f for f in window.fades[start:] if f > 0]
+    seconds = (k.clock() - k.started) / k.frames   # per frame, on the fake clock
+    assert 0.5 < fading[0] <= 1.0 and fading == sorted(fading, reverse=True)
+    assert len(fading) <= app.CROSSFADE_S / seconds + 1
+    assert not any(window.fades[:start]) and not any(window.fades[start + len(fading):])

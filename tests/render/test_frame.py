@@ -123,3 +123,24 @@ def test_frame_timer(gl, hopf, wall):
     timer.release()
     assert timer.mode == ("wall" if wall else "gpu")
     assert all(ms is not None and ms > 0 for ms in got[2 if not wall else 0:])
+
+
+def test_crossfade_mixes_two_whole_frames(gl, hopf):
+    """capture() then draw(fade=a): a·old + (1 − a)·new per pixel, the old frame's HUD
+    included; fade 0 is the new frame exactly (never a black frame in between)."""
+    gpu, view = hopf
+    quality = LADDER[1]
+    turned = view.replace(angles=(1.0, 0.5, 0, 0, 0, 0))
+    old_hud, new_hud = HudInfo(title="Old"), HudInfo(title="New", caption="another one")
+    old = gl.frame(gpu, view, SIZE, RenderOptions(), old_hud, quality).astype(float)
+    new = gl.frame(gpu, turned, SIZE, RenderOptions(), new_hud, quality).astype(float)
+    pipeline = gl.pipeline
+    pipeline.capture(gpu, view, SIZE, RenderOptions(), old_hud, quality)
+    target = gl.target(SIZE, 0)
+    for alpha in (0.0, 0.25, 0.5, 1.0):
+        pipeline.draw(gpu, turned, target.framebuffer, SIZE, RenderOptions(), new_hud,
+                      quality, fade=alpha)
+        mixed = target.read().astype(float)
+        assert np.abs(mixed - (alpha * old + (1 - alpha) * new)).max() <= 1.5, alpha
+    assert np.abs(old - new).max() > 100   # the two frames do differ
+    assert mixed.mean() > 5   # not black
