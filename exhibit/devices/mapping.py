@@ -173,6 +173,14 @@ class Mapper:
         binds = self._by_channel.get((e.device, e.kind, e.index), ())
         return not binds or any(b.action == "next-scene" for b in binds)
 
+    def button_role(self, device: str, index: int) -> str:
+        """What a button does, for people: "home", "next-scene", "sensor +" (held: a rate; "-"
+        when inverted), several joined by ", "."""
+        binds = self._by_channel.get((device, Kind.BUTTON, index), ())
+        if not binds:
+            return "next-scene"  # as switches_scene: a button bound to nothing
+        return ", ".join(b.action or f"{b.param} {'-' if b.invert else '+'}" for b in binds)
+
     def pressed(self, events: Iterable[Event], action: str) -> bool:
         """Whether ``events`` press a button bound to ``action`` (one of ACTIONS)."""
         return any(e.kind is Kind.BUTTON and e.value > 0 and any(

@@ -219,3 +219,39 @@ def test_the_staff_viewer_loop_takes_keys_from_the_window():
     assert drawn[1][0].angles[0] == 0 and drawn[19][0].angles[0] > 0  # q held turns theta1
     assert drawn[20][0].angles[0] == drawn[-1][0].angles[0]  # released: it stops
     assert not drawn[19][1] and drawn[20][1]  # c: depth colour on
+
+
+# ---------------------------------------------------------------- monitor shows the buttons
+
+def test_monitor_shows_button_presses_held_and_tapped(tmp_path, capsys):
+    """A tap shorter than the gap between two lines still shows once; a held button shows on
+    every line while held, with what the shipped mapping makes it do."""
+    import json
+
+    from exhibit.cli import main
+
+    script = tmp_path / "buttons.txt"
+    script.write_text("wait 0.4\nbuttons 2\nwait 0.03\nbuttons\nwait 0.5\nbuttons 3\nwait 0.6\n"
+                      "buttons\n")
+    assert main(["monitor", "--device", f"controller=sim://controller?script={script}",
+                 "--json", "--duration", "2.2", "--rate", "5"]) == 0
+    lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    seen = [[(b["device"], b["button"], b["does"], b["held"]) for b in line["buttons"]]
+            for line in lines]
+    taps = [s for s in seen if any(b[:3] == ("controller", 2, "next-scene") for b in s)]
+    assert len(taps) == 1, seen  # the 30 ms tap, between two lines: on exactly one
+    held = [s for s in seen if any(b[:3] == ("controller", 3, "sensor +") for b in s)]
+    assert 2 <= len(held) <= 4, seen  # 0.6 s held at 5 lines a second
+    assert all(b[3] for s in held[:-1] for b in s)
+    assert seen[0] == [] and seen[-1] == []
+    assert lines[-1]["sensor_r"] > 0.05  # and the held button moved the sensor
+
+
+def test_monitor_text_line_names_the_buttons():
+    from exhibit.commands.monitor import text_line
+
+    s = {"angles_deg": [0.0] * 6, "sensor_r": 0.0, "sensor_distance": None, "idle_s": 0.5,
+         "devices": {"controller": "connected"},
+         "buttons": [{"device": "controller", "button": 1, "held": True, "does": "home"}]}
+    assert text_line(s).endswith("| idle 0.5 s | controller button 1 (home, held)")
+    assert text_line({**s, "buttons": []}).endswith("| idle 0.5 s")
