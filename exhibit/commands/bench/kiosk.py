@@ -52,7 +52,7 @@ def run(args) -> int:
     from exhibit.kiosk.config import load_kiosk_config
     from exhibit.kiosk.governor import level_resolution, pick, target_ms
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
-    from exhibit.render.bench import cpu_model
+    from exhibit.commands.bench.render import cpu_model
     from exhibit.render.quality import LADDER, MESH_FACTORS, software_renderer
     from exhibit.scenes.cache import build_cached
 

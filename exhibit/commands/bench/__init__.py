@@ -1,7 +1,8 @@
 """`exhibit bench NAME`: benchmarks (speed is measured here, never in timed tests).
 
-Each benchmark lives beside the code it measures, in a module with HELP, add_arguments(parser)
-and run(args); this command only dispatches. Every benchmark compares against a baseline in the
+Each benchmark is a module of this package, above the libraries it measures (geometry, surfaces,
+scenes, render, devices, kiosk), so measuring a layer never makes it import a higher one. A module
+has HELP, add_arguments(parser) and run(args); this one only dispatches. Every benchmark compares against a baseline in the
 same run, so ratios hold on a noisy machine.
 """
 
@@ -29,11 +30,11 @@ HELP = "benchmarks: " + ", ".join(["mesh", "render", "kiosk", "startup", "input"
 
 #: benchmark name -> module providing HELP, add_arguments, run
 BENCHMARKS = {
-    "mesh": "exhibit.surfaces.bench",
-    "render": "exhibit.render.bench",
-    "kiosk": "exhibit.render.kiosk_bench",
-    "startup": "exhibit.kiosk.bench",
-    "input": "exhibit.devices.bench",
+    "mesh": "exhibit.commands.bench.mesh",
+    "render": "exhibit.commands.bench.render",
+    "kiosk": "exhibit.commands.bench.kiosk",
+    "startup": "exhibit.commands.bench.startup",
+    "input": "exhibit.commands.bench.input",
 }
 
 
