@@ -150,10 +150,24 @@ class LayoutFile(Model):
     report: Annotated[list[ReportSpec], PydanticField(min_length=1)]
 
 
+def parse_vid_pid(text: str, url: str = "") -> tuple[int, int, str | None]:
+    """``VID:PID[/SERIAL]`` in hex -> (vid, pid, serial or None)."""
+    ids, _, serial = text.partition("/")
+    vid, sep, pid = ids.partition(":")
+    try:
+        if not sep:
+            raise ValueError
+        v, p = int(vid, 16), int(pid, 16)
+        if not (0 <= v <= 0xFFFF and 0 <= p <= 0xFFFF) or len(vid) > 4 or len(pid) > 4:
+            raise ValueError
+    except ValueError:
+        raise DeviceError(f"device URL {url or text!r}: expected VID:PID in hex "
+                          f"(e.g. 2341:8037), got {ids!r}") from None
+    return v, p, serial or None
+
+
 def parse_layout(doc: dict, source: str) -> Layout:
     """A Layout from a parsed TOML document; DeviceError names the file and every bad key."""
-    from exhibit.devices.url import parse_vid_pid
-
     try:
         spec = validate(LayoutFile, doc, source)
     except ConfigError as exc:

@@ -26,7 +26,7 @@ from exhibit.devices.base import Backend, Clock, DeviceError
 from exhibit.errors import ConfigError
 from exhibit.schema import read_text
 
-__all__ = ["backend_for_url", "parse_url", "SCHEMES", "parse_vid_pid"]
+__all__ = ["backend_for_url", "parse_url", "SCHEMES"]
 
 #: scheme -> the query keys it accepts
 SCHEMES = {
@@ -63,22 +63,6 @@ def parse_url(url: str) -> tuple[str, str, dict[str, str]]:
     return scheme, target, query
 
 
-def parse_vid_pid(text: str, url: str = "") -> tuple[int, int, str | None]:
-    """``VID:PID[/SERIAL]`` in hex -> (vid, pid, serial or None)."""
-    ids, _, serial = text.partition("/")
-    vid, sep, pid = ids.partition(":")
-    try:
-        if not sep:
-            raise ValueError
-        v, p = int(vid, 16), int(pid, 16)
-        if not (0 <= v <= 0xFFFF and 0 <= p <= 0xFFFF) or len(vid) > 4 or len(pid) > 4:
-            raise ValueError
-    except ValueError:
-        raise DeviceError(f"device URL {url or text!r}: expected VID:PID in hex "
-                          f"(e.g. 2341:8037), got {ids!r}") from None
-    return v, p, serial or None
-
-
 def _number(url: str, key: str, value: str, kind, low, high):
     """A URL option's number in (low, high]: finite, so no option can stall or flood a loop."""
     try:
@@ -106,7 +90,7 @@ def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.mo
         baud = _number(url, "baud", query.get("baud", "115200"), int, 0, 4_000_000)
         b = SerialController(name=name, clock=clock, path=target, baud=baud)
     elif scheme in ("hid", "hidraw"):
-        from exhibit.devices.hid import HidBackend, find_layout, load_layouts
+        from exhibit.devices.hid import HidBackend, find_layout, load_layouts, parse_vid_pid
 
         layouts = load_layouts(layout_dirs)
         if target.startswith("/"):

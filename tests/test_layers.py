@@ -1,0 +1,191 @@
+"""The package layers of ARCHITECTURE.md, kept by a test: no module imports from a higher layer
+(or a sibling package of its own layer), and no import cycle joins modules, counting imports
+inside functions too (a lazy import is still a dependency, and still closes a cycle).
+
+The graph is read from the source with ast, not by importing, so it covers every module.
+"""
+
+from __future__ import annotations
+
+import ast
+import pathlib
+
+import pytest
+
+import exhibit
+
+ROOT = pathlib.Path(exhibit.__file__).parent
+#: Layer of each package (or top-level module) of exhibit; a module may import its own package
+#: and anything in a lower layer. Same layer, different package: not allowed either.
+LAYERS = {
+    "__init__": 0, "errors": 0, "resources": 0,
+    "schema": 1,
+    "geometry": 2,
+    "surfaces": 3, "devices": 3,
+    "scenes": 4,
+    "render": 5,
+    "kiosk": 6,
+    "commands": 7,
+    "cli": 8,
+    "__main__": 9,
+}
+
+
+def module_name(path: pathlib.Path, root: pathlib.Path = ROOT) -> str:
+    parts = ("exhibit",) + path.relative_to(root).with_suffix("").parts
+    return ".".join(parts[:-1]) if parts[-1] == "__init__" else ".".join(parts)
+
+
+def imports(path: pathlib.Path, name: str, known: set[str]) -> set[str]:
+    """The exhibit modules a file imports, anywhere in it except `if TYPE_CHECKING:` blocks (a
+    package import names its __init__; `from pkg import mod` names mod when mod is a module)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    type_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
+                 and ast.unparse(block.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING")
+                 for n in ast.walk(block)}  # annotations only: not a dependency at run time
+    for node in ast.walk(tree):
+        if id(node) in type_only:
+            continue
+        if isinstance(node, ast.Import):
+            targets = [alias.name for alias in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                anchor = package.split(".")[:len(package.split(".")) - node.level + 1]
+                base = ".".join(anchor + ([base] if base else []))
+            targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base
+                       for alias in node.names]
+        else:
+            continue
+        found.update(t for t in targets if t == "exhibit" or t.startswith("exhibit."))
+    return found
+
+
+def graph(root: pathlib.Path = ROOT) -> dict[str, set[str]]:
+    paths = {module_name(p, root): p for p in sorted(root.rglob("*.py"))
+             if "__pycache__" not in p.parts}
+    known = set(paths)
+    return {name: {t for t in imports(path, name, known) if t != name}
+            for name, path in paths.items()}
+
+
+def layer_of(module: str) -> tuple[str, int]:
+    parts = module.split(".")
+    key = parts[1] if len(parts) > 1 else "__init__"
+    if key not in LAYERS:
+        raise AssertionError(f"{module}: package {key!r} has no layer in tests/test_layers.py "
+                             "(add it to LAYERS and to ARCHITECTURE.md)")
+    return key, LAYERS[key]
+
+
+def upward_imports(edges: dict[str, set[str]]) -> list[str]:
+    problems = []
+    for source, targets in sorted(edges.items()):
+        package, level = layer_of(source)
+        for target in sorted(targets):
+            other, other_level = layer_of(target)
+            if other != package and other_level >= level:
+                problems.append(f"{source} (layer {level}) imports {target} (layer {other_level})")
+    return problems
+
+
+def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
+    """Strongly connected components with more than one module (Tarjan, iterative)."""
+    index, low, on_stack, stack, found = {}, {}, set(), [], []
+    counter = 0
+    for start in sorted(edges):
+        if start in index:
+            continue
+        work = [(start, iter(sorted(edges.get(start, ()))))]
+        index[start] = low[start] = counter
+        counter += 1
+        stack.append(start)
+        on_stack.add(start)
+        while work:
+            node, children = work[-1]
+            for child in children:
+                if child not in edges:
+                    continue
+                if child not in index:
+                    index[child] = low[child] = counter
+                    counter += 1
+                    stack.append(child)
+                    on_stack.add(child)
+                    work.append((child, iter(sorted(edges[child]))))
+                    break
+                if child in on_stack:
+                    low[node] = min(low[node], index[child])
+            else:
+                work.pop()
+                if work:
+                    low[work[-1][0]] = min(low[work[-1][0]], low[node])
+                if low[node] == index[node]:
+                    component = []
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        component.append(member)
+                        if member == node:
+                            break
+                    if len(component) > 1:
+                        found.append(sorted(component))
+    return found
+
+
+def test_every_package_has_a_layer():
+    for module in graph():
+        layer_of(module)
+
+
+def test_no_module_imports_from_a_higher_layer():
+    problems = upward_imports(graph())
+    assert not problems, "upward imports:\n" + "\n".join(problems)
+
+
+def test_no_import_cycles():
+    found = cycles(graph())
+    assert not found, "import cycles:\n" + "\n".join(" <-> ".join(c) for c in found)
+
+
+# The checks themselves, on planted faults in a copy of a small package tree.
+
+@pytest.fixture
+def tree(tmp_path):
+    def write(files: dict[str, str]) -> dict[str, set[str]]:
+        for name, text in files.items():
+            path = tmp_path / name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(text)
+        return graph(tmp_path)
+    return write
+
+
+def test_a_planted_upward_import_is_found(tree):
+    edges = tree({"__init__.py": "", "geometry/__init__.py": "",
+                  "geometry/view.py": "def f():\n    from exhibit.render import frame\n",
+                  "render/__init__.py": "", "render/frame.py": "import exhibit.geometry.view\n"})
+    assert edges["exhibit.geometry.view"] == {"exhibit.render.frame"}
+    assert upward_imports(edges) == [
+        "exhibit.geometry.view (layer 2) imports exhibit.render.frame (layer 5)"]
+
+
+def test_a_sibling_package_of_the_same_layer_is_refused(tree):
+    edges = tree({"__init__.py": "", "surfaces/__init__.py": "",
+                  "surfaces/mesh.py": "from exhibit.devices.url import parse\n",
+                  "devices/__init__.py": "", "devices/url.py": ""})
+    assert len(upward_imports(edges)) == 1
+
+
+def test_a_planted_cycle_is_found_through_relative_and_lazy_imports(tree):
+    edges = tree({"__init__.py": "", "devices/__init__.py": "",
+                  "devices/url.py": "from . import hid\n",
+                  "devices/hid.py": "def g():\n    from .fake import x\n",
+                  "devices/fake.py": "from exhibit.devices.url import y\n",
+                  "devices/alone.py": "from exhibit.devices import url\n",
+                  "devices/typed.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                                      "    from exhibit.render import frame\n"})
+    assert cycles(edges) == [["exhibit.devices.fake", "exhibit.devices.hid",
+                              "exhibit.devices.url"]]
+    assert upward_imports(edges) == []
