@@ -4,9 +4,10 @@ A marker ("first contact, t = ...") is what a caption points at, so the HUD draw
 surfaces, always visible; but a visitor must still see when the point itself lies behind a sheet
 (a hollow ring and a leader line then, exhibit.render.hud). The z-buffer knows, but reading it
 back stalls the GPU; instead the few labelled points are tested against the projected triangles
-here: the triangles whose screen box holds the point, then barycentric depth (window depth is
-affine in screen space over a triangle, so it interpolates exactly). A few thousand triangles
-cost well under a millisecond.
+here: the triangles with vertices on both sides of the point in x and in y (one bit code per
+vertex, OR-ed per triangle), then barycentric depth on those few (window depth is affine in
+screen space over a triangle, so it interpolates exactly). The collision mesh at the kiosk's
+resolution 40 (30,000 triangles) costs about 1.5 ms a frame.
 """
 
 from __future__ import annotations
@@ -32,33 +33,36 @@ def hidden(points: np.ndarray, surfaces, ct: ClipTransform) -> np.ndarray:
     valid = w > 0
     p = np.where(valid[:, None], clip[:, :3] / np.where(valid, w, 1.0)[:, None], 0.0)
     for surface in surfaces:
-        if len(surface.triangles) == 0:
+        tris = surface.triangles
+        if len(tris) == 0:
             continue
-        vc = ct.clip(surface.positions)
+        # ct.clip without the homogeneous column: this runs every frame a label is shown.
+        vc = surface.positions @ ct.matrix[:, :4].T + ct.matrix[:, 4]
         front = vc[:, 3] > 0
-        inside = front & np.all(ct.clip_distances(surface.positions) >= 0, axis=1)
         v = vc[:, :3] / np.where(front, vc[:, 3], 1.0)[:, None]
-        tris = surface.triangles[np.all(inside[surface.triangles], axis=1)]
-        if not len(tris):
-            continue
-        a, b, c = v[tris[:, 0]], v[tris[:, 1]], v[tris[:, 2]]
-        lo = np.minimum(np.minimum(a, b), c)
-        hi = np.maximum(np.maximum(a, b), c)
         for i in np.flatnonzero(valid & ~out):
             x, y, z = p[i]
-            near = (lo[:, 0] <= x) & (x <= hi[:, 0]) & (lo[:, 1] <= y) & (y <= hi[:, 1]) \
-                & (lo[:, 2] < z - DEPTH_TOLERANCE)
+            # Vertex-level sides first (cheap): a triangle can cover the point only if its
+            # vertices are on both sides of it in x and in y, all in front of the eye.
+            code = ((v[:, 0] <= x) | ((v[:, 0] >= x) << 1) | ((v[:, 1] <= y) << 2)
+                    | ((v[:, 1] >= y) << 3) | (~front << 4)).astype(np.uint8)
+            either = code[tris[:, 0]] | code[tris[:, 1]] | code[tris[:, 2]]
+            near = either == 15     # both sides in x and y, no vertex behind the eye
             if not near.any():
                 continue
-            ta, tb, tc = a[near], b[near], c[near]
+            cand = tris[near]
+            ok = np.all(ct.clip_distances(surface.positions[cand].reshape(-1, 4)) >= 0,
+                        axis=1).reshape(-1, 3).all(axis=1)
+            cand = cand[ok]
+            ta, tb, tc = v[cand[:, 0]], v[cand[:, 1]], v[cand[:, 2]]
             e1, e2 = tb - ta, tc - ta
             det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
-            ok = np.abs(det) > 1e-14
-            det = np.where(ok, det, 1.0)
+            good = np.abs(det) > 1e-14
+            det = np.where(good, det, 1.0)
             dx, dy = x - ta[:, 0], y - ta[:, 1]
             s = (dx * e2[:, 1] - dy * e2[:, 0]) / det
             t = (e1[:, 0] * dy - e1[:, 1] * dx) / det
-            covers = ok & (s >= 0) & (t >= 0) & (s + t <= 1)
+            covers = good & (s >= 0) & (t >= 0) & (s + t <= 1)
             depth = ta[:, 2] + s * e1[:, 2] + t * e2[:, 2]
             out[i] = bool(np.any(covers & (depth < z - DEPTH_TOLERANCE)))
     return out
