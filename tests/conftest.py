@@ -1,9 +1,14 @@
 """Shared fixtures for the whole suite."""
 
+import os
 import subprocess
 import sys
 
 import pytest
+
+# A uniform name no shader declares is an error in tests (and in the kiosk subprocesses they
+# start), where the kiosk itself only logs it (exhibit/render/shaders.py).
+os.environ.setdefault("EXHIBIT_STRICT_UNIFORMS", "1")
 
 
 @pytest.fixture
@@ -13,3 +18,11 @@ def cli():
         return subprocess.run([sys.executable, "-m", "exhibit", *args], capture_output=True,
                               text=True)
     return run
+
+
+def pytest_addoption(parser):
+    # Here, at the root of the suite, so the option is known however pytest is started.
+    parser.addoption("--update-golden", action="store_true", default=False,
+                     help="rewrite the golden images in tests/golden/ from the current renderer "
+                          "instead of comparing with them (look at them before committing: "
+                          "tests/golden/README.md)")

@@ -70,6 +70,27 @@ def darker(color, factor: float = 0.32) -> tuple[float, float, float]:
     return tuple(float(c) * factor for c in color)
 
 
+def pipeline_uniforms(ct, view: ViewState, size: tuple[int, int]) -> dict:
+    """The values of shaders/pipeline.glsl's uniforms for a clip transform (tests check that
+    each name here is declared there)."""
+    def vector(v):
+        return tuple(float(x) for x in v)
+
+    return {
+        "u_M": _mat(ct.matrix[:, :4]),
+        "u_m": vector(ct.matrix[:, 4]),
+        "u_R": _mat(ct.pose[:4, :4]),
+        "u_t": vector(ct.pose[:4, 4]),
+        "u_plane_n0": vector(ct.clip_planes[0, :4]),
+        "u_plane_d0": float(ct.clip_planes[0, 4]),
+        "u_plane_n1": vector(ct.clip_planes[1, :4]),
+        "u_plane_d1": float(ct.clip_planes[1, 4]),
+        "u_r1": view.sensor_r,
+        "u_r2": view.eye_r,
+        "u_viewport": (float(size[0]), float(size[1])),
+    }
+
+
 class Renderer:
     """Compiles the programs once per context; draws any uploaded mesh in any ViewState."""
 
@@ -132,37 +153,17 @@ class Renderer:
         return self._ct
 
     def set_pipeline(self, program: moderngl.Program, view: ViewState, size: tuple[int, int]):
-        """Upload the view's 4x5 clip map, pose, clip planes and centres to one program."""
-        width, height = size
+        """Upload the view's 4x5 clip map, pose, clip planes and centres to one program (those
+        of pipeline.glsl's uniforms that the program's own source declares)."""
         ct = self.clip_transform(view, size)
-        values = {
-            "u_M": _mat(ct.matrix[:, :4]),
-            "u_m": ct.matrix[:, 4],
-            "u_R": _mat(ct.pose[:4, :4]),
-            "u_t": ct.pose[:4, 4],
-            "u_plane_n0": ct.clip_planes[0, :4],
-            "u_plane_d0": ct.clip_planes[0, 4],
-            "u_plane_n1": ct.clip_planes[1, :4],
-            "u_plane_d1": ct.clip_planes[1, 4],
-            "u_r1": view.sensor_r,
-            "u_r2": view.eye_r,
-            "u_viewport": (float(width), float(height)),
-        }
-        for name, value in values.items():
-            if name not in program:
-                continue
-            if isinstance(value, bytes):
-                program[name].write(value)
-            elif isinstance(value, np.ndarray):
-                program[name].value = tuple(float(v) for v in value)
-            else:
-                program[name].value = value
+        declared = (program.extra or {}).get("uniforms", ())
+        shaders.set_uniforms(program, {name: value for name, value
+                                       in pipeline_uniforms(ct, view, size).items()
+                                       if name in declared})
         return ct
 
     def _set(self, program, **values) -> None:
-        for name, value in values.items():
-            if name in program:
-                program[name].value = value
+        shaders.set_uniforms(program, values)
 
     def render(self, gpu: GpuMesh, view: ViewState, framebuffer: moderngl.Framebuffer,
                options: RenderOptions = RenderOptions(), hud: HudInfo | None = None,
@@ -338,12 +339,16 @@ class Renderer:
             lights = np.zeros((2, 3), dtype=np.float32)   # key and fill light; more are ignored
             lights[:len(view.lights[:2])] = view.lights[:2]
             prog["u_lights"].write(lights.tobytes())
-        w0 = view.offset[3]
-        self._set(prog, u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
-        self._clip_distances(key != "floor")   # the floor writes no gl_ClipDistance
+        lit = key != "floor"   # the floor: one matrix and a flat colour, no clipping
+        if lit:
+            w0 = view.offset[3]
+            self._set(prog, u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
+        self._clip_distances(lit)
         ctx.polygon_offset = (1.0, 1.0)
         for i, surface in enumerate(gpu.surfaces):
-            self._set(prog, u_color=tuple(surface.color), u_sheet=SHEET_OFFSET * i * gpu.radius)
+            if lit:
+                self._set(prog, u_color=tuple(surface.color),
+                          u_sheet=SHEET_OFFSET * i * gpu.radius)
             surface.vaos[key].render(moderngl.TRIANGLES)
         ctx.polygon_offset = (0.0, 0.0)
         self._clip_distances(False)

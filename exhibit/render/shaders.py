@@ -7,16 +7,29 @@ and shared by every program that draws 4D geometry.
 
 from __future__ import annotations
 
+import logging
+import os
 import re
 from functools import lru_cache
 from importlib import resources
 
 import moderngl
 
+log = logging.getLogger(__name__)
+
 VERSION = "#version 330 core"
 STAGES = {"vertex_shader": "VERTEX_SHADER", "geometry_shader": "GEOMETRY_SHADER",
           "fragment_shader": "FRAGMENT_SHADER"}
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
+_COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.DOTALL)
+_UNIFORM = re.compile(r"\buniform\s+(?:(?:lowp|mediump|highp)\s+)?\w+\s+([^;{]+);")
+#: Set to 1 (tests/conftest.py does) to make a uniform name no shader declares an error;
+#: otherwise it is logged once per program and name, and the frame goes on.
+STRICT_ENV = "EXHIBIT_STRICT_UNIFORMS"
+
+
+class UniformError(RuntimeError):
+    """A uniform name the program's source does not declare: a typo on the Python side."""
 
 
 @lru_cache(maxsize=None)
@@ -33,12 +46,52 @@ def _expand(name: str, seen: set[str]) -> str:
     return _INCLUDE.sub(lambda m: _expand(m.group(1), seen), text)
 
 
+@lru_cache(maxsize=None)
+def declared_uniforms(name: str) -> frozenset[str]:
+    """Every uniform name shaders/NAME (with its includes) declares, in any #if branch."""
+    names = set()
+    for match in _UNIFORM.finditer(_COMMENT.sub(" ", source(name))):
+        for part in match.group(1).split(","):
+            names.add(part.split("=")[0].split("[")[0].strip())
+    return frozenset(names)
+
+
 def program(ctx: moderngl.Context, name: str, defines: tuple[str, ...] = ()) -> moderngl.Program:
-    """Compile shaders/NAME; a stage is built when the file mentions its macro."""
+    """Compile shaders/NAME; a stage is built when the file mentions its macro. The program's
+    ``extra`` records its file and declared uniforms for set_uniforms."""
     text = source(name)
     extra = "".join(f"#define {d}\n" for d in defines)
     stages = {}
     for keyword, macro in STAGES.items():
         if macro in text:
             stages[keyword] = f"{VERSION}\n#define {macro}\n{extra}#line 1\n{text}"
-    return ctx.program(**stages)
+    prog = ctx.program(**stages)
+    prog.extra = {"file": name, "uniforms": declared_uniforms(name)}
+    return prog
+
+
+_reported: set[tuple[str, str]] = set()
+
+
+def set_uniforms(prog: moderngl.Program, values: dict) -> None:
+    """Set uniforms by name. A name the source declares but the compiler dropped (unused in
+    this variant) is skipped, as it must be; a name the source never declares is a typo: an
+    UniformError under EXHIBIT_STRICT_UNIFORMS=1 (tests), else logged once (a kiosk keeps
+    drawing). Bytes are written as they are (std140 blocks, matrices)."""
+    for name, value in values.items():
+        if name in prog:
+            if isinstance(value, bytes):
+                prog[name].write(value)
+            else:
+                prog[name].value = value
+            continue
+        info = prog.extra or {}
+        if name in info.get("uniforms", ()):
+            continue
+        message = (f"shader {info.get('file', '?')}: no uniform {name!r} is declared "
+                   f"(it declares {', '.join(sorted(info.get('uniforms', ()))) or 'none'})")
+        if os.environ.get(STRICT_ENV) == "1":
+            raise UniformError(message)
+        if (info.get("file"), name) not in _reported:
+            _reported.add((info.get("file"), name))
+            log.error("%s", message)
