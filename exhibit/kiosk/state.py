@@ -101,8 +101,8 @@ class KioskState:
             scene = scenes.get(name)
             params, caption = tuple(sorted(scene.resolve().items())), scene.caption
             turn = 2 * math.pi * ((now - self.playlist.started) / TURN_S % 1.0)
-            view = scene.view.replace(angles=(scene.view.angles[0] + turn,
-                                              *scene.view.angles[1:]))
+            start = self.start_view(name, params)
+            view = start.replace(angles=(start.angles[0] + turn, *start.angles[1:]))
         if self._blend_from is not None:
             start_view, start, blend_scene = self._blend_from
             u = (now - start) / self.blend_s if self.blend_s > 0 else 1.0
