@@ -105,3 +105,28 @@ def test_status_numbers_are_for_people():
     assert "θ1   10.0°" in lines[0]
     near = status_lines(view.replace(sensor_r=1 / 2.7612))
     assert "2.76" in near[2] and len(near[2]) == len(lines[2])
+
+
+def test_balanced_wrap_has_no_orphan_and_even_lines():
+    from exhibit import scenes
+    from exhibit.render.text import text_width, wrap, wrap_balanced
+    title = scenes.get("offset-cusp").title
+    # The case: greedy wrapping left "there" alone on the second line.
+    assert wrap(title, "bold", 39, 0.62 * 1920)[-1] == "there"
+    lines = wrap_balanced(title, "bold", 39, 0.62 * 1920)
+    assert len(lines) == 2 and len(lines[-1].split()) > 1
+    assert " ".join(lines) == title
+    caption = scenes.get("collision").caption
+    greedy = wrap(caption, "sans", 35, 700)
+    balanced = wrap_balanced(caption, "sans", 35, 700)
+    assert len(balanced) == len(greedy) and " ".join(balanced) == caption
+    widths = [text_width(line, "sans", 35) for line in balanced]
+    assert max(widths) <= 700
+    # The greedy last line is a stub (110 px); balanced lines are within 15% of each other.
+    assert min(widths) > 0.85 * max(widths)
+    for width in (300, 450, 806, 2000):
+        for text in (title, caption, "one", "two words"):
+            lines = wrap_balanced(text, "sans", 35, width)
+            assert " ".join(lines) == text
+            assert len(lines) == 1 or len(lines[-1].split()) > 1 or \
+                len(lines[-2].split()) < 3, (text, width, lines)
