@@ -4,6 +4,8 @@
     scene = "hopf"                            # a registered scene
     preset = "figure-6"                       # optional: start from a preset's view and params
     params = { rs = 0.7 }                     # optional scene parameters
+    fit = true                                # optional: framed for the screen (exhibit.render.framer;
+                                              # default: unless a keyframe sets half_height)
 
     [[keyframe]]
     t = 0                                     # seconds from the start of this timeline
@@ -81,6 +83,8 @@ class Timeline:
     params: dict
     base_view: ViewState
     keyframes: tuple[Keyframe, ...]
+    #: Framed for the screen: True, False, or None (unless a keyframe sets half_height).
+    fit: bool | None = None
 
     @property
     def duration(self) -> float:
@@ -148,6 +152,7 @@ class TimelineFile(Model):
     scene: Name
     preset: Name | None = None
     params: dict[str, Number(-1e6, 1e6)] = {}
+    fit: bool | None = None
     keyframe: Annotated[list[KeyframeSpec], Field(min_length=2)]
 
 
@@ -206,7 +211,7 @@ def load_timeline(path: Path) -> Timeline:
     if problems:
         raise ConfigError(problems)
     return Timeline(spec.name or path.stem, str(path), spec.scene, params, base_view,
-                    tuple(frames))
+                    tuple(frames), spec.fit)
 
 
 def _condition(previous: Keyframe, raw: KeyframeSpec) -> Condition | None:

@@ -10,7 +10,8 @@ What is framed, and what is not:
 * an attract timeline, as a whole: one zoom and lens shift that keep the picture in the free
   area at every keyframe and at samples between them (a zoom per keyframe would make the
   picture breathe), clear of the largest of its captions. A timeline that sets ``half_height``
-  itself is framed by hand by its curator and left alone.
+  itself is framed by hand by its curator and left alone, unless it says ``fit = true`` (its
+  zooms are then replaced); ``fit = false`` leaves any timeline alone.
 """
 
 from __future__ import annotations
@@ -79,9 +80,11 @@ class Framer:
         the timeline itself when it sets its own zoom or its scene or preset opts out."""
         base = timeline.base_view
         presets = [p for p in scene.presets if p.view == base]
-        if not scene.fit or any(not p.fit for p in presets):
+        wanted = getattr(timeline, "fit", None)
+        if wanted is False or not scene.fit or any(not p.fit for p in presets):
             return timeline
-        if any(k.half_height != base.half_height for k in timeline.keyframes):
+        if wanted is None and any(k.half_height != base.half_height
+                                  for k in timeline.keyframes):
             return timeline
         times = sorted({*np.arange(0.0, timeline.duration, TIMELINE_STEP_S).tolist(),
                         *(k.t for k in timeline.keyframes)})

@@ -182,3 +182,65 @@ def test_cuts_mark_every_discontinuity_and_nothing_else(tmp_path, timeline):
     assert not state.update([], 100.0).cut
     back = state.update([], 112.0)   # idle: the playlist starts again, on hopf
     assert back.mode == ATTRACT and back.cut == (back.scene != taken.scene)
+
+
+@pytest.mark.parametrize("fit, zoomed, framed", [(None, False, True), (None, True, False),
+                                                  (True, True, True), (False, False, False)])
+def test_timelines_are_framed_unless_they_zoom_themselves(tmp_path, fit, zoomed, framed):
+    """One zoom and lens shift for a whole timeline (render.framer), keeping every sampled pose
+    in the free area; a timeline with its own half_height is the curator's, unless fit = true."""
+    from exhibit import scenes
+    from exhibit.geometry.framing import mesh_points, pixel_bounds
+    from exhibit.render.framer import Framer
+    text = TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"').replace(
+        "sensor_distance = 2", "sensor_distance = 6")
+    if fit is not None:
+        text = text.replace('scene = "offset-cusp"',
+                            f'scene = "offset-cusp"\nfit = {str(fit).lower()}')
+    if zoomed:
+        text = text.replace("caption = \"near\"", "caption = \"near\"\nhalf_height = 3.0")
+    path = tmp_path / "t.toml"
+    path.write_text(text)
+    timeline = load_timeline(path)
+    scene = scenes.get("offset-cusp")
+    mesh = scene.build({}, 12)
+    size = (1280, 720)
+    framer = Framer(size)
+    result = framer.timeline(timeline, scene, mesh)
+    assert (result is not timeline) == framed
+    if not framed:
+        return
+    heights = {k.half_height for k in result.keyframes}
+    assert len(heights) == 1 and result.base_view.center != (0.0, 0.0)
+    areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
+    points = mesh_points(mesh)
+    for t in (0.0, 3.3, 10.0, 14.0, 20.0):
+        x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
+        assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
+                   for a in areas), t
+
+
+@pytest.mark.parametrize("size", [(1920, 1080), (1280, 720)])
+def test_shipped_timelines_stay_in_the_free_area(size):
+    """Every shipped timeline that is framed keeps the picture clear of its panels at every
+    0.5 s of its run; the ones left alone are the curator-zoomed hypersphere only."""
+    import numpy as np
+    from exhibit import scenes
+    from exhibit.geometry.framing import mesh_points, pixel_bounds
+    from exhibit.render.framer import Framer
+    framer = Framer(size, drift=12.0)
+    unframed = []
+    for timeline in load_playlist(ATTRACT_DIR):
+        scene = scenes.get(timeline.scene)
+        mesh = scene.build(timeline.params, 12)
+        result = framer.timeline(timeline, scene, mesh)
+        if result is timeline:
+            unframed.append(timeline.scene)
+            continue
+        areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
+        points = mesh_points(mesh)
+        for t in np.arange(0.0, timeline.duration + 0.01, 0.5):
+            x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
+            assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
+                       for a in areas), (timeline.name, t)
+    assert unframed == ["hopf"]
