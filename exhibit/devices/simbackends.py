@@ -1,7 +1,8 @@
 """``sim://`` backends: the real host code connected to a simulated device.
 
 ``sim://controller`` is a :class:`SerialController` reading the pty of a :class:`SimController`
-it owns; ``sim://LAYOUT`` is a :class:`HidBackend` reading a scripted fake HID device. Nothing is
+it owns; ``sim://controller?firmware=ELF`` reads the controller firmware itself, running in
+simavr (:class:`~exhibit.devices.simavr.FirmwareController`); ``sim://LAYOUT`` is a :class:`HidBackend` reading a scripted fake HID device. Nothing is
 short-circuited: the controller's bytes cross a real pty, the fake HID device hands over the same
 report bytes hidapi would.
 """
@@ -9,11 +10,12 @@ report bytes hidapi would.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 
 from exhibit.devices.controller import SerialController
 from exhibit.devices.sim import SimController, Step
 
-__all__ = ["SimulatedController", "simulated_hid"]
+__all__ = ["SimulatedController", "SimulatedFirmware", "simulated_hid"]
 
 
 @dataclass
@@ -26,6 +28,30 @@ class SimulatedController(SerialController):
 
     def _open(self) -> None:
         self.sim = SimController(script=self.script, seed=self.seed).start()
+        self.path = str(self.sim.link)
+        super()._open()
+
+    def _close(self) -> None:
+        super()._close()
+        if self.sim is not None:
+            self.sim.stop()
+            self.sim = None
+
+
+@dataclass
+class SimulatedFirmware(SerialController):
+    """The controller firmware in simavr, started on open, and the serial backend on its pty.
+    The firmware runs in real time, so this backend needs the real clock (no simulated time)."""
+
+    firmware: str = ""
+    script: list[Step] | None = None
+    seed: int | None = None
+    sim: object = field(default=None, init=False)
+
+    def _open(self) -> None:
+        from exhibit.devices.simavr import FirmwareController
+
+        self.sim = FirmwareController(Path(self.firmware), script=self.script, seed=self.seed).start()
         self.path = str(self.sim.link)
         super()._open()
 

@@ -10,6 +10,7 @@ recorded or real device by changing only the URL.
 ``hidraw:///dev/hidrawN[?layout=NAME]``     usage pages visible); VID:PID survives a replug,
                                             /dev/hidrawN may not
 ``sim://controller[?script=FILE]``          simulated controller on a pty (the real protocol)
+``sim://controller?firmware=ELF``           the controller firmware itself, in simavr, on a pty
 ``sim://LAYOUT[?script=FILE]``              scripted fake HID device with that layout
 ``replay://FILE[?speed=X&loop=1]``          a recorded session (``exhibit record``)
 ``keyboard://``                             keys and mouse, fed by whoever owns the window
@@ -33,7 +34,7 @@ SCHEMES = {
     "serial": {"baud"},
     "hid": {"layout"},
     "hidraw": {"layout"},
-    "sim": {"script", "seed"},
+    "sim": {"script", "seed", "firmware"},
     "replay": {"speed", "loop"},
     "keyboard": set(),
 }
@@ -140,10 +141,23 @@ def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
 
         if "script" in query:
             script = parse_script(text, str(path))
+        if "firmware" in query:
+            from exhibit.devices.simavr import check_elf, find_harness
+            from exhibit.devices.simbackends import SimulatedFirmware
+
+            try:
+                find_harness(check_elf(Path(query["firmware"])))
+            except DeviceError as exc:
+                raise DeviceError(f"device URL {url!r}: {exc}") from None
+            return SimulatedFirmware(name=name, clock=clock, firmware=query["firmware"],
+                                     script=script, seed=seed)
         return SimulatedController(name=name, clock=clock, script=script, seed=seed)
     from exhibit.devices.hid import find_layout, load_layouts
     from exhibit.devices.simbackends import simulated_hid
 
+    if "firmware" in query:
+        raise DeviceError(f"device URL {url!r}: firmware= runs the controller firmware: "
+                          "sim://controller?firmware=ELF")
     layouts = load_layouts(layout_dirs)
     if target not in layouts:
         raise DeviceError(f"device URL {url!r}: no simulated device {target!r} (controller or "

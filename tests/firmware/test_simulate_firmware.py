@@ -84,3 +84,28 @@ def test_simulated_firmware_serves_devices_and_monitor(avr_build, harness, tmp_p
         out, err = sim.communicate(timeout=10)
     assert sim.returncode == 0, err
     assert not link.exists()  # the stable name goes with the simulator
+
+
+@pytest.mark.parametrize("url, fragment", [
+    ("sim://controller?firmware=/nonexistent/controller.elf", "cannot read the firmware"),
+    ("sim://knobbox?firmware=x.elf", "firmware= runs the controller firmware"),
+])
+def test_sim_url_with_a_bad_firmware_is_one_line(capsys, url, fragment):
+    assert main(["monitor", "--only", "--device", f"controller={url}", "--duration", "1"]) == 2
+    err = capsys.readouterr().err
+    assert fragment in err and len(err.strip().splitlines()) == 1, err
+
+
+@pytest.mark.slow
+def test_sim_url_runs_the_firmware_for_monitor(avr_build, harness, tmp_path):
+    """sim://controller?firmware=ELF: the exhibit's own backend starts the firmware in simavr."""
+    script = tmp_path / "moves.txt"
+    script.write_text("wait 1\naxis 1 -0.8\nwait 30\n")
+    url = f"sim://controller?firmware={avr_build / 'controller' / 'controller.elf'}&script={script}"
+    monitor = subprocess.run(EXHIBIT + ["monitor", "--only", "--device", f"controller={url}",
+                                        "--json", "--rate", "4", "--duration", "3.5"],
+                             text=True, capture_output=True, timeout=30)
+    assert monitor.returncode == 0, monitor.stderr
+    lines = [json.loads(line) for line in monitor.stdout.splitlines()]
+    assert lines[-1]["devices"]["controller"] == "connected"
+    assert any(lines[-1]["angles_deg"])  # the held stick turns the view (as the config maps it)
