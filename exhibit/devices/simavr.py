@@ -19,7 +19,6 @@ from __future__ import annotations
 import os
 import queue
 import random
-import shutil
 import subprocess
 import tempfile
 import threading
@@ -266,6 +265,8 @@ class FirmwareController:
         self._lock = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        #: why the running thread stopped (the harness died): the command reports it
+        self.error: DeviceError | None = None
 
     @property
     def plugged(self) -> bool:
@@ -313,7 +314,10 @@ class FirmwareController:
             if h is None:
                 return
             self.link.unlink(missing_ok=True)
-            h.kill() if hard else h.close()
+            if hard:
+                h.kill()
+            else:
+                h.close()
 
     def replug(self) -> None:
         self.unplug()
@@ -396,8 +400,6 @@ class FirmwareController:
             except DeviceError as exc:
                 self.error = exc
                 return
-
-    error: DeviceError | None = None
 
     def stop(self) -> None:
         self._stop.set()

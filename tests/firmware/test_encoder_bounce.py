@@ -14,6 +14,7 @@ import ctypes
 import random
 import subprocess
 import time
+from pathlib import Path
 
 import pytest
 import serial
@@ -23,7 +24,7 @@ from exhibit.devices.simavr import Harness
 from .conftest import COMMON, require, u8
 from .encoder_model import Encoder
 
-C_SOURCE = __import__("pathlib").Path(__file__).resolve().parent / "c" / "quad_avr.c"
+C_SOURCE = Path(__file__).resolve().parent / "c" / "quad_avr.c"
 
 
 def decode_host(fw, samples, steps=4):
