@@ -25,6 +25,7 @@ COMMANDS = {
     "inspect": "inspect",
     "collide": "collide",
     "silhouette": "silhouette",
+    "slice": "slice",
     "bench": "bench",
     "render": "render",
     "decode": "decode",

@@ -55,6 +55,41 @@ class RefineStats:
                 "max_residual": self.max_residual}
 
 
+@np.errstate(all="ignore")
+def min_norm_newton(fields, residual, points: np.ndarray) -> np.ndarray:
+    """Minimum-norm Newton steps x <- x - Jᵀ(JJᵀ)⁻¹F on k fields in R^4 until ``residual``
+    (points -> scale-free residuals) is below NEWTON_TARGET, damped only by a tiny Tikhonov term
+    where J loses rank (near singular points, which the callers exclude or drop)."""
+    x = np.asarray(points, dtype=float).reshape(-1, 4).copy()
+    k = len(fields)
+    active = np.ones(len(x), dtype=bool)
+    for _ in range(ITERATIONS):
+        if not active.any():
+            break
+        idx = np.flatnonzero(active)
+        xa = x[idx]
+        values = np.stack([f.value(xa) for f in fields], -1)
+        jac = np.stack([f.gradient(xa) for f in fields], 1)
+        gram = jac @ np.transpose(jac, (0, 2, 1))
+        finite = np.isfinite(values).all(1) & np.isfinite(gram).all((1, 2))
+        active[idx[~finite]] = False
+        if not finite.any():
+            break
+        idx, xa, values, jac, gram = idx[finite], xa[finite], values[finite], \
+            jac[finite], gram[finite]
+        done = residual(xa) <= NEWTON_TARGET
+        active[idx[done]] = False
+        go = ~done
+        if not go.any():
+            break
+        g = gram[go]
+        g = g + 1e-15 * np.trace(g, axis1=1, axis2=2)[:, None, None] * np.eye(k) \
+            + 1e-300 * np.eye(k)
+        solved = np.linalg.solve(g, values[go][..., None])[..., 0]
+        x[idx[go]] = xa[go] - np.einsum("aki,ak->ai", jac[go], solved)
+    return x
+
+
 @dataclass
 class SilhouetteSystem:
     """f1 = f2 = s = 0 for the orthographic projection along axes ``along`` (two indices)."""
@@ -93,38 +128,8 @@ class SilhouetteSystem:
                 near[start:start + 512] |= d < exclusion_radius
         return near
 
-    @np.errstate(all="ignore")
     def newton(self, points: np.ndarray) -> np.ndarray:
-        """Minimum-norm Newton steps x <- x - Jᵀ(JJᵀ)⁻¹F on (f1, f2, s), damped only by a tiny
-        Tikhonov term where J loses rank (near singular points, which are excluded later)."""
-        x = np.asarray(points, dtype=float).reshape(-1, 4).copy()
-        fields = (self.f1, self.f2, self.s)
-        active = np.ones(len(x), dtype=bool)
-        for _ in range(ITERATIONS):
-            if not active.any():
-                break
-            idx = np.flatnonzero(active)
-            xa = x[idx]
-            values = np.stack([f.value(xa) for f in fields], -1)
-            jac = np.stack([f.gradient(xa) for f in fields], 1)
-            gram = jac @ np.transpose(jac, (0, 2, 1))
-            finite = np.isfinite(values).all(1) & np.isfinite(gram).all((1, 2))
-            active[idx[~finite]] = False
-            if not finite.any():
-                break
-            idx, xa, values, jac, gram = idx[finite], xa[finite], values[finite], \
-                jac[finite], gram[finite]
-            done = self.residual(xa) <= NEWTON_TARGET
-            active[idx[done]] = False
-            go = ~done
-            if not go.any():
-                break
-            g = gram[go]
-            g = g + 1e-15 * np.trace(g, axis1=1, axis2=2)[:, None, None] * np.eye(3) \
-                + 1e-300 * np.eye(3)
-            solved = np.linalg.solve(g, values[go][..., None])[..., 0]
-            x[idx[go]] = xa[go] - np.einsum("aki,ak->ai", jac[go], solved)
-        return x
+        return min_norm_newton((self.f1, self.f2, self.s), self.residual, points)
 
     def refine(self, points: np.ndarray, max_move: float,
                singular_points: np.ndarray | None = None,

@@ -268,8 +268,8 @@ def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
     return int(moved.sum())
 
 
-class _Face:
-    """x_axis = bound as a field for project_onto."""
+class CoordinatePlane:
+    """The field x[axis] - bound (a box face, a slicing hyperplane) for project_onto and Newton."""
 
     def __init__(self, axis: int, bound: float):
         self.axis, self.bound = axis, bound
@@ -340,7 +340,7 @@ def _clip_to_box(fields, vertices, triangles, singular, lo, hi, cell):
             sel = (axis == k) & (bound == b)
             if not sel.any():
                 continue
-            moved, sing, unconv = project_onto(tuple(fields) + (_Face(k, b),), start[sel],
+            moved, sing, unconv = project_onto(tuple(fields) + (CoordinatePlane(k, b),), start[sel],
                                                2.0 * cell)
             moved[:, k] = b
             new[sel] = moved

@@ -1,0 +1,157 @@
+"""Slices of a 2-surface in R^4 by a hyperplane x_a = c: the curves S ∩ {x_a = c}.
+
+For the collision surface (axes x, y, z, t) the slice at t = c is the 3D world at the moment c:
+the curve where the pipe and the ball meet then, empty before the first contact, one loop just
+after it, two while the ball fills the pipe's cross-section (the paper's "hole", Figure 17).
+
+The slice is traced as the zero set of x_a - c on the mesh (marching triangles, chained into
+polylines), then every point is refined onto the exact slice:
+
+- an implicit surface: minimum-norm Newton on (f1, f2, x_a - c) in R^4, with the scale-free
+  residual max(|f1|/|∇f1|, |f2|/|∇f2|, |x_a - c|) at most RESIDUAL_TOLERANCE;
+- a parametric surface X(s, t): minimum-norm Newton in (s, t) on X_a(s, t) = c.
+
+A point that does not converge, or moves more than a few mesh edges, is dropped and counted, and
+its curve is split there, as for the exact silhouettes (surfaces/exact_silhouette.py).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from exhibit.surfaces.curves import zero_set_curves
+from exhibit.surfaces.exact_silhouette import (ITERATIONS, NEWTON_TARGET, RESIDUAL_TOLERANCE,
+                                               ParametricExact, RefineStats, min_norm_newton,
+                                               split_runs)
+from exhibit.surfaces.implicit import CoordinatePlane
+from exhibit.surfaces.mesh import Curve, Material, Surface
+
+#: How far (in mean mesh edges) refinement may move a traced point before it counts as lost.
+MAX_MOVE_EDGES = 3.0
+
+
+@dataclass
+class ImplicitSlice:
+    """f1 = f2 = 0 and x[axis] = at, for Newton."""
+
+    f1: object
+    f2: object
+    axis: int
+    at: float
+
+    @np.errstate(all="ignore")
+    def residual(self, points: np.ndarray) -> np.ndarray:
+        points = np.asarray(points, dtype=float).reshape(-1, 4)
+        r = np.stack([np.abs(f.value(points)) / np.linalg.norm(f.gradient(points), axis=1)
+                      for f in (self.f1, self.f2)]
+                     + [np.abs(points[:, self.axis] - self.at)], axis=1)
+        return np.where(np.isnan(r), np.inf, r).max(axis=1)
+
+    def refine(self, points: np.ndarray, max_move: float):
+        points = np.asarray(points, dtype=float).reshape(-1, 4)
+        x = min_norm_newton((self.f1, self.f2, CoordinatePlane(self.axis, self.at)),
+                            self.residual, points)
+        x[:, self.axis] = np.where(np.isfinite(x[:, self.axis]), self.at, x[:, self.axis])
+        return x, *_judge(self.residual(x), np.linalg.norm(x - points, axis=1), max_move,
+                          np.isfinite(x).all(axis=1))
+
+
+def _judge(residual, moved, max_move, finite) -> tuple[np.ndarray, RefineStats]:
+    keep = (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & finite
+    return keep, RefineStats(refined=int(keep.sum()), dropped=int((~keep).sum()),
+                             max_residual=float(residual[keep].max()) if keep.any() else 0.0)
+
+
+@np.errstate(all="ignore")
+def _refine_parametric(exact: ParametricExact, st: np.ndarray, axis: int, at: float,
+                       max_move: float):
+    """Newton on g(s, t) = X_a(s, t) - c with the minimum-norm step (one equation, two
+    unknowns; ∇g = (X_s[a], X_t[a]) from the surface's own tangents)."""
+    st = np.asarray(st, dtype=float).reshape(-1, 2).copy()
+    start = exact.function(st[:, 0], st[:, 1])
+
+    def condition(st):
+        x = exact.function(st[:, 0], st[:, 1])
+        t1, t2 = exact.tangents(st[:, 0], st[:, 1])
+        return x[:, axis] - at, t1[:, axis], t2[:, axis]
+
+    for _ in range(ITERATIONS):
+        g, gs, gt = condition(st)
+        go = np.abs(g) > NEWTON_TARGET
+        if not go.any():
+            break
+        norm2 = gs[go] ** 2 + gt[go] ** 2
+        step = np.where(norm2 > 0, g[go] / np.where(norm2 > 0, norm2, 1.0), 0.0)
+        st[go] -= step[:, None] * np.stack([gs[go], gt[go]], 1)
+    inside = np.ones(len(st), dtype=bool)
+    for k, interval in enumerate((exact.s_interval, exact.t_interval)):
+        if not interval.periodic:
+            inside &= (st[:, k] >= interval.start) & (st[:, k] <= interval.stop)
+    st = exact.wrap(st)
+    points = exact.function(st[:, 0], st[:, 1])
+    residual = np.abs(points[:, axis] - at)
+    residual = np.where(np.isnan(residual), np.inf, residual)
+    return points, *_judge(residual, np.linalg.norm(points - start, axis=1), max_move,
+                           np.isfinite(points).all(axis=1) & inside)
+
+
+def mean_edge(surface: Surface) -> float:
+    tris = surface.triangles.astype(np.int64)
+    if len(tris) == 0:
+        return 0.0
+    p = surface.positions
+    return float(np.linalg.norm(p[tris[:, 0]] - p[tris[:, 1]], axis=1).mean())
+
+
+def traced_slice(surface: Surface, axis: int, at: float, name: str = "slice",
+                 material: Material | None = None) -> list[Curve]:
+    """S ∩ {x_axis = at} on the mesh alone (marching triangles, chained), unrefined."""
+    if len(surface.triangles) == 0:
+        return []
+    return zero_set_curves(surface, surface.positions[:, axis] - at, name,
+                           material or Material())
+
+
+def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | None = None,
+                 name: str = "slice", material: Material | None = None) -> list[Curve]:
+    """The slice S ∩ {x_axis = at} as curves refined onto the exact surface (see the module's
+    docstring). Without an exact surface behind the mesh (one loaded from the cache), nothing
+    can be refined and every traced point counts as dropped."""
+    traced = traced_slice(surface, axis, at, name, material)
+    total = RefineStats()
+    out: list[Curve] = []
+    exact = surface.exact
+    max_move = MAX_MOVE_EDGES * mean_edge(surface)
+    for curve in traced:
+        if exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2"):
+            x, keep, s = ImplicitSlice(exact.f1, exact.f2, axis, at).refine(curve.points,
+                                                                             max_move)
+        elif isinstance(exact, ParametricExact):
+            st = _parameters_of(surface, exact, curve.points)
+            x, keep, s = _refine_parametric(exact, st, axis, at, max_move)
+        else:
+            total.dropped += len(curve.points)
+            continue
+        runs = split_runs(x, keep, curve.closed)
+        s.refined = sum(len(points) for points, _ in runs)  # a lone kept point is no curve
+        total.add(s)
+        for points, closed in runs:
+            label = name if not out else f"{name} {len(out) + 1}"
+            out.append(Curve(label, points, curve.material, closed))
+    if stats is not None:
+        stats.add(total)
+    return out
+
+
+def _parameters_of(surface: Surface, exact: ParametricExact, points: np.ndarray) -> np.ndarray:
+    """(s, t) to start Newton from for points on the mesh: those of the nearest vertex (the
+    traced points lie on mesh edges, so the nearest vertex is less than an edge away)."""
+    positions = surface.positions
+    out = np.empty((len(points), 2))
+    for start in range(0, len(points), 256):
+        chunk = points[start:start + 256]
+        d = np.linalg.norm(chunk[:, None] - positions[None], axis=-1)
+        out[start:start + 256] = exact.params[np.argmin(d, axis=1)]
+    return out
