@@ -430,3 +430,25 @@ def test_a_known_calibration_is_kept_for_a_stick_held_at_power_up(make_board, ri
     assert cal.eeprom_mask == 0b010000 and cal.zeros[4] == KNOWN_ZEROS[4]
     # the others are near the stored zeros (within tolerance): the measurement wins there
     assert all(abs(z - c16(REST_MV)) <= 16 for i, z in enumerate(cal.zeros) if i != 4)
+
+
+def test_reset_button_and_line_noise(make_board, rigs):
+    """The script's `reset` (the reset pin) and `garbage` (noise towards the host): the board
+    says why it restarted, the host resyncs, and the noise is rejected, not taken for frames."""
+    board = make_board()
+    board.needs_inputs()
+    rig = board.connect(rigs)
+    n = len(rig.ctl.tracker.frames)
+    board.sim.reset()
+    rig.until(lambda: any(isinstance(f.message, p.Hello) and f.seq == 0
+                          for f in rig.ctl.tracker.frames[n:]), what="HELLO after reset")
+    assert rig.ctl.hello.reset_cause == p.ResetCause.EXTERNAL
+    assert rig.ctl.tracker.restarts == 1
+    ok, rejected = rig.ctl.decoder.frames_ok, rig.ctl.decoder.rejected
+    board.sim.harness.pause()  # between the board's frames, never inside one
+    board.sim.inject(bytes(range(1, 40)) + b"\x00" + bytes([0x05, 0x01, 0x02, 0x03, 0x04, 0x00]))
+    board.sim.harness.run()
+    rig.run(0.6)
+    assert rig.ctl.decoder.rejected == rejected + 2  # the two chunks of noise
+    assert rig.ctl.decoder.frames_ok > ok and rig.ctl.state is State.CONNECTED
+    assert rig.events == []
