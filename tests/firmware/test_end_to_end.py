@@ -444,8 +444,11 @@ def test_reset_button_and_line_noise(make_board, rigs):
                           for f in rig.ctl.tracker.frames[n:]), what="HELLO after reset")
     assert rig.ctl.hello.reset_cause == p.ResetCause.EXTERNAL
     assert rig.ctl.tracker.restarts == 1
+    m = len(rig.ctl.tracker.frames)
+    rig.until(lambda: any(isinstance(f.message, p.Heartbeat) for f in rig.ctl.tracker.frames[m:]),
+              what="heartbeat")
+    board.sim.harness.pause()  # just after a heartbeat: the line is idle, no frame is cut
     ok, rejected = rig.ctl.decoder.frames_ok, rig.ctl.decoder.rejected
-    board.sim.harness.pause()  # between the board's frames, never inside one
     board.sim.inject(bytes(range(1, 40)) + b"\x00" + bytes([0x05, 0x01, 0x02, 0x03, 0x04, 0x00]))
     board.sim.harness.run()
     rig.run(0.6)
