@@ -136,9 +136,9 @@ class Hud:
             ly = tip[1] - 0.6 * body
             r._glyph_rows(label, "bold", body, lx, ly, rgba, rows)
         caption = "4D axes"
-        small = max(8, body - 2)
-        cw = text_width(caption, "sans", small)
-        r._glyph_rows(caption, "sans", small, cx - cw / 2, cy + radius + 0.1 * body,
+        # As large as the caption: every word on screen meets the size rule.
+        cw = text_width(caption, "sans", body)
+        r._glyph_rows(caption, "sans", body, cx - cw / 2, cy + radius + 0.1 * body,
                       (0.75, 0.77, 0.8, 1.0), rows)
         return items
 

@@ -171,9 +171,8 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     radius = max(14.0, 0.09 * height)
     extent = radius + body_px
     cx, cy = width - margin - extent, margin + extent
-    small = max(8, body_px - 2)
     gizmo = Rect(cx - extent, margin, width - margin,
-                 max(cy + extent, cy + radius + 0.1 * body_px + line_height("sans", small)))
+                 max(cy + extent, cy + radius + 0.1 * body_px + line_height("sans", body_px)))
 
     # Title and caption, top left, short of the gizmo; captions a little narrower (a measure of
     # about 45 characters reads best).

@@ -167,3 +167,23 @@ def test_caption_capitals_are_at_least_a_45th_of_the_height(gl, size):
     region = caption[int(block.y0):int(block.y1), int(block.x0):int(block.x1)].max(axis=-1)
     rows = np.nonzero((region > 128).any(axis=1))[0]
     assert rows.max() - rows.min() + 1 >= math.floor(size[1] / 45)
+
+
+
+def test_every_word_of_the_hud_meets_the_size_rule(gl):
+    """Numbers, gizmo labels, "4D axes" and marker labels: every glyph the HUD draws (from the
+    atlas; the title block is checked above) has capitals of at least height / 45."""
+    scene, preset = scenes.figure(16)
+    mesh = mesh_for(scene, dict(preset.params))
+    gpu = gl.renderer.upload(mesh)
+    try:
+        for size in SIZES:
+            gl.renderer.atlas._clear()
+            gl.frame(gpu, preset.view, size, RenderOptions(),
+                     HudInfo(scene.title, scene.caption, scene.axes))
+            used = {(style, px) for style, px, _ in gl.renderer.atlas._glyphs}
+            assert {"mono", "bold", "sans"} <= {style for style, _ in used}
+            for style, px in used:
+                assert cap_height(style, px) >= size[1] * MIN_CAPTION_CAP, (style, px, size)
+    finally:
+        gpu.release()
