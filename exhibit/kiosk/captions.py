@@ -19,6 +19,7 @@ from exhibit.kiosk.attract import Condition, Timeline
 
 #: Sampling step (s): a tenth of the shortest stretch anyone would write between keyframes.
 STEP_S = 0.05
+MAX_SAMPLES = 20_000
 #: Reading time: 0.4 s a word (150 words a minute: slower than a seated reader, because a visitor
 #: also watches the picture), and never under 3 s. A caption shown for less is lost.
 SECONDS_PER_WORD = 0.4
@@ -66,7 +67,9 @@ def _reading_problems(timeline: Timeline) -> list[str]:
 
 
 def _samples(t0: float, t1: float) -> list[float]:
-    n = max(1, math.ceil((t1 - t0) / STEP_S))
+    """Every STEP_S from t0 to t1, both ends included; at most MAX_SAMPLES (a caption held for
+    hours is sampled more coarsely, so check-config stays quick)."""
+    n = min(MAX_SAMPLES, max(1, math.ceil((t1 - t0) / STEP_S)))
     return [t0 + (t1 - t0) * j / n for j in range(n + 1)]
 
 

@@ -197,3 +197,15 @@ def test_check_config_reports_a_caption_that_lies(tmp_path, capsys):
     assert any("01-hypersphere.toml: keyframe[3].while.sensor_distance: the caption is shown at "
                "t = 29.1..36.0 s" in line for line in out)
     assert main(["check-config"]) == 0  # the shipped timelines
+
+
+def test_a_caption_held_for_a_day_is_checked_quickly(tmp_path):
+    """Sampling is capped (MAX_SAMPLES a caption), so a day-long keyframe does not make
+    check-config take minutes; the claim is still held to the view."""
+    path = write(tmp_path, 'scene = "hopf"\n[[keyframe]]\nt = 0\ncaption = "Far away."\n'
+                           'while = { sensor_distance = "inf" }\n[[keyframe]]\nt = 86400\n'
+                           'sensor_distance = 2\n')
+    problems = caption_problems(load_timeline(path))
+    assert len(problems) == 1 and problems[0].startswith(
+        f"{path}: keyframe[0].while.sensor_distance: the caption is shown at t = ")
+    assert problems[0].endswith("..86400.0 s with the sensor at 2..2.67e+08, outside inf")
