@@ -74,30 +74,65 @@ def image_bounds(points: np.ndarray, view: ViewState) -> Bounds | None:
     return Bounds(float(lo[0]), float(lo[1]), float(hi[0]), float(hi[1]))
 
 
+def _ndc(area: Sequence[float], size: tuple[int, int]) -> tuple[float, float, float, float]:
+    """A pixel rectangle (x0, y0, x1, y1; y down) in NDC (x0, y0, x1, y1; y up)."""
+    width, height = size
+    x0, y0, x1, y1 = area
+    return 2 * x0 / width - 1, 1 - 2 * y1 / height, 2 * x1 / width - 1, 1 - 2 * y0 / height
+
+
+def _half_height(bounds: Bounds, size: tuple[int, int], area) -> float | None:
+    """The half_height that makes ``bounds`` just fit ``area`` (None: an empty area)."""
+    nx0, ny0, nx1, ny1 = _ndc(area, size)
+    if nx1 <= nx0 or ny1 <= ny0:
+        return None
+    aspect = size[0] / size[1]
+    bw, bh = max(bounds.x1 - bounds.x0, 1e-9), max(bounds.y1 - bounds.y0, 1e-9)
+    return max(bw / (aspect * (nx1 - nx0)), bh / (ny1 - ny0))
+
+
+def best_area(bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[float]]):
+    """The area of ``areas`` where ``bounds`` comes out largest (None if all are empty)."""
+    best = None
+    for area in areas:
+        half = _half_height(bounds, size, area)
+        if half is not None and (best is None or half < best[0]):
+            best = (half, area)
+    return None if best is None else best[1]
+
+
 def fit(view: ViewState, bounds: Bounds, size: tuple[int, int],
         areas: Iterable[Sequence[float]]) -> ViewState:
     """``view`` with ``half_height`` and ``center`` chosen so ``bounds`` fills one of ``areas``
     (rectangles (x0, y0, x1, y1) in pixels, y down) as largely as it can, centred in it. The
     area where the picture comes out largest wins. Zoom is limited to MAX_ZOOM either way."""
-    width, height = size
-    aspect = width / height
-    bw, bh = max(bounds.x1 - bounds.x0, 1e-9), max(bounds.y1 - bounds.y0, 1e-9)
-    best = None
-    for x0, y0, x1, y1 in areas:
-        nx0, nx1 = 2 * x0 / width - 1, 2 * x1 / width - 1
-        ny0, ny1 = 1 - 2 * y1 / height, 1 - 2 * y0 / height   # NDC y up
-        if nx1 <= nx0 or ny1 <= ny0:
-            continue
-        half = max(bw / (aspect * (nx1 - nx0)), bh / (ny1 - ny0))
-        if best is None or half < best[0]:
-            best = (half, 0.5 * (nx0 + nx1), 0.5 * (ny0 + ny1))
-    if best is None:
+    area = best_area(bounds, size, areas)
+    if area is None:
         return view
-    half = min(max(best[0], view.half_height / MAX_ZOOM), view.half_height * MAX_ZOOM)
-    _, mx, my = best
-    center = (0.5 * (bounds.x0 + bounds.x1) - mx * half * aspect,
-              0.5 * (bounds.y0 + bounds.y1) - my * half)
-    return view.replace(half_height=half, center=center)
+    half = _half_height(bounds, size, area)
+    half = min(max(half, view.half_height / MAX_ZOOM), view.half_height * MAX_ZOOM)
+    return view.replace(half_height=half, center=_centered(bounds, size, area, half))
+
+
+def _centered(bounds: Bounds, size, area, half: float) -> tuple[float, float]:
+    """The lens shift that puts the middle of ``bounds`` at the middle of ``area``."""
+    nx0, ny0, nx1, ny1 = _ndc(area, size)
+    aspect = size[0] / size[1]
+    return (0.5 * (bounds.x0 + bounds.x1) - 0.5 * (nx0 + nx1) * half * aspect,
+            0.5 * (bounds.y0 + bounds.y1) - 0.5 * (ny0 + ny1) * half)
+
+
+def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> ViewState:
+    """``view`` zoomed out by ``factor`` about the middle of ``area`` (a pixel rectangle): what
+    was there stays there, everything else moves towards it."""
+    nx0, ny0, nx1, ny1 = _ndc(area, size)
+    aspect = size[0] / size[1]
+    mx, my = 0.5 * (nx0 + nx1), 0.5 * (ny0 + ny1)
+    half = view.half_height * factor
+    cx, cy = view.center
+    return view.replace(half_height=half,
+                        center=(cx + mx * aspect * (view.half_height - half),
+                                cy + my * (view.half_height - half)))
 
 
 def frame(view: ViewState, points: np.ndarray, size: tuple[int, int],

@@ -7,9 +7,12 @@ What is framed, and what is not:
 
 * a scene's start view and each of its presets, unless the scene or preset says ``fit = False``
   (Figure 8, whose point is that the torus fills the world);
-* an attract timeline, as a whole: one zoom and lens shift that keep the picture in the free
-  area at every keyframe and at samples between them (a zoom per keyframe would make the
-  picture breathe), clear of the largest of its captions. A timeline that sets ``half_height``
+* an attract timeline, in one area of the free space for all of it (the best for all its poses
+  sampled every 0.5 s, clear of all its captions), so moving between keyframes never crosses a
+  panel; either with one zoom and shift for all of it, or keyframe by keyframe (each keyframe
+  fitted to the poses half way to its neighbours, both ends of a stretch zoomed out a little
+  where a sample between them spills out), whichever shows the picture larger. A timeline
+  that sets ``half_height``
   itself is framed by hand by its curator and left alone, unless it says ``fit = true`` (its
   zooms are then replaced); ``fit = false`` leaves any timeline alone.
 """
@@ -20,14 +23,20 @@ import dataclasses
 
 import numpy as np
 
-from exhibit.geometry.framing import frame, mesh_points
+from exhibit.geometry.framing import (best_area, fit, frame, image_bounds, mesh_points,
+                                      pixel_bounds, zoom_about)
 from exhibit.geometry.view import ViewState
+from exhibit.kiosk.attract import Timeline
 from exhibit.render.layout import Rect, TextSizes, free_rectangles, hud_layout
 
 #: Seconds between the poses sampled along a timeline (keyframes are always sampled).
 TIMELINE_STEP_S = 0.5
 #: Points of a mesh used to frame a timeline (dozens of poses): its bounds to a pixel or so.
 TIMELINE_POINTS = 4000
+#: Where the picture between two keyframes spills out of its area, both are zoomed out by
+#: GROWTH, up to MAX_GROWTH_STEPS times.
+GROWTH = 1.06
+MAX_GROWTH_STEPS = 12
 
 
 class Framer:
@@ -76,8 +85,9 @@ class Framer:
         return self.view(mesh, view, scene.title, [(scene.caption, note)])
 
     def timeline(self, timeline, scene, mesh):
-        """The timeline with one zoom and shift for all of it (see the module docstring), or
-        the timeline itself when it sets its own zoom or its scene or preset opts out."""
+        """The timeline framed keyframe by keyframe (see the module docstring), or the timeline
+        itself when it sets its own zoom (and does not say ``fit = true``) or its scene or
+        preset opts out."""
         base = timeline.base_view
         presets = [p for p in scene.presets if p.view == base]
         wanted = getattr(timeline, "fit", None)
@@ -86,12 +96,86 @@ class Framer:
         if wanted is None and any(k.half_height != base.half_height
                                   for k in timeline.keyframes):
             return timeline
+        points = mesh_points(mesh, TIMELINE_POINTS)
+        frames = timeline.keyframes
         times = sorted({*np.arange(0.0, timeline.duration, TIMELINE_STEP_S).tolist(),
-                        *(k.t for k in timeline.keyframes)})
-        poses = [timeline.at(t)[0] for t in times]
-        captions = [(c,) for c in dict.fromkeys(k.caption for k in timeline.keyframes)]
-        framed = self.view(mesh, base, scene.title, captions, poses,
-                           points=mesh_points(mesh, TIMELINE_POINTS))
-        keyframes = tuple(dataclasses.replace(k, half_height=framed.half_height)
-                          for k in timeline.keyframes)
-        return dataclasses.replace(timeline, base_view=framed, keyframes=keyframes)
+                        *(k.t for k in frames), timeline.duration})
+        bounds = {t: image_bounds(points, timeline.at(t)[0]) for t in times}
+        seen = [b for b in bounds.values() if b is not None]
+        if not seen:
+            return timeline
+        captions = [(c,) for c in dict.fromkeys(k.caption for k in frames)]
+        # One area for the whole timeline (the best for all of it), so moving from one
+        # keyframe's framing to the next never crosses a panel.
+        union = seen[0]
+        for b in seen[1:]:
+            union = union.union(b)
+        area = best_area(union, self.size, self.areas(scene.title, captions))
+        if area is None:
+            return timeline
+        # Two candidates, the larger picture wins: one framing for all (nothing moves but the
+        # object), or one per keyframe (the camera follows; larger where poses differ much).
+        uniform = fit(base, union, self.size, [area])
+        following = self._per_keyframe(timeline, points, times, bounds, union, area)
+        if following is not None and (
+                np.mean([np.log(k.half_height) for k in following.keyframes])
+                < np.log(uniform.half_height)):
+            return following
+        return FramedTimeline.of(timeline, [uniform] * len(frames))
+
+    def _per_keyframe(self, timeline, points, times, bounds, union, area):
+        """Each keyframe framed for the poses around it, zoomed out where the picture between
+        keyframes spills out of ``area``; None if it still spills."""
+        base, frames = timeline.base_view, timeline.keyframes
+        views = []
+        for i, k in enumerate(frames):
+            lo = k.t - 0.5 * (k.t - frames[i - 1].t) if i else k.t
+            hi = k.t + 0.5 * (frames[i + 1].t - k.t) if i + 1 < len(frames) else k.t
+            near = [b for t, b in bounds.items() if lo <= t <= hi and b is not None]
+            box = near[0] if near else union
+            for b in near[1:]:
+                box = box.union(b)
+            views.append(fit(base, box, self.size, [area]))
+        for _ in range(MAX_GROWTH_STEPS):   # between keyframes: zoom out where it spills
+            framed = FramedTimeline.of(timeline, views)
+            spills = set()
+            for t in times:
+                box = pixel_bounds(points, framed.at(t)[0], self.size)
+                if box is not None and not _inside(box, area):
+                    i = framed.index_at(t)
+                    spills |= {i, min(i + 1, len(frames) - 1)}
+            if not spills:
+                return framed
+            views = [zoom_about(v, GROWTH, area, self.size) if i in spills else v
+                     for i, v in enumerate(views)]
+        return None
+
+
+def _inside(box, area, tolerance: float = 1.0) -> bool:
+    x0, y0, x1, y1 = box
+    return (x0 >= area[0] - tolerance and y0 >= area[1] - tolerance
+            and x1 <= area[2] + tolerance and y1 <= area[3] + tolerance)
+
+
+@dataclasses.dataclass(frozen=True)
+class FramedTimeline(Timeline):
+    """A timeline whose keyframes carry their own framing: the zoom in each keyframe's
+    half_height (interpolated as any zoom is) and the lens shift in ``centers`` (one per
+    keyframe, interpolated with the same easing as the rest of the view)."""
+
+    centers: tuple = ()
+
+    @classmethod
+    def of(cls, timeline: Timeline, views: list[ViewState]) -> "FramedTimeline":
+        fields = {f.name: getattr(timeline, f.name) for f in dataclasses.fields(Timeline)}
+        fields["keyframes"] = tuple(dataclasses.replace(k, half_height=v.half_height)
+                                    for k, v in zip(timeline.keyframes, views))
+        return cls(**fields, centers=tuple(v.center for v in views))
+
+    def _view(self, a, b, u: float) -> ViewState:
+        view = super()._view(a, b, u)
+        (ax, ay), (bx, by) = self.centers[self._index(a)], self.centers[self._index(b)]
+        return view.replace(center=(ax + (bx - ax) * u, ay + (by - ay) * u))
+
+    def _index(self, keyframe) -> int:
+        return next(i for i, k in enumerate(self.keyframes) if k.t == keyframe.t)

@@ -210,8 +210,14 @@ def test_timelines_are_framed_unless_they_zoom_themselves(tmp_path, fit, zoomed,
     assert (result is not timeline) == framed
     if not framed:
         return
-    heights = {k.half_height for k in result.keyframes}
-    assert len(heights) == 1 and result.base_view.center != (0.0, 0.0)
+    # Zoom and lens shift at each keyframe, interpolated with the view's own easing.
+    assert all(c != (0.0, 0.0) for c in result.centers)
+    for i, k in enumerate(result.keyframes):
+        assert result.at(k.t)[0].center == pytest.approx(result.centers[i])
+        assert result.at(k.t)[0].half_height == pytest.approx(k.half_height)
+    middle = result.at(15.0)[0].center   # linear easing from t = 10 to 20
+    assert middle == pytest.approx(tuple(0.5 * (a + b) for a, b in
+                                         zip(result.centers[1], result.centers[2])))
     areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
     points = mesh_points(mesh)
     for t in (0.0, 3.3, 10.0, 14.0, 20.0):
@@ -229,7 +235,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     from exhibit.geometry.framing import mesh_points, pixel_bounds
     from exhibit.render.framer import Framer
     framer = Framer(size, drift=12.0)
-    unframed = []
+    unframed, following = [], []
     for timeline in load_playlist(ATTRACT_DIR):
         scene = scenes.get(timeline.scene)
         mesh = scene.build(timeline.params, 12)
@@ -237,10 +243,13 @@ def test_shipped_timelines_stay_in_the_free_area(size):
         if result is timeline:
             unframed.append(timeline.scene)
             continue
+        if len({k.half_height for k in result.keyframes}) > 1:
+            following.append(timeline.name)   # framed keyframe by keyframe
         areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
         points = mesh_points(mesh)
-        for t in np.arange(0.0, timeline.duration + 0.01, 0.5):
+        for t in np.arange(0.0, timeline.duration + 0.01, 0.25):
             x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
             assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
                        for a in areas), (timeline.name, t)
     assert unframed == ["hopf"]
+    assert following, "no timeline was framed keyframe by keyframe"
