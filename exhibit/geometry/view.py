@@ -80,6 +80,10 @@ class ViewState:
     lights: tuple[tuple[float, float, float], ...] = field(default=DEFAULT_LIGHTS)
     #: Depth of the visible region in scene units (the far plane lies this far behind the origin).
     depth_extent: float = 100.0
+    #: The slice S ∩ {x_axis = at} drawn glowing on the surfaces (axis 0..3 of the scene's own
+    #: coordinates, e.g. 3 = the collision's t; None: no slice).
+    slice_axis: int | None = None
+    slice_at: float = 0.0
 
     def __post_init__(self) -> None:
         set_ = object.__setattr__
@@ -103,6 +107,14 @@ class ViewState:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be a positive number, got {value}")
             set_(self, name, value)
+        if self.slice_axis is not None:
+            if self.slice_axis not in (0, 1, 2, 3) or isinstance(self.slice_axis, bool):
+                raise ValueError(f"slice_axis must be 0..3 or None, got {self.slice_axis!r}")
+            set_(self, "slice_axis", int(self.slice_axis))
+        slice_at = float(self.slice_at)
+        if not math.isfinite(slice_at):
+            raise ValueError(f"slice_at must be a finite number, got {slice_at}")
+        set_(self, "slice_at", slice_at)
         front = float(self.front_distance)
         if math.isnan(front):
             raise ValueError("front_distance must be a number or inf (no front clipping)")

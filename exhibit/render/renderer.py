@@ -47,6 +47,10 @@ SHEET_OFFSET = 16.0
 MIN_CROSSING = 0.2
 DEPTH_SAMPLE = 256
 INTERSECTION_INK = (0.05, 0.05, 0.07)
+#: The slice curve (ViewState.slice_axis/slice_at): a bright warm white no scene colour uses,
+#: width in px at 720 px.
+SLICE_COLOR = (1.0, 0.93, 0.55)
+SLICE_WIDTH = 4.0
 INTERSECTION_MAX_HALF_WIDTH = 0.5
 
 
@@ -221,14 +225,22 @@ class Renderer:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = BLEND_OVER
         ctx.depth_func = "<="
-        if options.silhouettes and gpu.surfaces:
+        sliced = view.slice_axis is not None
+        if (options.silhouettes or sliced) and gpu.surfaces:
             prog = self.programs["silhouette"]
             self.set_pipeline(prog, view, size)
+            axis = np.zeros(4)
+            if sliced:
+                axis[view.slice_axis] = 1.0
+            pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
             self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale, u_pass=1,
-                      u_pinch=(1.0, 0.93, 0.2, options.pinch_size if options.pinch_points else 0.0))
+                      u_pinch=(1.0, 0.93, 0.2, pinch), u_slice_axis=tuple(axis),
+                      u_slice_at=view.slice_at,
+                      u_slice_style=(*SLICE_COLOR, SLICE_WIDTH if sliced else 0.0))
             ctx.depth_mask = False
             for surface in gpu.surfaces:
-                prog["u_ink"].value = (*darker(surface.color), options.silhouette_width)
+                width = options.silhouette_width if options.silhouettes else 0.0
+                prog["u_ink"].value = (*darker(surface.color), width)
                 surface.vaos["silhouette"].render(moderngl.TRIANGLES)
             ctx.depth_mask = True
 

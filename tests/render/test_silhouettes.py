@@ -56,3 +56,33 @@ def test_gpu_silhouette_is_the_cpu_zero_set(gl, index):
     # Every inked pixel is on the CPU curve, and the CPU curve is inked along its length.
     assert np.quantile(nearest(ink, expected), 0.99) <= 2.5
     assert np.quantile(nearest(expected, ink), 0.99) <= 2.5
+
+
+@pytest.mark.parametrize("at", [-1.5, 0.0])
+def test_gpu_slice_is_the_exact_slice(gl, at):
+    """ViewState.slice_axis/slice_at: the glowing curve the silhouette pass draws is the slice
+    S ∩ {t = at} that exhibit/surfaces/slice.py refines on the CPU, and without a slice nothing
+    is drawn."""
+    from exhibit.surfaces.slice import slice_curves
+
+    scene, preset = scenes.figure(17)
+    mesh = scene.build(preset.params, resolution=32)
+    mesh.curves.clear()
+    mesh.markers.clear()
+    gpu = gl.renderer.upload(mesh)
+    view = preset.view.replace(slice_axis=3, slice_at=at)
+    plain = RenderOptions(surfaces=False, curves=False, hud=False, silhouettes=False,
+                          background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), line_scale=1.0)
+    image = gl.image(gpu, view, SIZE, plain, samples=0)
+    none = gl.image(gpu, preset.view, SIZE, plain, samples=0)
+    gpu.release()
+    assert none.max() == 0
+    glow = np.argwhere(image.max(axis=-1) > 60)[:, ::-1] + 0.5
+    points = np.concatenate([c.points for s in mesh.surfaces for c in slice_curves(s, 3, at)])
+    ct = clip_transform(view, SIZE[0] / SIZE[1])
+    expected, ok = ct.to_pixels(points, *SIZE)
+    expected = expected[ok]
+    assert len(glow) > 100 and len(expected) > 50
+    d_glow = np.linalg.norm(glow[:, None] - expected[None], axis=-1).min(axis=1)
+    d_curve = np.linalg.norm(expected[:, None] - glow[None], axis=-1).min(axis=1)
+    assert np.quantile(d_glow, 0.99) <= 3.0 and np.quantile(d_curve, 0.99) <= 2.5

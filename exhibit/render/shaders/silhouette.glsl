@@ -5,6 +5,10 @@
 //    triangles, as exhibit.geometry.zero_set_segments) and emits it as a thick screen-space line.
 //  * Lemma 2: points where the projected normal vanishes (rho in the tangent plane, i.e.
 //    n1.rho1 = n2.rho1 = 0); generically isolated, found per triangle and marked with a disc.
+//  * The slice S ∩ {x_a = c} (exhibit/surfaces/slice.py on the CPU): the zero set of
+//    h = u_slice_axis.p - u_slice_at over the scene's own coordinates, drawn as a bright, wide
+//    line (one opaque colour: a rim or a translucent halo drawn segment by segment would show
+//    beads where neighbouring capsules overlap), singular points included.
 #include "pipeline.glsl"
 #include "lines_common.glsl"
 
@@ -19,8 +23,12 @@ out float g_singular;
 out vec4 g_m1;
 out vec4 g_m2;
 out vec2 g_ab;
+out float g_h;
+uniform vec4 u_slice_axis;   // unit vector of the slicing axis (scene coordinates)
+uniform float u_slice_at;
 
 void main() {
+    g_h = dot(u_slice_axis, in_pos) - u_slice_at;
     vec4 q = u_R * in_pos + u_t;
     vec4 m1 = u_R * in_n1;
     vec4 m2 = u_R * in_n2;
@@ -38,7 +46,7 @@ void main() {
 
 #if defined GEOMETRY_SHADER
 layout(triangles) in;
-layout(triangle_strip, max_vertices = 8) out;
+layout(triangle_strip, max_vertices = 16) out;
 in vec4 g_clip[];
 in vec4 g_dist[];
 in float g_s[];
@@ -46,14 +54,16 @@ in float g_singular[];
 in vec4 g_m1[];
 in vec4 g_m2[];
 in vec2 g_ab[];
-uniform vec4 u_ink;          // rgb, width in px
+in float g_h[];
+uniform vec4 u_slice_style;  // rgb, core width in px (0: no slice drawn)
+uniform vec4 u_ink;          // rgb, width in px (0: no silhouettes drawn)
 uniform vec4 u_pinch;        // rgb, diameter in px (0: Lemma 2 points not marked)
 uniform float u_width_scale;
 flat out vec4 v_ends;
 flat out vec4 v_color;
 flat out float v_half_width;
 
-void emit_segment(vec4 c0, vec4 c1, vec4 d0, vec4 d1, vec4 style, float lift) {
+void emit_segment(vec4 c0, vec4 c1, vec4 d0, vec4 d1, vec4 style, float lift, float alpha) {
     if (!clip_segment(c0, c1, d0, d1)) return;
     float hw = 0.5 * max(style.w * u_width_scale, 1.0);
     for (int k = 0; k < 4; ++k) {
@@ -61,22 +71,20 @@ void emit_segment(vec4 c0, vec4 c1, vec4 d0, vec4 d1, vec4 style, float lift) {
         gl_Position = line_corner(c0, c1, hw, k, ends);
         gl_Position.z -= lift * gl_Position.w;
         v_ends = ends;
-        v_color = vec4(style.rgb, 1.0);
+        v_color = vec4(style.rgb, alpha);
         v_half_width = hw;
         EmitVertex();
     }
     EndPrimitive();
 }
 
-void main() {
-    if (g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;  // never silhouettes
-    // Lemma 3 segment: the two edges whose ends have opposite signs of s.
-    vec4 c[2];
-    vec4 d[2];
+// The segment where a per-vertex value changes sign on this triangle, as clip positions and
+// clip distances at its two ends; false when it does not cross.
+bool crossing(float v[3], out vec4 c[2], out vec4 d[2]) {
     int n = 0;
     for (int i = 0; i < 3; ++i) {
         int j = (i + 1) % 3;
-        float a = g_s[i], b = g_s[j];
+        float a = v[i], b = v[j];
         if ((a > 0.0) != (b > 0.0) && n < 2) {
             float t = a / (a - b);
             c[n] = mix(g_clip[i], g_clip[j], t);
@@ -84,7 +92,19 @@ void main() {
             ++n;
         }
     }
-    if (n == 2) emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0);
+    return n == 2;
+}
+
+void main() {
+    vec4 c[2];
+    vec4 d[2];
+    if (u_slice_style.w > 0.0 && crossing(float[3](g_h[0], g_h[1], g_h[2]), c, d)) {
+        emit_segment(c[0], c[1], d[0], d[1], u_slice_style, 10.0 * u_line_bias, 1.0);
+    }
+    if (g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;  // never silhouettes
+    // Lemma 3 segment: the two edges whose ends have opposite signs of s.
+    if (u_ink.w > 0.0 && crossing(float[3](g_s[0], g_s[1], g_s[2]), c, d))
+        emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0, 1.0);
 
     // Lemma 2 point: the normal-plane part of rho1 vanishes. Express each vertex's (n1.rho,
     // n2.rho) in vertex 0's normal frame (the pair is only defined up to rotation) and solve
@@ -109,7 +129,7 @@ void main() {
     if (any(lessThan(dp, vec4(0.0)))) return;
     // A Lemma 2 point lies on a fold of the 3D image, where the surface is seen edge-on: lift the
     // disc further towards the viewer so the surface it marks does not cut it in half.
-    emit_segment(cp, cp, dp, dp, u_pinch, 10.0 * u_line_bias);
+    emit_segment(cp, cp, dp, dp, u_pinch, 10.0 * u_line_bias, 1.0);
 }
 #endif
 
