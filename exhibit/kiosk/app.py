@@ -1,8 +1,10 @@
 """The kiosk: a fullscreen window, the devices, attract mode and the watchdog, in one frame loop.
 
 Everything slow happens before the first frame: meshes come from the cache (or are built once,
-with progress), are uploaded to the GPU once, and devices are opened. Each frame then polls the
-devices without blocking, steps the KioskState, draws, swaps (vsync paces the loop), pings the
+with progress), are uploaded to the GPU once, devices are opened, and the attract timelines and
+scene start views are framed for the screen, clear of the text (exhibit.render.framer). Each frame then polls the
+devices without blocking, steps the KioskState, draws (crossfading for CROSSFADE_S into a
+frame the state marks as a cut), swaps (vsync paces the loop), pings the
 systemd watchdog and, about once a second, writes the health file and the STATUS line.
 
 It survives what it can, because a crash is a black screen until someone comes:
@@ -142,7 +144,7 @@ class FrameErrors:
 
 class Kiosk:
     """The running exhibit. ``window`` is an exhibit.render.window.Window (or any object with
-    draw, notice, read, swap, ctx, renderer, handle and _glfw). ``state`` is None when no scene
+    draw (with ``fade``), capture, notice, read, swap, ctx, renderer, handle and _glfw). ``state`` is None when no scene
     could be prepared: the window then shows NOTICE."""
 
     def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
