@@ -2,9 +2,9 @@
 
 Everything slow happens before the first frame: meshes come from the cache (or are built once,
 with progress), are uploaded to the GPU once, devices are opened, and the attract timelines and
-scene start views are framed for the screen, clear of the text (exhibit.render.framer). Each frame then polls the
-devices without blocking, steps the KioskState, draws (crossfading for CROSSFADE_S into a
-frame the state marks as a cut), swaps (vsync paces the loop), pings the
+scene start views are framed for the screen, clear of the text (exhibit.render.framer). Each
+frame then polls the devices without blocking, steps the KioskState, draws (crossfading for
+CROSSFADE_S into a frame the state marks as a cut), swaps (vsync paces the loop), pings the
 systemd watchdog and, about once a second, writes the health file and the STATUS line.
 
 It survives what it can, because a crash is a black screen until someone comes:
