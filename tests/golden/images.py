@@ -8,7 +8,8 @@ fail on any Mesa update (llvmpipe's rasteriser and FXAA move edge pixels by a le
 thresholds sit between such noise and the smallest change that matters (GOLDEN_SSIM, TILE_SSIM).
 
 The checks read the picture itself, with the layout only to say where to look:
-- no surface pixel under a HUD panel (the surfaces drawn alone, same view, on black);
+- no surface pixel under a HUD panel nor in the screen's margin (the surfaces drawn alone, same
+  view, on black);
 - every marker label on the screen, and its ink where its rectangle says;
 - the caption's capitals at least 1/45 of the screen height, measured on the glyph's pixels.
 """
@@ -112,6 +113,21 @@ def surface_pixels_under_panels(surfaces: np.ndarray, panels: list[Rect]) -> lis
         if n:
             out.append(f"{n} surface pixels under the panel {tuple(round(v) for v in rect)}")
     return out
+
+
+def surface_pixels_in_the_margin(surfaces: np.ndarray, margin: float) -> list[str]:
+    """Where a surface reaches into the screen's margin (2 px of it are allowed for rasterising
+    and antialiasing): the free area ends ``margin`` pixels in from every edge."""
+    ys, xs = np.nonzero(surfaces.max(axis=-1) > 8)
+    if not xs.size:
+        return ["no surface drawn"]
+    height, width = surfaces.shape[:2]
+    edge = margin - 2
+    box = (int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max()))
+    inside = box[0] >= edge and box[1] >= edge and box[2] < width - edge and \
+        box[3] < height - edge
+    return [] if inside else [f"the surfaces span {box}, into the {margin:g} px margin of the "
+                              f"{width}x{height} screen"]
 
 
 def label_problems(image: np.ndarray, labels, color) -> list[str]:

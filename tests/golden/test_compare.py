@@ -10,7 +10,8 @@ from exhibit import scenes
 from exhibit.render.layout import Rect, TextSizes, hud_layout
 from exhibit.render.text import line_height
 from tests.golden.images import (GOLDEN_DIR, caption_cap_height, compare, label_problems, load,
-                                 min_cap_height, surface_pixels_under_panels)
+                                 min_cap_height, surface_pixels_in_the_margin,
+                                 surface_pixels_under_panels)
 
 NAME = "figure-15"
 
@@ -82,6 +83,11 @@ def test_surface_under_a_panel_and_labels_off_screen_are_found():
     panels = [Rect(6, 6, 200, 60), Rect(290, 110, 330, 115)]
     assert surface_pixels_under_panels(surfaces, panels) == [
         "100 surface pixels under the panel (290, 110, 330, 115)"]
+    assert surface_pixels_in_the_margin(surfaces, 6) == []
+    surfaces[262:268, 300:310] = 200
+    assert surface_pixels_in_the_margin(surfaces, 6) == [
+        "the surfaces span (300, 100, 319, 267), into the 6 px margin of the 480x270 screen"]
+    assert surface_pixels_in_the_margin(surfaces * 0, 6) == ["no surface drawn"]
     image = np.zeros((270, 480, 3), np.uint8)
     image[250:262, 400:470] = (255, 255, 0)
     inside = ("first contact", Rect(400, 250, 470, 262), (395, 255), False)

@@ -1,8 +1,8 @@
 """Golden images (issue 14): the paper's twelve figures as `exhibit render --figure N` draws them,
 and kiosk frames (attract mode, a visitor, the idle glide back), rendered headless on llvmpipe
 (EGL) at 480x270, compared with the PNGs in tests/golden/ by SSIM (tests/golden/images.py), and
-checked on their own pixels: no surface under a HUD panel, every marker label on the screen, the
-caption's capitals at least 1/45 of the height.
+checked on their own pixels: no surface under a HUD panel or in the screen's margin, every marker
+label on the screen, the caption's capitals at least 1/45 of the height.
 
 `pytest tests/golden -m slow --update-golden` rewrites the PNGs on purpose; look at every one
 before committing (tests/golden/README.md).
@@ -16,7 +16,8 @@ from exhibit import scenes
 from exhibit.cli import main
 from exhibit.render import Headless, RenderUnavailable
 from tests.golden.images import (SURFACES_ONLY, caption_cap_height, compare, label_problems,
-                                 load, min_cap_height, surface_pixels_under_panels)
+                                 load, min_cap_height, surface_pixels_in_the_margin,
+                                 surface_pixels_under_panels)
 from tests.golden.kiosk_frames import KioskRun
 from tests.xvfb import unavailable
 
@@ -80,6 +81,7 @@ def test_figure(number, monkeypatch, tmp_path, update):
     check_text(image, layout, drift, hud.caption)
     if scene.fit and preset.fit:  # Figure 8's torus fills the world on purpose
         assert surface_pixels_under_panels(surfaces, layout.panels) == []
+        assert surface_pixels_in_the_margin(surfaces, layout.margin) == []
     mesh_labels = [m for m in scene.build(dict(preset.params), 8).markers if m.label]
     assert [text for text, *_ in labels] == [m.label for m in mesh_labels]
     for marker in mesh_labels:
@@ -130,6 +132,7 @@ def test_kiosk_frame(kiosk_shots, name, mode, tmp_path, update):
     compare(f"kiosk-{name}", shot.image, update, tmp_path / "golden-out")
     check_text(shot.image, shot.layout, shot.drift, shot.caption)
     assert surface_pixels_under_panels(shot.surfaces, shot.layout.panels) == []
+    assert surface_pixels_in_the_margin(shot.surfaces, shot.layout.margin) == []
     marker = scenes.get("collision").build(shot.params, 8).markers[0]
     assert [text for text, *_ in shot.labels] == [marker.label]
     assert label_problems(shot.image, shot.labels, marker.material.color) == []
