@@ -50,6 +50,12 @@ def add_arguments(parser) -> None:
                         help="do not draw the live Lemma 3 silhouettes and Lemma 2 points")
     parser.add_argument("--depth-colour", action="store_true",
                         help="colour surfaces by 4D depth (w after rotation)")
+    parser.add_argument("--slice", metavar="AXIS=C",
+                        help="draw the slice of the surfaces by the hyperplane AXIS = C, glowing "
+                             "(e.g. t=-1.5 for the collision: the moment t = -1.5)")
+    parser.add_argument("--inset", action="store_true",
+                        help="with --slice: add a picture in the picture of the 3D world at that "
+                             "moment (the collision's pipe and ball), or the slice curves alone")
     parser.add_argument("--out", metavar="FILE",
                         help="output .png (or, with --frames, a folder, .gif or .mp4)")
     parser.add_argument("--window", action="store_true",
@@ -125,7 +131,27 @@ def resolve(args):
         view = view.replace(**changes)
     if args.sensor_distance is not None:
         view = view.with_sensor_distance(_distance(args.sensor_distance, "--sensor-distance"))
+    if args.slice is not None:
+        axis, at = parse_slice(args.slice, tuple(scene.axes))
+        view = view.replace(slice_axis=axis, slice_at=at)
+    elif args.inset:
+        raise ExhibitError("--inset shows the 3D world at a slice: give --slice AXIS=C too")
     return scene, params, view, note
+
+
+def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
+    """`--slice AXIS=C`: the axis index and the value, finite and within ±1e6."""
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep or name not in axes:
+        raise ExhibitError(f"--slice: {text!r} is not AXIS=C with AXIS one of {', '.join(axes)}")
+    try:
+        at = float(value)
+    except ValueError:
+        raise ExhibitError(f"--slice: {value.strip()!r} is not a number") from None
+    if not (math.isfinite(at) and abs(at) <= 1e6):
+        raise ExhibitError(f"--slice: {value.strip()!r} must be a finite number within ±1e6")
+    return axes.index(name), at
 
 
 def run(args) -> int:
@@ -165,17 +191,26 @@ def run(args) -> int:
     hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
     mesh = scene.build(params, resolution)
     fit = not args.no_fit and (args.figure is None or scenes.figure(int(args.figure))[1].fit)
+    inset = None
+    if args.inset:
+        from exhibit.render.inset import inset_rect
+        from exhibit.render.layout import hud_layout
+        inset = inset_rect(size, hud_layout(size, sizes=options.text).margin)
     if fit and scene.fit and frames is None:
-        # The picture in the space the text leaves (exhibit.render.framer). Not animations:
-        # the sensor sweep's point is the image growing to fill the world.
+        # The picture in the space the text (and the inset) leave (exhibit.render.framer). Not
+        # animations: the sensor sweep's point is the image growing to fill the world.
         from exhibit.render.framer import Framer
-        framer = Framer(size, options.text, hud=options.hud)
+        framer = Framer(size, options.text, hud=options.hud, extra=(inset,) if inset else ())
         view = framer.view(mesh, view, scene.title, [(scene.caption, note)])
     headless = Headless()
     try:
         gpu = headless.renderer.upload(mesh)
         if frames is None:
-            save_png(headless.still(gpu, view, size, options, hud, samples), out)
+            picture = headless.still(gpu, view, size, options, hud, samples)
+            if inset is not None:
+                picture = _with_inset(headless, scene, params, mesh, view, picture, inset,
+                                      samples)
+            save_png(picture, out)
             print(out)
             return 0
         images = []
@@ -188,6 +223,24 @@ def run(args) -> int:
     _write_animation(images, out, kind)
     print(out)
     return 0
+
+
+def _with_inset(headless, scene, params, mesh, view, picture, rect, samples):
+    """The picture with the time-slice inset (exhibit.render.inset) in ``rect``."""
+    from exhibit.render import RenderOptions
+    from exhibit.render.inset import BACKGROUND, compose, inset_mesh, inset_view
+
+    axis, at = view.slice_axis, view.slice_at
+    world = inset_mesh(scene, scene.resolve(params), mesh, axis, at)
+    size = (int(rect.width), int(rect.height))
+    gpu = headless.renderer.upload(world)
+    try:
+        image = headless.still(gpu, inset_view(view, world, size), size,
+                               RenderOptions(hud=False, pinch_points=False,
+                                             background=BACKGROUND), None, samples)
+    finally:
+        gpu.release()
+    return compose(picture, image, rect, f"{scene.axes[axis]} = {at:g}")
 
 
 def _window(scene, params, view, note, size, resolution, samples) -> int:

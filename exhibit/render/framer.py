@@ -45,16 +45,18 @@ class Framer:
     the margin) is free."""
 
     def __init__(self, size: tuple[int, int], sizes: TextSizes = TextSizes(),
-                 drift: float = 0.0, hud: bool = True):
+                 drift: float = 0.0, hud: bool = True, extra: tuple[Rect, ...] = ()):
         self.size = (int(size[0]), int(size[1]))
         self.sizes = sizes
         self.drift = float(drift)
         self.hud = hud
+        #: Panels beyond the HUD's (the time-slice inset, exhibit.render.inset).
+        self.extra = tuple(extra)
 
     def panels(self, title: str, captions) -> list[Rect]:
         """Every panel the HUD may draw with ``title`` and any one of ``captions`` (each a
         tuple of paragraphs: caption, note)."""
-        out: list[Rect] = []
+        out: list[Rect] = list(self.extra)
         if not self.hud:
             return out
         for paragraphs in captions or [("",)]:

@@ -59,6 +59,11 @@ class Scene:
     #: The start view and presets are fitted into the screen's free area (exhibit.render.framer)
     #: unless False.
     fit: bool = True
+    #: The time-like axis for the slice explorer (the collision's t), and the 3D world at a
+    #: value c of it for the inset: (params, c) -> a Mesh4D lying in the hyperplane axis = c
+    #: (the pipe and the ball at time c). None: the inset shows the slice curves alone.
+    slice_axis: int | None = None
+    world_at: Callable[[dict, float], Mesh4D] | None = None
 
     def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""

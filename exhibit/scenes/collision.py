@@ -15,6 +15,7 @@ from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Preset, Scene
 from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
 from exhibit.surfaces.mesh import Curve, Marker, Material, Mesh4D
+from exhibit.surfaces.parametric import Interval, tessellate
 
 AXES = ("x", "y", "z", "t")
 CYLINDER = "(y - vc*t)^2 + z^2 - rc^2"
@@ -101,6 +102,37 @@ def cylinder_at_rest(params: dict, length: float) -> list[Curve]:
     return curves
 
 
+def world_at(params: dict, c: float) -> Mesh4D:
+    """The 3D world at the moment t = c, in the hyperplane t = c: the pipe (its axis at
+    y = vc·c) as a wire, so the ball inside it stays visible, and the ball (centre z = -vs·c)
+    as a solid. Their intersection is the collision surface's slice at t = c."""
+    rc, rs, vc, vs = params["rc"], params["rs"], params["vc"], params["vs"]
+    length = 1.3 * max(rs, rc)
+    pipe = []
+    for curve in cylinder_at_rest(params, length):
+        points = curve.points.copy()
+        points[:, 1] += vc * c
+        points[:, 3] = c
+        pipe.append(Curve(curve.name, points, curve.material, curve.closed))
+
+    def ball(theta, phi):
+        return np.stack([rs * np.sin(theta) * np.cos(phi), rs * np.sin(theta) * np.sin(phi),
+                         -vs * c + rs * np.cos(theta), np.full_like(theta, c)], axis=-1)
+
+    def tangents(theta, phi):
+        zero = np.zeros_like(theta)
+        d_theta = np.stack([rs * np.cos(theta) * np.cos(phi), rs * np.cos(theta) * np.sin(phi),
+                            -rs * np.sin(theta), zero], axis=-1)
+        d_phi = np.stack([-rs * np.sin(theta) * np.sin(phi), rs * np.sin(theta) * np.cos(phi),
+                          zero, zero], axis=-1)
+        return d_theta, d_phi
+
+    sphere = tessellate("ball", ball, Interval(1e-3, math.pi - 1e-3),
+                        Interval(0.0, 2 * math.pi, periodic=True), (24, 48), tangents,
+                        Material(color=(0.75, 0.78, 0.85)), adaptive=False)
+    return Mesh4D([sphere], pipe)
+
+
 def build_part(params: dict, resolution: int, progress=None):
     lo, hi = box(params)
     return mesh_implicit("collision surface", CYLINDER, SPHERE, AXES, params, lo, hi, resolution,
@@ -154,4 +186,6 @@ SCENE = Scene(
                       (17, FIGURE_PARAMS[17], "A larger sphere: one piece with a hole."))),
     axes=AXES,
     default_resolution=48,
+    slice_axis=3,
+    world_at=world_at,
 )

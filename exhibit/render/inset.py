@@ -1,0 +1,90 @@
+"""The time-slice inset: a picture in the picture that shows the 3D world at the slice value.
+
+The main picture shows the 4D surface with its slice S ∩ {x_a = c} glowing on it
+(ViewState.slice_axis/slice_at). The inset shows what that slice *is* in 3D: for a scene with a
+world at a moment (Scene.world_at: the collision's pipe and ball at time c) that world with the
+slice as the curve where they meet; for any other scene the slice curves alone. It is drawn with
+the sensor at infinity along the sliced axis (so the 3D world is seen as it is) and the main
+view's eye, so both pictures turn together. It sits in the bottom-right corner and counts as a
+panel, so the main picture is framed into the space left free by the text and by it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from exhibit.geometry.framing import frame, mesh_points
+from exhibit.geometry.view import ViewState
+from exhibit.render.layout import Rect
+from exhibit.surfaces.exact_silhouette import RefineStats
+from exhibit.surfaces.mesh import Curve, Material, Mesh4D
+from exhibit.surfaces.slice import slice_curves
+
+#: The inset's height as a fraction of the screen's, and its aspect.
+HEIGHT = 0.36
+ASPECT = 4.0 / 3.0
+#: Its background: a shade lighter than the screen's, so it reads as a window.
+BACKGROUND = ((0.22, 0.24, 0.30), (0.10, 0.11, 0.15))
+BORDER = (205, 210, 225)
+#: The slice curve in the inset: the colour the main picture's slice glows in.
+SLICE_MATERIAL = Material(color=(1.0, 0.93, 0.55), line_width=3.5)
+
+
+def inset_rect(size: tuple[int, int], margin: float) -> Rect:
+    """Where the inset goes: the bottom-right corner, inside the margin."""
+    width, height = size
+    h = round(HEIGHT * height)
+    w = round(min(ASPECT * h, 0.45 * width))
+    return Rect(width - margin - w, height - margin - h, width - margin, height - margin)
+
+
+def _last_axis(points: np.ndarray, axis: int) -> np.ndarray:
+    """Coordinates reordered so the sliced axis comes last (the one the sensor projects away)."""
+    order = [k for k in range(4) if k != axis] + [axis]
+    return points[..., order]
+
+
+def inset_mesh(scene, params: dict, mesh: Mesh4D, axis: int, at: float,
+               stats: RefineStats | None = None) -> Mesh4D:
+    """The 3D world at the slice: Scene.world_at's when the scene has one for this axis, with
+    the refined slice curves drawn on it; else the slice curves alone."""
+    curves = [Curve(c.name, c.points, SLICE_MATERIAL, c.closed)
+              for surface in mesh.surfaces for c in slice_curves(surface, axis, at, stats)]
+    if scene.world_at is not None and scene.slice_axis == axis:
+        world = scene.world_at(params, at)
+        world.curves += curves
+        return world
+    return Mesh4D([], [Curve(c.name, _last_axis(c.points, axis), c.material, c.closed)
+                       for c in curves])
+
+
+def inset_view(main: ViewState, mesh: Mesh4D, size: tuple[int, int]) -> ViewState:
+    """No 4D rotation and the sensor at infinity (the sliced axis is dropped, the 3D world is
+    seen undistorted), the main view's eye, framed into the inset with a margin."""
+    view = ViewState(eye_azimuth=main.eye_azimuth, eye_incidence=main.eye_incidence,
+                     twist=main.twist, eye_r=main.eye_r, lights=main.lights)
+    points = mesh_points(mesh)
+    if len(points) == 0:
+        return view
+    margin = 0.08 * min(size)
+    area = (margin, margin, size[0] - margin, size[1] - margin)
+    return frame(view, points, size, [area])
+
+
+def compose(picture: np.ndarray, inset: np.ndarray, rect: Rect, label: str = "") -> np.ndarray:
+    """The inset pasted into the picture at ``rect`` with a thin border and a label."""
+    from PIL import Image, ImageDraw
+
+    from exhibit.render.text import font
+
+    out = picture.copy()
+    x0, y0 = int(rect.x0), int(rect.y0)
+    h, w = inset.shape[:2]
+    out[y0:y0 + h, x0:x0 + w] = inset
+    image = Image.fromarray(out)
+    draw = ImageDraw.Draw(image)
+    draw.rectangle((x0 - 1, y0 - 1, x0 + w, y0 + h), outline=BORDER, width=2)
+    if label:
+        px = max(12, round(0.09 * h))
+        draw.text((x0 + 0.5 * px, y0 + 0.35 * px), label, fill=BORDER, font=font("sans", px))
+    return np.asarray(image)

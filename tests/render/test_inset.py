@@ -1,0 +1,85 @@
+"""The time-slice inset (exhibit/render/inset.py) and `exhibit render --slice A=C --inset`."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from exhibit import scenes
+from exhibit.render.inset import BORDER, inset_mesh, inset_rect, inset_view
+
+
+@pytest.fixture(scope="module")
+def collision():
+    scenes.load()
+    return scenes.get("collision")
+
+
+def test_the_collision_world_at_a_moment_lies_in_that_hyperplane(collision):
+    params = collision.resolve({"vc": 0.3})
+    mesh = collision.build(params, 24)
+    world = inset_mesh(collision, params, mesh, 3, -1.0)
+    ball = world.surfaces[0].positions
+    assert np.all(ball[:, 3] == -1.0)
+    centre = np.array([0.0, 0.0, 1.0])   # the ball falls along -z: at t = -1 it is at z = vs
+    assert np.abs(np.linalg.norm(ball[:, :3] - centre, axis=1) - params["rs"]).max() < 1e-12
+    pipe = [c for c in world.curves if c.name.startswith("cylinder")]
+    for curve in pipe:   # the pipe's axis has moved to y = vc * t
+        y, z = curve.points[:, 1] + 0.3, curve.points[:, 2]
+        assert np.allclose(np.hypot(y, z), params["rc"]) and np.all(curve.points[:, 3] == -1.0)
+    slices = [c for c in world.curves if c.name.startswith("slice")]
+    assert len(slices) == 1 and np.all(slices[0].points[:, 3] == -1.0)
+
+
+def test_a_scene_without_a_world_shows_its_slice_curves_with_the_axis_projected_away():
+    scenes.load()
+    hopf = scenes.get("hopf")
+    mesh = hopf.build({}, 24)
+    world = inset_mesh(hopf, hopf.resolve({}), mesh, 1, 0.2)   # slice y = 0.2
+    assert not world.surfaces and world.curves
+    for curve in world.curves:
+        assert np.allclose(curve.points[:, 3], 0.2)   # y moved last: the sensor drops it
+
+
+def test_the_inset_sits_in_the_bottom_right_and_keeps_its_view_to_the_eye(collision):
+    size = (1920, 1080)
+    rect = inset_rect(size, 24)
+    assert rect.x1 == 1920 - 24 and rect.y1 == 1080 - 24
+    assert rect.height == pytest.approx(0.36 * 1080, abs=1)
+    main = collision.view.replace(angles=(0.3, 0.2, 0.1, 0.5, 0.4, 0.2), eye_azimuth=0.7)
+    world = inset_mesh(collision, collision.resolve({}), collision.build({}, 24), 3, 0.0)
+    view = inset_view(main, world, (int(rect.width), int(rect.height)))
+    assert view.angles == (0.0,) * 6 and view.sensor_r == 0.0
+    assert view.eye_azimuth == main.eye_azimuth and view.eye_incidence == main.eye_incidence
+
+
+def test_render_draws_the_inset_beside_the_framed_picture(cli, tmp_path):
+    out = tmp_path / "inset.png"
+    result = cli("render", "collision", "--slice", "t=-1.2", "--inset", "--size", "640x360",
+                 "--samples", "0", "--resolution", "24", "--out", str(out))
+    assert result.returncode == 0, result.stderr
+    picture = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    rect = inset_rect((640, 360), 8)
+    # its border, at the rectangle's left edge, whatever the margin: find the border column
+    row = picture[int(rect.y0 + rect.height / 2)]
+    border = np.flatnonzero(np.abs(row - np.array(BORDER)).max(axis=1) < 12)
+    assert len(border) and border.min() > 640 * 0.4
+    inside = picture[int(rect.y0) + 10:, border.min() + 3:-12]
+    assert np.unique(inside.reshape(-1, 3), axis=0).shape[0] > 200   # a picture, not a panel
+    # the glowing slice: bright warm pixels in the main picture, left of the inset
+    main = picture[:, :border.min() - 2]
+    glow = (main[..., 0] > 200) & (main[..., 1] > 180) & (main[..., 2] > 80) & (main[..., 2] < 190)
+    assert glow.sum() > 50
+
+
+@pytest.mark.parametrize("args, message", [
+    (("--inset",), "--inset shows the 3D world at a slice: give --slice AXIS=C too"),
+    (("--slice", "w=0"), "is not AXIS=C with AXIS one of x, y, z, t"),
+    (("--slice", "t=nan"), "must be a finite number"),
+    (("--slice", "t=abc"), "'abc' is not a number"),
+])
+def test_bad_slice_arguments_get_one_line(cli, tmp_path, args, message):
+    result = cli("render", "collision", *args, "--out", str(tmp_path / "x.png"))
+    assert result.returncode == 2 and message in result.stderr
+    assert "Traceback" not in result.stderr
