@@ -255,3 +255,34 @@ def test_monitor_text_line_names_the_buttons():
          "buttons": [{"device": "controller", "button": 1, "held": True, "does": "home"}]}
     assert text_line(s).endswith("| idle 0.5 s | controller button 1 (home, held)")
     assert text_line({**s, "buttons": []}).endswith("| idle 0.5 s")
+
+
+# ---------------------------------------------------------------- the kiosk's scene buttons
+
+def test_in_the_kiosk_only_the_next_scene_button_changes_scene(tmp_path):
+    """With the shipped controller mapping: button 2 moves on, buttons 3 and 4 move the sensor
+    and leave the scene, button 1 goes home."""
+    from exhibit.kiosk.attract import Playlist, load_timeline
+    from exhibit.kiosk.state import VISITOR, KioskState
+
+    path = tmp_path / "t.toml"
+    path.write_text('scene = "hopf"\n[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\n'
+                    'angles = [90, 0, 0, 0, 0, 0]\n')
+    state = KioskState(Playlist([load_timeline(path)]), Mapper(only("controller")),
+                       ("hopf", "collision"), idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+
+    def button(t, index, value=1.0):
+        return Event(t, "controller", Kind.BUTTON, index, value)
+
+    frame = state.update([button(1.0, 2)], 1.0)  # button 3 held: closer, same scene
+    assert frame.mode == VISITOR and frame.scene == "hopf"
+    for t in (1.1, 1.2, 1.3, 1.4, 1.5):
+        frame = state.update([], t)
+    frame = state.update([button(1.5, 2, 0.0)], 1.5)
+    assert frame.scene == "hopf" and frame.view.sensor_r == pytest.approx(0.1)
+    frame = state.update([button(2.0, 3), button(2.5, 3, 0.0)], 2.5)  # button 4: back out
+    assert frame.scene == "hopf" and frame.view.sensor_r == pytest.approx(0.0)
+    frame = state.update([button(3.0, 1)], 3.0)  # button 2: the next scene
+    assert frame.scene == "collision"
+    frame = state.update([button(3.5, 1, 0.0), button(4.0, 0)], 4.0)  # home: same scene
+    assert frame.scene == "collision"
