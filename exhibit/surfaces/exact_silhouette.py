@@ -265,14 +265,40 @@ def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int
     """The silhouette along two axes of a parametric surface, refined in (s, t) onto
     det[X_s, X_t, e_a, e_b] = 0. Parameters are interpolated per triangle with periodic ones
     unwrapped, so a curve crossing a seam starts from the right (s, t)."""
-    from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
-    from exhibit.surfaces.curves import chain_segments
+    from exhibit.geometry.silhouette import silhouette_function
 
     if len(surface.triangles) == 0:
         return []
     e = np.eye(4)
     values = silhouette_function(surface.normals[:, 0], surface.normals[:, 1], e[along[0]],
                                  e[along[1]])
+    chains = traced_with_parameters(surface, exact, values)
+    if not chains:
+        return []
+    edge = float(np.max(np.ptp(surface.positions, axis=0))) / max(np.sqrt(len(surface.positions)),
+                                                                  1.0)
+    out: list[Curve] = []
+    total = RefineStats()
+    for points, st, closed in chains:
+        x, keep, s = exact.refine(st, along, 2.0 * edge)
+        runs = split_runs(x, keep, closed)
+        s.refined = sum(len(run) for run, _ in runs)
+        total.add(s)
+        for run, run_closed in runs:
+            out.append(Curve(name if not out else f"{name} {len(out) + 1}", run, material,
+                             run_closed))
+    if stats is not None:
+        stats.add(total)
+    return out
+
+
+def traced_with_parameters(surface, exact: ParametricExact, values: np.ndarray):
+    """The zero set of per-vertex ``values`` on a parametric surface's mesh as chained polylines
+    [(points, (s, t) per point, closed)]. Parameters are interpolated per triangle with periodic
+    ones unwrapped, so a curve crossing a seam starts Newton from the right (s, t)."""
+    from exhibit.geometry.silhouette import zero_set_segments
+    from exhibit.surfaces.curves import chain_segments
+
     tris = surface.triangles.astype(np.int64)
     params = exact.params[tris].copy()  # (T, 3, 2)
     for k, interval in enumerate((exact.s_interval, exact.t_interval)):
@@ -289,19 +315,6 @@ def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int
     scale = max(float(np.abs(surface.positions).max()), 1.0) * 1e-9
     for end in segments.reshape(-1, 6):
         lookup.setdefault(tuple(np.round(end[:4] / scale).astype(np.int64)), end[4:])
-    edge = float(np.max(np.ptp(surface.positions, axis=0))) / max(np.sqrt(len(surface.positions)),
-                                                                  1.0)
-    out: list[Curve] = []
-    total = RefineStats()
-    for points, closed in chain_segments(segments[:, :, :4], scale):
-        st = np.array([lookup[tuple(np.round(p / scale).astype(np.int64))] for p in points])
-        x, keep, s = exact.refine(st, along, 2.0 * edge)
-        runs = split_runs(x, keep, closed)
-        s.refined = sum(len(run) for run, _ in runs)
-        total.add(s)
-        for run, run_closed in runs:
-            out.append(Curve(name if not out else f"{name} {len(out) + 1}", run, material,
-                             run_closed))
-    if stats is not None:
-        stats.add(total)
-    return out
+    return [(points, np.array([lookup[tuple(np.round(p / scale).astype(np.int64))]
+                               for p in points]), closed)
+            for points, closed in chain_segments(segments[:, :, :4], scale)]

@@ -24,7 +24,7 @@ import numpy as np
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.exact_silhouette import (ITERATIONS, NEWTON_TARGET, RESIDUAL_TOLERANCE,
                                                ParametricExact, RefineStats, min_norm_newton,
-                                               split_runs)
+                                               split_runs, traced_with_parameters)
 from exhibit.surfaces.implicit import CoordinatePlane
 from exhibit.surfaces.mesh import Curve, Material, Surface
 
@@ -119,39 +119,32 @@ def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | No
     """The slice S ∩ {x_axis = at} as curves refined onto the exact surface (see the module's
     docstring). Without an exact surface behind the mesh (one loaded from the cache), nothing
     can be refined and every traced point counts as dropped."""
-    traced = traced_slice(surface, axis, at, name, material)
+    if len(surface.triangles) == 0:
+        return []
+    exact = surface.exact
+    values = surface.positions[:, axis] - at
+    max_move = MAX_MOVE_EDGES * mean_edge(surface)
+    if isinstance(exact, ParametricExact):
+        chains = traced_with_parameters(surface, exact, values)
+    else:
+        chains = [(c.points, None, c.closed) for c in traced_slice(surface, axis, at, name)]
     total = RefineStats()
     out: list[Curve] = []
-    exact = surface.exact
-    max_move = MAX_MOVE_EDGES * mean_edge(surface)
-    for curve in traced:
-        if exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2"):
-            x, keep, s = ImplicitSlice(exact.f1, exact.f2, axis, at).refine(curve.points,
-                                                                             max_move)
-        elif isinstance(exact, ParametricExact):
-            st = _parameters_of(surface, exact, curve.points)
+    material = material or Material()
+    for points, st, closed in chains:
+        if st is not None:
             x, keep, s = _refine_parametric(exact, st, axis, at, max_move)
+        elif exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2"):
+            x, keep, s = ImplicitSlice(exact.f1, exact.f2, axis, at).refine(points, max_move)
         else:
-            total.dropped += len(curve.points)
+            total.dropped += len(points)
             continue
-        runs = split_runs(x, keep, curve.closed)
-        s.refined = sum(len(points) for points, _ in runs)  # a lone kept point is no curve
+        runs = split_runs(x, keep, closed)
+        s.refined = sum(len(run) for run, _ in runs)  # a lone kept point is no curve
         total.add(s)
-        for points, closed in runs:
+        for run, run_closed in runs:
             label = name if not out else f"{name} {len(out) + 1}"
-            out.append(Curve(label, points, curve.material, closed))
+            out.append(Curve(label, run, material, run_closed))
     if stats is not None:
         stats.add(total)
-    return out
-
-
-def _parameters_of(surface: Surface, exact: ParametricExact, points: np.ndarray) -> np.ndarray:
-    """(s, t) to start Newton from for points on the mesh: those of the nearest vertex (the
-    traced points lie on mesh edges, so the nearest vertex is less than an edge away)."""
-    positions = surface.positions
-    out = np.empty((len(points), 2))
-    for start in range(0, len(points), 256):
-        chunk = points[start:start + 256]
-        d = np.linalg.norm(chunk[:, None] - positions[None], axis=-1)
-        out[start:start + 256] = exact.params[np.argmin(d, axis=1)]
     return out

@@ -13,8 +13,12 @@ frame by frame in turn (so a noisy machine slows all three alike):
 frame_ms adds the rest of a kiosk frame: background, live silhouettes (geometry shader), curves
 and the HUD. intersections_ms is what the intersection curves of the 3D image add to the
 surface pass: the same surfaces drawn with each pixel's sheet and depth plane beside the colour,
-then the full-screen pass that inks the crossings (sheets_ms), less pipeline_ms. Every frame
-turns the view a little, as a visitor would.
+then the full-screen pass that inks the crossings (sheets_ms), less pipeline_ms. slice_ms is what
+the glowing slice w = c adds to the whole frame (sliced_frame_ms less frame_ms: its marching in
+the silhouette pass). The time-slice inset costs inset_cpu_ms (the slice traced and refined onto
+the exact surface on the CPU, each time c changes) and inset_gpu_ms (its curves uploaded and
+drawn at the inset's size, 0.36 of the height). Every frame turns the view a little, as a
+visitor would, and moves the slice.
 """
 
 from __future__ import annotations
@@ -136,6 +140,7 @@ def run(args) -> int:
     from exhibit import scenes
     from exhibit.commands.render import parse_size
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
+    from exhibit.render.inset import inset_mesh, inset_view
 
     size = parse_size(args.size)
     counts = [parse_count(t) for t in args.triangles.split(",")]
@@ -182,6 +187,20 @@ def run(args) -> int:
                 renderer.draw_intersections(gpu, sheets, size, options, v)
 
             options = RenderOptions()
+            inset_size = (round(0.48 * size[1]), round(0.36 * size[1]))
+            inset_target = headless.target(inset_size, samples)
+            inset_meshes = []
+
+            def inset_cpu(v):
+                inset_meshes.append(inset_mesh(scene, {}, mesh, 3, v.slice_at))
+
+            def inset_gpu(v):
+                world = inset_meshes.pop()
+                inset_gpu_mesh = renderer.upload(world)
+                renderer.render(inset_gpu_mesh, inset_view(v, world, inset_size),
+                                inset_target.framebuffer, RenderOptions(hud=False))
+                inset_gpu_mesh.release()
+
             variants = {
                 "sheets_ms": with_sheets,
                 "pipeline_ms": lambda v: surfaces_only(
@@ -190,11 +209,16 @@ def run(args) -> int:
                 "floor_ms": lambda v: surfaces_only(
                     lambda: renderer.draw_surfaces(gpu, v, size, key="floor")),
                 "frame_ms": lambda v: renderer.render(gpu, v, fbo, RenderOptions(), hud),
+                "sliced_frame_ms": lambda v: renderer.render(
+                    gpu, v.replace(slice_axis=3), fbo, RenderOptions(), hud),
+                "inset_cpu_ms": inset_cpu,
+                "inset_gpu_ms": inset_gpu,
             }
             times = {key: [] for key in variants}
             for i in range(frames + 2):  # two warm-up frames
                 view = scene.view.replace(
-                    angles=(0.02 * i, -0.3 + 0.01 * i, -0.2, 0.4, -0.3, 0.0))
+                    angles=(0.02 * i, -0.3 + 0.01 * i, -0.2, 0.4, -0.3, 0.0),
+                    slice_at=0.3 * math.sin(0.2 * i))
                 for key, draw in variants.items():
                     start = time.perf_counter()
                     draw(view)
@@ -204,6 +228,7 @@ def run(args) -> int:
             row = {"triangles": gpu.triangle_count}
             row.update({k: round(statistics.median(v), 2) for k, v in times.items()})
             row["intersections_ms"] = round(row["sheets_ms"] - row["pipeline_ms"], 2)
+            row["slice_ms"] = round(row["sliced_frame_ms"] - row["frame_ms"], 2)
             results.append(row)
             baseline.release()
             gpu.release()
@@ -221,10 +246,12 @@ def run(args) -> int:
     print(f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; "
           f"{size[0]}x{size[1]}, {samples or 'no'} MSAA samples; medians of {frames} frames")
     print(f"{'triangles':>10} {'pipeline':>10} {'cpu base':>10} {'floor':>10} "
-          f"{'pipe/floor':>10} {'base/pipe':>10} {'full frame':>11} {'intersect':>10}")
+          f"{'pipe/floor':>10} {'base/pipe':>10} {'full frame':>11} {'intersect':>10} "
+          f"{'slice':>8} {'inset cpu':>10} {'inset gpu':>10}")
     for r in results:
         print(f"{r['triangles']:>10} {r['pipeline_ms']:>8.1f}ms {r['cpu_baseline_ms']:>8.1f}ms "
               f"{r['floor_ms']:>8.1f}ms {r['pipeline_ms'] / r['floor_ms']:>9.2f}x "
               f"{r['cpu_baseline_ms'] / r['pipeline_ms']:>9.2f}x {r['frame_ms']:>9.1f}ms "
-              f"{r['intersections_ms']:>+8.1f}ms")
+              f"{r['intersections_ms']:>+8.1f}ms {r['slice_ms']:>+6.1f}ms "
+              f"{r['inset_cpu_ms']:>8.1f}ms {r['inset_gpu_ms']:>8.1f}ms")
     return 0
