@@ -4,8 +4,8 @@
     scene = "hopf"                            # a registered scene
     preset = "figure-6"                       # optional: start from a preset's view and params
     params = { rs = 0.7 }                     # optional scene parameters
-    fit = true                                # optional: framed for the screen (exhibit.render.framer;
-                                              # default: unless a keyframe sets half_height)
+    fit = false                               # optional: keep the zooms as written (default:
+                                              # framed for the screen, exhibit.render.framer)
 
     [[keyframe]]
     t = 0                                     # seconds from the start of this timeline
@@ -83,7 +83,7 @@ class Timeline:
     params: dict
     base_view: ViewState
     keyframes: tuple[Keyframe, ...]
-    #: Framed for the screen: True, False, or None (unless a keyframe sets half_height).
+    #: Framed for the screen (exhibit.render.framer) unless False.
     fit: bool | None = None
 
     @property

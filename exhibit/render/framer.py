@@ -11,10 +11,11 @@ What is framed, and what is not:
   sampled every 0.5 s, clear of all its captions), so moving between keyframes never crosses a
   panel; either with one zoom and shift for all of it, or keyframe by keyframe (each keyframe
   fitted to the poses half way to its neighbours, both ends of a stretch zoomed out a little
-  where a sample between them spills out), whichever shows the picture larger. A timeline
-  that sets ``half_height``
-  itself is framed by hand by its curator and left alone, unless it says ``fit = true`` (its
-  zooms are then replaced); ``fit = false`` leaves any timeline alone.
+  where a sample between them spills out), whichever shows the picture larger. Zooms written in
+  the timeline are replaced, except at a keyframe whose picture fills the world on purpose (it
+  would need FILL_LIMIT times its zoom to fit the screen: the hypersphere's sensor at distance
+  2, Figure 8's moment), which keeps its own; the framing moves into and out of it. A
+  timeline that says ``fit = false`` is left as written.
 """
 
 from __future__ import annotations
@@ -37,6 +38,9 @@ TIMELINE_POINTS = 4000
 #: GROWTH, up to MAX_GROWTH_STEPS times.
 GROWTH = 1.06
 MAX_GROWTH_STEPS = 12
+#: A keyframe whose picture would need more than this much zooming out to fit on the screen
+#: fills the world on purpose (the sensor inside the object: Figure 8's moment) and is kept.
+FILL_LIMIT = 3.0
 
 
 class Framer:
@@ -87,23 +91,29 @@ class Framer:
         return self.view(mesh, view, scene.title, [(scene.caption, note)])
 
     def timeline(self, timeline, scene, mesh):
-        """The timeline framed keyframe by keyframe (see the module docstring), or the timeline
-        itself when it sets its own zoom (and does not say ``fit = true``) or its scene or
-        preset opts out."""
+        """The timeline framed (see the module docstring), or the timeline itself when it says
+        ``fit = false``, its scene or preset opts out, or every keyframe fills the world."""
         base = timeline.base_view
         presets = [p for p in scene.presets if p.view == base]
         wanted = getattr(timeline, "fit", None)
         if wanted is False or not scene.fit or any(not p.fit for p in presets):
-            return timeline
-        if wanted is None and any(k.half_height != base.half_height
-                                  for k in timeline.keyframes):
             return timeline
         points = mesh_points(mesh, TIMELINE_POINTS)
         frames = timeline.keyframes
         times = sorted({*np.arange(0.0, timeline.duration, TIMELINE_STEP_S).tolist(),
                         *(k.t for k in frames), timeline.duration})
         bounds = {t: image_bounds(points, timeline.at(t)[0]) for t in times}
-        seen = [b for b in bounds.values() if b is not None]
+        fills = tuple(self._fills(timeline.at(k.t)[0], bounds[k.t]) for k in frames)
+        if all(fills):
+            return timeline
+
+        def framed_stretch(t: float) -> bool:
+            """Whether ``t`` lies at or between keyframes that are both framed."""
+            i = timeline.index_at(t)
+            return not fills[i] and (i + 1 == len(frames) or not fills[i + 1]
+                                     or t == frames[i].t)
+
+        seen = [b for t, b in bounds.items() if b is not None and framed_stretch(t)]
         if not seen:
             return timeline
         captions = [(c,) for c in dict.fromkeys(k.caption for k in frames)]
@@ -116,36 +126,58 @@ class Framer:
         if area is None:
             return timeline
         # Two candidates, the larger picture wins: one framing for all (nothing moves but the
-        # object), or one per keyframe (the camera follows; larger where poses differ much).
+        # object), or one per keyframe (the camera follows; larger where poses differ much, and
+        # the only one for a timeline with moments that fill the world).
+        following = self._per_keyframe(timeline, points, times, bounds, fills, framed_stretch,
+                                       area)
+        if any(fills):
+            return following or timeline
         uniform = fit(base, union, self.size, [area])
-        following = self._per_keyframe(timeline, points, times, bounds, union, area)
         if following is not None and (
                 np.mean([np.log(k.half_height) for k in following.keyframes])
                 < np.log(uniform.half_height)):
             return following
-        return FramedTimeline.of(timeline, [uniform] * len(frames))
+        return FramedTimeline.of(timeline, [uniform] * len(frames), fills)
 
-    def _per_keyframe(self, timeline, points, times, bounds, union, area):
-        """Each keyframe framed for the poses around it, zoomed out where the picture between
-        keyframes spills out of ``area``; None if it still spills."""
-        base, frames = timeline.base_view, timeline.keyframes
+    def _fills(self, view: ViewState, bounds) -> bool:
+        """Whether a keyframe's picture fills the world on purpose (Figure 8's moment in a
+        timeline): it would have to zoom out more than FILL_LIMIT times beyond its own zoom
+        to fit on the screen at all."""
+        if bounds is None:
+            return True
+        margin = hud_layout(self.size, "", ("",), self.sizes).margin
+        screen = (margin, margin, self.size[0] - margin, self.size[1] - margin)
+        return fit(view, bounds, self.size, [screen]).half_height > FILL_LIMIT * view.half_height
+
+    def _per_keyframe(self, timeline, points, times, bounds, fills, framed_stretch, area):
+        """Each framed keyframe fitted to the poses around it (half way to its framed
+        neighbours), both ends of a stretch zoomed out where the picture between them spills
+        out of ``area``; keyframes that fill the world keep their own view. None if it still
+        spills."""
+        frames = timeline.keyframes
         views = []
         for i, k in enumerate(frames):
-            lo = k.t - 0.5 * (k.t - frames[i - 1].t) if i else k.t
-            hi = k.t + 0.5 * (frames[i + 1].t - k.t) if i + 1 < len(frames) else k.t
+            own = timeline.at(k.t)[0]
+            if fills[i]:
+                views.append(own)
+                continue
+            lo = k.t - 0.5 * (k.t - frames[i - 1].t) if i and not fills[i - 1] else k.t
+            hi = (k.t + 0.5 * (frames[i + 1].t - k.t)
+                  if i + 1 < len(frames) and not fills[i + 1] else k.t)
             near = [b for t, b in bounds.items() if lo <= t <= hi and b is not None]
-            box = near[0] if near else union
+            box = near[0]
             for b in near[1:]:
                 box = box.union(b)
-            views.append(fit(base, box, self.size, [area]))
+            views.append(fit(own, box, self.size, [area]))
+        checked = [t for t in times if framed_stretch(t)]
         for _ in range(MAX_GROWTH_STEPS):   # between keyframes: zoom out where it spills
-            framed = FramedTimeline.of(timeline, views)
+            framed = FramedTimeline.of(timeline, views, fills)
             spills = set()
-            for t in times:
+            for t in checked:
                 box = pixel_bounds(points, framed.at(t)[0], self.size)
                 if box is not None and not _inside(box, area):
                     i = framed.index_at(t)
-                    spills |= {i, min(i + 1, len(frames) - 1)}
+                    spills |= {j for j in (i, i + 1) if j < len(frames) and not fills[j]}
             if not spills:
                 return framed
             views = [zoom_about(v, GROWTH, area, self.size) if i in spills else v
@@ -166,13 +198,16 @@ class FramedTimeline(Timeline):
     keyframe, interpolated with the same easing as the rest of the view)."""
 
     centers: tuple = ()
+    #: Per keyframe: whether it fills the world on purpose (kept as written, not framed).
+    fills: tuple = ()
 
     @classmethod
-    def of(cls, timeline: Timeline, views: list[ViewState]) -> "FramedTimeline":
+    def of(cls, timeline: Timeline, views: list[ViewState], fills=()) -> "FramedTimeline":
         fields = {f.name: getattr(timeline, f.name) for f in dataclasses.fields(Timeline)}
         fields["keyframes"] = tuple(dataclasses.replace(k, half_height=v.half_height)
                                     for k, v in zip(timeline.keyframes, views))
-        return cls(**fields, centers=tuple(v.center for v in views))
+        return cls(**fields, centers=tuple(v.center for v in views),
+                   fills=tuple(fills) or (False,) * len(views))
 
     def _view(self, a, b, u: float) -> ViewState:
         view = super()._view(a, b, u)

@@ -149,10 +149,6 @@ def test_the_kiosk_frames_show_what_they_claim(kiosk_shots):
         assert (a.image != b.image).any(axis=-1).mean() > 0.05
 
 
-@pytest.mark.xfail(strict=True, reason="issue 14 item 1: 01-hypersphere.toml sets half_height "
-                   "by hand, so the kiosk leaves it unframed, and at 16:9 the tori run under the "
-                   "title and the numbers at distance 3 (and at infinity); remove this mark once "
-                   "its keyframes are framed")
 def test_the_hypersphere_timeline_keeps_clear_of_the_panels(tmp_path_factory, cache):
     run = kiosk_run(tmp_path_factory, cache, "01-hypersphere.toml")
     try:

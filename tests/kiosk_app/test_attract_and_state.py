@@ -184,11 +184,11 @@ def test_cuts_mark_every_discontinuity_and_nothing_else(tmp_path, timeline):
     assert back.mode == ATTRACT and back.cut == (back.scene != taken.scene)
 
 
-@pytest.mark.parametrize("fit, zoomed, framed", [(None, False, True), (None, True, False),
+@pytest.mark.parametrize("fit, zoomed, framed", [(None, False, True), (None, True, True),
                                                   (True, True, True), (False, False, False)])
-def test_timelines_are_framed_unless_they_zoom_themselves(tmp_path, fit, zoomed, framed):
-    """One zoom and lens shift for a whole timeline (render.framer), keeping every sampled pose
-    in the free area; a timeline with its own half_height is the curator's, unless fit = true."""
+def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, framed):
+    """Framing by the picture (render.framer) replaces hand-set zooms too, keeping every sampled
+    pose in the free area; only fit = false leaves a timeline as written."""
     from exhibit import scenes
     from exhibit.geometry.framing import mesh_points, pixel_bounds
     from exhibit.render.framer import Framer
@@ -235,7 +235,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     from exhibit.geometry.framing import mesh_points, pixel_bounds
     from exhibit.render.framer import Framer
     framer = Framer(size, drift=12.0)
-    unframed, following = [], []
+    unframed, following, filling = [], [], []
     for timeline in load_playlist(ATTRACT_DIR):
         scene = scenes.get(timeline.scene)
         mesh = scene.build(timeline.params, 12)
@@ -245,11 +245,18 @@ def test_shipped_timelines_stay_in_the_free_area(size):
             continue
         if len({k.half_height for k in result.keyframes}) > 1:
             following.append(timeline.name)   # framed keyframe by keyframe
+        fills = result.fills
+        filling += [(timeline.scene, k.t) for k, f in zip(result.keyframes, fills) if f]
         areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
         points = mesh_points(mesh)
         for t in np.arange(0.0, timeline.duration + 0.01, 0.25):
+            i = result.index_at(t)
+            if fills[i] or (i + 1 < len(fills) and fills[i + 1] and t != result.keyframes[i].t):
+                continue   # into, at or out of a moment that fills the world on purpose
             x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
             assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
                        for a in areas), (timeline.name, t)
-    assert unframed == ["hopf"]
+    assert unframed == []
     assert following, "no timeline was framed keyframe by keyframe"
+    # Figure 8's moment in the hypersphere timeline (the sensor at distance 2) is kept as written.
+    assert filling == [("hopf", 26.0), ("hopf", 33.0)]
