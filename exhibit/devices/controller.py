@@ -3,7 +3,7 @@
 Life cycle, all driven from the non-blocking ``poll()``:
 
 - open the port (a missing port is not an error: WAITING, or LOST if it was connected before,
-  retried every ``retry_s``);
+  retried every ``retry_s`` by exhibit.devices.reconnect, which HID devices share);
 - handshake: send HELLO_REQUEST, wait for HELLO (resent every 0.5 s), CONNECTING meanwhile;
 - CONNECTED: AXES become ABS/BUTTON events, stamped on the device's clock; HEARTBEATs only prove
   the line is alive;
@@ -24,7 +24,8 @@ from dataclasses import dataclass, field
 import serial
 
 from exhibit.devices import protocol as p
-from exhibit.devices.base import Backend, Capabilities, Event, Kind, State, release_events
+from exhibit.devices.base import Capabilities, Event, Kind, State
+from exhibit.devices.reconnect import ReconnectingBackend
 
 __all__ = ["SerialController", "DeviceClock"]
 
@@ -68,12 +69,11 @@ class DeviceClock:
 
 
 @dataclass
-class SerialController(Backend):
+class SerialController(ReconnectingBackend):
     """``serial://PATH?baud=115200``: the controller board (or its simulator on a pty)."""
 
     path: str = ""
     baud: int = 115200
-    retry_s: float = 0.5
     hello_retry_s: float = 0.5
     max_read: int = 4096
     #: what the last HELLO said (None before the handshake)
@@ -81,33 +81,25 @@ class SerialController(Backend):
     calibration: p.Calibration | None = field(default=None, init=False)
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         self.url = self.url or f"serial://{self.path}?baud={self.baud}"
         self.capabilities = Capabilities(axes=p.N_AXES, buttons=4)
         self.decoder = p.StreamDecoder()
         self.tracker = p.SequenceTracker()
         self.device_clock = DeviceClock()
-        self.reconnects = 0
         self.bytes_in = self.bytes_out = 0
         self._port: serial.Serial | None = None
         self._seq = 0
-        self._axes: dict[int, float] = {}
-        self._buttons: dict[int, float] = {}
-        self._pending: list[Event] = []
         self._last_rx = 0.0
-        self._next_retry = 0.0
         self._next_hello = 0.0
         self._opened_at = 0.0
 
-    # ---- life cycle
+    # ---- the port (ReconnectingBackend does the retries, the loss and the release)
 
-    def _open(self) -> None:
-        self._try_open(self.clock())
+    def _connected(self) -> bool:
+        return self._port is not None
 
-    def _close(self) -> None:
-        self._close_port()
-        self._pending.clear()
-
-    def _close_port(self) -> None:
+    def _disconnect(self) -> None:
         port, self._port = self._port, None
         if port is not None:
             try:
@@ -115,14 +107,11 @@ class SerialController(Backend):
             except (OSError, serial.SerialException):
                 pass
 
-    def _try_open(self, now: float) -> None:
-        self._next_retry = now + self.retry_s
+    def _connect(self, now: float) -> str | None:
         try:
             port = serial.Serial(self.path, self.baud, timeout=0, write_timeout=0, exclusive=True)
         except (OSError, serial.SerialException, ValueError) as exc:
-            self.state = State.LOST  # WAITING if it has never been connected (Backend.state)
-            self.detail = f"waiting for {self.path}: {_reason(exc)}"
-            return
+            return f"waiting for {self.path}: {_reason(exc)}"
         self._port = port
         self.decoder.reset()  # a partial frame from before the unplug must not glue onto new bytes
         self.tracker.expected = None  # pyserial flushed the boot HELLO: no gap across a reopen
@@ -132,17 +121,7 @@ class SerialController(Backend):
         self.detail = f"handshake on {self.path}"
         self._opened_at = self._last_rx = now
         self._next_hello = now
-        if self.ever_connected:
-            self.reconnects += 1
-
-    def _lost(self, now: float, why: str) -> None:
-        self._close_port()
-        self.state = State.LOST
-        self.detail = why
-        self._next_retry = now + self.retry_s
-        self._pending += release_events(now, self.name, self._axes, self._buttons)
-        self._axes.clear()
-        self._buttons.clear()
+        return None
 
     # ---- host -> device
 
@@ -160,12 +139,7 @@ class SerialController(Backend):
 
     # ---- polling
 
-    def _poll(self) -> list[Event]:
-        now = self.clock()
-        if self._port is None:
-            if now >= self._next_retry:
-                self._try_open(now)
-            return self._take()
+    def _read(self, now: float) -> None:
         handshaking = self.state in (State.CONNECTING, State.RECONNECTING)
         if handshaking and now >= self._next_hello:
             self._next_hello = now + self.hello_retry_s
@@ -174,7 +148,7 @@ class SerialController(Backend):
             data = self._port.read(self.max_read)
         except (OSError, serial.SerialException) as exc:
             self._lost(now, f"read failed on {self.path}: {_reason(exc)}")
-            return self._take()
+            return
         if data:
             self.bytes_in += len(data)
             self._feed(data, now)
@@ -185,16 +159,11 @@ class SerialController(Backend):
             # Open but no HELLO: a hung board (reopening resets a Nano) or another device.
             self._lost(now, self.detail if "version" in self.detail
                        else f"no HELLO from {self.path} in {now - self._opened_at:.1f} s")
-        return self._take()
 
     @property
     def lost_after(self) -> float:
         """Four heartbeat periods without any frame (PROTOCOL.md section 4)."""
         return 4 * (self.hello.heartbeat_ms if self.hello else 250) / 1000.0
-
-    def _take(self) -> list[Event]:
-        out, self._pending = self._pending, []
-        return out
 
     def _feed(self, data: bytes, now: float) -> None:
         for item in self.decoder.feed(data):
@@ -223,9 +192,7 @@ class SerialController(Backend):
         hello = frame.message
         if self.state is State.CONNECTED and frame.seq == 0:
             # The board restarted: whatever it held is gone until its next AXES.
-            self._pending += release_events(now, self.name, self._axes, self._buttons)
-            self._axes.clear()
-            self._buttons.clear()
+            self._release(now)
             self.device_clock.reset()
         self.hello = hello
         self.capabilities = Capabilities(axes=hello.n_axes, buttons=hello.n_buttons)

@@ -19,14 +19,15 @@ from __future__ import annotations
 
 import importlib
 import struct
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
 from pydantic import Field as PydanticField
 
-from exhibit.devices.base import (Backend, Capabilities, DeviceConfigError, DeviceError, Event,
-                                  Kind, State, release_events)
+from exhibit.devices.base import (Capabilities, DeviceConfigError, DeviceError, Event, Kind,
+                                  State)
+from exhibit.devices.reconnect import ReconnectingBackend
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
@@ -258,7 +259,7 @@ def find_layout(layouts: dict[str, Layout], name: str | None, vid, pid, url: str
 
 
 @dataclass
-class HidBackend(Backend):
+class HidBackend(ReconnectingBackend):
     """``hid://VID:PID[/SERIAL]``, ``hidraw://VID:PID[/SERIAL]`` or ``hidraw:///dev/hidrawN``."""
 
     layout: Layout | None = None
@@ -268,20 +269,15 @@ class HidBackend(Backend):
     serial: str | None = None
     path: str | None = None
     api: Any = None
-    retry_s: float = 0.5
     max_reports: int = 64
-    fake: Any = field(default=None, init=False, repr=False)
 
     def __post_init__(self) -> None:
+        super().__post_init__()
         if self.layout is None:
             raise DeviceError("a HID backend needs a layout")
         self.capabilities = self.layout.capabilities
-        self.reports_ok = self.reports_unknown = self.reconnects = 0
+        self.reports_ok = self.reports_unknown = 0
         self._dev = None
-        self._axes: dict[int, float] = {}
-        self._buttons: dict[int, float] = {}
-        self._pending: list[Event] = []
-        self._next_retry = 0.0
 
     @property
     def target(self) -> str:
@@ -301,13 +297,14 @@ class HidBackend(Backend):
 
     def _open(self) -> None:
         self._hidapi()
-        self._connect(self.clock())
+        super()._open()
 
-    def _close(self) -> None:
-        self._drop()
-        self._pending.clear()
+    # ---- the handle (ReconnectingBackend does the retries, the loss and the release)
 
-    def _drop(self) -> None:
+    def _connected(self) -> bool:
+        return self._dev is not None
+
+    def _disconnect(self) -> None:
         dev, self._dev = self._dev, None
         if dev is not None:
             try:
@@ -331,13 +328,10 @@ class HidBackend(Backend):
             found = best or found
         return [d["path"] for d in found]
 
-    def _connect(self, now: float) -> None:
-        self._next_retry = now + self.retry_s
+    def _connect(self, now: float) -> str | None:
         paths = self._candidates()
         if not paths:
-            self.state = State.LOST  # WAITING if it has never been connected (Backend.state)
-            self.detail = f"waiting for {self.target} ({self.backend}): not connected"
-            return
+            return f"waiting for {self.target} ({self.backend}): not connected"
         dev = self.api.device()
         try:
             dev.open_path(paths[0])
@@ -347,37 +341,18 @@ class HidBackend(Backend):
                 dev.close()
             except (OSError, ValueError):
                 pass
-            self.state = State.LOST
-            self.detail = (f"cannot open {self.target} ({self.backend}): {exc}; check the udev "
-                           "rule's permissions (docs/DEVICES.md)")
-            return
+            return (f"cannot open {self.target} ({self.backend}): {exc}; check the udev "
+                    "rule's permissions (docs/DEVICES.md)")
         self._dev = dev
-        if self.ever_connected:
-            self.reconnects += 1
         self.state = State.CONNECTED
         try:
             product = dev.get_product_string() or self.layout.name
         except (OSError, ValueError):
             product = self.layout.name
         self.detail = f"{product} ({self.layout.name} layout, {self.backend})"
+        return None
 
-    def _lost(self, now: float, why: str) -> None:
-        self._drop()
-        self.state = State.LOST
-        self.detail = why
-        self._next_retry = now + self.retry_s
-        self._pending += release_events(now, self.name, self._axes, self._buttons)
-        self._axes.clear()
-        self._buttons.clear()
-
-    def _poll(self) -> list[Event]:
-        now = self.clock()
-        if self._dev is None:
-            if now >= self._next_retry:
-                self._connect(now)
-            if self._dev is None:
-                out, self._pending = self._pending, []
-                return out
+    def _read(self, now: float) -> None:
         for _ in range(self.max_reports):  # bounded work per poll, even for a flooding device
             try:
                 data = self._dev.read(64)
@@ -387,8 +362,6 @@ class HidBackend(Backend):
             if not data:
                 break
             self._report(bytes(data), now)
-        out, self._pending = self._pending, []
-        return out
 
     def _report(self, data: bytes, now: float) -> None:
         report = self.layout.report_for(data)

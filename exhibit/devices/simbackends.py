@@ -71,7 +71,6 @@ def simulated_hid(name, clock, layout, script=None, seed=None):
                            usage_page=layout.usage_page or 0, script=script, clock=clock,
                            seed=seed, layout=layout)
     bus = FakeHidBus([device])
-    backend = HidBackend(name=name, clock=clock, layout=layout, backend=layout.backend,
-                         vid=vid, pid=pid, serial=None, path=None, api=bus)
-    backend.fake = device
-    return backend
+    # The real HidBackend, on a bus where only the fake device is plugged in (its ``api``).
+    return HidBackend(name=name, clock=clock, layout=layout, backend=layout.backend,
+                      vid=vid, pid=pid, serial=None, path=None, api=bus)
