@@ -24,6 +24,7 @@ from pydantic_core import PydanticCustomError
 
 from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
+from exhibit.kiosk.sessions import SessionsConfig, SessionsSection, sessions_config
 from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
 from exhibit.schema.layers import leaves, merge, source_of
@@ -186,6 +187,7 @@ class KioskFile(Model):
     maintenance: Maintenance = Maintenance()
     quality: QualitySection = QualitySection()
     text: Text_ = Text_()
+    sessions: SessionsSection = SessionsSection()
 
 
 @dataclass(frozen=True)
@@ -212,6 +214,8 @@ class KioskConfig:
     text: TextConfig = TextConfig()
     #: [quality]: what the frame governor may change, and what is pinned
     quality: QualityConfig = QualityConfig()
+    #: [sessions]: the visitor-session log (exhibit.kiosk.sessions)
+    sessions: SessionsConfig = SessionsConfig()
     #: the site file layered over the shipped defaults (None: the defaults alone)
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
@@ -320,7 +324,8 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
         values.update(idle_timeout_s=spec.attract.idle_timeout_s, blend_s=spec.attract.blend_s,
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
-                      quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality))
+                      quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality),
+                      sessions=sessions_config(spec.sessions))
         t = spec.text
         if t.title_cap_height <= t.caption_cap_height:
             problems.append(f"{where('text', 'title_cap_height')}: text.title_cap_height: must be "
