@@ -30,6 +30,10 @@ MAX_ZOOM = 6.0
 #: Points sampled from a mesh for its bounds: enough to be within a pixel of the hull of a
 #: smooth surface at kiosk resolutions.
 SAMPLE = 20_000
+#: Curves count for the bounds only this far (a fraction of the surfaces' extent) beyond the
+#: surfaces: the hypersphere's w axis at sensor distance 3 reaches far out and would shrink
+#: the tori to a third of the screen.
+CURVE_REACH = 0.5
 
 
 @dataclass(frozen=True)
@@ -46,6 +50,53 @@ class Bounds:
             return self
         return Bounds(min(self.x0, other.x0), min(self.y0, other.y0), max(self.x1, other.x1),
                       max(self.y1, other.y1))
+
+
+def mesh_sample(mesh, limit: int = SAMPLE) -> tuple[np.ndarray, np.ndarray]:
+    """A Mesh4D as (surface vertices and markers, curve points) for :func:`sample_bounds`."""
+    parts = [s.positions for s in mesh.surfaces if len(s.positions)]
+    core = np.concatenate(parts) if parts else np.zeros((0, 4))
+    if len(core) > limit:
+        core = core[:: int(math.ceil(len(core) / limit))]
+    markers = [np.asarray(m.position, dtype=float)[None] for m in mesh.markers]
+    curves = [np.asarray(c.points, dtype=float) for c in mesh.curves if len(c.points)]
+    return (np.concatenate([core, *markers]) if markers else core,
+            np.concatenate(curves) if curves else np.zeros((0, 4)))
+
+
+def sample_bounds(sample, view: ViewState) -> Bounds | None:
+    """The image bounds of a :func:`mesh_sample` (or of plain points): the surfaces and markers
+    whole, the curves (axes, wire frames) only up to CURVE_REACH of the surfaces' extent beyond
+    it, so a long axis through the sensor's neighbourhood does not shrink the surfaces to a
+    corner of the screen. Thin lines may leave the area; surfaces never do."""
+    if isinstance(sample, np.ndarray):
+        return image_bounds(sample, view)
+    core, curves = sample
+    b = image_bounds(core, view) if len(core) else None
+    c = image_bounds(curves, view) if len(curves) else None
+    if b is None or c is None:
+        return b if c is None else c
+    rx, ry = CURVE_REACH * (b.x1 - b.x0), CURVE_REACH * (b.y1 - b.y0)
+
+    def clamp(v, lo, hi):
+        return min(max(v, lo), hi)
+    reach = Bounds(clamp(c.x0, b.x0 - rx, b.x1 + rx), clamp(c.y0, b.y0 - ry, b.y1 + ry),
+                   clamp(c.x1, b.x0 - rx, b.x1 + rx), clamp(c.y1, b.y0 - ry, b.y1 + ry))
+    return b.union(reach)
+
+
+def to_pixels(bounds: Bounds, view: ViewState, size: tuple[int, int]
+              ) -> tuple[float, float, float, float]:
+    """Image-plane bounds (as :func:`image_bounds` gives them) in pixels at ``view``'s zoom and
+    lens shift: (x0, y0, x1, y1), y down. Exact: the screen is affine in both."""
+    width, height = size
+    aspect = width / height
+    hh, (cx, cy) = view.half_height, view.center
+    x0 = ((bounds.x0 - cx) / (hh * aspect) + 1) * 0.5 * width
+    x1 = ((bounds.x1 - cx) / (hh * aspect) + 1) * 0.5 * width
+    y0 = (1 - (bounds.y1 - cy) / hh) * 0.5 * height
+    y1 = (1 - (bounds.y0 - cy) / hh) * 0.5 * height
+    return x0, y0, x1, y1
 
 
 def mesh_points(mesh, limit: int = SAMPLE) -> np.ndarray:
@@ -135,14 +186,15 @@ def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> V
                                 cy + my * (view.half_height - half)))
 
 
-def frame(view: ViewState, points: np.ndarray, size: tuple[int, int],
+def frame(view: ViewState, points, size: tuple[int, int],
           areas: Iterable[Sequence[float]], poses: Iterable[ViewState] = ()) -> ViewState:
-    """``view`` framed so the image of ``points`` at its pose, and at every pose of ``poses``
+    """``view`` framed so the image of ``points`` (an array, or a :func:`mesh_sample`) at its
+    pose, and at every pose of ``poses``
     (a timeline's samples: one zoom and shift for all of them, so nothing breathes), lies in
     ``areas``. Unchanged when nothing is seen."""
     bounds = None
     for pose in (view, *poses):
-        b = image_bounds(points, pose)
+        b = sample_bounds(points, pose)
         if b is not None:
             bounds = b.union(bounds)
     if bounds is None:

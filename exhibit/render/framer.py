@@ -24,8 +24,8 @@ import dataclasses
 
 import numpy as np
 
-from exhibit.geometry.framing import (best_area, fit, frame, image_bounds, mesh_points,
-                                      pixel_bounds, zoom_about)
+from exhibit.geometry.framing import (best_area, fit, frame, mesh_sample, sample_bounds,
+                                      to_pixels, zoom_about)
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Timeline
 from exhibit.render.layout import Rect, TextSizes, free_rectangles, hud_layout
@@ -74,11 +74,11 @@ class Framer:
         return free_rectangles(self.size, self.panels(title, captions), layout.margin)
 
     def view(self, mesh, view: ViewState, title: str, captions, poses=(),
-             points: np.ndarray | None = None) -> ViewState:
+             points=None) -> ViewState:
         """``view`` zoomed and shifted so ``mesh`` (at ``view`` and every pose of ``poses``)
         lies in the free area."""
         if points is None:
-            points = mesh_points(mesh)
+            points = mesh_sample(mesh)
         return frame(view, points, self.size, self.areas(title, captions), poses)
 
     def scene_view(self, scene, mesh, view: ViewState | None = None, note: str = "",
@@ -98,11 +98,11 @@ class Framer:
         wanted = getattr(timeline, "fit", None)
         if wanted is False or not scene.fit or any(not p.fit for p in presets):
             return timeline
-        points = mesh_points(mesh, TIMELINE_POINTS)
+        points = mesh_sample(mesh, TIMELINE_POINTS)
         frames = timeline.keyframes
         times = sorted({*np.arange(0.0, timeline.duration, TIMELINE_STEP_S).tolist(),
                         *(k.t for k in frames), timeline.duration})
-        bounds = {t: image_bounds(points, timeline.at(t)[0]) for t in times}
+        bounds = {t: sample_bounds(points, timeline.at(t)[0]) for t in times}
         fills = tuple(self._fills(timeline.at(k.t)[0], bounds[k.t]) for k in frames)
         if all(fills):
             return timeline
@@ -174,8 +174,10 @@ class Framer:
             framed = FramedTimeline.of(timeline, views, fills)
             spills = set()
             for t in checked:
-                box = pixel_bounds(points, framed.at(t)[0], self.size)
-                if box is not None and not _inside(box, area):
+                if bounds[t] is None:
+                    continue
+                box = to_pixels(bounds[t], framed.at(t)[0], self.size)
+                if not _inside(box, area):
                     i = framed.index_at(t)
                     spills |= {j for j in (i, i + 1) if j < len(frames) and not fills[j]}
             if not spills:

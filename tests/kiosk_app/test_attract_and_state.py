@@ -190,7 +190,7 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     """Framing by the picture (render.framer) replaces hand-set zooms too, keeping every sampled
     pose in the free area; only fit = false leaves a timeline as written."""
     from exhibit import scenes
-    from exhibit.geometry.framing import mesh_points, pixel_bounds
+    from exhibit.geometry.framing import mesh_sample, pixel_bounds
     from exhibit.render.framer import Framer
     text = TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"').replace(
         "sensor_distance = 2", "sensor_distance = 6")
@@ -219,7 +219,7 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     assert middle == pytest.approx(tuple(0.5 * (a + b) for a, b in
                                          zip(result.centers[1], result.centers[2])))
     areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
-    points = mesh_points(mesh)
+    points = mesh_sample(mesh)[0]   # surfaces and markers: curves may reach out
     for t in (0.0, 3.3, 10.0, 14.0, 20.0):
         x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
         assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
@@ -232,7 +232,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     0.5 s of its run; the ones left alone are the curator-zoomed hypersphere only."""
     import numpy as np
     from exhibit import scenes
-    from exhibit.geometry.framing import mesh_points, pixel_bounds
+    from exhibit.geometry.framing import mesh_sample, pixel_bounds
     from exhibit.render.framer import Framer
     framer = Framer(size, drift=12.0)
     unframed, following, filling = [], [], []
@@ -248,7 +248,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
         fills = result.fills
         filling += [(timeline.scene, k.t) for k, f in zip(result.keyframes, fills) if f]
         areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
-        points = mesh_points(mesh)
+        points = mesh_sample(mesh)[0]   # surfaces and markers: curves may reach out
         for t in np.arange(0.0, timeline.duration + 0.01, 0.25):
             i = result.index_at(t)
             if fills[i] or (i + 1 < len(fills) and fills[i + 1] and t != result.keyframes[i].t):

@@ -130,3 +130,20 @@ def test_balanced_wrap_has_no_orphan_and_even_lines():
             assert " ".join(lines) == text
             assert len(lines) == 1 or len(lines[-1].split()) > 1 or \
                 len(lines[-2].split()) < 3, (text, width, lines)
+
+
+def test_curves_reach_only_a_little_beyond_the_surfaces():
+    """A long axis must not shrink the surfaces: curve points count up to CURVE_REACH of the
+    surfaces' extent beyond them; surfaces and markers count whole."""
+    from exhibit.geometry.framing import CURVE_REACH, sample_bounds, to_pixels
+    view = ViewState(eye_r=0.0)
+    core = np.array([[-1.0, -1.0, 0, 0], [1.0, 1.0, 0, 0]])
+    far = np.array([[0.0, -50.0, 0, 0], [0.0, 50.0, 0, 0], [1.2, 0.0, 0, 0]])
+    b = sample_bounds((core, far), view)
+    assert b == Bounds(-1.0, -1.0 - 2 * CURVE_REACH, 1.2, 1.0 + 2 * CURVE_REACH)
+    assert sample_bounds((core, np.zeros((0, 4))), view) == Bounds(-1.0, -1.0, 1.0, 1.0)
+    # to_pixels is the projection itself, at any zoom and lens shift.
+    framed = view.replace(half_height=1.7, center=(0.3, -0.2))
+    for size in ((1920, 1080), (1280, 720)):
+        assert to_pixels(image_bounds(POINTS, framed), framed, size) == pytest.approx(
+            pixel_bounds(POINTS, framed, size))
