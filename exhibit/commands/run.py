@@ -50,11 +50,13 @@ def run(args) -> int:
     from exhibit.kiosk.app import Kiosk, open_window
     from exhibit.kiosk.health import default_path
     from exhibit.kiosk.notify import Notifier
+    from exhibit.kiosk.sessions import open_session_log
 
     window = open_window(config, args.windowed)
     try:
         kiosk = Kiosk(config, window, notifier=Notifier.from_env(),
-                      health_path=default_path())
+                      health_path=default_path(),
+                      sessions=open_session_log(config.sessions))
         return kiosk.run(duration=duration, screenshot=screenshot)
     finally:
         window.close()

@@ -148,13 +148,15 @@ class Kiosk:
     could be prepared: the window then shows NOTICE."""
 
     def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
-                 health_path: Path | None = None):
+                 health_path: Path | None = None, sessions=None):
         journal.install()  # stderr is the journal (a service): structured fields from here on
         self.config = config
         self.window = window
         self.clock = clock
         self.notifier = notifier
         self.health_path = health_path
+        #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog), or None.
+        self.sessions = sessions
         #: For the health file: [{"scene", "reason"}] and one line per problem, for people.
         self.scenes_failed: list[dict] = []
         self.problems: list[str] = []
@@ -337,6 +339,8 @@ class Kiosk:
         else:
             mode, scene = self.state.mode, self.state.frame.scene
             frame = self.state.update(events, start)
+            if self.sessions is not None:  # never raises, never blocks
+                self.sessions.observe(frame.mode, frame.scene, events, start)
             if frame.mode != mode or frame.scene != scene:
                 fields = self._update_log_fields()
                 if frame.mode != mode:
@@ -465,6 +469,8 @@ class Kiosk:
             if self.notifier is not None:
                 self.notifier.stopping()
             self.devices.close()
+            if self.sessions is not None:  # a visitor still there: their session ends now
+                self.sessions.close(self.clock())
         return code
 
     def _frame(self, start: float) -> bool:
