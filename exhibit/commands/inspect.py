@@ -8,8 +8,8 @@ import json
 import numpy as np
 
 from exhibit import scenes
-from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
-from exhibit.surfaces import analyse, progress
+from exhibit.scenes.base import add_scene_arguments, build_from_arguments
+from exhibit.surfaces import analyse
 from exhibit.surfaces.metrics import boundary_box_distance, distance_to_mesh
 
 HELP = "build a scene and check its mesh: components, Euler characteristic, edges, residuals"
@@ -63,10 +63,7 @@ def exactness(surface) -> dict:
 
 def run(args) -> int:
     scene = scenes.get(args.scene)
-    overrides = parse_overrides(args.param)
-    resolution = parse_resolution(args.resolution)
-    with progress.on_terminal():
-        mesh = scene.build(overrides, resolution)
+    mesh = build_from_arguments(scene, args)
     parts = [part_report(surface) for surface in mesh.surfaces]
     if args.json:
         print(json.dumps({"scene": scene.name, "parts": parts}, indent=2, ensure_ascii=False))

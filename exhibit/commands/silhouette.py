@@ -11,8 +11,7 @@ import numpy as np
 from exhibit import scenes
 from exhibit.errors import ExhibitError
 from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
-from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
-from exhibit.surfaces import progress
+from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette
 from exhibit.surfaces.exact_silhouette import (ParametricExact, RefineStats,
                                                parametric_silhouette)
@@ -42,21 +41,15 @@ def parse_along(text: str, axes: tuple[str, ...]) -> tuple[int, int]:
 def run(args) -> int:
     scene = scenes.get(args.scene)
     along = parse_along(args.along, scene.axes)
-    overrides = parse_overrides(args.param)
-    resolution = parse_resolution(args.resolution)
-    with progress.on_terminal():
-        mesh = scene.build(overrides, resolution)
+    mesh = build_from_arguments(scene, args)
     stats = RefineStats()
     curves = []
     for surface in mesh.surfaces:
         # Every exported point is refined onto the exact silhouette of the surface's own
         # equations (or parametrisation); points that do not converge are dropped, points near
         # singular points excluded (surfaces/exact_silhouette.py).
-        for curve in exact_silhouette_curves(surface, along, stats):
-            points = curve.points
-            if curve.closed:
-                points = np.vstack([points, points[:1]])
-            curves.append(points.tolist())
+        curves += [curve.polyline().tolist()
+                   for curve in exact_silhouette_curves(surface, along, stats)]
     if args.json:
         print(json.dumps({"axes": list(scene.axes), "curves": curves, **stats.to_json()}))
         return 0

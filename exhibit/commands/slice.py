@@ -7,13 +7,10 @@ from __future__ import annotations
 
 import json
 
-import numpy as np
-
 from exhibit import scenes
 from exhibit.commands._args import number
 from exhibit.errors import ExhibitError
-from exhibit.scenes.base import add_scene_arguments, parse_overrides, parse_resolution
-from exhibit.surfaces import progress
+from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.surfaces.exact_silhouette import RefineStats
 from exhibit.surfaces.slice import slice_curves
 
@@ -42,18 +39,12 @@ def parse_axis(name: str, axes: tuple[str, ...]) -> int:
 def run(args) -> int:
     scene = scenes.get(args.scene)
     axis = parse_axis(args.axis, tuple(scene.axes))
-    overrides = parse_overrides(args.param)
-    resolution = parse_resolution(args.resolution)
-    with progress.on_terminal():
-        mesh = scene.build(overrides, resolution)
+    mesh = build_from_arguments(scene, args)
     stats = RefineStats()
     curves = []
     for surface in mesh.surfaces:
-        for curve in slice_curves(surface, axis, float(args.at), stats):
-            points = curve.points
-            if curve.closed:
-                points = np.vstack([points, points[:1]])
-            curves.append(points.tolist())
+        curves += [curve.polyline().tolist()
+                   for curve in slice_curves(surface, axis, float(args.at), stats)]
     if args.json:
         print(json.dumps({"axis": scene.axes[axis], "at": float(args.at), "axes": list(scene.axes),
                           "curves": curves, "refined": stats.refined, "dropped": stats.dropped,

@@ -136,6 +136,17 @@ def parse_resolution(text) -> int | None:
     return value
 
 
+def build_from_arguments(scene: "Scene", args) -> Mesh4D:
+    """The mesh the shared options (add_scene_arguments: --param, --resolution) ask for, with a
+    progress line while it builds when a person watches a terminal."""
+    from exhibit.surfaces import progress
+
+    overrides = parse_overrides(args.param)
+    resolution = parse_resolution(args.resolution)
+    with progress.on_terminal():
+        return scene.build(overrides, resolution)
+
+
 def add_scene_arguments(parser) -> None:
     """The scene, --param and --resolution options every scene command shares."""
     parser.add_argument("scene", help="scene name (see `exhibit scenes`)")

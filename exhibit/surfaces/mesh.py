@@ -115,6 +115,10 @@ class Curve:
         length = np.linalg.norm(d, axis=1, keepdims=True)
         return np.where(length > 0, d / np.where(length > 0, length, 1.0), 0.0)
 
+    def polyline(self) -> np.ndarray:
+        """The points as an open polyline: a closed curve ends where it starts (for export)."""
+        return np.vstack([self.points, self.points[:1]]) if self.closed else self.points
+
     def segments(self) -> np.ndarray:
         """(S, 2, 4) line segments, including the closing one for a closed curve."""
         p = self.points
