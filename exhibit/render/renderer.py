@@ -355,7 +355,7 @@ class Renderer:
         if lit:
             w0 = view.offset[3]
             self._set(prog, u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
-        self._clip_distances(lit)
+        self.clip_distances(lit)
         ctx.polygon_offset = (1.0, 1.0)
         for i, surface in enumerate(gpu.surfaces):
             if lit:
@@ -363,9 +363,11 @@ class Renderer:
                           u_sheet=SHEET_OFFSET * i * gpu.radius)
             surface.vaos[key].render(moderngl.TRIANGLES)
         ctx.polygon_offset = (0.0, 0.0)
-        self._clip_distances(False)
+        self.clip_distances(False)
 
-    def _clip_distances(self, on: bool) -> None:
+    def clip_distances(self, on: bool) -> None:
+        """Turn the two gl_ClipDistance planes (sensor, front) on or off: the lit surface pass
+        and the CPU baseline write them; the floor and the lines do not."""
         for enum in (GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE1):
             (self.ctx.enable_direct if on else self.ctx.disable_direct)(enum)
 
@@ -382,13 +384,13 @@ class Renderer:
         ctx.enable(moderngl.DEPTH_TEST)
         prog = self.programs["ids"]
         self.set_pipeline(prog, view, (width, height))
-        self._clip_distances(True)
+        self.clip_distances(True)
         offset = 0
         for surface in gpu.surfaces:
             prog["u_id_offset"].value = offset
             surface.vaos["ids"].render(moderngl.TRIANGLES)
             offset += surface.triangle_count
-        self._clip_distances(False)
+        self.clip_distances(False)
         ctx.disable(moderngl.DEPTH_TEST)
 
     # ------------------------------------------------------------------ HUD

@@ -94,7 +94,7 @@ class CpuBaseline:
         lights = np.zeros((2, 3), dtype=np.float32)
         lights[:len(view.lights[:2])] = view.lights[:2]
         prog["u_lights"].write(lights.tobytes())
-        self.renderer._clip_distances(True)
+        self.renderer.clip_distances(True)
         self.ctx.polygon_offset = (1.0, 1.0)
         for s, vbo, _, vao in self.parts:
             p = s.positions
@@ -115,7 +115,7 @@ class CpuBaseline:
             prog["u_color"].value = tuple(s.material.color)
             vao.render(moderngl.TRIANGLES)
         self.ctx.polygon_offset = (0.0, 0.0)
-        self.renderer._clip_distances(False)
+        self.renderer.clip_distances(False)
 
     def release(self) -> None:
         for _, vbo, ibo, vao in self.parts:
