@@ -34,6 +34,7 @@ COMMANDS = {
     "simulate": "simulate",
     "record": "record",
     "status": "status",
+    "stats": "stats",
     "install": "install",
 }
 
