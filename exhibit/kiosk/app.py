@@ -175,7 +175,8 @@ class Kiosk:
         #: Text sizes for the HUD, and the framing that keeps the picture clear of it.
         self.text = TextSizes(config.text.caption_cap, config.text.title_cap,
                               config.text.infinity_beyond)
-        self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px)
+        self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
+                             hud=config.hud)
         self._framed: dict[tuple, object] = {}
         timelines = [self._frame_timeline(t) for t in timelines]
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
