@@ -51,6 +51,7 @@ from exhibit.errors import ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
+from exhibit.kiosk.framing import frame_timeline
 from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
 from exhibit.kiosk.state import KioskState
 from exhibit.render.options import RenderOptions
@@ -267,13 +268,13 @@ class Kiosk:
         return mesh if isinstance(mesh, Mesh4D) else None
 
     def _frame_timeline(self, timeline):
-        """A timeline with one zoom and shift that keep it clear of the text (render.framer);
+        """The timeline framed clear of the text (exhibit.kiosk.framing);
         unchanged if the scene's mesh is not here or framing fails (never fatal)."""
         mesh = self._mesh(timeline.scene, tuple(sorted(timeline.params.items())))
         if mesh is None:
             return timeline
         try:
-            return self.framer.timeline(timeline, scenes.get(timeline.scene), mesh)
+            return frame_timeline(self.framer, timeline, scenes.get(timeline.scene), mesh)
         except Exception as exc:  # noqa: BLE001 - an unframed timeline still plays
             log.warning("timeline %s not framed: %s", timeline.name, exc)
             return timeline

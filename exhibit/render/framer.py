@@ -1,47 +1,17 @@
 """Framing for one screen: the HUD layout's free area (exhibit.render.layout) and the fit of the
-projected mesh into it (exhibit.geometry.framing), for scene start views, figure presets, "home"
-and whole attract timelines. No GL: the kiosk frames at start-up, `exhibit render` before it
-draws, and the tests check the result on the CPU.
+projected mesh into it (exhibit.geometry.framing), for scene start views, figure presets and
+"home" (attract timelines: exhibit.kiosk.framing, on this). No GL: the kiosk frames at start-up,
+`exhibit render` before it draws, and the tests check the result on the CPU.
 
-What is framed, and what is not:
-
-* a scene's start view and each of its presets, unless the scene or preset says ``fit = False``
-  (Figure 8, whose point is that the torus fills the world);
-* an attract timeline, in one area of the free space for all of it (the best for all its poses
-  sampled every 0.5 s, clear of all its captions), so moving between keyframes never crosses a
-  panel; either with one zoom and shift for all of it, or keyframe by keyframe (each keyframe
-  fitted to the poses half way to its neighbours, both ends of a stretch zoomed out a little
-  where a sample between them spills out), whichever shows the picture larger. Zooms written in
-  the timeline are replaced, except at a keyframe whose picture fills the world on purpose (it
-  would need FILL_LIMIT times its zoom to fit the screen: the hypersphere's sensor at distance
-  2, Figure 8's moment), which keeps its own; the framing moves into and out of it. A
-  timeline that says ``fit = false`` is left as written.
+A scene's start view and each of its presets are framed unless the scene or preset says
+``fit = False`` (Figure 8, whose point is that the torus fills the world).
 """
 
 from __future__ import annotations
 
-import dataclasses
-
-import numpy as np
-
-from exhibit.geometry.framing import (best_area, fit, frame, mesh_sample, sample_bounds,
-                                      to_pixels, zoom_about)
+from exhibit.geometry.framing import frame, mesh_sample
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Timeline
 from exhibit.render.layout import Rect, TextSizes, free_rectangles, hud_layout
-
-#: Seconds between the poses sampled along a timeline (keyframes are always sampled).
-TIMELINE_STEP_S = 0.5
-#: Points of a mesh used to frame a timeline (dozens of poses): its bounds to a pixel or so.
-TIMELINE_POINTS = 4000
-#: Where the picture between two keyframes spills out of its area, both are zoomed out by
-#: GROWTH, up to MAX_GROWTH_STEPS times.
-GROWTH = 1.06
-MAX_GROWTH_STEPS = 12
-#: A keyframe whose picture would need more than this much zooming out to fit on the screen
-#: fills the world on purpose (the sensor inside the object: Figure 8's moment) and is kept.
-FILL_LIMIT = 3.0
-
 
 class Framer:
     """Frames views for a screen of ``size`` with the kiosk's text ``sizes`` and burn-in
@@ -89,132 +59,3 @@ class Framer:
         if not (fit and scene.fit):
             return view
         return self.view(mesh, view, scene.title, [(scene.caption, note)])
-
-    def timeline(self, timeline, scene, mesh):
-        """The timeline framed (see the module docstring), or the timeline itself when it says
-        ``fit = false``, its scene or preset opts out, or every keyframe fills the world."""
-        base = timeline.base_view
-        presets = [p for p in scene.presets if p.view == base]
-        wanted = getattr(timeline, "fit", None)
-        if wanted is False or not scene.fit or any(not p.fit for p in presets):
-            return timeline
-        points = mesh_sample(mesh, TIMELINE_POINTS)
-        frames = timeline.keyframes
-        times = sorted({*np.arange(0.0, timeline.duration, TIMELINE_STEP_S).tolist(),
-                        *(k.t for k in frames), timeline.duration})
-        bounds = {t: sample_bounds(points, timeline.at(t)[0]) for t in times}
-        fills = tuple(self._fills(timeline.at(k.t)[0], bounds[k.t]) for k in frames)
-        if all(fills):
-            return timeline
-
-        def framed_stretch(t: float) -> bool:
-            """Whether ``t`` lies at or between keyframes that are both framed."""
-            i = timeline.index_at(t)
-            return not fills[i] and (i + 1 == len(frames) or not fills[i + 1]
-                                     or t == frames[i].t)
-
-        seen = [b for t, b in bounds.items() if b is not None and framed_stretch(t)]
-        if not seen:
-            return timeline
-        captions = [(c,) for c in dict.fromkeys(k.caption for k in frames)]
-        # One area for the whole timeline (the best for all of it), so moving from one
-        # keyframe's framing to the next never crosses a panel.
-        union = seen[0]
-        for b in seen[1:]:
-            union = union.union(b)
-        area = best_area(union, self.size, self.areas(scene.title, captions))
-        if area is None:
-            return timeline
-        # Two candidates, the larger picture wins: one framing for all (nothing moves but the
-        # object), or one per keyframe (the camera follows; larger where poses differ much, and
-        # the only one for a timeline with moments that fill the world).
-        following = self._per_keyframe(timeline, points, times, bounds, fills, framed_stretch,
-                                       area)
-        if any(fills):
-            return following or timeline
-        uniform = fit(base, union, self.size, [area])
-        if following is not None and (
-                np.mean([np.log(k.half_height) for k in following.keyframes])
-                < np.log(uniform.half_height)):
-            return following
-        return FramedTimeline.of(timeline, [uniform] * len(frames), fills)
-
-    def _fills(self, view: ViewState, bounds) -> bool:
-        """Whether a keyframe's picture fills the world on purpose (Figure 8's moment in a
-        timeline): it would have to zoom out more than FILL_LIMIT times beyond its own zoom
-        to fit on the screen at all."""
-        if bounds is None:
-            return True
-        margin = hud_layout(self.size, "", ("",), self.sizes).margin
-        screen = (margin, margin, self.size[0] - margin, self.size[1] - margin)
-        return fit(view, bounds, self.size, [screen]).half_height > FILL_LIMIT * view.half_height
-
-    def _per_keyframe(self, timeline, points, times, bounds, fills, framed_stretch, area):
-        """Each framed keyframe fitted to the poses around it (half way to its framed
-        neighbours), both ends of a stretch zoomed out where the picture between them spills
-        out of ``area``; keyframes that fill the world keep their own view. None if it still
-        spills."""
-        frames = timeline.keyframes
-        views = []
-        for i, k in enumerate(frames):
-            own = timeline.at(k.t)[0]
-            if fills[i]:
-                views.append(own)
-                continue
-            lo = k.t - 0.5 * (k.t - frames[i - 1].t) if i and not fills[i - 1] else k.t
-            hi = (k.t + 0.5 * (frames[i + 1].t - k.t)
-                  if i + 1 < len(frames) and not fills[i + 1] else k.t)
-            near = [b for t, b in bounds.items() if lo <= t <= hi and b is not None]
-            box = near[0]
-            for b in near[1:]:
-                box = box.union(b)
-            views.append(fit(own, box, self.size, [area]))
-        checked = [t for t in times if framed_stretch(t)]
-        for _ in range(MAX_GROWTH_STEPS):   # between keyframes: zoom out where it spills
-            framed = FramedTimeline.of(timeline, views, fills)
-            spills = set()
-            for t in checked:
-                if bounds[t] is None:
-                    continue
-                box = to_pixels(bounds[t], framed.at(t)[0], self.size)
-                if not _inside(box, area):
-                    i = framed.index_at(t)
-                    spills |= {j for j in (i, i + 1) if j < len(frames) and not fills[j]}
-            if not spills:
-                return framed
-            views = [zoom_about(v, GROWTH, area, self.size) if i in spills else v
-                     for i, v in enumerate(views)]
-        return None
-
-
-def _inside(box, area, tolerance: float = 1.0) -> bool:
-    x0, y0, x1, y1 = box
-    return (x0 >= area[0] - tolerance and y0 >= area[1] - tolerance
-            and x1 <= area[2] + tolerance and y1 <= area[3] + tolerance)
-
-
-@dataclasses.dataclass(frozen=True)
-class FramedTimeline(Timeline):
-    """A timeline whose keyframes carry their own framing: the zoom in each keyframe's
-    half_height (interpolated as any zoom is) and the lens shift in ``centers`` (one per
-    keyframe, interpolated with the same easing as the rest of the view)."""
-
-    centers: tuple = ()
-    #: Per keyframe: whether it fills the world on purpose (kept as written, not framed).
-    fills: tuple = ()
-
-    @classmethod
-    def of(cls, timeline: Timeline, views: list[ViewState], fills=()) -> "FramedTimeline":
-        fields = {f.name: getattr(timeline, f.name) for f in dataclasses.fields(Timeline)}
-        fields["keyframes"] = tuple(dataclasses.replace(k, half_height=v.half_height)
-                                    for k, v in zip(timeline.keyframes, views))
-        return cls(**fields, centers=tuple(v.center for v in views),
-                   fills=tuple(fills) or (False,) * len(views))
-
-    def _view(self, a, b, u: float) -> ViewState:
-        view = super()._view(a, b, u)
-        (ax, ay), (bx, by) = self.centers[self._index(a)], self.centers[self._index(b)]
-        return view.replace(center=(ax + (bx - ax) * u, ay + (by - ay) * u))
-
-    def _index(self, keyframe) -> int:
-        return next(i for i, k in enumerate(self.keyframes) if k.t == keyframe.t)

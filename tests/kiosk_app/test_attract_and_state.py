@@ -191,6 +191,7 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     pose in the free area; only fit = false leaves a timeline as written."""
     from exhibit import scenes
     from exhibit.geometry.framing import mesh_sample, pixel_bounds
+    from exhibit.kiosk.framing import frame_timeline
     from exhibit.render.framer import Framer
     text = TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"').replace(
         "sensor_distance = 2", "sensor_distance = 6")
@@ -206,7 +207,7 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     mesh = scene.build({}, 12)
     size = (1280, 720)
     framer = Framer(size)
-    result = framer.timeline(timeline, scene, mesh)
+    result = frame_timeline(framer, timeline, scene, mesh)
     assert (result is not timeline) == framed
     if not framed:
         return
@@ -233,13 +234,14 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     import numpy as np
     from exhibit import scenes
     from exhibit.geometry.framing import mesh_sample, pixel_bounds
+    from exhibit.kiosk.framing import frame_timeline
     from exhibit.render.framer import Framer
     framer = Framer(size, drift=12.0)
     unframed, following, filling = [], [], []
     for timeline in load_playlist(ATTRACT_DIR):
         scene = scenes.get(timeline.scene)
         mesh = scene.build(timeline.params, 12)
-        result = framer.timeline(timeline, scene, mesh)
+        result = frame_timeline(framer, timeline, scene, mesh)
         if result is timeline:
             unframed.append(timeline.scene)
             continue
