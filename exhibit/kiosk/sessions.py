@@ -305,9 +305,9 @@ class SessionStore:
         self.moved_aside.append(target)
         log.warning("sessions database %s unusable (%s): moved aside to %s, starting a fresh one",
                     self.path, reason, target.name)
-        asides = sorted(self.path.parent.glob(f"{self.path.name}.corrupt-*"),
-                        key=lambda p: p.lstat().st_mtime)
-        old = [p for p in asides if not p.name.endswith(("-wal", "-journal"))][:-KEEP_ASIDE]
+        asides = sorted(p for p in self.path.parent.glob(f"{self.path.name}.corrupt-*")
+                        if not p.name.endswith(("-wal", "-journal")))  # oldest first, by name
+        old = asides[:-KEEP_ASIDE]
         for p in old:
             for q in (p, Path(f"{p}-wal"), Path(f"{p}-journal")):
                 try:
@@ -337,7 +337,8 @@ class SessionStore:
                 "DELETE FROM sessions WHERE id <= (SELECT id FROM sessions ORDER BY id DESC "
                 "LIMIT 1 OFFSET ?)", (self.max_sessions,)).rowcount
         if old + extra:
-            self.db.execute("PRAGMA incremental_vacuum")
+            # executescript steps it to the end (execute() would free one page only)
+            self.db.executescript("PRAGMA incremental_vacuum;")
             self.db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
             log.info("sessions: %d older than %g days and %d beyond the newest %d deleted",
                      old, self.keep_days, extra, self.max_sessions)
