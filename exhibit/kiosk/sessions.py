@@ -246,8 +246,20 @@ class SessionStore:
             self._connect()
             if self._check() is not None:  # pragma: no cover - a fresh file is fine
                 raise sqlite3.DatabaseError("a fresh sessions database failed its check")
+        self._readable()
         self.rotate()
         return self
+
+    def _readable(self) -> None:
+        """World-readable (0644), whatever the service's UMask=0077, so staff run `exhibit
+        stats` without sudo, as they read the health file: nothing in it is personal. SQLite
+        gives the -wal and -shm files made later the database file's mode."""
+        for name in (self.path, Path(f"{self.path}-wal"), Path(f"{self.path}-shm")):
+            try:
+                if name.stat().st_uid == os.geteuid():
+                    os.chmod(name, 0o644)
+            except OSError:
+                pass
 
     def _unusable(self) -> str | None:
         try:

@@ -520,3 +520,16 @@ def test_sessions_config_reaches_the_kiosk(tree, monkeypatch, tmp_path):
     config = load_kiosk_config(kiosk).sessions
     assert config.resolved() == tmp_path / "elsewhere.db" and not config.enabled
     assert sessions_module.open_session_log(config) is None
+
+
+def test_the_database_is_readable_by_staff_whatever_the_umask(tmp_path):
+    """The service runs with UMask=0077; staff run `exhibit stats` without sudo."""
+    old = os.umask(0o077)
+    try:
+        store = SessionStore(tmp_path / "s.db").open()
+        store.add(numbered(1))
+        modes = {p.name: p.stat().st_mode & 0o777 for p in tmp_path.iterdir()}
+        store.close()
+    finally:
+        os.umask(old)
+    assert modes == {"s.db": 0o644, "s.db-wal": 0o644, "s.db-shm": 0o644}
