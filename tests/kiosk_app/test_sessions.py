@@ -140,6 +140,35 @@ def test_the_kiosk_frame_loop_records_sessions(tmp_path, monkeypatch, capsys):
     assert report(capsys, db)["sessions"] == 2
 
 
+@pytest.mark.slow
+def test_a_real_kiosk_run_is_reported_by_stats(tmp_path, cli):
+    """`exhibit run` in a window under Xvfb, the simulated controller's stick pushed for 1.5 s
+    after 2 s of attract mode, the idle return 5 s later; then `exhibit stats --json` on the
+    database the kiosk wrote in its state folder."""
+    from tests.kiosk_app.test_window import make_config
+    from tests.xvfb import unavailable, xvfb
+    kiosk = make_config(tmp_path, "wait 2\naxes 0.9 0 0 0 0 0\nwait 1.5\naxes 0 0 0 0 0 0\n")
+    state = tmp_path / "state"
+    with xvfb("320x240x24") as display:
+        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+                   EXHIBIT_STATE_DIR=str(state))
+        env.pop("NOTIFY_SOCKET", None)
+        result = subprocess.run(
+            [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--windowed",
+             "--duration", "12"], env=env, capture_output=True, text=True, timeout=240,
+            cwd=ROOT)
+    if result.returncode != 0 and "cannot start GLFW" in result.stderr:
+        unavailable("no GLFW window on Xvfb")
+    assert result.returncode == 0, result.stderr[-3000:]
+    out = cli("stats", "--db", str(state / "sessions.db"), "--json")
+    assert out.returncode == 0, out.stderr
+    report = json.loads(out.stdout)
+    assert report["sessions"] == 1
+    assert report["scenes"] == [{"name": "hopf", "sessions": 1}]
+    assert report["inputs"] == [{"name": "controller.stick", "sessions": 1}]
+    assert 5.0 <= report["median_s"] <= 9.0 and report["median_active_s"] < 3.0
+
+
 def test_input_names_count_real_use_only():
     assert input_name(Event(0, "knobs", Kind.REL, 0, 2.0)) == "knobs.knob"
     assert input_name(Event(0, "knobs", Kind.REL, 0, 0.0)) is None
