@@ -285,6 +285,8 @@ def test_the_database_survives_sigkill_in_the_middle_of_writes(tmp_path):
         child = subprocess.Popen([sys.executable, "-c", CHILD, str(db), str(start), str(base)],
                                  cwd=ROOT,
                                  stdout=subprocess.PIPE, text=True)
+        watchdog = threading.Timer(60, child.kill)   # a child that hangs fails, not blocks
+        watchdog.start()
         try:
             for _ in range(kill_after):
                 line = child.stdout.readline()
@@ -294,6 +296,7 @@ def test_the_database_survives_sigkill_in_the_middle_of_writes(tmp_path):
         finally:
             os.kill(child.pid, signal.SIGKILL)
             child.wait(10)
+            watchdog.cancel()
             child.stdout.close()
         assert child.returncode == -signal.SIGKILL
         with sqlite3.connect(db) as con:
