@@ -565,3 +565,20 @@ def test_the_database_is_readable_by_staff_whatever_the_umask(tmp_path):
     finally:
         os.umask(old)
     assert modes == {"s.db": 0o644, "s.db-wal": 0o644, "s.db-shm": 0o644}
+
+
+def test_stats_finds_the_database_the_config_names(tmp_path, capsys, monkeypatch):
+    db = tmp_path / "museum" / "visits.db"
+    store = SessionStore(db).open()
+    store.add(numbered(1))
+    store.close()
+    site = tmp_path / "site.toml"
+    site.write_text(f'[sessions]\npath = "{db}"\n')
+    assert main(["stats", "--config", str(site), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["db"] == str(db) and out["sessions"] == 1
+    monkeypatch.setenv("EXHIBIT_STATE_DIR", str(tmp_path / "museum"))
+    site.write_text("[sessions]\nkeep_days = 30\n")   # no path: the state folder's sessions.db
+    (tmp_path / "museum" / "sessions.db").write_bytes(db.read_bytes())
+    assert main(["stats", "--config", str(site), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["db"] == str(tmp_path / "museum" / "sessions.db")
