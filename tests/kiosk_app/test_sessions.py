@@ -582,3 +582,22 @@ def test_stats_finds_the_database_the_config_names(tmp_path, capsys, monkeypatch
     (tmp_path / "museum" / "sessions.db").write_bytes(db.read_bytes())
     assert main(["stats", "--config", str(site), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["db"] == str(tmp_path / "museum" / "sessions.db")
+
+
+def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
+        tmp_path, monkeypatch, caplog):
+    real_add, calls = SessionStore.add, []
+
+    def add(self, s):
+        calls.append(s)
+        if len(calls) == 1:
+            raise sqlite3.DatabaseError("database disk image is malformed")
+        return real_add(self, s)
+    monkeypatch.setattr(SessionStore, "add", add)
+    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+        writer = SessionWriter(tmp_path / "s.db")
+        writer.submit(numbered(1))
+        writer.close()
+    assert writer.written == 1 and writer.failed == 0 and len(calls) == 2
+    assert len(writer.store.moved_aside) == 1 and caplog.text.count("moved aside") == 1
+    assert len(read_sessions(tmp_path / "s.db")) == 1
