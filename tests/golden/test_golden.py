@@ -149,13 +149,31 @@ def test_the_kiosk_frames_show_what_they_claim(kiosk_shots):
         assert (a.image != b.image).any(axis=-1).mean() > 0.05
 
 
+#: Closer than this the hypersphere's picture fills the world on purpose (Figure 8's moment; the
+#: framer keeps that keyframe's own zoom and moves into and out of it).
+FILLS_THE_WORLD = 2.25
+
+
 def test_the_hypersphere_timeline_keeps_clear_of_the_panels(tmp_path_factory, cache):
+    """Every second of the shipped hypersphere timeline in the running kiosk: the tori stay off
+    the panels and out of the margin, except while the sensor is close enough (distance under
+    2.25) that the picture fills the world on purpose."""
     run = kiosk_run(tmp_path_factory, cache, "01-hypersphere.toml")
+    problems, checked, exempt = [], 0, 0
     try:
-        run.run_until(17.0, step=0.5)  # "At distance 3 (Figure 7) ..."
-        shot = run.shot()
+        duration = run.kiosk.state.playlist.timelines[0].duration
+        for t in range(1, int(duration) + 1):
+            run.run_until(float(t), step=0.5)
+            shot, view = run.shot(), run.kiosk.state.frame.view
+            if view.sensor_r > 1 / FILLS_THE_WORLD:
+                exempt += 1
+                continue
+            checked += 1
+            found = surface_pixels_under_panels(shot.surfaces, shot.layout.panels) + \
+                surface_pixels_in_the_margin(shot.surfaces, shot.layout.margin)
+            problems += [f"t = {t} s ({shot.caption[:30]}...): {p}" for p in found]
     finally:
         run.close()
         run.headless.release()
-    assert shot.caption.startswith("At distance 3")
-    assert surface_pixels_under_panels(shot.surfaces, shot.layout.panels) == []
+    assert problems == []
+    assert checked >= 40 and 5 <= exempt <= 12, (checked, exempt)  # distance 2 for 7 s and more
