@@ -183,7 +183,7 @@ class FramePipeline:
                              "sheets" if inked else "scene")
         target.framebuffer.use()
         ctx.viewport = (0, 0, *scene_size)
-        ctx.depth_mask = True
+        ctx.fbo.depth_mask = True
         target.clear()
         renderer.render_scene(gpu, view, scene_size, options, sheets=target if inked else None)
         target.resolve()

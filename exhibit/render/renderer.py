@@ -181,7 +181,7 @@ class Renderer:
         width, height = size or framebuffer.size
         ctx.viewport = (0, 0, width, height)
         size = (width, height)
-        ctx.depth_mask = True
+        ctx.fbo.depth_mask = True
         framebuffer.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
         # Background (the depth test off, so it writes no depth).
         ctx.disable(moderngl.BLEND | moderngl.CULL_FACE | moderngl.DEPTH_TEST)
@@ -206,7 +206,7 @@ class Renderer:
         scale = options.width_scale(height)
         ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         ctx.depth_func = "<"
-        ctx.depth_mask = True
+        ctx.fbo.depth_mask = True
 
         # Surfaces.
         ctx.enable(moderngl.DEPTH_TEST)
@@ -221,10 +221,26 @@ class Renderer:
             ctx.viewport = (0, 0, width, height)
             self.draw_intersections(gpu, sheets, size, options, view)
 
-        # Live silhouettes and Lemma 2 points: depth-tested against the surfaces, no depth writes.
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = BLEND_OVER
         ctx.depth_func = "<="
+        # Curves and markers: opaque cores with depth writes, then antialiased rims blended.
+        if options.curves:
+            prog = self.programs["curves"]
+            self.set_pipeline(prog, view, size)
+            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale * options.curve_width)
+            for key, count in (("lines", gpu.line_count), ("markers", gpu.marker_count)):
+                if not count:
+                    continue
+                for pass_ in (0, 1):
+                    prog["u_pass"].value = pass_
+                    ctx.fbo.depth_mask = pass_ == 0
+                    gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+            ctx.fbo.depth_mask = True
+        # Live silhouettes, Lemma 2 points and the slice, after the curves: depth-tested, no depth
+        # writes (Framebuffer.depth_mask: moderngl's Context has none), so a silhouette never
+        # hides a curve or its own next segment, and the lifted Lemma 2 discs and the slice
+        # stay above the wire frames and curves.
         sliced = view.slice_axis is not None
         if (options.silhouettes or sliced) and gpu.surfaces:
             prog = self.programs["silhouette"]
@@ -237,26 +253,13 @@ class Renderer:
                       u_pinch=(1.0, 0.93, 0.2, pinch), u_slice_axis=tuple(axis),
                       u_slice_at=view.slice_at,
                       u_slice_style=(*SLICE_COLOR, SLICE_WIDTH if sliced else 0.0))
-            ctx.depth_mask = False
+            ctx.fbo.depth_mask = False
             for surface in gpu.surfaces:
                 width = options.silhouette_width if options.silhouettes else 0.0
                 prog["u_ink"].value = (*darker(surface.color), width)
                 surface.vaos["silhouette"].render(moderngl.TRIANGLES)
-            ctx.depth_mask = True
+            ctx.fbo.depth_mask = True
 
-        # Curves and markers: opaque cores with depth writes, then antialiased rims blended.
-        if options.curves:
-            prog = self.programs["curves"]
-            self.set_pipeline(prog, view, size)
-            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale * options.curve_width)
-            for key, count in (("lines", gpu.line_count), ("markers", gpu.marker_count)):
-                if not count:
-                    continue
-                for pass_ in (0, 1):
-                    prog["u_pass"].value = pass_
-                    ctx.depth_mask = pass_ == 0
-                    gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
-            ctx.depth_mask = True
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.depth_func = "<"
 

@@ -86,3 +86,26 @@ def test_gpu_slice_is_the_exact_slice(gl, at):
     d_glow = np.linalg.norm(glow[:, None] - expected[None], axis=-1).min(axis=1)
     d_curve = np.linalg.norm(expected[:, None] - glow[None], axis=-1).min(axis=1)
     assert np.quantile(d_glow, 0.99) <= 3.0 and np.quantile(d_curve, 0.99) <= 2.5
+
+
+def test_the_silhouette_pass_writes_no_depth(gl):
+    """moderngl's Context has no depth_mask (it is the framebuffer's): setting the context's
+    silently did nothing, so every silhouette segment wrote depth and cut holes into the next
+    one at each joint. Drawn alone on a cleared depth buffer, the silhouettes must leave it as
+    it was, byte for byte, while their colour is there."""
+    mesh = scenes.get("hopf").build(resolution=16)
+    mesh.curves.clear()
+    gpu = gl.renderer.upload(mesh)
+    target = gl.target(SIZE, 0)
+    depth, colour = [], []
+    for silhouettes in (False, True):
+        options = RenderOptions(hud=False, curves=False, surfaces=False, intersections=False,
+                                silhouettes=silhouettes, silhouette_width=6.0,
+                                background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+        gl.renderer.render(gpu, VIEWS[0], target.framebuffer, options)
+        raw = target.framebuffer.read(attachment=-1, dtype="f4")
+        depth.append(np.frombuffer(raw, dtype=np.uint32)[:SIZE[0] * SIZE[1]])
+        colour.append(np.frombuffer(target.framebuffer.read(), dtype=np.uint8))
+    gpu.release()
+    assert (colour[1] > 20).sum() > 500 and colour[0].max() == 0
+    assert np.array_equal(depth[0], depth[1])

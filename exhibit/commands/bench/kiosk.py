@@ -102,7 +102,7 @@ def run(args) -> int:
                 fbo = floor_target.framebuffer
                 fbo.use()
                 ctx.viewport = (0, 0, *size)
-                ctx.depth_mask = True
+                ctx.fbo.depth_mask = True
                 fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
                 ctx.enable(moderngl.DEPTH_TEST)
                 renderer.draw_surfaces(gpu, view, size, key="floor")

@@ -170,7 +170,7 @@ def run(args) -> int:
             def surfaces_only(draw):
                 fbo.use()
                 ctx.viewport = (0, 0, *size)
-                ctx.depth_mask = True
+                ctx.fbo.depth_mask = True
                 fbo.clear(0.0, 0.0, 0.0, 1.0, depth=1.0)
                 ctx.enable(moderngl.DEPTH_TEST)
                 draw()
@@ -178,7 +178,7 @@ def run(args) -> int:
             def with_sheets(v):
                 sheets.framebuffer.use()
                 ctx.viewport = (0, 0, *size)
-                ctx.depth_mask = True
+                ctx.fbo.depth_mask = True
                 sheets.clear()
                 ctx.enable(moderngl.DEPTH_TEST)
                 sheets.sheet_framebuffer.use()
