@@ -13,9 +13,10 @@ import dataclasses
 import time
 
 from exhibit.devices.config import DeviceConfig
-from exhibit.devices.keyboard import KeyboardBackend, key_name
+from exhibit.devices.keyboard import KeyboardBackend
 from exhibit.devices.mapping import Mapper
 from exhibit.devices.url import parse_url
+from exhibit.render.target import Focus, Key
 
 #: The viewer's own keys (the shipped keyboard mapping leaves them free).
 DEPTH_KEY, QUIT_KEY = "c", "escape"
@@ -56,21 +57,15 @@ class StaffControls:
 def run(window, gpu, view, hud, config: DeviceConfig, options) -> None:
     """Draw ``view`` in ``window`` and let the keys drive it until the window is closed or
     Escape is pressed."""
-    glfw = window._glfw
     controls = StaffControls(config, view)
 
-    def on_key(_window, key, _scancode, action, _mods):
-        name = key_name(glfw, key)
-        if name and action != glfw.REPEAT:
-            controls.key(name, action == glfw.PRESS)
-
-    def on_focus(_window, focused):
-        if not focused:
+    def on_input(event) -> None:
+        if isinstance(event, Key):
+            controls.key(event.name, event.pressed)
+        elif isinstance(event, Focus) and not event.focused:
             controls.keyboard.release_all()
 
-    window.callbacks = (on_key, on_focus)  # pyGLFW keeps no reference of its own
-    glfw.set_key_callback(window.handle, on_key)
-    glfw.set_window_focus_callback(window.handle, on_focus)
+    window.set_input(on_input)
     while not window.should_close and not controls.quit:
         view = controls.step(view, time.monotonic())
         window.draw(gpu, view, dataclasses.replace(options, depth_colour=controls.depth_colour),

@@ -45,7 +45,6 @@ import numpy as np
 from exhibit import scenes
 from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
-from exhibit.devices.keyboard import key_name
 from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.errors import ExhibitError
 from exhibit.kiosk import journal
@@ -58,6 +57,7 @@ from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
 from exhibit.render.layout import TextSizes
 from exhibit.render.renderer import HudInfo
+from exhibit.render.target import CloseRequest, Focus, Key
 from exhibit.scenes.cache import build_cached
 from exhibit.surfaces import progress
 from exhibit.surfaces.mesh import Mesh4D
@@ -144,9 +144,9 @@ class FrameErrors:
 
 
 class Kiosk:
-    """The running exhibit. ``window`` is an exhibit.render.window.Window (or any object with
-    draw (with ``fade``), capture, notice, read, swap, ctx, renderer, handle and _glfw). ``state`` is None when no scene
-    could be prepared: the window then shows NOTICE."""
+    """The running exhibit. ``window`` is a render target (exhibit.render.target: the GLFW
+    Window on a museum's screen, HeadlessTarget in tests and benchmarks). ``state`` is None when
+    no scene could be prepared: the window then shows NOTICE."""
 
     def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
                  health_path: Path | None = None, sessions=None):
@@ -296,39 +296,29 @@ class Kiosk:
     # ------------------------------------------------------------------ input from the window
 
     def _install_input(self) -> None:
-        glfw = self.window._glfw
-        handle = self.window.handle
-        glfw.set_input_mode(handle, glfw.CURSOR, glfw.CURSOR_HIDDEN)
-        keyboard = self.devices.keyboard
-        quit_combo = set(self.config.quit_keys)
+        """Keys, focus and close requests from the window (exhibit.render.target's events):
+        visitors cannot close the exhibit (Alt+F4, the compositor), staff quit with the
+        maintenance combination, and a focus loss releases every held key."""
+        self.window.hide_cursor()
+        self.window.close_allowed = False
+        self.window.set_input(self._on_input)
 
-        def on_key(_window, key, _scancode, action, mods):
-            name = key_name(glfw, key)
-            if not name or action == glfw.REPEAT:
-                return
-            pressed = action == glfw.PRESS
+    def _on_input(self, event) -> None:
+        keyboard = self.devices.keyboard
+        if isinstance(event, Key):
             if keyboard is not None:
-                keyboard.key(name, pressed)
-            held = {m for m, bit in (("ctrl", glfw.MOD_CONTROL), ("alt", glfw.MOD_ALT),
-                                     ("shift", glfw.MOD_SHIFT), ("super", glfw.MOD_SUPER))
-                    if mods & bit}
-            if pressed and quit_combo and quit_combo == held | {name.lower()}:
+                keyboard.key(event.name, event.pressed)
+            quit_combo = set(self.config.quit_keys)
+            if event.pressed and quit_combo and quit_combo == event.mods | {event.name.lower()}:
                 log.info("maintenance key combination: quitting")
                 self._quit = True
-
-        def on_focus(_window, focused):
-            log.info("the window %s the input focus", "has" if focused else "lost")
-            if not focused and keyboard is not None:
+        elif isinstance(event, Focus):
+            log.info("the window %s the input focus", "has" if event.focused else "lost")
+            if not event.focused and keyboard is not None:
                 keyboard.release_all()
-
-        def on_close(_window):
-            # Visitors cannot close the exhibit (Alt+F4, the compositor's close request).
-            glfw.set_window_should_close(handle, self._quit)
-
-        self._callbacks = (on_key, on_focus, on_close)  # keep references alive
-        glfw.set_key_callback(handle, on_key)
-        glfw.set_window_focus_callback(handle, on_focus)
-        glfw.set_window_close_callback(handle, on_close)
+        elif isinstance(event, CloseRequest):
+            log.info("the window system asked to close: ignored (staff quit with %s)",
+                     "+".join(self.config.quit_keys))
 
     # ------------------------------------------------------------------ the loop
 

@@ -20,7 +20,7 @@ from exhibit.render import shaders
 from exhibit.render.gpu import GpuMesh, upload
 from exhibit.render.hud import Hud
 from exhibit.render.options import RenderOptions
-from exhibit.render.text import GlyphAtlas, TextCache
+from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
 from exhibit.surfaces.mesh import Mesh4D
 
 GL_CLIP_DISTANCE0 = 0x3000
@@ -397,6 +397,26 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST)
 
     # ------------------------------------------------------------------ HUD
+
+    def notice(self, lines: list[str], size: tuple[int, int],
+               drift: tuple[float, float] = (0.0, 0.0)) -> None:
+        """Lines of text centred on a dark screen, into the current framebuffer: what the kiosk
+        shows when it has nothing else, so the screen says what is wrong instead of staying
+        black. ``drift`` moves the text (burn-in care: it may stay up for weeks)."""
+        ctx, (width, height) = self.ctx, size
+        ctx.viewport = (0, 0, width, height)
+        ctx.fbo.clear(0.06, 0.06, 0.08, 1.0)
+        ctx.enable(moderngl.BLEND)
+        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
+        px = max(10, round(0.03 * height))
+        step = line_height("sans", px)
+        y = (height - step * len(lines)) / 2 + drift[1]
+        for line in lines:
+            x = (width - text_width(line, "sans", px)) / 2 + drift[0]
+            self._text(line, "sans", px, x, y, (0.85, 0.85, 0.82, 1.0),
+                       (float(width), float(height)))
+            y += step
+        ctx.disable(moderngl.BLEND)
 
     def _text(self, text: str, style: str, size: int, x: float, y: float, color, viewport):
         """Draw text with its top-left corner at (x, y) in pixels from the top-left, as its own

@@ -1,5 +1,6 @@
 """The window target: a GLFW window (fullscreen on the kiosk) whose context gets the same Renderer
-as the headless target. One process uses one kind of target: with Mesa, once EGL (the headless
+as the headless target, behind the interface of exhibit.render.target (GLFW's key codes and
+callbacks become toolkit-neutral Key, Focus and CloseRequest events here, and nowhere else). One process uses one kind of target: with Mesa, once EGL (the headless
 target) has been initialised, GLX refuses to make a window context current (BadAccess). The
 kiosk owns the loop, and so does the staff viewer (`exhibit render SCENE --window`,
 exhibit.commands._viewer), with the kiosk's own keys.
@@ -16,10 +17,11 @@ import time
 import moderngl
 import numpy as np
 
+from exhibit.devices.keyboard import key_name
 from exhibit.render.context import REQUIRED_VERSION, RenderUnavailable
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo, Renderer
-from exhibit.render.text import line_height, text_width
+from exhibit.render.target import CloseRequest, Focus, InputHandler, Key
 
 log = logging.getLogger("exhibit.glfw")
 
@@ -107,6 +109,44 @@ class Window:
         self._timer = None
         #: What drawing the latest kiosk frame cost (ms; exhibit.render.frame.FrameTimer).
         self.frame_ms: float | None = None
+        #: False: a close request (Alt+F4, the compositor) is reported, not obeyed.
+        self.close_allowed = True
+        self._handler: InputHandler | None = None
+        self._install_callbacks()
+
+    # ------------------------------------------------------------------ input
+
+    def _install_callbacks(self) -> None:
+        glfw, handle = self._glfw, self.handle
+        modifiers = (("ctrl", glfw.MOD_CONTROL), ("alt", glfw.MOD_ALT),
+                     ("shift", glfw.MOD_SHIFT), ("super", glfw.MOD_SUPER))
+
+        def on_key(_window, key, _scancode, action, mods):
+            name = key_name(glfw, key)
+            if name and action != glfw.REPEAT and self._handler is not None:
+                held = frozenset(m for m, bit in modifiers if mods & bit)
+                self._handler(Key(name, action == glfw.PRESS, held))
+
+        def on_focus(_window, focused):
+            if self._handler is not None:
+                self._handler(Focus(bool(focused)))
+
+        def on_close(_window):
+            glfw.set_window_should_close(handle, self.close_allowed)
+            if self._handler is not None:
+                self._handler(CloseRequest())
+
+        self._callbacks = (on_key, on_focus, on_close)  # pyGLFW keeps no reference of its own
+        glfw.set_key_callback(handle, on_key)
+        glfw.set_window_focus_callback(handle, on_focus)
+        glfw.set_window_close_callback(handle, on_close)
+
+    def set_input(self, handler: InputHandler | None) -> None:
+        """Where keys, focus changes and close requests go (delivered during swap())."""
+        self._handler = handler
+
+    def hide_cursor(self) -> None:
+        self._glfw.set_input_mode(self.handle, self._glfw.CURSOR, self._glfw.CURSOR_HIDDEN)
 
     @property
     def refresh_hz(self) -> float | None:
@@ -153,25 +193,10 @@ class Window:
         self._kiosk_pipeline().capture(gpu, view, self.size, options, hud, options.quality)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
-        """Lines of text centred on a dark screen (call swap() to show it): what the kiosk shows
-        when it has nothing else, so the screen says what is wrong instead of staying black.
-        ``drift`` moves the text (burn-in care: it may stay up for weeks)."""
+        """The notice screen (Renderer.notice) in the back buffer (call swap() to show it)."""
         self._glfw.make_context_current(self.handle)
-        ctx, (width, height) = self.ctx, self.size
-        ctx.screen.use()
-        ctx.viewport = (0, 0, width, height)
-        ctx.screen.clear(0.06, 0.06, 0.08, 1.0)
-        ctx.enable(moderngl.BLEND)
-        ctx.blend_func = moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA
-        px = max(10, round(0.03 * height))
-        step = line_height("sans", px)
-        y = (height - step * len(lines)) / 2 + drift[1]
-        for line in lines:
-            x = (width - text_width(line, "sans", px)) / 2 + drift[0]
-            self.renderer._text(line, "sans", px, x, y, (0.85, 0.85, 0.82, 1.0),
-                                (float(width), float(height)))
-            y += step
-        ctx.disable(moderngl.BLEND)
+        self.ctx.screen.use()
+        self.renderer.notice(lines, self.size, drift)
 
     def read(self) -> np.ndarray:
         """The back buffer as (height, width, 3) uint8, top row first (before swap()).
@@ -200,6 +225,7 @@ class Window:
     def close(self) -> None:
         if self.handle is None:
             return
+        self._handler = None
         if self._pipeline is not None:
             self._pipeline.release()
             self._timer.release()

@@ -188,35 +188,34 @@ def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
 
 
 def test_the_staff_viewer_loop_takes_keys_from_the_window():
-    from types import SimpleNamespace
-
+    """The viewer hears the window's toolkit-neutral events (exhibit.render.target)."""
     from exhibit.commands import _viewer
     from exhibit.render.options import RenderOptions
+    from exhibit.render.target import Focus, Key
 
-    callbacks = {}
-    glfw = SimpleNamespace(
-        PRESS=1, RELEASE=0, REPEAT=2, KEY_SPACE=32, KEY_ESCAPE=256, KEY_UP=265, KEY_DOWN=264,
-        KEY_LEFT=263, KEY_RIGHT=262, get_key_name=lambda key, sc: {81: "q", 67: "c"}.get(key),
-        set_key_callback=lambda h, f: callbacks.setdefault("key", f),
-        set_window_focus_callback=lambda h, f: callbacks.setdefault("focus", f))
     drawn = []
-    script = {2: [(81, 1)], 3: [(81, 2)], 20: [(81, 0), (67, 1)], 25: [(256, 1)]}
+    script = {2: [Key("q", True)], 10: [Focus(False)], 12: [Key("q", True)],
+              20: [Key("q", False), Key("c", True)], 25: [Key("escape", True)]}
 
     class FakeWindow:
-        _glfw, handle, should_close = glfw, object(), False
+        should_close, handler = False, None
+
+        def set_input(self, handler):
+            self.handler = handler
 
         def draw(self, gpu, view, options, hud):
             drawn.append((view, options.depth_colour))
 
         def swap(self):
-            for key, action in script.get(len(drawn), ()):
-                callbacks["key"](None, key, 0, action, 0)
+            for event in script.get(len(drawn), ()):
+                self.handler(event)
             if len(drawn) > 100:
                 raise AssertionError("Escape did not close the viewer")
 
     _viewer.run(FakeWindow(), None, ViewState(), None, load_config(), RenderOptions())
     assert len(drawn) == 25  # Escape after the 25th frame ends the loop
-    assert drawn[1][0].angles[0] == 0 and drawn[19][0].angles[0] > 0  # q held turns theta1
+    assert drawn[1][0].angles[0] == 0 and drawn[9][0].angles[0] > 0  # q held turns theta1
+    assert drawn[11][0].angles[0] == drawn[10][0].angles[0]  # focus lost: q let go
     assert drawn[20][0].angles[0] == drawn[-1][0].angles[0]  # released: it stops
     assert not drawn[19][1] and drawn[20][1]  # c: depth colour on
 

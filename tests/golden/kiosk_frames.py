@@ -2,9 +2,9 @@
 on a clock the test sets, so a kiosk frame at a given moment of attract mode, of a visit or of
 the idle glide is the same picture every run.
 
-What the Kiosk needs of a window is small (see its docstring); HeadlessWindow gives it with
-exhibit.render.Headless: the kiosk's own FramePipeline draws each frame into an offscreen target
-the size of the screen, and the frame is read back as the screenshot would be.
+The kiosk draws into exhibit.render.target.HeadlessTarget: its own FramePipeline draws each frame
+into an offscreen target the size of the screen, and the frame is read back as the screenshot
+would be.
 """
 
 from __future__ import annotations
@@ -12,13 +12,13 @@ from __future__ import annotations
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from types import SimpleNamespace
 
 import numpy as np
 
 from exhibit.kiosk import app
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.render.layout import HudLayout
+from exhibit.render.target import HeadlessTarget
 
 ROOT = Path(__file__).resolve().parents[2]
 SHIPPED = ROOT / "configs"
@@ -30,47 +30,6 @@ class FakeClock:
 
     def __call__(self) -> float:
         return self.t
-
-
-class HeadlessWindow:
-    """A Kiosk's window drawn by the headless pipeline; ``image`` is the latest frame."""
-
-    def __init__(self, headless, size: tuple[int, int]):
-        noop = lambda *a, **k: None  # noqa: E731
-        self.headless, self.size = headless, tuple(size)
-        self.ctx, self.renderer = headless.ctx, headless.renderer
-        self._glfw = SimpleNamespace(
-            CURSOR=0, CURSOR_HIDDEN=0, REPEAT=2, PRESS=1, MOD_CONTROL=2, MOD_ALT=4, MOD_SHIFT=1,
-            MOD_SUPER=8, get_key_name=noop, set_input_mode=noop, set_key_callback=noop,
-            set_window_focus_callback=noop, set_window_close_callback=noop,
-            set_window_should_close=noop)
-        self.handle = object()
-        self.refresh_hz = 60.0
-        self.frame_ms = None
-        self.image: np.ndarray | None = None
-        self.drawn: tuple | None = None  # (gpu, view, options, hud) of the latest frame
-
-    def draw(self, gpu, view, options, hud=None, fade: float = 0.0) -> None:
-        h = self.headless
-        h.activate()
-        target = h.target(self.size, 0)
-        h.pipeline.draw(gpu, view, target.framebuffer, target.size, options, hud,
-                        options.quality, fade)
-        self.image = target.read()
-        self.drawn = (gpu, view, options, hud)
-
-    def capture(self, gpu, view, options, hud=None) -> None:
-        self.headless.activate()
-        self.headless.pipeline.capture(gpu, view, self.size, options, hud, options.quality)
-
-    def notice(self, lines, drift=(0.0, 0.0)) -> None:
-        raise AssertionError(f"the kiosk shows its notice: {lines}")
-
-    def read(self) -> np.ndarray:
-        return self.image
-
-    def swap(self) -> None:
-        pass
 
 
 def _toml_value(value) -> str:
@@ -146,7 +105,7 @@ level = "fxaa"
 """)
         self.config = load_kiosk_config(site)
         self.clock = FakeClock(0.0)
-        self.window = HeadlessWindow(headless, size)
+        self.window = HeadlessTarget(headless, size)
         self.kiosk = app.Kiosk(self.config, self.window, clock=self.clock)
         self.headless = headless
 

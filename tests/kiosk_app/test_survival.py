@@ -17,7 +17,6 @@ from PIL import Image
 
 from exhibit.kiosk import app
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.devices.keyboard import SPECIAL_KEYS
 from exhibit.render.window import GlfwErrors
 from tests.kiosk_app.test_window import ROOT, make_config
 from tests.xvfb import unavailable, xvfb
@@ -27,14 +26,7 @@ class FakeWindow:
     """What Kiosk needs of a window, drawing nothing; ``fail`` counts down frames that raise."""
 
     def __init__(self):
-        noop = lambda *a, **k: None  # noqa: E731
-        self._glfw = SimpleNamespace(
-            CURSOR=0, CURSOR_HIDDEN=0, REPEAT=2, PRESS=1, MOD_CONTROL=2, MOD_ALT=4, MOD_SHIFT=1,
-            MOD_SUPER=8, **{f"KEY_{k}": i for i, k in enumerate(SPECIAL_KEYS)},
-            set_input_mode=noop, get_key_name=noop, set_key_callback=noop,
-            set_window_focus_callback=noop, set_window_close_callback=noop,
-            set_window_should_close=noop)
-        self.handle = object()
+        self.close_allowed, self.handler = True, None
         self.ctx = SimpleNamespace(error="GL_NO_ERROR")
         self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
         self.fail = 0
@@ -55,6 +47,12 @@ class FakeWindow:
         self.notices += 1
 
     def swap(self):
+        pass
+
+    def set_input(self, handler):
+        self.handler = handler
+
+    def hide_cursor(self):
         pass
 
 

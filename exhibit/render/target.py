@@ -1,0 +1,178 @@
+"""What the kiosk draws into and hears from: one interface, two targets.
+
+The kiosk (exhibit.kiosk.app) needs a surface to draw frames on and the input that surface
+receives: keys, focus, requests to close. The GLFW window (exhibit.render.window.Window) gives
+both on a screen; :class:`HeadlessTarget` gives them offscreen on the EGL context, with input
+events a test (or a replay) posts, so the whole kiosk loop (attract, takeover, idle return,
+maintenance keys, focus loss, scene switching) runs in-process on a simulated clock, without a
+display. The events are toolkit-neutral: nothing above this layer knows GLFW's key codes.
+
+A target has: ``ctx``, ``renderer``, ``size``, ``refresh_hz`` (None: unknown), ``frame_ms``
+(what the latest kiosk frame cost, or None); ``draw``, ``capture``, ``notice``, ``read``,
+``swap`` (shows the frame, then delivers the input that arrived), ``should_close``, ``close``;
+and ``set_input(handler)``, ``hide_cursor()``, ``close_allowed`` (False: a close request is
+reported to the handler but does not close the target; the kiosk decides).
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+from typing import Callable, Protocol, Union
+
+import numpy as np
+
+from exhibit.render.options import RenderOptions
+
+__all__ = ["Key", "Focus", "CloseRequest", "InputEvent", "RenderTarget", "HeadlessTarget",
+           "MODIFIERS"]
+
+#: Modifier names as keys and quit combinations use them.
+MODIFIERS = ("ctrl", "alt", "shift", "super")
+
+
+@dataclass(frozen=True)
+class Key:
+    """A key went down (``pressed``) or up; ``name`` as exhibit.devices.keyboard takes it (the
+    layout's printable name in lower case, or a special key's name); key repeats are not sent."""
+
+    name: str
+    pressed: bool
+    mods: frozenset[str] = frozenset()
+
+
+@dataclass(frozen=True)
+class Focus:
+    """The target gained or lost the input focus (a notification, another window, a VNC
+    session): a key held when it went away never sends its release."""
+
+    focused: bool
+
+
+@dataclass(frozen=True)
+class CloseRequest:
+    """The window system asked to close (Alt+F4, the compositor)."""
+
+
+InputEvent = Union[Key, Focus, CloseRequest]
+InputHandler = Callable[[InputEvent], None]
+
+
+class RenderTarget(Protocol):
+    ctx: object
+    renderer: object
+    frame_ms: float | None
+    close_allowed: bool
+
+    @property
+    def size(self) -> tuple[int, int]: ...
+
+    @property
+    def refresh_hz(self) -> float | None: ...
+
+    @property
+    def should_close(self) -> bool: ...
+
+    def draw(self, gpu, view, options: RenderOptions = RenderOptions(), hud=None,
+             fade: float = 0.0) -> None: ...
+
+    def capture(self, gpu, view, options: RenderOptions, hud=None) -> None: ...
+
+    def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None: ...
+
+    def read(self) -> np.ndarray: ...
+
+    def swap(self) -> None: ...
+
+    def set_input(self, handler: InputHandler | None) -> None: ...
+
+    def hide_cursor(self) -> None: ...
+
+    def close(self) -> None: ...
+
+
+class HeadlessTarget:
+    """The offscreen target: frames are drawn by the kiosk's own FramePipeline into an EGL
+    framebuffer the size of the screen; ``post`` queues input that the next ``swap`` delivers,
+    as a window system delivers what arrived between two frames. ``headless`` is an
+    exhibit.render.Headless; ``image`` is the latest frame (top row first)."""
+
+    def __init__(self, headless, size: tuple[int, int], refresh_hz: float | None = 60.0):
+        self.headless = headless
+        self.ctx, self.renderer = headless.ctx, headless.renderer
+        self._size = (int(size[0]), int(size[1]))
+        self._refresh_hz = refresh_hz
+        self.frame_ms: float | None = None
+        self.close_allowed = True
+        self.image: np.ndarray | None = None
+        #: (gpu, view, options, hud) of the latest frame drawn.
+        self.drawn: tuple | None = None
+        self.cursor_hidden = False
+        self._handler: InputHandler | None = None
+        self._queue: deque[InputEvent] = deque()
+        self._should_close = False
+
+    @property
+    def size(self) -> tuple[int, int]:
+        return self._size
+
+    @property
+    def refresh_hz(self) -> float | None:
+        return self._refresh_hz
+
+    @property
+    def should_close(self) -> bool:
+        return self._should_close
+
+    def _target(self):
+        self.headless.activate()
+        return self.headless.target(self._size, 0)
+
+    def draw(self, gpu, view, options: RenderOptions = RenderOptions(), hud=None,
+             fade: float = 0.0) -> None:
+        target = self._target()
+        if options.quality is None:
+            self.renderer.render(gpu, view, target.framebuffer, options, hud)
+        else:
+            self.headless.pipeline.draw(gpu, view, target.framebuffer, self._size, options, hud,
+                                        options.quality, fade)
+        self.image = target.read()
+        self.drawn = (gpu, view, options, hud)
+
+    def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
+        self.headless.activate()
+        self.headless.pipeline.capture(gpu, view, self._size, options, hud, options.quality)
+
+    def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
+        target = self._target()
+        target.framebuffer.use()
+        self.renderer.notice(lines, self._size, drift)
+        self.image = target.read()
+        self.drawn = None
+
+    def read(self) -> np.ndarray:
+        if self.image is None:
+            raise RuntimeError("nothing has been drawn yet")
+        return self.image
+
+    def post(self, event: InputEvent) -> None:
+        """Input for the next swap (what a person at the window would do)."""
+        self._queue.append(event)
+
+    def swap(self) -> None:
+        while self._queue:
+            event = self._queue.popleft()
+            if isinstance(event, CloseRequest):
+                self._should_close = self.close_allowed
+            if self._handler is not None:
+                self._handler(event)
+
+    def set_input(self, handler: InputHandler | None) -> None:
+        self._handler = handler
+
+    def hide_cursor(self) -> None:
+        self.cursor_hidden = True
+
+    def close(self) -> None:
+        self._handler = None
+        self._queue.clear()

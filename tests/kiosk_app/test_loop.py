@@ -1,0 +1,137 @@
+"""The kiosk's loop in-process, without a display: the real Kiosk drawing into the headless EGL
+target (exhibit.render.target.HeadlessTarget) on a clock the test moves, with input posted as
+the window would deliver it. Attract mode, takeover, idle return, scene switching, focus loss,
+close requests and the maintenance keys, each in a few hundred milliseconds; the GLFW glue
+itself keeps its few tests under Xvfb (test_window.py, test_focus.py)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import pytest
+
+from exhibit.kiosk import app
+from exhibit.kiosk.config import load_kiosk_config
+from exhibit.render import Headless, RenderUnavailable
+from exhibit.render.target import CloseRequest, Focus, HeadlessTarget, Key
+from tests.golden.kiosk_frames import FakeClock, keyboard_devices
+from tests.xvfb import unavailable
+
+SIZE = (320, 180)
+IDLE_S = 5.0
+
+
+@pytest.fixture(scope="module")
+def headless():
+    try:
+        h = Headless()
+    except RenderUnavailable as exc:
+        unavailable(f"no headless OpenGL: {exc}")
+    yield h
+    h.release()
+
+
+class Loop:
+    """A kiosk with two scenes and one short attract timeline, the shipped keyboard mapping as
+    its only device, quality pinned, at 10 frames a second of test time."""
+
+    def __init__(self, headless, tmp: Path):
+        keyboard_devices(tmp / "devices.toml")
+        (tmp / "attract").mkdir()
+        (tmp / "attract" / "torus.toml").write_text(
+            'name = "Torus"\nscene = "clifford-torus"\n'
+            '[[keyframe]]\nt = 0\ncaption = "Turning."\n'
+            '[[keyframe]]\nt = 30\nangles = [90, -40, 0, 0, 0, 0]\ncaption = "Turning."\n')
+        site = tmp / "kiosk.toml"
+        site.write_text(f"""
+[display]
+size = [{SIZE[0]}, {SIZE[1]}]
+[content]
+scenes = ["clifford-torus", "hopf"]
+start_scene = "clifford-torus"
+resolution = {{ clifford-torus = 12, hopf = 12 }}
+[devices]
+config = "devices.toml"
+[attract]
+timelines = "attract"
+idle_timeout_s = {IDLE_S}
+blend_s = 1.0
+[quality]
+level = "fxaa"
+""")
+        self.clock = FakeClock(0.0)
+        self.target = HeadlessTarget(headless, SIZE)
+        self.kiosk = app.Kiosk(load_kiosk_config(site), self.target, clock=self.clock)
+
+    def run(self, seconds: float, step: float = 0.1) -> None:
+        for _ in range(round(seconds / step)):
+            self.clock.t = round(self.clock.t + step, 6)
+            self.kiosk.step()
+
+    @property
+    def frame(self):
+        return self.kiosk.state.frame
+
+
+@pytest.fixture
+def loop(headless, tmp_path):
+    return Loop(headless, tmp_path)
+
+
+def test_the_kiosk_draws_its_attract_mode_into_the_headless_target(loop):
+    loop.run(1.0)
+    assert loop.frame.mode == "attract" and loop.frame.scene == "clifford-torus"
+    assert loop.target.image.shape == (SIZE[1], SIZE[0], 3) and loop.target.image.std() > 5
+    assert loop.target.cursor_hidden and not loop.target.close_allowed
+
+
+def test_a_key_takes_over_and_idle_time_gives_the_exhibit_back(loop):
+    loop.run(0.5)
+    before = loop.frame.view.angles[0]
+    loop.target.post(Key("q", True))
+    loop.run(1.0)
+    assert loop.frame.mode == "visitor" and loop.frame.view.angles[0] > before + 0.1
+    loop.target.post(Key("q", False))
+    loop.run(IDLE_S - 1.0)
+    assert loop.frame.mode == "visitor"     # not idle long enough yet
+    loop.run(2.5)
+    assert loop.frame.mode == "attract"
+
+
+def test_the_next_scene_key_switches_scene(loop):
+    loop.run(0.3)
+    loop.target.post(Key("n", True))
+    loop.target.post(Key("n", False))
+    loop.run(0.5)
+    assert loop.frame.scene == "hopf" and loop.frame.mode == "visitor"
+
+
+def test_losing_the_focus_lets_go_of_every_held_key(loop):
+    loop.target.post(Key("q", True))
+    loop.run(1.0)
+    loop.target.post(Focus(False))   # the release never comes: another window has the keys
+    loop.run(0.3)
+    held = loop.frame.view.angles[0]
+    loop.run(1.0)
+    assert loop.frame.view.angles[0] == pytest.approx(held)
+
+
+def test_a_close_request_is_refused_and_the_loop_goes_on(loop):
+    loop.run(0.2)
+    loop.target.post(CloseRequest())
+    loop.run(0.5)
+    assert not loop.target.should_close and loop.frame.mode == "attract"
+
+
+@pytest.mark.parametrize("mods, quits", [
+    (frozenset({"ctrl", "alt", "shift"}), True),
+    (frozenset({"ctrl", "alt"}), False),       # one modifier short
+    (frozenset(), False),                       # a visitor's plain q
+])
+def test_the_maintenance_keys_end_the_loop(loop, mods, quits):
+    loop.target.post(Key("q", True, mods))
+    code = loop.kiosk.run(max_frames=20)
+    assert code == 0
+    assert (loop.kiosk.frames < 5) == quits, loop.kiosk.frames
+    assert math.isfinite(loop.frame.view.angles[0])
