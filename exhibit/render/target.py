@@ -111,6 +111,7 @@ class HeadlessTarget:
         self._handler: InputHandler | None = None
         self._queue: deque[InputEvent] = deque()
         self._should_close = False
+        self._timer = None
 
     @property
     def size(self) -> tuple[int, int]:
@@ -134,8 +135,13 @@ class HeadlessTarget:
         if options.quality is None:
             self.renderer.render(gpu, view, target.framebuffer, options, hud)
         else:
+            if self._timer is None:
+                from exhibit.render.frame import FrameTimer
+                self._timer = FrameTimer(self.ctx)
+            self._timer.begin()  # as the window measures, for the frame governor
             self.headless.pipeline.draw(gpu, view, target.framebuffer, self._size, options, hud,
                                         options.quality, fade)
+            self.frame_ms = self._timer.end()
         self.image = target.read()
         self.drawn = (gpu, view, options, hud)
 
@@ -176,3 +182,6 @@ class HeadlessTarget:
     def close(self) -> None:
         self._handler = None
         self._queue.clear()
+        if self._timer is not None:
+            self._timer.release()
+            self._timer = None

@@ -28,7 +28,9 @@ class FakeWindow:
     def __init__(self):
         self.close_allowed, self.handler = True, None
         self.ctx = SimpleNamespace(error="GL_NO_ERROR")
-        self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
+        self.renderer = SimpleNamespace(upload=lambda mesh: mesh,
+                                        hud=SimpleNamespace(warm=lambda *a: None))
+        self.size = (640, 360)
         self.fail = 0
         self.drawn, self.notices = [], 0
         self.fades, self.captured = [], []
@@ -82,6 +84,11 @@ def kiosk(tmp_path, monkeypatch, broken=()):
     notifier = Notifier()
     k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)), notifier=notifier,
                   health_path=tmp_path / "health.json")
+    # the start-up warm-up drew every quality level once through a crossfade (not frames;
+    # nothing when no scene could be prepared)
+    warm = len(k.governor.levels) if k.state is not None else 0
+    assert len(k.window.drawn) == len(k.window.captured) == warm
+    k.window.drawn, k.window.captured, k.window.fades = [], [], []
     return k, notifier
 
 

@@ -18,7 +18,7 @@ def test_numbers_cost_no_new_texture(gl):
     hud = HudInfo(title="Hopf", caption="three tori")
     every_digit = view.replace(angles=tuple(np.radians([123.4, 56.7, 89.1, -1.0, 0.0, 0.0])))
     gl.image(gpu, every_digit, SIZE, RenderOptions(background=BLACK), hud, samples=0)
-    block = gl.renderer.hud.block[1]
+    panels = gl.renderer.hud.rasterised
     glyphs = len(gl.renderer.atlas._glyphs)
     textures = len(gl.renderer.text._items)
     pictures = []
@@ -27,7 +27,7 @@ def test_numbers_cost_no_new_texture(gl):
         pictures.append(gl.image(gpu, turned, SIZE, RenderOptions(background=BLACK), hud,
                                  samples=0))
     gpu.release()
-    assert gl.renderer.hud.block[1] is block, "the title panel was redrawn"
+    assert gl.renderer.hud.rasterised == panels, "the title panel was redrawn"
     assert len(gl.renderer.atlas._glyphs) == glyphs
     assert len(gl.renderer.text._items) == textures
     assert not np.array_equal(pictures[0], pictures[1])  # the numbers did change
@@ -40,6 +40,20 @@ def test_title_panel_changes_with_its_words(gl):
     b = gl.image(gpu, view, SIZE, RenderOptions(background=BLACK), HudInfo(title="Two"), samples=0)
     gpu.release()
     assert not np.array_equal(a, b)
+
+
+def test_warmed_panels_are_not_rasterised_again(gl):
+    """The kiosk warms every scene's and caption's panel at start-up: a scene change or a new
+    caption then costs no wrapping or rasterising."""
+    gpu = gl.renderer.upload(Mesh4D())
+    view = scenes.get("hopf").view
+    huds = [HudInfo(title="One", caption="first words"), HudInfo(title="Two", caption="more")]
+    gl.renderer.hud.warm(SIZE, huds, RenderOptions().text)
+    before = gl.renderer.hud.rasterised
+    for hud in huds + huds:
+        gl.image(gpu, view, SIZE, RenderOptions(background=BLACK), hud, samples=0)
+    gpu.release()
+    assert gl.renderer.hud.rasterised == before
 
 
 def test_block_image_is_panel_then_text_over_it():
