@@ -189,3 +189,27 @@ def test_a_planted_cycle_is_found_through_relative_and_lazy_imports(tree):
     assert cycles(edges) == [["exhibit.devices.fake", "exhibit.devices.hid",
                               "exhibit.devices.url"]]
     assert upward_imports(edges) == []
+
+
+def test_no_test_module_imports_another():
+    """Shared helpers live in conftest files and support modules (tests/kiosk/support.py,
+    tests/golden/images.py, ...), never in a test module another one imports: importing a test
+    module runs its collection-time code twice and couples unrelated tests."""
+    tests = pathlib.Path(__file__).parent
+    problems = []
+    for path in sorted(tests.rglob("*.py")):
+        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            for name in names:
+                if name.startswith("tests.") and name.rsplit(".", 1)[-1].startswith("test_"):
+                    problems.append(f"{path.relative_to(tests)} imports {name}")
+    # a child process's code held in a string counts too
+    for path in sorted(tests.rglob("test_*.py")):
+        text = path.read_text(encoding="utf-8")
+        for line in text.splitlines():
+            stripped = line.strip()
+            if stripped.startswith(("from tests.", "import tests.")) and ".test_" in stripped:
+                problems.append(f"{path.relative_to(tests)}: {stripped}")
+    assert not problems, "\n".join(sorted(set(problems)))

@@ -256,7 +256,7 @@ def all_received(journald) -> list[dict]:
 
 
 def test_kiosk_records_carry_the_mode_and_scene(tmp_path, monkeypatch, kiosk_journal):
-    from tests.kiosk_app.test_survival import kiosk
+    from tests.kiosk.support import kiosk
 
     k, _ = kiosk(tmp_path, monkeypatch)
     for _ in range(5):
@@ -277,14 +277,14 @@ def test_kiosk_records_carry_the_mode_and_scene(tmp_path, monkeypatch, kiosk_jou
 
 
 def test_kiosk_with_no_scene_logs_mode_notice(tmp_path, monkeypatch, kiosk_journal):
-    from tests.kiosk_app.test_survival import kiosk
+    from tests.kiosk.support import kiosk
 
     k, _ = kiosk(tmp_path, monkeypatch, broken=True)
     assert k.state is None and journal.context == {"EXHIBIT_MODE": "notice"}
 
 
 def test_the_health_file_has_each_devices_state_and_durations(tmp_path, monkeypatch):
-    from tests.kiosk_app.test_survival import kiosk
+    from tests.kiosk.support import kiosk
 
     k, _ = kiosk(tmp_path, monkeypatch)
     k.run(max_frames=30)

@@ -12,7 +12,7 @@ import subprocess
 import sys
 import time
 
-from tests.kiosk_app.test_window import ROOT, make_config
+from tests.kiosk.support import ROOT, make_config
 from tests.xvfb import unavailable, xvfb
 
 #: A second X client (Xlib through ctypes): it gives the kiosk's window the input focus, as a

@@ -8,6 +8,7 @@ import pytest
 
 from exhibit.cli import main
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
+from tests.kiosk.support import edit
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
@@ -22,12 +23,6 @@ def tree(tmp_path):
 def test_shipped_config_is_valid():
     config = load_kiosk_config(CONFIGS / "kiosk.toml")
     assert config.start_scene in config.scenes and config.quit_keys
-
-
-def edit(path: Path, old: str, new: str) -> None:
-    text = path.read_text()
-    assert old in text, old
-    path.write_text(text.replace(old, new, 1))
 
 
 KIOSK = [

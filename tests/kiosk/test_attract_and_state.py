@@ -10,26 +10,9 @@ from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
 from exhibit.kiosk.attract import Playlist, load_playlist, load_timeline
 from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
+from tests.kiosk.support import DEVICES, TIMELINE
 
 ATTRACT_DIR = Path(__file__).resolve().parents[2] / "configs" / "attract"
-
-TIMELINE = """
-scene = "hopf"
-[[keyframe]]
-t = 0
-angles = [0, 0, 0, 0, 0, 0]
-sensor_distance = "inf"
-caption = "far"
-[[keyframe]]
-t = 10
-angles = [90, 0, 0, 0, 0, 0]
-sensor_distance = 2
-caption = "near"
-ease = "linear"
-[[keyframe]]
-t = 20
-angles = [90, -30, 0, 0, 0, 0]
-"""
 
 
 @pytest.fixture
@@ -71,21 +54,6 @@ def test_playlist_loops(timeline):
     playlist.restart(100.0)
     assert playlist.at(100.0)[2] == "far"
     assert playlist.at(100.0 + 40 + 1)[1].angles[0] == pytest.approx(timeline.at(1)[0].angles[0])
-
-
-DEVICES = """
-[devices.knobs]
-url = "keyboard://"
-[[mapping.bind]]
-device = "knobs"
-input = "delta 1"
-param = "theta1"
-step = 5
-[[mapping.bind]]
-device = "knobs"
-input = "button 1"
-action = "home"
-"""
 
 
 @pytest.fixture

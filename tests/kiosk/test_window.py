@@ -4,43 +4,15 @@ returns to attract mode. One run of about 12 s, observed through its log and its
 
 import os
 import re
-import shutil
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
 
+from tests.kiosk.support import ROOT, make_config
 from tests.xvfb import unavailable, xvfb
-
-ROOT = Path(__file__).resolve().parents[2]
-
-
-def make_config(tmp: Path, script: str) -> Path:
-    configs = tmp / "configs"
-    shutil.copytree(ROOT / "configs", configs)
-    (configs / "controller.script").write_text(script)
-    devices = configs / "devices" / "default.toml"
-    text = devices.read_text()
-    text = re.sub(r'url = "serial://[^"]*"', f'url = "sim://controller?script='
-                  f'{configs / "controller.script"}"', text)
-    text = re.sub(r'url = "hidraw://[^"]*"', 'url = "keyboard://"', text, count=0)
-    devices.write_text(text)
-    for timeline in (configs / "attract").glob("*.toml"):
-        if not timeline.name.startswith("01-"):
-            timeline.unlink()
-    kiosk = configs / "kiosk.toml"
-    text = kiosk.read_text()
-    text = re.sub(r"scenes = \[[^\]]*\]", 'scenes = ["hopf", "clifford-torus"]', text)
-    text = text.replace("resolution = { hopf = 48, collision = 40 }", "resolution = { hopf = 16 }")
-    text = text.replace("size = [1280, 720]", "size = [320, 240]")
-    text = text.replace("samples = 4 ", "samples = 0 ")
-    text = text.replace("idle_timeout_s = 90 ", "idle_timeout_s = 5 ")
-    kiosk.write_text(text)
-    return kiosk
-
 
 @pytest.fixture(scope="module")
 def kiosk_run(tmp_path_factory):

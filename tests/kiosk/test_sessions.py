@@ -20,7 +20,6 @@ from pathlib import Path
 import pytest
 
 from exhibit.cli import main
-from exhibit.commands import stats
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
@@ -30,8 +29,7 @@ from exhibit.kiosk.config import ConfigError, load_kiosk_config
 from exhibit.kiosk.sessions import (Session, SessionLog, SessionStore, SessionWriter, input_name,
                                     read_sessions)
 from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
-from tests.kiosk_app.test_attract_and_state import DEVICES, TIMELINE
-from tests.kiosk_app.test_config import edit
+from tests.kiosk.support import DEVICES, TIMELINE, edit, numbered
 
 ROOT = Path(__file__).resolve().parents[2]
 #: 2026-11-30 10:00:00 UTC
@@ -107,7 +105,7 @@ def test_the_kiosk_frame_loop_records_sessions(tmp_path, monkeypatch, capsys):
     """The real Kiosk (fake window and clock, as in test_survival): keys take over, n switches
     scene, the idle return (5 s) ends the session; a second visitor still there when the loop
     stops has their session ended then."""
-    from tests.kiosk_app.test_survival import kiosk
+    from tests.kiosk.support import kiosk
     k, _ = kiosk(tmp_path, monkeypatch)
     db = tmp_path / "state" / "sessions.db"
     writer = SessionWriter(db)
@@ -145,7 +143,7 @@ def test_a_real_kiosk_run_is_reported_by_stats(tmp_path, cli):
     """`exhibit run` in a window under Xvfb, the simulated controller's stick pushed for 1.5 s
     after 2 s of attract mode, the idle return 5 s later; then `exhibit stats --json` on the
     database the kiosk wrote in its state folder."""
-    from tests.kiosk_app.test_window import make_config
+    from tests.kiosk.support import make_config
     from tests.xvfb import unavailable, xvfb
     kiosk = make_config(tmp_path, "wait 2\naxes 0.9 0 0 0 0 0\nwait 1.5\naxes 0 0 0 0 0 0\n")
     state = tmp_path / "state"
@@ -249,7 +247,7 @@ def test_an_unwritable_place_turns_recording_off_with_one_line(tmp_path, caplog)
 CHILD = r"""
 import sys, time
 from exhibit.kiosk.sessions import Session, SessionLog, SessionWriter
-from tests.kiosk_app.test_sessions import numbered
+from tests.kiosk.support import numbered
 
 def committed(session, row):
     sys.stdout.write(f"{row} {session.start:.0f}\n")
@@ -263,14 +261,6 @@ while True:
     else:
         time.sleep(0.0005)
 """
-
-
-def numbered(i: int, base: float | None = None) -> Session:
-    """Session number i, rebuilt identically by the killed child and the test; ``base``
-    (default: a day ago) is recent, so rotation by age keeps it."""
-    base = float(int(time.time()) - 86400) if base is None else base
-    return Session(base + i, base + i + 60, 60.0, 30.0, 3600, "en",
-                   ["hopf", f"scene-{i % 7}"], [f"device-{i % 3}.knob"])
 
 
 def test_the_database_survives_sigkill_in_the_middle_of_writes(tmp_path):

@@ -7,89 +7,16 @@ real window under Xvfb."""
 import json
 import logging
 import os
-import re
 import subprocess
 import sys
-from types import SimpleNamespace
 
 import numpy as np
 from PIL import Image
 
 from exhibit.kiosk import app
-from exhibit.kiosk.config import load_kiosk_config
 from exhibit.render.window import GlfwErrors
-from tests.kiosk_app.test_window import ROOT, make_config
+from tests.kiosk.support import ROOT, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
-
-
-class FakeWindow:
-    """What Kiosk needs of a window, drawing nothing; ``fail`` counts down frames that raise."""
-
-    def __init__(self):
-        self.close_allowed, self.handler = True, None
-        self.ctx = SimpleNamespace(error="GL_NO_ERROR")
-        self.renderer = SimpleNamespace(upload=lambda mesh: mesh,
-                                        hud=SimpleNamespace(warm=lambda *a: None))
-        self.size = (640, 360)
-        self.fail = 0
-        self.drawn, self.notices = [], 0
-        self.fades, self.captured = [], []
-
-    def draw(self, gpu, view, options, hud, fade=0.0):
-        if self.fail > 0:
-            self.fail -= 1
-            raise ZeroDivisionError("a bug in the renderer")
-        self.drawn.append(gpu)
-        self.fades.append(fade)
-
-    def capture(self, gpu, view, options, hud):
-        self.captured.append(gpu)
-
-    def notice(self, lines, drift=(0.0, 0.0)):
-        self.notices += 1
-
-    def swap(self):
-        pass
-
-    def set_input(self, handler):
-        self.handler = handler
-
-    def hide_cursor(self):
-        pass
-
-
-class Notifier:
-    def __init__(self):
-        self.calls = []
-
-    def __getattr__(self, name):
-        return lambda *a: self.calls.append(name)
-
-
-def kiosk(tmp_path, monkeypatch, broken=()):
-    """A Kiosk on a fake window and a clock that moves 0.1 s per reading (about 0.2 s a frame);
-    building a mesh for a scene in ``broken`` raises (``broken`` True: every scene)."""
-    path = make_config(tmp_path, "")
-    devices = path.parent / "devices" / "default.toml"  # keyboards only: no simulator thread
-    devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"', devices.read_text()))
-    config = load_kiosk_config(path)
-
-    def build(scene, params, resolution):
-        if broken is True or scene.name in broken:
-            raise RuntimeError(f"cannot build {scene.name}")
-        return f"mesh {scene.name}", None
-
-    monkeypatch.setattr(app, "build_cached", build)
-    ticks = iter(np.arange(1e6) * 0.1)
-    notifier = Notifier()
-    k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)), notifier=notifier,
-                  health_path=tmp_path / "health.json")
-    # the start-up warm-up drew every quality level once through a crossfade (not frames;
-    # nothing when no scene could be prepared)
-    warm = len(k.governor.levels) if k.state is not None else 0
-    assert len(k.window.drawn) == len(k.window.captured) == warm
-    k.window.drawn, k.window.captured, k.window.fades = [], [], []
-    return k, notifier
 
 
 def health(tmp_path):

@@ -1,0 +1,161 @@
+"""What several kiosk test modules share (no test module imports another): a copy of the
+shipped configs made small, a kiosk on a fake window and clock, a timeline and a device config
+for the state machine, a config editor, and the sessions a killed child rebuilds."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+
+from exhibit.kiosk import app
+from exhibit.kiosk.config import load_kiosk_config
+from exhibit.kiosk.sessions import Session
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def make_config(tmp: Path, script: str) -> Path:
+    configs = tmp / "configs"
+    shutil.copytree(ROOT / "configs", configs)
+    (configs / "controller.script").write_text(script)
+    devices = configs / "devices" / "default.toml"
+    text = devices.read_text()
+    text = re.sub(r'url = "serial://[^"]*"', f'url = "sim://controller?script='
+                  f'{configs / "controller.script"}"', text)
+    text = re.sub(r'url = "hidraw://[^"]*"', 'url = "keyboard://"', text, count=0)
+    devices.write_text(text)
+    for timeline in (configs / "attract").glob("*.toml"):
+        if not timeline.name.startswith("01-"):
+            timeline.unlink()
+    kiosk = configs / "kiosk.toml"
+    text = kiosk.read_text()
+    text = re.sub(r"scenes = \[[^\]]*\]", 'scenes = ["hopf", "clifford-torus"]', text)
+    text = text.replace("resolution = { hopf = 48, collision = 40 }", "resolution = { hopf = 16 }")
+    text = text.replace("size = [1280, 720]", "size = [320, 240]")
+    text = text.replace("samples = 4 ", "samples = 0 ")
+    text = text.replace("idle_timeout_s = 90 ", "idle_timeout_s = 5 ")
+    kiosk.write_text(text)
+    return kiosk
+
+
+class FakeWindow:
+    """What Kiosk needs of a window, drawing nothing; ``fail`` counts down frames that raise."""
+
+    def __init__(self):
+        self.close_allowed, self.handler = True, None
+        self.ctx = SimpleNamespace(error="GL_NO_ERROR")
+        self.renderer = SimpleNamespace(upload=lambda mesh: mesh,
+                                        hud=SimpleNamespace(warm=lambda *a: None))
+        self.size = (640, 360)
+        self.fail = 0
+        self.drawn, self.notices = [], 0
+        self.fades, self.captured = [], []
+
+    def draw(self, gpu, view, options, hud, fade=0.0):
+        if self.fail > 0:
+            self.fail -= 1
+            raise ZeroDivisionError("a bug in the renderer")
+        self.drawn.append(gpu)
+        self.fades.append(fade)
+
+    def capture(self, gpu, view, options, hud):
+        self.captured.append(gpu)
+
+    def notice(self, lines, drift=(0.0, 0.0)):
+        self.notices += 1
+
+    def swap(self):
+        pass
+
+    def set_input(self, handler):
+        self.handler = handler
+
+    def hide_cursor(self):
+        pass
+
+
+class Notifier:
+    def __init__(self):
+        self.calls = []
+
+    def __getattr__(self, name):
+        return lambda *a: self.calls.append(name)
+
+
+def kiosk(tmp_path, monkeypatch, broken=()):
+    """A Kiosk on a fake window and a clock that moves 0.1 s per reading (about 0.2 s a frame);
+    building a mesh for a scene in ``broken`` raises (``broken`` True: every scene)."""
+    path = make_config(tmp_path, "")
+    devices = path.parent / "devices" / "default.toml"  # keyboards only: no simulator thread
+    devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"', devices.read_text()))
+    config = load_kiosk_config(path)
+
+    def build(scene, params, resolution):
+        if broken is True or scene.name in broken:
+            raise RuntimeError(f"cannot build {scene.name}")
+        return f"mesh {scene.name}", None
+
+    monkeypatch.setattr(app, "build_cached", build)
+    ticks = iter(np.arange(1e6) * 0.1)
+    notifier = Notifier()
+    k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)), notifier=notifier,
+                  health_path=tmp_path / "health.json")
+    # the start-up warm-up drew every quality level once through a crossfade (not frames;
+    # nothing when no scene could be prepared)
+    warm = len(k.governor.levels) if k.state is not None else 0
+    assert len(k.window.drawn) == len(k.window.captured) == warm
+    k.window.drawn, k.window.captured, k.window.fades = [], [], []
+    return k, notifier
+
+
+TIMELINE = """
+scene = "hopf"
+[[keyframe]]
+t = 0
+angles = [0, 0, 0, 0, 0, 0]
+sensor_distance = "inf"
+caption = "far"
+[[keyframe]]
+t = 10
+angles = [90, 0, 0, 0, 0, 0]
+sensor_distance = 2
+caption = "near"
+ease = "linear"
+[[keyframe]]
+t = 20
+angles = [90, -30, 0, 0, 0, 0]
+"""
+
+
+DEVICES = """
+[devices.knobs]
+url = "keyboard://"
+[[mapping.bind]]
+device = "knobs"
+input = "delta 1"
+param = "theta1"
+step = 5
+[[mapping.bind]]
+device = "knobs"
+input = "button 1"
+action = "home"
+"""
+
+
+def edit(path: Path, old: str, new: str) -> None:
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new, 1))
+
+
+def numbered(i: int, base: float | None = None) -> Session:
+    """Session number i, rebuilt identically by the killed child and the test; ``base``
+    (default: a day ago) is recent, so rotation by age keeps it."""
+    base = float(int(time.time()) - 86400) if base is None else base
+    return Session(base + i, base + i + 60, 60.0, 30.0, 3600, "en",
+                   ["hopf", f"scene-{i % 7}"], [f"device-{i % 3}.knob"])
