@@ -26,3 +26,18 @@ def pytest_addoption(parser):
                      help="rewrite the golden images in tests/golden/ from the current renderer "
                           "instead of comparing with them (look at them before committing: "
                           "tests/golden/README.md)")
+
+
+@pytest.fixture(scope="session")
+def headless():
+    """One headless EGL renderer for the whole run (as moderngl's own tests do); without EGL
+    the tests that need it skip, except under CI=true."""
+    from exhibit.render import Headless, RenderUnavailable
+    from tests.xvfb import unavailable
+
+    try:
+        h = Headless()
+    except RenderUnavailable as exc:
+        unavailable(f"no headless OpenGL: {exc}")
+    yield h
+    h.release()

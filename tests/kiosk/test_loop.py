@@ -13,23 +13,11 @@ import pytest
 
 from exhibit.kiosk import app
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.render import Headless, RenderUnavailable
 from exhibit.render.target import CloseRequest, Focus, HeadlessTarget, Key
 from tests.golden.kiosk_frames import FakeClock, keyboard_devices
-from tests.xvfb import unavailable
 
 SIZE = (320, 180)
 IDLE_S = 5.0
-
-
-@pytest.fixture(scope="module")
-def headless():
-    try:
-        h = Headless()
-    except RenderUnavailable as exc:
-        unavailable(f"no headless OpenGL: {exc}")
-    yield h
-    h.release()
 
 
 class Loop:

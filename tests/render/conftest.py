@@ -1,13 +1,12 @@
-"""One headless EGL context for the whole render suite (as moderngl's own tests do), with
-ctx.error checked around every test. Without EGL the tests skip, except under CI=true."""
+"""The render suite's fixtures: ``gl``, the session's headless EGL renderer (tests/conftest.py)
+with ctx.error checked around every test, and small meshes for pixel checks."""
 
 from __future__ import annotations
-
 
 import numpy as np
 import pytest
 
-from exhibit.render import Headless, RenderOptions, RenderUnavailable
+from exhibit.render import RenderOptions
 from exhibit.surfaces.mesh import Marker, Material, Mesh4D, Surface
 from tests.xvfb import unavailable  # noqa: F401 - the render tests import it from here
 
@@ -16,16 +15,6 @@ PLAIN = RenderOptions(silhouettes=False, pinch_points=False, hud=False,
                       background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
 
 
-
-
-@pytest.fixture(scope="session")
-def headless():
-    try:
-        h = Headless()
-    except RenderUnavailable as exc:
-        unavailable(f"no headless OpenGL: {exc}")
-    yield h
-    h.release()
 
 
 @pytest.fixture
