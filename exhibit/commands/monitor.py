@@ -2,7 +2,8 @@
 
 Polls every configured device (as the kiosk does, never blocking), applies the mapping, and
 prints the seven parameters, each device's state, the buttons and the idle time a few times a
-second. A button is shown on every line while it is held, and on the next line after a press too
+second. Whenever a device's state or what it says of itself changes (the controller's HELLO:
+its firmware version; a HID device's product name; why a device is missing), a line says so. A button is shown on every line while it is held, and on the next line after a press too
 short to be seen held (a tap between two lines), with what the mapping makes it do. With --json
 every line is a JSON object, for scripts.
 """
@@ -66,7 +67,20 @@ def snapshot(view: ViewState, devices: DeviceSet, mapper: Mapper, now: float,
         "buttons": list(buttons),
         "idle_s": None if math.isinf(idle) else round(idle, 2),
         "devices": {s["name"]: s["state"] for s in devices.statuses()},
+        "details": {s["name"]: s["detail"] for s in devices.statuses()},
     }
+
+
+def device_changes(s: dict, seen: dict) -> list[str]:
+    """A line per device whose state or detail changed since the last call (``seen`` keeps
+    them): what an installer watches while plugging things in."""
+    lines = []
+    for name, state in s["devices"].items():
+        now = (state, s["details"].get(name, ""))
+        if seen.get(name) != now:
+            seen[name] = now
+            lines.append(f"device {name}: {state}" + (f" ({now[1]})" if now[1] else ""))
+    return lines
 
 
 def text_line(s: dict) -> str:
@@ -85,6 +99,7 @@ def run(args) -> int:
     mapper = Mapper(config.mapping, ActivityDetector(config.activity_threshold))
     view = ViewState()
     buttons = Buttons()
+    seen: dict = {}
     with DeviceSet(config) as devices:
         start = next_print = time.monotonic()
         while True:
@@ -94,6 +109,9 @@ def run(args) -> int:
             view = mapper.apply(view, events, now)
             if now >= next_print:
                 s = snapshot(view, devices, mapper, now, buttons.take(mapper))
+                if not args.json:
+                    for line in device_changes(s, seen):
+                        print(line, flush=True)
                 print(json.dumps(s) if args.json else text_line(s), flush=True)
                 next_print += 1.0 / args.rate
             if args.duration is not None and now - start >= args.duration:

@@ -285,3 +285,19 @@ def test_in_the_kiosk_only_the_next_scene_button_changes_scene(tmp_path):
     assert frame.scene == "collision"
     frame = state.update([button(3.5, 1, 0.0), button(4.0, 0)], 4.0)  # home: same scene
     assert frame.scene == "collision"
+
+
+def test_monitor_says_when_a_device_changes_state_or_detail():
+    from exhibit.commands.monitor import device_changes
+
+    seen = {}
+    line = {"devices": {"controller": "waiting"},
+            "details": {"controller": "waiting for /dev/ttyACM0: No such file or directory"}}
+    assert device_changes(line, seen) == [
+        "device controller: waiting (waiting for /dev/ttyACM0: No such file or directory)"]
+    assert device_changes(line, seen) == []     # nothing new: nothing said
+    line = {"devices": {"controller": "connected"},
+            "details": {"controller": "firmware 1.0.0 on /dev/ttyACM0"}}
+    assert device_changes(line, seen) == [
+        "device controller: connected (firmware 1.0.0 on /dev/ttyACM0)"]
+

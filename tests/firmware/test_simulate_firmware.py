@@ -49,8 +49,8 @@ def test_options_that_need_the_firmware_or_the_protocol_simulator(tmp_path, caps
 
 @pytest.mark.slow
 def test_simulated_firmware_serves_devices_and_monitor(avr_build, harness, tmp_path):
-    """The issue's acceptance check: `exhibit devices` sees the board's hello, `exhibit
-    monitor` its live axes, through the --link name."""
+    """The issue's acceptance check: `exhibit devices` and `exhibit monitor` see the board's
+    hello, monitor its live axes, through the --link name."""
     link = tmp_path / "exhibit-controller"
     script = tmp_path / "moves.txt"
     script.write_text("wait 1.5\naxis 1 0.8\nwait 30\n")
@@ -77,6 +77,8 @@ def test_simulated_firmware_serves_devices_and_monitor(avr_build, harness, tmp_p
         assert monitor.returncode == 0, monitor.stderr
         lines = [json.loads(line) for line in monitor.stdout.splitlines()]
         assert any(line["devices"]["controller"] == "connected" for line in lines)
+        # the board's hello, as monitor shows it too
+        assert any("firmware 1.0.0" in line["details"]["controller"] for line in lines), lines
         last = lines[-1]
         assert any(last["angles_deg"]) or last["sensor_r"] > 0, last  # live axes move the view
         assert time.monotonic() - start < 15
