@@ -6,6 +6,8 @@
     params = { rs = 0.7 }                     # optional scene parameters
     fit = false                               # optional: keep the zooms as written (default:
                                               # framed for the screen, exhibit.render.framer)
+    slice_axis = "t"                          # optional: the axis slice keyframes cut along
+                                              # (default: the scene's own, e.g. the collision's t)
 
     [[keyframe]]
     t = 0                                     # seconds from the start of this timeline
@@ -16,6 +18,8 @@
     caption = "..."                           # shown from this keyframe on
     while = { sensor_distance = [2.9, 3.1] }  # optional: what the caption says of the view
     ease = "smooth"                           # into the next keyframe: smooth | linear | hold
+    slice = -1.5                              # the slice axis = -1.5 glows on the surface
+                                              # (exhibit.surfaces.slice); "off" ends it
 
 A caption that describes the view states it in ``while``, so `exhibit check-config` can play the
 timeline and report where the caption is shown while the view says otherwise:
@@ -26,7 +30,8 @@ a new caption (with its own ``while``, or none); a keyframe may also restate ``w
 A timeline lasts until its last keyframe; the playlist plays the files in name order and loops.
 Limits: t 0..86400 s, angles and eye -3600..3600 degrees, sensor_distance "inf" or 0.05..1e6,
 half_height 0.001..1000, params -1e6..1e6 (and the scene's own range), captions up to 2000
-characters.
+characters, slice -1e6..1e6 or "off" (it carries over like the other keys; between two slice
+values it moves with the keyframes' ease, and a keyframe without one holds the previous).
 """
 
 from __future__ import annotations
@@ -73,6 +78,8 @@ class Keyframe:
     condition: Condition | None = None
     #: the keyframe whose caption (and condition) is shown from here: where a problem is reported
     caption_from: int = 0
+    #: where the slice cuts (ViewState.slice_at), None: no slice
+    slice_at: float | None = None
 
 
 @dataclass(frozen=True)
@@ -85,6 +92,8 @@ class Timeline:
     keyframes: tuple[Keyframe, ...]
     #: Framed for the screen (exhibit.render.framer) unless False.
     fit: bool | None = None
+    #: The axis the keyframes' slices cut along (an index of the scene's axes), or None.
+    slice_axis: int | None = None
 
     @property
     def duration(self) -> float:
@@ -113,9 +122,14 @@ class Timeline:
             return x + (y - x) * u
         angles = tuple(mix(x, y) for x, y in zip(a.angles, b.angles))
         half = math.exp(mix(math.log(a.half_height), math.log(b.half_height)))
+        sliced = {}
+        if self.slice_axis is not None and a.slice_at is not None:
+            at = a.slice_at if b.slice_at is None else mix(a.slice_at, b.slice_at)
+            sliced = {"slice_axis": self.slice_axis, "slice_at": at}
         return self.base_view.replace(angles=angles, sensor_r=mix(a.sensor_r, b.sensor_r),
                                       eye_azimuth=mix(a.eye[0], b.eye[0]),
-                                      eye_incidence=mix(a.eye[1], b.eye[1]), half_height=half)
+                                      eye_incidence=mix(a.eye[1], b.eye[1]), half_height=half,
+                                      **sliced)
 
 
 class WhileSpec(Model):
@@ -145,6 +159,7 @@ class KeyframeSpec(Model):
     caption: Caption | None = None
     while_: WhileSpec | None = Field(None, alias="while")
     ease: Literal[EASES] = "smooth"
+    slice: Number(-1e6, 1e6) | Literal["off"] | None = None
 
 
 class TimelineFile(Model):
@@ -153,6 +168,7 @@ class TimelineFile(Model):
     preset: Name | None = None
     params: dict[str, Number(-1e6, 1e6)] = {}
     fit: bool | None = None
+    slice_axis: Name | None = None
     keyframe: Annotated[list[KeyframeSpec], Field(min_length=2)]
 
 
@@ -185,6 +201,20 @@ def load_timeline(path: Path) -> Timeline:
         except ExhibitError as exc:
             problem("params", str(exc))
 
+    slice_axis = None
+    if scene is not None:
+        if spec.slice_axis is not None:
+            if spec.slice_axis in scene.axes:
+                slice_axis = scene.axes.index(spec.slice_axis)
+            else:
+                problem("slice_axis", f"{spec.slice_axis!r} is not an axis of {scene.name} "
+                                      f"(axes: {', '.join(scene.axes)})")
+        else:
+            slice_axis = scene.slice_axis
+        if slice_axis is None and any(k.slice is not None for k in spec.keyframe):
+            problem("slice_axis", f"keyframes slice, but {scene.name} has no time-like axis: "
+                                  f"name one of {', '.join(scene.axes)}")
+
     frames: list[Keyframe] = []
     previous = Keyframe(0.0, base_view.angles, base_view.sensor_r,
                         (base_view.eye_azimuth, base_view.eye_incidence), base_view.half_height,
@@ -206,12 +236,14 @@ def load_timeline(path: Path) -> Timeline:
             previous.caption if raw.caption is None else raw.caption,
             raw.ease,
             _condition(previous, raw),
-            previous.caption_from if raw.caption is None and raw.while_ is None else i)
+            previous.caption_from if raw.caption is None and raw.while_ is None else i,
+            previous.slice_at if raw.slice is None else None if raw.slice == "off"
+            else float(raw.slice))
         frames.append(previous)
     if problems:
         raise ConfigError(problems)
     return Timeline(spec.name or path.stem, str(path), spec.scene, params, base_view,
-                    tuple(frames), spec.fit)
+                    tuple(frames), spec.fit, slice_axis)
 
 
 def _condition(previous: Keyframe, raw: KeyframeSpec) -> Condition | None:

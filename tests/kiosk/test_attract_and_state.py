@@ -8,6 +8,7 @@ import pytest
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
+from exhibit.errors import ConfigError
 from exhibit.kiosk.attract import Playlist, load_playlist, load_timeline
 from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
 from tests.kiosk.support import DEVICES, TIMELINE
@@ -230,3 +231,65 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     assert following, "no timeline was framed keyframe by keyframe"
     # Figure 8's moment in the hypersphere timeline (the sensor at distance 2) is kept as written.
     assert filling == [("hopf", 26.0), ("hopf", 33.0)]
+
+
+# ---------------------------------------------------------------------- the time slice
+
+SLICED = """
+scene = "collision"
+params = { rc = 1.0, rs = 1.2, vc = 0.0, vs = 1.0 }
+[[keyframe]]
+t = 0
+caption = "whole"
+[[keyframe]]
+t = 4
+slice = -2.0
+ease = "linear"
+[[keyframe]]
+t = 8
+slice = 0.0
+ease = "hold"
+[[keyframe]]
+t = 10
+slice = "off"
+"""
+
+
+def test_timelines_move_the_slice_along_the_scenes_time(tmp_path):
+    path = tmp_path / "sliced.toml"
+    path.write_text(SLICED)
+    timeline = load_timeline(path)
+    assert timeline.slice_axis == 3   # the collision's t, the scene's own slice axis
+    assert timeline.at(2.0)[0].slice_axis is None          # no slice before the first
+    view = timeline.at(6.0)[0]
+    assert view.slice_axis == 3 and view.slice_at == pytest.approx(-1.0)   # linear, halfway
+    assert timeline.at(9.0)[0].slice_at == 0.0              # held
+    assert timeline.at(10.0)[0].slice_axis is None          # "off"
+
+
+PARAMS = "params = { rc = 1.0, rs = 1.2, vc = 0.0, vs = 1.0 }\n"
+
+
+@pytest.mark.parametrize("old, new, message", [
+    ('scene = "collision"', 'scene = "collision"\nslice_axis = "w"',
+     "slice_axis: 'w' is not an axis of collision (axes: x, y, z, t)"),
+    ('scene = "collision"\n' + PARAMS, 'scene = "hopf"\n',
+     "slice_axis: keyframes slice, but hopf has no time-like axis"),
+    ("slice = -2.0", "slice = nan", "keyframe[1].slice"),
+    ('slice = "off"', 'slice = "of"', "keyframe[3].slice"),
+])
+def test_a_bad_slice_is_named_by_file_and_key(tmp_path, old, new, message):
+    path = tmp_path / "sliced.toml"
+    assert old in SLICED
+    path.write_text(SLICED.replace(old, new))
+    with pytest.raises(ConfigError) as info:
+        load_timeline(path)
+    assert message in str(info.value) and str(path) in str(info.value)
+
+
+def test_a_scene_without_a_time_axis_can_name_one(tmp_path):
+    path = tmp_path / "hopf.toml"
+    path.write_text('scene = "hopf"\nslice_axis = "w"\n[[keyframe]]\nt = 0\nslice = 0.3\n'
+                    '[[keyframe]]\nt = 2\n')
+    view = load_timeline(path).at(1.0)[0]
+    assert view.slice_axis == 3 and view.slice_at == 0.3

@@ -123,3 +123,25 @@ def test_the_maintenance_keys_end_the_loop(loop, mods, quits):
     assert code == 0
     assert (loop.kiosk.frames < 5) == quits, loop.kiosk.frames
     assert math.isfinite(loop.frame.view.angles[0])
+
+
+@pytest.mark.slow
+def test_the_shipped_collision_timeline_travels_through_time(headless, tmp_path):
+    """Figure 17's timeline moves the slice t = c through the contact: the glowing curve (the
+    renderer's slice colour) is on screen at the middle moment, and not before the slices
+    begin."""
+    from tests.golden.kiosk_frames import KioskRun
+
+    run = KioskRun(headless, tmp_path, (480, 270), "06-collision-17.toml", idle_timeout_s=600)
+
+    def glow() -> int:
+        image = run.window.image.astype(int)
+        r, g, b = image[..., 0], image[..., 1], image[..., 2]
+        return int(((r > 235) & (g > 205) & (b > 100) & (b < 180)).sum())
+
+    run.run_until(20.0, step=0.5)
+    assert run.kiosk.state.frame.view.slice_axis is None and glow() < 5
+    run.run_until(53.0, step=0.5)
+    frame = run.kiosk.state.frame
+    assert frame.view.slice_axis == 3 and frame.view.slice_at == 0.0
+    assert glow() > 40, glow()
