@@ -4,7 +4,9 @@ problem as file: key: reason, or with --show the effective settings and where ea
 
 It also plays every attract timeline (exhibit.kiosk.captions): a caption shown while the view
 contradicts its ``while`` condition, or too briefly to be read, is a problem here, though the
-kiosk still plays such a timeline (a wrong caption is no reason to show nothing)."""
+kiosk still plays such a timeline (a wrong caption is no reason to show nothing). Likewise a
+text without a translation in a language shown, or with characters the font lacks
+(exhibit.kiosk.language): the kiosk shows the English text instead."""
 
 from __future__ import annotations
 
@@ -13,6 +15,7 @@ import json
 from exhibit.kiosk.attract import load_timeline, timeline_paths
 from exhibit.kiosk.captions import caption_problems
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
+from exhibit.kiosk.language import coverage_problems
 
 HELP = "check the kiosk configuration and all the files it names; exit 2 on any problem"
 
@@ -28,7 +31,7 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     try:
         config = load_kiosk_config(args.config)
-        problems = _caption_problems(config.attract_dir)
+        problems = _caption_problems(config.attract_dir) + coverage_problems(config)
     except ConfigError as exc:
         problems = exc.problems
     if problems:

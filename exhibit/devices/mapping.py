@@ -17,8 +17,9 @@ Which input drives which parameter is configuration (a list of bindings, see
   that a knob reaches and rests on; r never goes below 0 (no "beyond infinity") nor above
   1 / ``sensor_min_distance``.
 
-Buttons may also do an action: ``home`` (every parameter back to its home value) or
-``next-scene`` (the kiosk moves on: :meth:`Mapper.switches_scene`). A button with no binding at all
+Buttons may also do an action: ``home`` (every parameter back to its home value),
+``next-scene`` (the kiosk moves on: :meth:`Mapper.switches_scene`) or ``language`` (the kiosk
+shows the next of its languages: exhibit.kiosk.language). A button with no binding at all
 moves to the next scene too, so a knob box's unbound push buttons do something.
 
 Limits never make the view jump: a value the exhibit put outside them (an attract timeline, a
@@ -43,7 +44,7 @@ __all__ = ["PARAMS", "ACTIONS", "Binding", "ParamLimits", "MappingConfig", "Mapp
 #: The seven parameters a device can drive, in order.
 PARAMS = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor")
 #: What a button can do instead of driving a parameter.
-ACTIONS = ("home", "next-scene")
+ACTIONS = ("home", "next-scene", "language")
 SENSOR = 6
 MAX_DT = 0.5  # a stalled loop does not turn into a lurch
 

@@ -46,12 +46,13 @@ from exhibit import scenes
 from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
-from exhibit.errors import ExhibitError
+from exhibit.errors import ConfigError, ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.framing import frame_timeline
 from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
+from exhibit.kiosk.language import SOURCE, Catalogue, Translator, load_catalogues
 from exhibit.kiosk.state import KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
@@ -178,6 +179,11 @@ class Kiosk:
                               config.text.infinity_beyond)
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
                              hud=config.hud)
+        #: The language on screen and its words (exhibit.kiosk.language).
+        self.translate = self._translator(config)
+        self._language_since = clock()
+        if sessions is not None:
+            sessions.language = self.translate.language
         self._framed: dict[tuple, object] = {}
         timelines = [self._frame_timeline(t) for t in timelines]
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
@@ -204,6 +210,32 @@ class Kiosk:
         self._install_input()
         self._warm_up()
 
+    def _translator(self, config: KioskConfig) -> Translator:
+        """The languages of [languages]; a catalogue that cannot be read is left out (its
+        visitors read English), said once in the log and the health file."""
+        catalogues = {SOURCE: Catalogue(SOURCE, "English")}
+        for code in config.languages:
+            if code == SOURCE or config.catalogues_dir is None:
+                continue
+            try:
+                catalogues.update(load_catalogues(config.catalogues_dir, [code]))
+            except ConfigError as exc:
+                log.error("language %s left out: %s", code, "; ".join(exc.problems))
+                self.problems.append(f"language {code} left out (see the journal)")
+        return Translator(catalogues, config.languages)
+
+    def _switch_language(self, events, now: float) -> None:
+        """The "language" button, or attract mode's timer, shows the next language."""
+        pressed = self.state.mapper.pressed(events, "language")
+        timed = (self.config.language_switch_s > 0 and self.state.mode == "attract"
+                 and now - self._language_since >= self.config.language_switch_s)
+        if (pressed or timed) and len(self.translate.order) > 1:
+            language = self.translate.next()
+            self._language_since = now
+            log.info("language %s", language)
+            if self.sessions is not None:
+                self.sessions.language = language
+
     def _warm_up(self) -> None:
         """Draw the first frame once at every quality level the governor may choose, through a
         crossfade, into the back buffer before the loop starts (the first real frame draws over
@@ -215,15 +247,16 @@ class Kiosk:
         if self.state is None:
             return
         frame = self.state.frame
-        hud = HudInfo(title=frame.title, caption=frame.caption, axes=scenes.get(frame.scene).axes)
+        hud = self._hud(frame.title, frame.caption, frame.scene)
         levels = self.gpu.get((frame.scene, frame.params))
         if levels is None:
             return
-        huds = {HudInfo(title=scenes.get(name).title, caption=scenes.get(name).caption,
-                        axes=scenes.get(name).axes) for name in self.state.content}
-        huds |= {HudInfo(title=scenes.get(t.scene).title, caption=k.caption,
-                         axes=scenes.get(t.scene).axes)
-                 for t in self.state.playlist.timelines for k in t.keyframes}
+        words = {(scenes.get(name).title, scenes.get(name).caption, name)
+                 for name in self.state.content}
+        words |= {(scenes.get(t.scene).title, k.caption, t.scene)
+                  for t in self.state.playlist.timelines for k in t.keyframes}
+        huds = [self._hud(title, caption, scene, language)
+                for language in self.translate.order for title, caption, scene in words]
         try:
             if self.config.hud:  # every title and caption panel laid out and rasterised
                 self.window.renderer.hud.warm(self.window.size, huds, self.text)
@@ -366,6 +399,7 @@ class Kiosk:
         else:
             mode, scene = self.state.mode, self.state.frame.scene
             frame = self.state.update(events, start)
+            self._switch_language(events, start)
             if self.sessions is not None:  # never raises, never blocks
                 self.sessions.observe(frame.mode, frame.scene, events, start)
             if frame.mode != mode or frame.scene != scene:
@@ -520,8 +554,14 @@ class Kiosk:
                 self.errors.failed(exc, start)
         return drawn
 
+    def _hud(self, title: str, caption: str, scene: str, language: str | None = None) -> HudInfo:
+        """The HUD's words in the language on screen (or ``language``)."""
+        tr = self.translate
+        return HudInfo(title=tr(title, language), caption=tr(caption, language),
+                       axes=scenes.get(scene).axes, axes_label=tr("4D axes", language))
+
     def _draw(self, frame, now: float) -> None:
-        hud = HudInfo(title=frame.title, caption=frame.caption, axes=scenes.get(frame.scene).axes)
+        hud = self._hud(frame.title, frame.caption, frame.scene)
         quality = self.governor.quality
         options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality,
                                 text=self.text)

@@ -24,6 +24,7 @@ from pydantic_core import PydanticCustomError
 
 from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
+from exhibit.kiosk.language import SOURCE, LanguagesSection, load_catalogues
 from exhibit.kiosk.sessions import SessionsConfig, SessionsSection, sessions_config
 from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
@@ -188,6 +189,7 @@ class KioskFile(Model):
     quality: QualitySection = QualitySection()
     text: Text_ = Text_()
     sessions: SessionsSection = SessionsSection()
+    languages: LanguagesSection = LanguagesSection()
 
 
 @dataclass(frozen=True)
@@ -216,6 +218,11 @@ class KioskConfig:
     quality: QualityConfig = QualityConfig()
     #: [sessions]: the visitor-session log (exhibit.kiosk.sessions)
     sessions: SessionsConfig = SessionsConfig()
+    #: [languages]: the languages shown (the first at start), their catalogues' folder (None:
+    #: English only), and attract mode's own language change (seconds; 0: buttons only)
+    languages: tuple[str, ...] = (SOURCE,)
+    catalogues_dir: Path | None = None
+    language_switch_s: float = 0.0
     #: the site file layered over the shipped defaults (None: the defaults alone)
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
@@ -321,6 +328,19 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
             values[name] = path
             if path is not None:  # --show: the resolved path, and what named it
                 values["sources"][f"{section}.{key}"] = (str(path), named_by)
+        languages = spec.languages
+        if len(set(languages.shown)) != len(languages.shown):
+            problems.append(f"{where('languages', 'shown')}: languages.shown: names a language "
+                            f"twice: {languages.shown}")
+        values.update(languages=tuple(dict.fromkeys(languages.shown)),
+                      language_switch_s=languages.switch_after_s)
+        if any(code != SOURCE for code in languages.shown):
+            path, named_by = _path(problems, where("languages", "catalogues"),
+                                   languages.catalogues, "languages.catalogues",
+                                   "EXHIBIT_LANGUAGES_DIR", True)
+            values["catalogues_dir"] = path
+            if path is not None:
+                values["sources"]["languages.catalogues"] = (str(path), named_by)
         values.update(idle_timeout_s=spec.attract.idle_timeout_s, blend_s=spec.attract.blend_s,
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
@@ -357,6 +377,11 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
                     problems.extend(exc.problems)
                 except ExhibitError as exc:
                     problems.append(str(exc))
+        if values.get("catalogues_dir") is not None:
+            try:
+                load_catalogues(values["catalogues_dir"], values["languages"])
+            except ConfigError as exc:
+                problems.extend(exc.problems)
         # scene files that failed to load are part of the kiosk's content too
         problems.extend(message for _, message in scene_problems)
     if problems:

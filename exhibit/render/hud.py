@@ -132,13 +132,14 @@ class Hud:
             r._glyph_rows(text, "mono", body, status.x0 + dx + pad,
                           status.y0 - dy + pad + i * mono_h, INK, rows)
 
-        items = self._gizmo(view, hud.axes, layout, rows)
+        items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         items += self._marker_labels(gpu, view, size, layout, rows)
         r._overlay(items, viewport)
         r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
         r.ctx.disable(moderngl.BLEND)
 
-    def _gizmo(self, view, axes, layout: HudLayout, rows: list) -> list[tuple]:
+    def _gizmo(self, view, axes, layout: HudLayout, rows: list,
+               axes_label: str = "4D axes") -> list[tuple]:
         """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
         pointing towards the sensor (out of the 3D image, into the 4th dimension). Returns its
         capsules; its labels go to ``rows``."""
@@ -159,7 +160,7 @@ class Hud:
             lx = tip[0] + (0.35 * body if v[0] >= 0 else -lw - 0.35 * body)
             ly = tip[1] - 0.6 * body
             r._glyph_rows(label, "bold", body, lx, ly, rgba, rows)
-        caption = "4D axes"
+        caption = axes_label
         # As large as the caption: every word on screen meets the size rule.
         cw = text_width(caption, "sans", body)
         r._glyph_rows(caption, "sans", body, cx - cw / 2, cy + radius + 0.1 * body,

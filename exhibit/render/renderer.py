@@ -63,6 +63,8 @@ class HudInfo:
     axes: tuple[str, str, str, str] = ("x", "y", "z", "w")
     #: Labels of the mesh's markers are drawn too; this is an extra line under the caption.
     note: str = ""
+    #: The gizmo's label, in the language on screen (exhibit.kiosk.language).
+    axes_label: str = "4D axes"
 
 
 def _mat(m: np.ndarray) -> bytes:

@@ -113,7 +113,7 @@ def test_a_held_button_is_a_rate_until_its_release_stamp():
      "mapping.bind[0].rate: must lie in [0, 20] for sensor"),
     ({"input": "delta 1", "action": "next-scene"}, "mapping.bind[0].action: only buttons"),
     ({"input": "button 1", "action": "next"},
-     "mapping.bind[0].action: must be 'home' or 'next-scene'"),
+     "mapping.bind[0].action: must be 'home', 'next-scene' or 'language'"),
 ])
 def test_bad_button_bindings_name_the_key(bind, fragment):
     from exhibit.devices.base import DeviceError
@@ -128,9 +128,11 @@ def test_the_keyboard_has_a_next_scene_key(clock):
     kb.key("n", True)
     kb.key("n", False)
     kb.key("space", True)
+    kb.key("l", True)
     events = kb.poll()
-    assert [m.switches_scene(e) for e in events] == [True, False, False]
-    assert kb.capabilities.buttons == 2
+    assert [m.switches_scene(e) for e in events] == [True, False, False, False]
+    assert m.pressed(events[-1:], "language") and not m.pressed(events[:-1], "language")
+    assert kb.capabilities.buttons == 3
 
 
 def test_the_keyboard_reaches_every_parameter_with_the_shipped_mapping(clock):

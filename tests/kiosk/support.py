@@ -15,6 +15,8 @@ import numpy as np
 from exhibit.kiosk import app
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.sessions import Session
+from exhibit.render.target import HeadlessTarget
+from tests.golden.kiosk_frames import FakeClock, keyboard_devices
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -159,3 +161,49 @@ def numbered(i: int, base: float | None = None) -> Session:
     base = float(int(time.time()) - 86400) if base is None else base
     return Session(base + i, base + i + 60, 60.0, 30.0, 3600, "en",
                    ["hopf", f"scene-{i % 7}"], [f"device-{i % 3}.knob"])
+
+
+SIZE = (320, 180)
+IDLE_S = 5.0
+
+
+class HeadlessKiosk:
+    """A kiosk with two scenes and one short attract timeline, the shipped keyboard mapping as
+    its only device, quality pinned, at 10 frames a second of test time."""
+
+    def __init__(self, headless, tmp: Path, extra: str = ""):
+        keyboard_devices(tmp / "devices.toml")
+        (tmp / "attract").mkdir()
+        (tmp / "attract" / "torus.toml").write_text(
+            'name = "Torus"\nscene = "clifford-torus"\n'
+            '[[keyframe]]\nt = 0\ncaption = "Closer still."\n'
+            '[[keyframe]]\nt = 30\nangles = [90, -40, 0, 0, 0, 0]\n')
+        site = tmp / "kiosk.toml"
+        site.write_text(f"""
+[display]
+size = [{SIZE[0]}, {SIZE[1]}]
+[content]
+scenes = ["clifford-torus", "hopf"]
+start_scene = "clifford-torus"
+resolution = {{ clifford-torus = 12, hopf = 12 }}
+[devices]
+config = "devices.toml"
+[attract]
+timelines = "attract"
+idle_timeout_s = {IDLE_S}
+blend_s = 1.0
+[quality]
+level = "fxaa"
+{extra}""")
+        self.clock = FakeClock(0.0)
+        self.target = HeadlessTarget(headless, SIZE)
+        self.kiosk = app.Kiosk(load_kiosk_config(site), self.target, clock=self.clock)
+
+    def run(self, seconds: float, step: float = 0.1) -> None:
+        for _ in range(round(seconds / step)):
+            self.clock.t = round(self.clock.t + step, 6)
+            self.kiosk.step()
+
+    @property
+    def frame(self):
+        return self.kiosk.state.frame

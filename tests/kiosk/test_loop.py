@@ -7,64 +7,17 @@ itself keeps its few tests under Xvfb (test_window.py, test_focus.py)."""
 from __future__ import annotations
 
 import math
-from pathlib import Path
 
 import pytest
 
-from exhibit.kiosk import app
-from exhibit.kiosk.config import load_kiosk_config
-from exhibit.render.target import CloseRequest, Focus, HeadlessTarget, Key
-from tests.golden.kiosk_frames import FakeClock, keyboard_devices
+from exhibit.render.target import CloseRequest, Focus, Key
+from tests.kiosk.support import IDLE_S, SIZE, HeadlessKiosk
 
-SIZE = (320, 180)
-IDLE_S = 5.0
-
-
-class Loop:
-    """A kiosk with two scenes and one short attract timeline, the shipped keyboard mapping as
-    its only device, quality pinned, at 10 frames a second of test time."""
-
-    def __init__(self, headless, tmp: Path):
-        keyboard_devices(tmp / "devices.toml")
-        (tmp / "attract").mkdir()
-        (tmp / "attract" / "torus.toml").write_text(
-            'name = "Torus"\nscene = "clifford-torus"\n'
-            '[[keyframe]]\nt = 0\ncaption = "Turning."\n'
-            '[[keyframe]]\nt = 30\nangles = [90, -40, 0, 0, 0, 0]\ncaption = "Turning."\n')
-        site = tmp / "kiosk.toml"
-        site.write_text(f"""
-[display]
-size = [{SIZE[0]}, {SIZE[1]}]
-[content]
-scenes = ["clifford-torus", "hopf"]
-start_scene = "clifford-torus"
-resolution = {{ clifford-torus = 12, hopf = 12 }}
-[devices]
-config = "devices.toml"
-[attract]
-timelines = "attract"
-idle_timeout_s = {IDLE_S}
-blend_s = 1.0
-[quality]
-level = "fxaa"
-""")
-        self.clock = FakeClock(0.0)
-        self.target = HeadlessTarget(headless, SIZE)
-        self.kiosk = app.Kiosk(load_kiosk_config(site), self.target, clock=self.clock)
-
-    def run(self, seconds: float, step: float = 0.1) -> None:
-        for _ in range(round(seconds / step)):
-            self.clock.t = round(self.clock.t + step, 6)
-            self.kiosk.step()
-
-    @property
-    def frame(self):
-        return self.kiosk.state.frame
 
 
 @pytest.fixture
 def loop(headless, tmp_path):
-    return Loop(headless, tmp_path)
+    return HeadlessKiosk(headless, tmp_path)
 
 
 def test_the_kiosk_draws_its_attract_mode_into_the_headless_target(loop):

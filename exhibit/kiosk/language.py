@@ -1,0 +1,186 @@
+"""Captions in the visitor's language: one TOML catalogue per language, keyed by the English text.
+
+    # configs/languages/de.toml
+    language = "de"
+    name = "Deutsch"
+    [text]
+    "When a ball meets a pipe" = "Wenn eine Kugel auf ein Rohr trifft"
+
+Why TOML keyed by the English words, not gettext .po files: curators already write scenes and
+timelines in TOML through the same checked reader (exhibit.schema: `file: key: reason`), the
+English text in a scene or timeline is what they see and change, and a catalogue needs no
+compile step or extra tool on a museum PC. The cost, a changed English caption losing its
+translation, is what `exhibit check-config` reports: every title, caption and HUD word the kiosk
+can show, in every language it shows, must have a translation, in glyphs the font has.
+
+English is the source: it needs no catalogue. A missing translation shows the English text
+(never a blank), and a broken catalogue leaves that language out with one log line.
+"""
+
+from __future__ import annotations
+
+import io
+import logging
+from dataclasses import dataclass, field
+from functools import lru_cache
+from pathlib import Path
+from typing import Annotated, Iterable
+
+from pydantic import Field
+
+from exhibit.errors import ConfigError
+from exhibit.schema import Model, read_toml, validate
+from exhibit.schema.types import Caption, Name, Number
+
+log = logging.getLogger("exhibit.kiosk")
+
+SOURCE = "en"
+#: Words the HUD itself shows, beside the scenes' and timelines' own.
+HUD_WORDS = ("4D axes",)
+LanguageCode = Annotated[str, Field(pattern=r"^[a-z]{2,3}(-[A-Z]{2})?$")]
+
+
+class LanguagesSection(Model):
+    """``[languages]`` of kiosk.toml: which languages, in order (the first is shown at start),
+    where the catalogues are, and how often attract mode changes language by itself (0: only
+    a visitor's "language" button does)."""
+
+    shown: Annotated[list[LanguageCode], Field(min_length=1, max_length=12)] = [SOURCE]
+    catalogues: Name = "languages"
+    switch_after_s: Number(0, 86400) = 0
+
+
+class CatalogueFile(Model):
+    language: LanguageCode
+    name: Name
+    text: dict[Caption, Caption] = {}
+
+
+@dataclass(frozen=True)
+class Catalogue:
+    language: str
+    name: str
+    text: dict = field(default_factory=dict)
+    path: Path | None = None
+
+
+def load_catalogue(path: Path) -> Catalogue:
+    spec = validate(CatalogueFile, read_toml(path), str(path))
+    if spec.language != path.stem:
+        raise ConfigError([f"{path}: language: {spec.language!r} does not match the file name "
+                           f"({path.stem}.toml)"])
+    return Catalogue(spec.language, spec.name, dict(spec.text), path)
+
+
+def load_catalogues(folder: Path | None, languages: Iterable[str]) -> dict[str, Catalogue]:
+    """The catalogue of every language shown but English; ConfigError names each problem."""
+    out: dict[str, Catalogue] = {SOURCE: Catalogue(SOURCE, "English")}
+    problems: list[str] = []
+    for code in languages:
+        if code == SOURCE:
+            continue
+        path = (folder or Path(".")) / f"{code}.toml"
+        try:
+            out[code] = load_catalogue(path)
+        except ConfigError as exc:
+            problems.extend(exc.problems)
+    if problems:
+        raise ConfigError(problems)
+    return out
+
+
+class Translator:
+    """The language on screen and its words. ``next()`` moves to the next language shown (a
+    visitor's button, or attract mode's timer)."""
+
+    def __init__(self, catalogues: dict[str, Catalogue], order: Iterable[str] = (SOURCE,)):
+        self.catalogues = catalogues
+        self.order = [code for code in order if code in catalogues] or [SOURCE]
+        self.index = 0
+
+    @property
+    def language(self) -> str:
+        return self.order[self.index]
+
+    def next(self) -> str:
+        self.index = (self.index + 1) % len(self.order)
+        return self.language
+
+    def __call__(self, text: str, language: str | None = None) -> str:
+        if not text:
+            return text
+        catalogue = self.catalogues.get(language or self.language)
+        return catalogue.text.get(text, text) if catalogue is not None else text
+
+
+# ---------------------------------------------------------------------- for check-config
+
+def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
+    """Every English text the kiosk can show, with where it comes from: the content scenes'
+    titles and captions, every timeline's scene title and keyframe captions, the HUD's words."""
+    from exhibit import scenes
+
+    texts: dict[str, str] = {}
+    for name in scene_names:
+        scene = scenes.get(name)
+        texts.setdefault(scene.title, f"scene {name}: title")
+        texts.setdefault(scene.caption, f"scene {name}: caption")
+    for timeline in timelines:
+        texts.setdefault(scenes.get(timeline.scene).title, f"scene {timeline.scene}: title")
+        for i, keyframe in enumerate(timeline.keyframes):
+            texts.setdefault(keyframe.caption, f"{timeline.path}: keyframe[{i}].caption")
+    for word in HUD_WORDS:
+        texts.setdefault(word, "the HUD")
+    return texts
+
+
+def coverage_problems(config) -> list[str]:
+    """For `exhibit check-config`: every text the kiosk shows, in every language it shows, has
+    a translation, in characters the HUD's fonts can draw (the catalogues load: checked with the
+    config)."""
+    from exhibit.kiosk.attract import load_playlist
+
+    if config.catalogues_dir is None:
+        return []
+    timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
+    texts = shown_texts(config.scenes, timelines)
+    problems = []
+    for catalogue in load_catalogues(config.catalogues_dir, config.languages).values():
+        if catalogue.language == SOURCE:
+            continue
+        problems += missing(catalogue, texts) + uncovered(catalogue)
+    return problems
+
+
+def missing(catalogue: Catalogue, texts: dict[str, str]) -> list[str]:
+    """``texts``: English text -> where it comes from. One problem per text the catalogue does
+    not translate."""
+    return [f"{catalogue.path}: text: no translation of {english!r} (from {where})"
+            for english, where in texts.items() if english and english not in catalogue.text]
+
+
+@lru_cache(maxsize=8)
+def _codepoints(style: str) -> frozenset[int]:
+    """The characters the HUD's font for ``style`` has glyphs for (its cmap, via fontTools)."""
+    from fontTools.ttLib import TTFont
+
+    from exhibit.render.text import font
+
+    source = font(style, 20).path
+    if isinstance(source, io.BytesIO):
+        source.seek(0)
+    with TTFont(source, lazy=True) as face:
+        return frozenset(face.getBestCmap())
+
+
+def uncovered(catalogue: Catalogue, styles: Iterable[str] = ("sans", "bold")) -> list[str]:
+    """One problem per translation with characters the HUD's fonts cannot draw."""
+    problems = []
+    sets = [_codepoints(style) for style in styles]
+    for english, text in catalogue.text.items():
+        lacking = sorted({ch for ch in text if not ch.isspace()
+                          and any(ord(ch) not in s for s in sets)})
+        if lacking:
+            problems.append(f"{catalogue.path}: text.{english!r}: the font has no glyph for "
+                            f"{''.join(lacking)!r}")
+    return problems
