@@ -40,9 +40,10 @@ AXIS_COLORS = ((0.9, 0.22, 0.18), (0.97, 0.6, 0.12), (0.25, 0.78, 0.3), (0.3, 0.
 class Hud:
     """HUD state of one renderer: the cached title block and the latest layout."""
 
-    #: Title panels and layouts kept: every scene's and every attract caption's, so a scene
-    #: change or a new caption costs no wrapping or rasterising (15 ms at 1080p) once warm.
-    CACHED = 48
+    #: Title panels and layouts kept: every scene's and every attract caption's, in every
+    #: language shown (about 45 each as shipped), so a scene change, a new caption or a new
+    #: language costs no wrapping or rasterising (15 ms at 1080p) once warm.
+    CACHED = 128
 
     def __init__(self, renderer):
         self.renderer = renderer
