@@ -482,6 +482,8 @@ class Kiosk:
                     "gl_errors": self.stats.gl_errors, "rss_kb": _rss_kb(), "fds": _fd_count(),
                     "frames": self.frames, "frame_errors": self.errors.total,
                     "problems": problems, "scenes_failed": self.scenes_failed,
+                    "language": self.translate.language,
+                    **(self.sessions.health() if self.sessions is not None else {}),
                     **self.governor.health()})  # quality level, frame_ms, target_ms
             except OSError as exc:
                 log.warning("cannot write the health file %s: %s", self.health_path, exc)

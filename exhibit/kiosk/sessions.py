@@ -504,7 +504,8 @@ class SessionLog:
     ``observe(mode, scene, events, now)`` once a frame does it all; ``started``, ``scene``,
     ``input`` and ``ended`` are the steps, for callers that know the transitions. ``now`` is the
     kiosk's monotonic clock (lengths are differences of it, immune to clock steps); the wall
-    clock dates the session. ``language`` is the language shown ("en" until languages exist).
+    clock dates the session. ``language`` is the language on screen (the kiosk sets it as it
+    changes: exhibit.kiosk.language).
     """
 
     def __init__(self, writer: SessionWriter | None, wall: Callable[[], float] = time.time,
@@ -515,6 +516,14 @@ class SessionLog:
         self.current: Session | None = None
         self._start = self._last_input = 0.0
         self._broken = False
+
+    def health(self) -> dict:
+        """For the health file: what the writer has done (sessions written, dropped because it
+        was behind, refused by the database) and the language on screen."""
+        w = self.writer
+        counts = {"written": w.written, "dropped": w.dropped, "failed": w.failed} if w else {}
+        return {"sessions": {**counts, "recording": w is not None and not self._broken},
+                "language": self.language}
 
     # -- the steps
 
