@@ -46,14 +46,13 @@ def _last_axis(points: np.ndarray, axis: int) -> np.ndarray:
 
 def inset_mesh(scene, params: dict, mesh: Mesh4D, axis: int, at: float,
                stats: RefineStats | None = None) -> Mesh4D:
-    """The 3D world at the slice: Scene.world_at's when the scene has one for this axis, with
-    the refined slice curves drawn on it; else the slice curves alone."""
+    """The 3D world at the slice: Scene.world_at's when the scene has one for this axis (with
+    its own touching curve: the collision's in closed form, cheap enough for every frame of a
+    kiosk); else the slice curves alone, traced and refined on the mesh."""
+    if scene.world_at is not None and scene.slice_axis == axis:
+        return scene.world_at(params, at)   # with the touching curve, in closed form
     curves = [Curve(c.name, c.points, SLICE_MATERIAL, c.closed)
               for surface in mesh.surfaces for c in slice_curves(surface, axis, at, stats)]
-    if scene.world_at is not None and scene.slice_axis == axis:
-        world = scene.world_at(params, at)
-        world.curves += curves
-        return world
     return Mesh4D([], [Curve(c.name, _last_axis(c.points, axis), c.material, c.closed)
                        for c in curves])
 

@@ -130,7 +130,70 @@ def world_at(params: dict, c: float) -> Mesh4D:
     sphere = tessellate("ball", ball, Interval(1e-3, math.pi - 1e-3),
                         Interval(0.0, 2 * math.pi, periodic=True), (24, 48), tangents,
                         Material(color=(0.75, 0.78, 0.85)), adaptive=False)
-    return Mesh4D([sphere], pipe)
+    return Mesh4D([sphere], pipe + touching_curves(params, c))
+
+
+def _zero(g, outside: float, inside: float) -> float:
+    """Where g changes sign between two angles (bisection: g is smooth, one crossing)."""
+    for _ in range(60):
+        middle = 0.5 * (outside + inside)
+        if g(np.array(middle)) > 0:
+            inside = middle
+        else:
+            outside = middle
+    return inside
+
+
+#: The touching curve's colour in the inset: the slice's (exhibit.render.renderer.SLICE_COLOR).
+TOUCH_MATERIAL = Material(color=(1.0, 0.93, 0.55), line_width=3.5)
+
+
+def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
+    """Where pipe and ball touch at the moment t = c, in closed form (the collision surface's
+    slice at t = c, without tracing a mesh): around the pipe, at angle φ, the point
+    (x, vc·c + rc cos φ, rc sin φ) is on the ball where x² = g(φ) = rs² - y² - (z + vs·c)².
+    Where g > 0 for every φ the ball sticks out of both sides of the pipe: two loops, x > 0 and
+    x < 0 (the paper's hole). Else each arc of φ with g > 0 is one loop, x = +√g out and -√g
+    back, closing where g = 0 (found by interpolation)."""
+    rc, rs, vc, vs = params["rc"], params["rs"], params["vc"], params["vs"]
+
+    def g(phi):
+        y, z = vc * c + rc * np.cos(phi), rc * np.sin(phi)
+        return rs * rs - y * y - (z + vs * c) ** 2
+
+    def point(phi, sign):
+        return np.stack([sign * np.sqrt(np.maximum(g(phi), 0.0)), vc * c + rc * np.cos(phi),
+                         rc * np.sin(phi), np.full_like(phi, c)], axis=-1)
+
+    phi = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
+    values = g(phi)
+    inside = values > 0
+    if not inside.any():
+        return []
+    if inside.all():
+        return [Curve(f"slice {i + 1}" if i else "slice", point(phi, sign), TOUCH_MATERIAL, True)
+                for i, sign in enumerate((1.0, -1.0))]
+    curves = []
+    start = int(np.argmin(inside))  # an index outside: arcs do not wrap past it
+    order = np.roll(np.arange(samples), -start)
+    step = 2 * math.pi / samples
+    i = 0
+    while i < samples:
+        if not inside[order[i]]:
+            i += 1
+            continue
+        j = i
+        while j + 1 < samples and inside[order[j + 1]]:
+            j += 1
+        a, b = phi[order[i]], phi[order[j]]
+        # the arc's ends, where g crosses 0 between the last sample outside and the first in
+        end_a, end_b = _zero(g, a - step, a), _zero(g, b + step, b)
+        arc = np.unwrap(np.concatenate([[end_a], phi[order[i:j + 1]], [end_b]]))
+        loop = np.concatenate([point(arc, 1.0), point(arc[-2:0:-1], -1.0)])
+        curves.append(Curve(f"slice {len(curves) + 1}" if curves else "slice", loop,
+                            TOUCH_MATERIAL, True))
+        i = j + 1
+    return curves
 
 
 def build_part(params: dict, resolution: int, progress=None):

@@ -83,3 +83,20 @@ def test_bad_slice_arguments_get_one_line(cli, tmp_path, args, message):
     result = cli("render", "collision", *args, "--out", str(tmp_path / "x.png"))
     assert result.returncode == 2 and message in result.stderr
     assert "Traceback" not in result.stderr
+
+
+@pytest.mark.parametrize("c, loops", [(-2.5, 0), (-2.0, 1), (-0.1, 2), (0.0, 2), (1.5, 1)])
+def test_the_touching_curve_in_closed_form(c, loops):
+    """collision.touching_curves (what the kiosk's inset draws every frame): on the pipe and
+    the ball at the moment c to 1e-9, one loop per arc of contact, two while the hole is open
+    (rc = 1, rs = 1.2, vs = 1: contact for |c| < 2.2, the hole for |c| < 0.2)."""
+    from exhibit.scenes.collision import touching_curves
+
+    p = {"rc": 1.0, "rs": 1.2, "vc": 0.0, "vs": 1.0}
+    curves = touching_curves(p, c)
+    assert len(curves) == loops
+    for curve in curves:
+        x, y, z, t = curve.points.T
+        assert curve.closed and len(curve.points) > 20 and np.all(t == c)
+        assert np.abs(np.hypot(y, z) - 1.0).max() < 1e-9
+        assert np.abs(np.sqrt(x**2 + y**2 + (z + c) ** 2) - 1.2).max() < 1e-9
