@@ -303,3 +303,32 @@ def test_monitor_says_when_a_device_changes_state_or_detail():
     assert device_changes(line, seen) == [
         "device controller: connected (firmware 1.0.0 on /dev/ttyACM0)"]
 
+
+
+def test_the_knob_box_alone_reaches_every_parameter(clock):
+    """Knobs 1-7 through the real HID backend (the knob box's layout, a fake hidapi bus) and the
+    shipped mapping: each knob moves its own parameter, 5 degrees (sensor: 1/40 of r) a detent."""
+    from exhibit.devices.fakehid import FakeHidBus, FakeHidDevice, encode_report
+    from exhibit.devices.hid import load_layouts
+    from exhibit.devices.hub import DeviceSet
+
+    config = load_config()
+    config = dataclasses.replace(config, devices={"knobs": config.devices["knobs"]},
+                                 mapping=only("knobs"))
+    layout = load_layouts()["knobbox"]
+    dev = FakeHidDevice(0x2341, 0x8037, usage_page=0xFF00, clock=clock, layout=layout)
+    devices = DeviceSet(config, clock=clock, hid_api=FakeHidBus([dev])).open()
+    mapper, view = Mapper(config.mapping), ViewState()
+    try:
+        for knob in range(7):
+            before = params_of(view)
+            dev.push(encode_report(layout, deltas={knob: 2}))
+            for _ in range(3):
+                clock.advance(0.01)
+                view = mapper.apply(view, devices.poll(), clock())
+            moved = [i for i, (a, b) in enumerate(zip(before, params_of(view))) if a != b]
+            assert moved == [knob], (knob, moved)
+    finally:
+        devices.close()
+    assert view.angles == pytest.approx((10 * DEG,) * 6)
+    assert view.sensor_r == pytest.approx(0.05)
