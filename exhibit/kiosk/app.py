@@ -56,7 +56,10 @@ from exhibit.kiosk.language import SOURCE, Catalogue, Translator, load_catalogue
 from exhibit.kiosk.state import KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
-from exhibit.render.layout import TextSizes
+from exhibit.render.frame import Inset
+from exhibit.geometry.framing import mesh_points
+from exhibit.render.inset import inset_rect, inset_view
+from exhibit.render.layout import TextSizes, hud_layout
 from exhibit.render.renderer import HudInfo
 from exhibit.render.target import CloseRequest, Focus, Key
 from exhibit.scenes.cache import build_cached
@@ -179,6 +182,13 @@ class Kiosk:
                               config.text.infinity_beyond)
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
                              hud=config.hud)
+        #: The time-slice inset's corner (a panel for timelines that slice) and its scene.
+        size = tuple(getattr(window, "size", config.size))
+        self._inset_rect = inset_rect(size, hud_layout(size, sizes=self.text).margin)
+        self._inset_mesh = None
+        self._inset_view_cache = None
+        self._inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
+                                    extra=(self._inset_rect,))
         #: The language on screen and its words (exhibit.kiosk.language).
         self.translate = self._translator(config)
         self._language_since = clock()
@@ -341,8 +351,12 @@ class Kiosk:
         mesh = self._mesh(timeline.scene, tuple(sorted(timeline.params.items())))
         if mesh is None:
             return timeline
+        scene = scenes.get(timeline.scene)
+        slices = (scene.world_at is not None and timeline.slice_axis == scene.slice_axis
+                  and any(k.slice_at is not None for k in timeline.keyframes))
         try:
-            return frame_timeline(self.framer, timeline, scenes.get(timeline.scene), mesh)
+            return frame_timeline(self._inset_framer if slices else self.framer, timeline,
+                                  scene, mesh)
         except Exception as exc:  # noqa: BLE001 - an unframed timeline still plays
             log.warning("timeline %s not framed: %s", timeline.name, exc)
             return timeline
@@ -581,12 +595,53 @@ class Kiosk:
                 self._fade_start = None
             else:
                 fade = 1.0 - u * u * (3.0 - 2.0 * u)
-        self.window.draw(gpu, frame.view, options, hud, fade=fade)
+        inset = self._inset(frame) if self.config.hud else None
+        self.window.draw(gpu, frame.view, options, hud, fade=fade, inset=inset)
         self._shown = (gpu, frame.view, options, hud)
         if self.governor.update(getattr(self.window, "frame_ms", None), now):
             log.info("quality %s (frames took %.1f ms, the target is %.1f ms)",
                      self.governor.quality.describe(), self.governor.recent_ms or 0.0,
                      self.governor.settings.target_ms)
+
+    def _inset(self, frame):
+        """The time-slice inset while a timeline slices a scene that has a 3D world at each
+        moment (the collision's pipe and ball, with their touching curve in closed form):
+        rebuilt and uploaded when the moment changes (about 1 ms), drawn in the corner the
+        timeline's framing keeps free. None otherwise."""
+        view = frame.view
+        scene = scenes.get(frame.scene)
+        if (view.slice_axis is None or scene.world_at is None
+                or scene.slice_axis != view.slice_axis):
+            return None
+        key = (frame.scene, frame.params, round(view.slice_at, 4))
+        if self._inset_mesh is None or self._inset_mesh[0] != key:
+            world = scene.world_at(dict(frame.params), view.slice_at)
+            if self._inset_mesh is not None:
+                self._inset_mesh[1].release()
+            size = (int(self._inset_rect.width), int(self._inset_rect.height))
+            self._inset_mesh = (key, self.window.renderer.upload(world), world, size)
+        key, gpu, world, size = self._inset_mesh
+        r = self._inset_rect
+        label = f"{scene.axes[view.slice_axis]} = {view.slice_at:+.2f}"
+        return Inset(gpu, self._inset_view(frame, scene, size), (r.x0, r.y0, r.width, r.height),
+                     label)
+
+    def _inset_view(self, frame, scene, size):
+        """The inset's view, framed once for the worlds of the moments at the ends and middle
+        of the scene's extent along its time axis, so the frame holds still as time moves."""
+        view = frame.view
+        key = (frame.scene, frame.params, view.eye_azimuth, view.eye_incidence, view.twist,
+               view.eye_r)
+        if self._inset_view_cache is None or self._inset_view_cache[0] != key:
+            mesh = self._mesh(frame.scene, frame.params)
+            low, high = (mesh.bounds() if mesh is not None else (np.full(4, -1.0),
+                                                                  np.full(4, 1.0)))
+            axis = view.slice_axis
+            moments = (low[axis], 0.5 * (low[axis] + high[axis]), high[axis])
+            points = np.concatenate([mesh_points(scene.world_at(dict(frame.params), c))
+                                     for c in moments])
+            self._inset_view_cache = (key, inset_view(view, points, size))
+        return self._inset_view_cache[1]
 
     def _screenshot(self, path: Path) -> None:
         from PIL import Image

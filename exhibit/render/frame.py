@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict, deque
+from dataclasses import dataclass
 
 import moderngl
 
@@ -33,6 +34,22 @@ TILE = 8
 #: must not reallocate every frame, and a kiosk needs one or two.
 MAX_TARGETS = 6
 
+
+@dataclass(frozen=True)
+class Inset:
+    """The time-slice inset for one frame: a small scene (exhibit.render.inset), its view, where
+    it goes (x, y, width, height in pixels from the top-left) and its label."""
+
+    gpu: object
+    view: object
+    rect: tuple[float, float, float, float]
+    label: str = ""
+
+
+#: The inset's own picture: a lighter background so it reads as a window, no HUD.
+INSET_OPTIONS = RenderOptions(hud=False, pinch_points=False, intersections=False,
+                              background=((0.22, 0.24, 0.30), (0.10, 0.11, 0.15)))
+INSET_BORDER = (0.80, 0.82, 0.88, 1.0)
 
 class SceneTarget:
     """Where the scene is drawn: colour (texture, or MSAA renderbuffer resolved into one) and
@@ -146,10 +163,13 @@ class FramePipeline:
 
     def draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
              options: RenderOptions, hud: HudInfo | None, quality: Quality,
-             fade: float = 0.0) -> None:
+             fade: float = 0.0, inset: Inset | None = None) -> None:
         """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``);
-        with ``fade`` > 0 the captured snapshot is laid over it with that opacity."""
+        with ``fade`` > 0 the captured snapshot is laid over it with that opacity; ``inset``
+        (the time-slice inset, exhibit.render.inset) is drawn over the picture in its corner."""
         self._draw(gpu, view, destination, size, options, hud, quality)
+        if inset is not None:
+            self._inset(inset, destination, (int(size[0]), int(size[1])))
         if fade > 0.0 and self._snapshot is not None:
             size = (int(size[0]), int(size[1]))
             if self._snapshot[0].size == size:
@@ -199,6 +219,36 @@ class FramePipeline:
             self._pass("upscale", source, destination, size, options)
         if options.hud and hud is not None:
             renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text)
+
+    def _inset(self, inset: "Inset", destination, size: tuple[int, int]) -> None:
+        """The inset's own small picture (the direct path: its background, no antialiasing,
+        on software GL a few ms), then laid into the frame with a border and its label."""
+        x, y, w, h = (int(round(v)) for v in inset.rect)
+        if w < 16 or h < 16:
+            return
+        ctx, renderer = self.ctx, self.renderer
+        target = self.target((w, h), 0, "inset")
+        renderer.render(inset.gpu, inset.view, target.framebuffer, INSET_OPTIONS)
+        destination.use()
+        ctx.viewport = (0, 0, *size)
+        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.enable(moderngl.BLEND)
+        viewport = (float(size[0]), float(size[1]))
+        # the framebuffer's rows run bottom to top: the texel rectangle is flipped
+        renderer._quads("image", target.texture, (w, h),
+                        [(x, y, w, h, 0, h, w, -h, 1.0, 1.0, 1.0, 1.0)], viewport)
+        rows: list = []
+        edge = max(1, round(h / 180))
+        for bx, by, bw, bh in ((x, y, w, edge), (x, y + h - edge, w, edge), (x, y, edge, h),
+                               (x + w - edge, y, edge, h)):
+            renderer._panel_row(bx, by, bw, bh, INSET_BORDER, rows)
+        if inset.label:
+            px = max(10, round(0.085 * h))
+            renderer._glyph_rows(inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px,
+                                 INSET_BORDER, rows)
+        renderer._quads("glyphs", renderer.atlas.texture, (renderer.atlas.size,) * 2, rows,
+                        viewport)
+        ctx.disable(moderngl.BLEND)
 
     def _pass(self, key: str, source, destination, size, options: RenderOptions) -> None:
         destination.use()

@@ -57,12 +57,14 @@ def inset_mesh(scene, params: dict, mesh: Mesh4D, axis: int, at: float,
                        for c in curves])
 
 
-def inset_view(main: ViewState, mesh: Mesh4D, size: tuple[int, int]) -> ViewState:
+def inset_view(main: ViewState, mesh: Mesh4D | np.ndarray, size: tuple[int, int]) -> ViewState:
     """No 4D rotation and the sensor at infinity (the sliced axis is dropped, the 3D world is
-    seen undistorted), the main view's eye, framed into the inset with a margin."""
+    seen undistorted), the main view's eye, framed into the inset with a margin. ``mesh`` may
+    be points instead: the worlds of several moments, so the frame holds still while time
+    moves (the kiosk)."""
     view = ViewState(eye_azimuth=main.eye_azimuth, eye_incidence=main.eye_incidence,
                      twist=main.twist, eye_r=main.eye_r, lights=main.lights)
-    points = mesh_points(mesh)
+    points = mesh if isinstance(mesh, np.ndarray) else mesh_points(mesh)
     if len(points) == 0:
         return view
     margin = 0.08 * min(size)

@@ -74,7 +74,7 @@ class RenderTarget(Protocol):
     def should_close(self) -> bool: ...
 
     def draw(self, gpu, view, options: RenderOptions = RenderOptions(), hud=None,
-             fade: float = 0.0) -> None: ...
+             fade: float = 0.0, inset=None) -> None: ...
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None: ...
 
@@ -130,7 +130,7 @@ class HeadlessTarget:
         return self.headless.target(self._size, 0)
 
     def draw(self, gpu, view, options: RenderOptions = RenderOptions(), hud=None,
-             fade: float = 0.0) -> None:
+             fade: float = 0.0, inset=None) -> None:
         target = self._target()
         if options.quality is None:
             self.renderer.render(gpu, view, target.framebuffer, options, hud)
@@ -140,7 +140,7 @@ class HeadlessTarget:
                 self._timer = FrameTimer(self.ctx)
             self._timer.begin()  # as the window measures, for the frame governor
             self.headless.pipeline.draw(gpu, view, target.framebuffer, self._size, options, hud,
-                                        options.quality, fade)
+                                        options.quality, fade, inset)
             self.frame_ms = self._timer.end()
         self.image = target.read()
         self.drawn = (gpu, view, options, hud)

@@ -171,11 +171,11 @@ class Window:
         return self._pipeline
 
     def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
-             hud: HudInfo | None = None, fade: float = 0.0) -> None:
+             hud: HudInfo | None = None, fade: float = 0.0, inset=None) -> None:
         """Render one frame into the back buffer (call swap() to show it). With
         ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
         timed into ``frame_ms``, with the captured frame laid over it at opacity ``fade``
-        (a crossfade: see capture())."""
+        (a crossfade: see capture()), and ``inset`` (exhibit.render.frame.Inset) over it."""
         self._glfw.make_context_current(self.handle)
         if options.quality is None:
             self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
@@ -183,7 +183,7 @@ class Window:
         pipeline = self._kiosk_pipeline()
         self._timer.begin()
         pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality,
-                      fade)
+                      fade, inset)
         self.frame_ms = self._timer.end()
 
     def capture(self, gpu, view, options: RenderOptions, hud: HudInfo | None = None) -> None:

@@ -58,7 +58,7 @@ class FakeWindow:
         self.drawn, self.notices = [], 0
         self.fades, self.captured = [], []
 
-    def draw(self, gpu, view, options, hud, fade=0.0):
+    def draw(self, gpu, view, options, hud, fade=0.0, inset=None):
         if self.fail > 0:
             self.fail -= 1
             raise ZeroDivisionError("a bug in the renderer")

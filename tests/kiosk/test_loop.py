@@ -81,8 +81,8 @@ def test_the_maintenance_keys_end_the_loop(loop, mods, quits):
 @pytest.mark.slow
 def test_the_shipped_collision_timeline_travels_through_time(headless, tmp_path):
     """Figure 17's timeline moves the slice t = c through the contact: the glowing curve (the
-    renderer's slice colour) is on screen at the middle moment, and not before the slices
-    begin."""
+    renderer's slice colour) and the inset of the 3D world are on screen at the middle moment,
+    and not before the slices begin."""
     from tests.golden.kiosk_frames import KioskRun
 
     run = KioskRun(headless, tmp_path, (480, 270), "06-collision-17.toml", idle_timeout_s=600)
@@ -92,9 +92,17 @@ def test_the_shipped_collision_timeline_travels_through_time(headless, tmp_path)
         r, g, b = image[..., 0], image[..., 1], image[..., 2]
         return int(((r > 235) & (g > 205) & (b > 100) & (b < 180)).sum())
 
+    def border() -> float:
+        """How much of the inset's top edge is its border colour."""
+        rect = run.kiosk._inset_rect
+        row = run.window.image[int(rect.y0), int(rect.x0) + 2:int(rect.x1) - 2].astype(int)
+        return float((abs(row - [204, 209, 224]).max(axis=1) < 12).mean())
+
     run.run_until(20.0, step=0.5)
     assert run.kiosk.state.frame.view.slice_axis is None and glow() < 5
+    assert border() < 0.5                   # no inset while nothing slices
     run.run_until(53.0, step=0.5)
     frame = run.kiosk.state.frame
     assert frame.view.slice_axis == 3 and frame.view.slice_at == 0.0
     assert glow() > 40, glow()
+    assert border() > 0.95                  # the inset: the 3D world at that moment
