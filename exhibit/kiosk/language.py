@@ -26,7 +26,7 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Annotated, Iterable
 
-from pydantic import Field
+from pydantic import Field, field_validator
 
 from exhibit.errors import ConfigError
 from exhibit.schema import Model, read_toml, validate
@@ -38,6 +38,8 @@ SOURCE = "en"
 #: Words the HUD itself shows, beside the scenes' and timelines' own.
 HUD_WORDS = ("4D axes",)
 LanguageCode = Annotated[str, Field(pattern=r"^[a-z]{2,3}(-[A-Z]{2})?$")]
+#: The shortest time between two changes of language by attract mode's timer.
+MIN_SWITCH_S = 10.0
 
 
 class LanguagesSection(Model):
@@ -48,6 +50,15 @@ class LanguagesSection(Model):
     shown: Annotated[list[LanguageCode], Field(min_length=1, max_length=12)] = [SOURCE]
     catalogues: Name = "languages"
     switch_after_s: Number(0, 86400) = 0
+
+    @field_validator("switch_after_s")
+    @classmethod
+    def _readable(cls, value: float) -> float:
+        # A language that changes faster than a caption can be read is no language at all.
+        if 0 < value < MIN_SWITCH_S:
+            raise ValueError(f"must be 0 (buttons only) or at least {MIN_SWITCH_S:g} s, got "
+                             f"{value:g}")
+        return value
 
 
 class CatalogueFile(Model):

@@ -72,12 +72,17 @@ def test_a_broken_catalogue_is_named_by_file_and_key(tmp_path, catalogue, fragme
                for p in info.value.problems), info.value.problems
 
 
-def test_a_language_code_is_checked(tmp_path):
+@pytest.mark.parametrize("text, key", [
+    ('shown = ["en", "deutsch"]', "languages.shown"),
+    ("switch_after_s = 1e-9", "languages.switch_after_s: must be 0 (buttons only) or at least"),
+    ("switch_after_s = nan", "languages.switch_after_s"),
+])
+def test_the_languages_section_is_checked(tmp_path, text, key):
     path = tmp_path / "kiosk.toml"
-    path.write_text('[languages]\nshown = ["en", "deutsch"]\n')
+    path.write_text(f"[languages]\n{text}\n")
     with pytest.raises(ConfigError) as info:
         load_kiosk_config(path)
-    assert any("languages.shown" in p for p in info.value.problems)
+    assert any(key in p for p in info.value.problems), info.value.problems
 
 
 def test_the_language_button_shows_the_kiosk_in_german(headless, tmp_path):
@@ -97,8 +102,8 @@ def test_the_language_button_shows_the_kiosk_in_german(headless, tmp_path):
 def test_attract_mode_changes_language_on_its_timer(headless, tmp_path):
     from tests.kiosk.support import HeadlessKiosk
 
-    run = HeadlessKiosk(headless, tmp_path, "[languages]\nswitch_after_s = 2\n")
-    run.run(1.0)
+    run = HeadlessKiosk(headless, tmp_path, "[languages]\nswitch_after_s = 10\n")
+    run.run(9.0)
     assert run.kiosk.translate.language == "en"
     run.run(1.5)
     assert run.kiosk.translate.language == "de"
