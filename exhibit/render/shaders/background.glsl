@@ -1,8 +1,9 @@
 // A vertical gradient behind everything (a full-screen triangle, no vertex buffer).
 #if defined VERTEX_SHADER
+#include "fullscreen.glsl"
 out float v_y;
 void main() {
-    vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID >> 1) * 4 - 1));
+    vec2 p = fullscreen_corner();
     v_y = p.y * 0.5 + 0.5;
     gl_Position = vec4(p, 1.0, 1.0);
 }

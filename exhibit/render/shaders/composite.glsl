@@ -19,8 +19,9 @@ uniform vec3 u_bottom;
 uniform vec2 u_size;         // size of the picture this pass writes, in pixels
 
 #if defined VERTEX_SHADER
+#include "fullscreen.glsl"
 void main() {
-    vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID >> 1) * 4 - 1));
+    vec2 p = fullscreen_corner();
     gl_Position = vec4(p, 0.0, 1.0);
 }
 #endif

@@ -6,8 +6,9 @@ uniform sampler2D u_snapshot;
 uniform float u_alpha;
 
 #if defined VERTEX_SHADER
+#include "fullscreen.glsl"
 void main() {
-    vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID >> 1) * 4 - 1));
+    vec2 p = fullscreen_corner();
     gl_Position = vec4(p, 0.0, 1.0);
 }
 #endif

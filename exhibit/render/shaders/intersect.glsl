@@ -35,6 +35,7 @@ uniform sampler2D u_geometry;
 #endif
 
 #if defined VERTEX_SHADER
+#include "fullscreen.glsl"
 #if defined TILES
 // One point per TILE x TILE block of pixels, drawn (as a TILE-pixel square) only where the gate
 // pass found two sheets in or around the block; elsewhere it is sent outside the clip volume.
@@ -48,7 +49,7 @@ void main() {
 }
 #else
 void main() {
-    vec2 p = vec2(float((gl_VertexID & 1) * 4 - 1), float((gl_VertexID >> 1) * 4 - 1));
+    vec2 p = fullscreen_corner();
     gl_Position = vec4(p, 0.0, 1.0);
 }
 #endif
