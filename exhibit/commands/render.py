@@ -206,10 +206,14 @@ def run(args) -> int:
     try:
         gpu = headless.renderer.upload(mesh)
         if frames is None:
-            picture = headless.still(gpu, view, size, options, hud, samples)
+            inset_gpu, drawn = None, None
             if inset is not None:
-                picture = _with_inset(headless, scene, params, mesh, view, picture, inset,
-                                      samples)
+                inset_gpu, drawn = _inset(headless, scene, params, mesh, view, inset)
+            try:
+                picture = headless.still(gpu, view, size, options, hud, samples, inset=drawn)
+            finally:
+                if inset_gpu is not None:
+                    inset_gpu.release()
             save_png(picture, out)
             print(out)
             return 0
@@ -225,22 +229,18 @@ def run(args) -> int:
     return 0
 
 
-def _with_inset(headless, scene, params, mesh, view, picture, rect, samples):
-    """The picture with the time-slice inset (exhibit.render.inset) in ``rect``."""
-    from exhibit.render import RenderOptions
-    from exhibit.render.inset import BACKGROUND, compose, inset_mesh, inset_view
+def _inset(headless, scene, params, mesh, view, rect):
+    """The time-slice inset (exhibit.render.inset) for ``rect``: the world at the slice
+    uploaded, and the frame pipeline's Inset, drawn as the kiosk draws it."""
+    from exhibit.render.frame import Inset
+    from exhibit.render.inset import inset_label, inset_mesh, inset_view
 
     axis, at = view.slice_axis, view.slice_at
     world = inset_mesh(scene, scene.resolve(params), mesh, axis, at)
     size = (int(rect.width), int(rect.height))
     gpu = headless.renderer.upload(world)
-    try:
-        image = headless.still(gpu, inset_view(view, world, size), size,
-                               RenderOptions(hud=False, pinch_points=False,
-                                             background=BACKGROUND), None, samples)
-    finally:
-        gpu.release()
-    return compose(picture, image, rect, f"{scene.axes[axis]} = {at:g}")
+    return gpu, Inset(gpu, inset_view(view, world, size), (rect.x0, rect.y0, *size),
+                      inset_label(scene.axes[axis], at))
 
 
 def _window(scene, params, view, note, size, resolution, samples) -> int:

@@ -53,12 +53,12 @@ from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.framing import frame_timeline
 from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
 from exhibit.kiosk.language import SOURCE, Catalogue, Translator, load_catalogues
-from exhibit.kiosk.state import KioskState
+from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
 from exhibit.render.frame import Inset
 from exhibit.geometry.framing import mesh_points
-from exhibit.render.inset import inset_rect, inset_view
+from exhibit.render.inset import inset_label, inset_rect, inset_view
 from exhibit.render.layout import TextSizes, hud_layout
 from exhibit.render.renderer import HudInfo
 from exhibit.render.target import CloseRequest, Focus, Key
@@ -237,7 +237,7 @@ class Kiosk:
     def _switch_language(self, events, now: float) -> None:
         """The "language" button, or attract mode's timer, shows the next language."""
         pressed = self.state.mapper.pressed(events, "language")
-        timed = (self.config.language_switch_s > 0 and self.state.mode == "attract"
+        timed = (self.config.language_switch_s > 0 and self.state.mode == ATTRACT
                  and now - self._language_since >= self.config.language_switch_s)
         if (pressed or timed) and len(self.translate.order) > 1:
             language = self.translate.next()
@@ -619,10 +619,10 @@ class Kiosk:
             if self._inset_mesh is not None:
                 self._inset_mesh[1].release()
             size = (int(self._inset_rect.width), int(self._inset_rect.height))
-            self._inset_mesh = (key, self.window.renderer.upload(world), world, size)
-        key, gpu, world, size = self._inset_mesh
+            self._inset_mesh = (key, self.window.renderer.upload(world), size)
+        key, gpu, size = self._inset_mesh
         r = self._inset_rect
-        label = f"{scene.axes[view.slice_axis]} = {view.slice_at:+.2f}"
+        label = inset_label(scene.axes[view.slice_axis], view.slice_at)
         return Inset(gpu, self._inset_view(frame, scene, size), (r.x0, r.y0, r.width, r.height),
                      label)
 

@@ -23,6 +23,7 @@ from dataclasses import dataclass
 
 import moderngl
 
+from exhibit.render import inset as inset_look
 from exhibit.render import shaders
 from exhibit.render.options import RenderOptions
 from exhibit.render.quality import Quality, software_renderer
@@ -45,11 +46,6 @@ class Inset:
     rect: tuple[float, float, float, float]
     label: str = ""
 
-
-#: The inset's own picture: a lighter background so it reads as a window, no HUD.
-INSET_OPTIONS = RenderOptions(hud=False, pinch_points=False, intersections=False,
-                              background=((0.22, 0.24, 0.30), (0.10, 0.11, 0.15)))
-INSET_BORDER = (0.80, 0.82, 0.88, 1.0)
 
 class SceneTarget:
     """Where the scene is drawn: colour (texture, or MSAA renderbuffer resolved into one) and
@@ -228,7 +224,7 @@ class FramePipeline:
             return
         ctx, renderer = self.ctx, self.renderer
         target = self.target((w, h), 0, "inset")
-        renderer.render(inset.gpu, inset.view, target.framebuffer, INSET_OPTIONS)
+        renderer.render(inset.gpu, inset.view, target.framebuffer, inset_look.OPTIONS)
         destination.use()
         ctx.viewport = (0, 0, *size)
         ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
@@ -241,11 +237,11 @@ class FramePipeline:
         edge = max(1, round(h / 180))
         for bx, by, bw, bh in ((x, y, w, edge), (x, y + h - edge, w, edge), (x, y, edge, h),
                                (x + w - edge, y, edge, h)):
-            renderer._panel_row(bx, by, bw, bh, INSET_BORDER, rows)
+            renderer._panel_row(bx, by, bw, bh, inset_look.BORDER, rows)
         if inset.label:
             px = max(10, round(0.085 * h))
             renderer._glyph_rows(inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px,
-                                 INSET_BORDER, rows)
+                                 inset_look.BORDER, rows)
         renderer._quads("glyphs", renderer.atlas.texture, (renderer.atlas.size,) * 2, rows,
                         viewport)
         ctx.disable(moderngl.BLEND)

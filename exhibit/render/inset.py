@@ -16,18 +16,19 @@ import numpy as np
 from exhibit.geometry.framing import frame, mesh_points
 from exhibit.geometry.view import ViewState
 from exhibit.render.layout import Rect
+from exhibit.render.options import RenderOptions
 from exhibit.surfaces.exact_silhouette import RefineStats
-from exhibit.surfaces.mesh import Curve, Material, Mesh4D
-from exhibit.surfaces.slice import slice_curves
+from exhibit.surfaces.mesh import Curve, Mesh4D
+from exhibit.surfaces.slice import SLICE_MATERIAL, slice_curves
 
 #: The inset's height as a fraction of the screen's, and its aspect.
 HEIGHT = 0.36
 ASPECT = 4.0 / 3.0
-#: Its background: a shade lighter than the screen's, so it reads as a window.
-BACKGROUND = ((0.22, 0.24, 0.30), (0.10, 0.11, 0.15))
-BORDER = (205, 210, 225)
-#: The slice curve in the inset: the colour the main picture's slice glows in.
-SLICE_MATERIAL = Material(color=(1.0, 0.93, 0.55), line_width=3.5)
+#: Its own picture: a background a shade lighter than the screen's, so it reads as a window;
+#: no HUD. Its border and label (rgba).
+OPTIONS = RenderOptions(hud=False, pinch_points=False, intersections=False,
+                        background=((0.22, 0.24, 0.30), (0.10, 0.11, 0.15)))
+BORDER = (0.80, 0.82, 0.88, 1.0)
 
 
 def inset_rect(size: tuple[int, int], margin: float) -> Rect:
@@ -57,6 +58,11 @@ def inset_mesh(scene, params: dict, mesh: Mesh4D, axis: int, at: float,
                        for c in curves])
 
 
+def inset_label(axis_name: str, at: float) -> str:
+    """The inset's label: the moment it shows."""
+    return f"{axis_name} = {at:+.2f}"
+
+
 def inset_view(main: ViewState, mesh: Mesh4D | np.ndarray, size: tuple[int, int]) -> ViewState:
     """No 4D rotation and the sensor at infinity (the sliced axis is dropped, the 3D world is
     seen undistorted), the main view's eye, framed into the inset with a margin. ``mesh`` may
@@ -70,22 +76,3 @@ def inset_view(main: ViewState, mesh: Mesh4D | np.ndarray, size: tuple[int, int]
     margin = 0.08 * min(size)
     area = (margin, margin, size[0] - margin, size[1] - margin)
     return frame(view, points, size, [area])
-
-
-def compose(picture: np.ndarray, inset: np.ndarray, rect: Rect, label: str = "") -> np.ndarray:
-    """The inset pasted into the picture at ``rect`` with a thin border and a label."""
-    from PIL import Image, ImageDraw
-
-    from exhibit.render.text import font
-
-    out = picture.copy()
-    x0, y0 = int(rect.x0), int(rect.y0)
-    h, w = inset.shape[:2]
-    out[y0:y0 + h, x0:x0 + w] = inset
-    image = Image.fromarray(out)
-    draw = ImageDraw.Draw(image)
-    draw.rectangle((x0 - 1, y0 - 1, x0 + w, y0 + h), outline=BORDER, width=2)
-    if label:
-        px = max(12, round(0.09 * h))
-        draw.text((x0 + 0.5 * px, y0 + 0.35 * px), label, fill=BORDER, font=font("sans", px))
-    return np.asarray(image)

@@ -87,23 +87,26 @@ class Headless:
             self._pipeline = FramePipeline(self.ctx, self.renderer, DEFAULT_SAMPLES)
         return self._pipeline
 
-    def draw_frame(self, gpu, view, size, options=None, hud=None, quality=None) -> Offscreen:
+    def draw_frame(self, gpu, view, size, options=None, hud=None, quality=None,
+                   inset=None) -> Offscreen:
         """A whole kiosk frame at a quality level (default: FXAA at full scale) into a
-        single-sampled target, as a window's screen gets it; read() it for the picture."""
+        single-sampled target, as a window's screen gets it (with the time-slice ``inset``,
+        exhibit.render.frame.Inset, when given); read() it for the picture."""
         from exhibit.render.options import RenderOptions
         from exhibit.render.quality import LADDER
         self.activate()
         target = self.target(size, 0)
         self.pipeline.draw(gpu, view, target.framebuffer, target.size,
-                           options or RenderOptions(), hud, quality or LADDER[1])
+                           options or RenderOptions(), hud, quality or LADDER[1], inset=inset)
         return target
 
-    def frame(self, gpu, view, size, options=None, hud=None, quality=None) -> np.ndarray:
+    def frame(self, gpu, view, size, options=None, hud=None, quality=None,
+              inset=None) -> np.ndarray:
         """draw_frame()'s picture: (height, width, 3) uint8, top row first."""
-        return self.draw_frame(gpu, view, size, options, hud, quality).read()
+        return self.draw_frame(gpu, view, size, options, hud, quality, inset).read()
 
     def still(self, gpu, view, size, options=None, hud=None,
-              samples: int = DEFAULT_SAMPLES) -> np.ndarray:
+              samples: int = DEFAULT_SAMPLES, inset=None) -> np.ndarray:
         """A picture through the kiosk's frame pipeline at full quality (MSAA with ``samples``,
         else no antialiasing), so `exhibit render` shows what the kiosk shows, intersection
         curves included."""
@@ -118,7 +121,7 @@ class Headless:
                 self._pipeline.release()
             self._pipeline = FramePipeline(self.ctx, self.renderer, wanted)
         quality = LADDER[0] if wanted else replace(LADDER[1], name="none", antialiasing="none")
-        return self.frame(gpu, view, size, options, hud, quality)
+        return self.frame(gpu, view, size, options, hud, quality, inset)
 
     def ids(self, gpu, view, size) -> np.ndarray:
         """(height, width) int triangle ids + 1 (0 = background), no multisampling."""

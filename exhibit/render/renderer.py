@@ -22,6 +22,7 @@ from exhibit.render.hud import Hud
 from exhibit.render.options import RenderOptions
 from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
 from exhibit.surfaces.mesh import Mesh4D
+from exhibit.surfaces.slice import SLICE_MATERIAL
 
 GL_CLIP_DISTANCE0 = 0x3000
 GL_CLIP_DISTANCE1 = 0x3001
@@ -47,9 +48,9 @@ SHEET_OFFSET = 16.0
 MIN_CROSSING = 0.2
 DEPTH_SAMPLE = 256
 INTERSECTION_INK = (0.05, 0.05, 0.07)
-#: The slice curve (ViewState.slice_axis/slice_at): a bright warm white no scene colour uses,
-#: width in px at 720 px.
-SLICE_COLOR = (1.0, 0.93, 0.55)
+#: The slice curve drawn live (ViewState.slice_axis/slice_at): the slice's colour, 4 px wide
+#: at 720 px (a little wider than the curve in the inset: it lies on a shaded surface).
+SLICE_COLOR = SLICE_MATERIAL.color
 SLICE_WIDTH = 4.0
 INTERSECTION_MAX_HALF_WIDTH = 0.5
 
@@ -239,10 +240,10 @@ class Renderer:
                     ctx.fbo.depth_mask = pass_ == 0
                     gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
             ctx.fbo.depth_mask = True
-        # Live silhouettes, Lemma 2 points and the slice, after the curves: depth-tested, no depth
-        # writes (Framebuffer.depth_mask: moderngl's Context has none), so a silhouette never
-        # hides a curve or its own next segment, and the lifted Lemma 2 discs and the slice
-        # stay above the wire frames and curves.
+        # Live silhouettes, then Lemma 2 points and the slice, after the curves: depth-tested,
+        # no depth writes (Framebuffer.depth_mask: moderngl's Context has none), so a silhouette
+        # never hides a curve or its own next segment, and the lifted Lemma 2 discs and the
+        # slice stay above the wire frames, the curves and the ink.
         sliced = view.slice_axis is not None
         if (options.silhouettes or sliced) and gpu.surfaces:
             prog = self.programs["silhouette"]
@@ -252,14 +253,22 @@ class Renderer:
                 axis[view.slice_axis] = 1.0
             pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
             self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale, u_pass=1,
-                      u_pinch=(1.0, 0.93, 0.2, pinch), u_slice_axis=tuple(axis),
-                      u_slice_at=view.slice_at,
-                      u_slice_style=(*SLICE_COLOR, SLICE_WIDTH if sliced else 0.0))
+                      u_slice_axis=tuple(axis), u_slice_at=view.slice_at)
             ctx.fbo.depth_mask = False
-            for surface in gpu.surfaces:
-                width = options.silhouette_width if options.silhouettes else 0.0
-                prog["u_ink"].value = (*darker(surface.color), width)
-                surface.vaos["silhouette"].render(moderngl.TRIANGLES)
+            # Two passes over the same triangles: the ink, then the marks that must lie on top
+            # of it (the slice and the Lemma 2 discs). With no depth writes, what a later
+            # triangle emits covers what an earlier one did, so one pass would let ink cross
+            # the discs; zero widths tell the geometry shader what to skip.
+            ink = options.silhouette_width if options.silhouettes else 0.0
+            passes = [(ink, 0.0, 0.0)] if ink > 0 else []
+            if sliced or pinch > 0:
+                passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
+            for ink_width, slice_width, pinch_size in passes:
+                self._set(prog, u_pinch=(1.0, 0.93, 0.2, pinch_size),
+                          u_slice_style=(*SLICE_COLOR, slice_width))
+                for surface in gpu.surfaces:
+                    prog["u_ink"].value = (*darker(surface.color), ink_width)
+                    surface.vaos["silhouette"].render(moderngl.TRIANGLES)
             ctx.fbo.depth_mask = True
 
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)

@@ -16,6 +16,7 @@ from exhibit.scenes.base import Parameter, Preset, Scene
 from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
 from exhibit.surfaces.mesh import Curve, Marker, Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
+from exhibit.surfaces.slice import SLICE_MATERIAL
 
 AXES = ("x", "y", "z", "t")
 CYLINDER = "(y - vc*t)^2 + z^2 - rc^2"
@@ -144,10 +145,6 @@ def _zero(g, outside: float, inside: float) -> float:
     return inside
 
 
-#: The touching curve's colour in the inset: the slice's (exhibit.render.renderer.SLICE_COLOR).
-TOUCH_MATERIAL = Material(color=(1.0, 0.93, 0.55), line_width=3.5)
-
-
 def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
     """Where pipe and ball touch at the moment t = c, in closed form (the collision surface's
     slice at t = c, without tracing a mesh): around the pipe, at angle φ, the point
@@ -171,7 +168,7 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
     if not inside.any():
         return []
     if inside.all():
-        return [Curve(f"slice {i + 1}" if i else "slice", point(phi, sign), TOUCH_MATERIAL, True)
+        return [Curve(f"slice {i + 1}" if i else "slice", point(phi, sign), SLICE_MATERIAL, True)
                 for i, sign in enumerate((1.0, -1.0))]
     curves = []
     start = int(np.argmin(inside))  # an index outside: arcs do not wrap past it
@@ -191,7 +188,7 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
         arc = np.unwrap(np.concatenate([[end_a], phi[order[i:j + 1]], [end_b]]))
         loop = np.concatenate([point(arc, 1.0), point(arc[-2:0:-1], -1.0)])
         curves.append(Curve(f"slice {len(curves) + 1}" if curves else "slice", loop,
-                            TOUCH_MATERIAL, True))
+                            SLICE_MATERIAL, True))
         i = j + 1
     return curves
 

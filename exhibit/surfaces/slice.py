@@ -30,6 +30,9 @@ from exhibit.surfaces.mesh import Curve, Material, Surface
 
 #: How far (in mean mesh edges) refinement may move a traced point before it counts as lost.
 MAX_MOVE_EDGES = 3.0
+#: How a slice is drawn wherever it appears (live on the surfaces, in the inset, its touching
+#: curve): a bright warm white no scene colour uses; width in px at 720 px.
+SLICE_MATERIAL = Material(color=(1.0, 0.93, 0.55), line_width=3.5)
 
 
 @dataclass

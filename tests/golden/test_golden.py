@@ -57,8 +57,8 @@ def test_figure(number, monkeypatch, tmp_path, update):
     shots = []
     still = Headless.still
 
-    def spy(self, gpu, view, size, options=None, hud=None, samples=4):
-        image = still(self, gpu, view, size, options, hud, samples)
+    def spy(self, gpu, view, size, options=None, hud=None, samples=4, inset=None):
+        image = still(self, gpu, view, size, options, hud, samples, inset)
         layout, labels = self.renderer.hud.layout, list(self.renderer.hud.labels)
         surfaces = self.frame(gpu, view, size, SURFACES_ONLY)
         shots.append((image, surfaces, layout, labels, options, hud))

@@ -63,7 +63,7 @@ def test_render_draws_the_inset_beside_the_framed_picture(cli, tmp_path):
     rect = inset_rect((640, 360), 8)
     # its border, at the rectangle's left edge, whatever the margin: find the border column
     row = picture[int(rect.y0 + rect.height / 2)]
-    border = np.flatnonzero(np.abs(row - np.array(BORDER)).max(axis=1) < 12)
+    border = np.flatnonzero(np.abs(row - 255 * np.array(BORDER[:3])).max(axis=1) < 12)
     assert len(border) and border.min() > 640 * 0.4
     inside = picture[int(rect.y0) + 10:, border.min() + 3:-12]
     assert np.unique(inside.reshape(-1, 3), axis=0).shape[0] > 200   # a picture, not a panel

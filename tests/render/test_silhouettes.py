@@ -109,3 +109,26 @@ def test_the_silhouette_pass_writes_no_depth(gl):
     gpu.release()
     assert (colour[1] > 20).sum() > 500 and colour[0].max() == 0
     assert np.array_equal(depth[0], depth[1])
+
+
+def test_lemma_2_discs_lie_on_top_of_the_silhouette_ink(gl):
+    """The Lemma 2 discs sit on folds where silhouette ink runs too: without depth writes the
+    ink a later triangle emits would cover a disc, so the discs (and the slice) are a second
+    pass. Drawn with wide ink, the discs keep every yellow pixel they have without ink."""
+    scene, preset = scenes.figure(17)
+    mesh = scene.build(preset.params, resolution=32)
+    mesh.curves.clear()
+    mesh.markers.clear()
+    gpu = gl.renderer.upload(mesh)
+
+    def yellow(ink_width: float) -> int:
+        options = RenderOptions(surfaces=False, curves=False, hud=False, pinch_size=14.0,
+                                silhouette_width=ink_width, line_scale=1.0,
+                                background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+        image = gl.image(gpu, preset.view, SIZE, options, samples=0).astype(int)
+        r, g, b = image[..., 0], image[..., 1], image[..., 2]
+        return int(((r > 200) & (g > 180) & (b < 120)).sum())
+
+    alone, inked = yellow(0.0), yellow(6.0)
+    gpu.release()
+    assert alone > 100 and inked >= alone, (alone, inked)
