@@ -111,7 +111,8 @@ class Maintenance(Model):
 # ---------------------------------------------------------------------- [quality]: the governor
 
 #: exhibit.render.quality's ladder, named here so the config layer imports no GL code.
-QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "scale-75", "scale-50")
+QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "direct", "scale-75",
+                  "scale-50")
 MESH_LEVELS = {"full": 0, "reduced": 1, "low": 2}   # mesh resolution x1, x0.75, x0.5
 
 

@@ -233,8 +233,9 @@ def fast(a, b, dt: float) -> bool:
 # ---------------------------------------------------------------------- the kiosk's governor
 
 def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bool]:
-    """The ladder for this kiosk: its [quality] pins applied, MSAA left out on software GL
-    (unless pinned), cut at the lowest level allowed. Returns (levels, pinned)."""
+    """The ladder for this kiosk: its [quality] pins applied, MSAA and render scales below 1
+    left out on software GL (unless pinned), cut at the lowest level allowed. Returns (levels,
+    pinned)."""
     q = quality_config
     if q is not None and q.level != "auto":
         base = next(level for level in LADDER if level.name == q.level)
@@ -246,8 +247,13 @@ def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bo
         cut = next(i for i, level in enumerate(LADDER) if level.name == q.lowest)
         levels = LADDER[:cut + 1]
     aa = q.antialiasing_pin if q is not None else None
-    if aa is None and software_renderer(renderer):
-        levels = tuple(level for level in levels if level.antialiasing != "msaa") or levels
+    scale = q.scale_pin if q is not None else None
+    if software_renderer(renderer):
+        # On software GL a multisample resolve, and the pass that upscales a smaller picture,
+        # cost more than they save (docs/PERFORMANCE.md): the direct level is the cheapest.
+        levels = tuple(level for level in levels
+                       if (aa is not None or level.antialiasing != "msaa")
+                       and (scale is not None or level.scale == 1.0)) or levels
     if q is not None:
         levels = ladder(aa, q.mesh_pin, q.effects_pin, q.scale_pin, levels=levels)
     return levels, len(levels) == 1

@@ -5,15 +5,18 @@ A level sets four things, and the ladder gives them up in this order, cheapest l
 
 1. antialiasing: "msaa" (multisampling; cheap on real GPUs, a full-screen resolve and 4x the
    samples on software GL), "fxaa" (one post-process pass, exhibit/render/shaders/composite.glsl),
-   or "none" (only by pinning it);
+   or "none";
 2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS; the
    kiosk loads every level's meshes at start-up, never during a visitor's session);
 3. effects: "full", or "lean" (thinner live silhouettes and curves, no intersection curves:
-   their sheet buffer and passes cost 7-11 ms at 1080p on software GL). The background keeps its
-   gradient: the composite pass computes it per pixel either way, so flattening it saved nothing
-   and was most of lean's SSIM drop (0.995 -> 0.917);
-4. scale: the render scale of the 3D picture (the HUD always stays at full resolution and crisp;
-   FXAA upscales the picture).
+   their sheet buffer and passes cost 7-11 ms at 1080p on software GL). The background keeps
+   its gradient: flattening it was most of lean's SSIM drop (0.995 -> 0.917);
+4. the post pass: "direct" draws the lean picture straight to the screen with no antialiasing
+   pass (the live silhouettes ink every outline of a closed surface with antialiased lines, so
+   it hardly shows: docs/PERFORMANCE.md);
+5. scale: the render scale of the 3D picture, upscaled with bilinear filtering (which smooths
+   its edges as well; the HUD always stays at full resolution and crisp). On software GL the upscaling pass costs more than the pixels it
+   saves, so the kiosk leaves these levels out there (exhibit.kiosk.governor.kiosk_levels).
 """
 
 from __future__ import annotations
@@ -74,8 +77,9 @@ LADDER = (
     Quality("mesh-75", "fxaa", 1, "full", 1.0),
     Quality("mesh-50", "fxaa", 2, "full", 1.0),
     Quality("lean", "fxaa", 2, "lean", 1.0),
-    Quality("scale-75", "fxaa", 2, "lean", 0.75),
-    Quality("scale-50", "fxaa", 2, "lean", 0.5),
+    Quality("direct", "none", 2, "lean", 1.0),
+    Quality("scale-75", "none", 2, "lean", 0.75),
+    Quality("scale-50", "none", 2, "lean", 0.5),
 )
 LEVEL_NAMES = tuple(q.name for q in LADDER)
 

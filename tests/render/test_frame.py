@@ -89,6 +89,50 @@ def test_a_lower_render_scale_keeps_the_hud_crisp(gl):
     assert np.array_equal(full, half)   # nothing in the scene: only the HUD, at full size
 
 
+def test_the_direct_level_is_lean_without_the_fxaa_pass(gl, hopf):
+    """The direct level draws straight into the destination (no scene target, no post pass):
+    its picture is lean's but for what FXAA would soften, and its HUD is laid out by the same
+    [text] sizes as every other level's (the direct path once left them out)."""
+    from exhibit.render.layout import TextSizes
+    gpu, view = hopf
+    levels = {q.name: q for q in LADDER}
+    direct, lean = levels["direct"], levels["lean"]
+    assert (direct.antialiasing, direct.mesh, direct.effects, direct.scale) == (
+        "none", lean.mesh, lean.effects, 1.0)
+    options = RenderOptions(text=TextSizes(caption_cap=0.05, title_cap=0.08))
+    hud = HudInfo(title="Hopf", caption="A torus on the hypersphere")
+    size = (480, 320)
+    pictures, layouts = {}, {}
+    for q in (direct, lean):
+        pictures[q.name] = gl.frame(gpu, view, size, options, hud, q)
+        layouts[q.name] = gl.renderer.hud.layout
+    assert layouts["direct"] == layouts["lean"]
+    assert layouts["direct"].body_px > gl.renderer.hud.layout_for(size, hud, TextSizes()).body_px
+    assert ssim(pictures["direct"], pictures["lean"]) > 0.98
+
+
+def test_clear_depth_keeps_colour_and_the_masks(gl):
+    """The direct path clears depth alone (its background pass writes every pixel): the colour
+    stays, depth is cleared, and the next draw writes colour again (moderngl applies masks when a
+    framebuffer is bound: without that, every frame came out black)."""
+    import moderngl
+    from exhibit.render.renderer import clear_depth
+    target = gl.target((16, 8), 0)
+    fb = target.framebuffer
+    fb.use()
+    fb.clear(0.2, 0.4, 0.6, 1.0, depth=0.25)
+    clear_depth(fb)
+    assert fb.color_mask == (True, True, True, True) and fb.depth_mask
+    assert np.all(np.abs(target.read().astype(int) - (51, 102, 153)) <= 1)
+    depth = np.frombuffer(fb.read(components=1, attachment=-1, dtype="f4"), dtype=np.float32)
+    assert np.allclose(depth, 1.0)
+    gl.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
+    gl.renderer._set(gl.renderer.programs["background"], u_top=(1.0, 0.0, 0.0),
+                     u_bottom=(1.0, 0.0, 0.0))
+    gl.renderer._empty["background"].render(moderngl.TRIANGLES, vertices=3)
+    assert np.all(target.read() == (255, 0, 0))
+
+
 def test_ladder_pins_and_mesh_resolution():
     assert [q.name for q in ladder()] == [q.name for q in LADDER]
     pinned = ladder(antialiasing="fxaa", mesh=0, effects="full", scale=1.0)

@@ -50,10 +50,10 @@ def run(args) -> int:
     from exhibit import scenes
     from exhibit.commands.render import parse_size
     from exhibit.kiosk.config import load_kiosk_config
-    from exhibit.kiosk.governor import level_resolution, pick, target_ms
+    from exhibit.kiosk.governor import kiosk_levels, level_resolution, pick, target_ms
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
     from exhibit.commands.bench.render import cpu_model
-    from exhibit.render.quality import LADDER, MESH_FACTORS, software_renderer
+    from exhibit.render.quality import LADDER, MESH_FACTORS
     from exhibit.scenes.cache import build_cached
 
     size = parse_size(args.size)
@@ -172,9 +172,10 @@ def run(args) -> int:
                 report_levels[-1][key] = round(statistics.mean(
                     rows[q.name][key] for _, rows in per_scene), 4)
     target = target_ms(config, None)
-    candidates = [r for r in report_levels
-                  if not (r["antialiasing"] == "msaa" and software_renderer(renderer_name))]
-    candidates = candidates or report_levels
+    # The levels this kiosk's governor may use here (exhibit.kiosk.governor.kiosk_levels: its
+    # [quality] pins; no MSAA and no smaller render scales on software GL).
+    usable = {q.name for q in kiosk_levels(config.quality, renderer_name)[0]}
+    candidates = [r for r in report_levels if r["name"] in usable] or report_levels
     chosen = candidates[pick([r["frame_ms"] for r in candidates], target)]["name"]
     report = {"size": list(size), "renderer": renderer_name, "levels": report_levels,
               "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
