@@ -119,7 +119,8 @@ class FramePipeline:
         }
         self._vaos = {k: ctx.vertex_array(p, []) for k, p in self.programs.items()}
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
-        #: The outgoing frame of a crossfade: (texture, framebuffer), kept at the screen size.
+        #: The outgoing frame of a crossfade: (texture, framebuffer, depth), kept at the screen
+        #: size.
         self._snapshot: tuple | None = None
 
     def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
@@ -148,13 +149,15 @@ class FramePipeline:
             self.release_snapshot()
             texture = self.ctx.texture(size, 4)
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self._snapshot = (texture, self.ctx.framebuffer([texture]))
+            # with depth, as a screen has: the direct level draws the scene straight into it
+            depth = self.ctx.depth_renderbuffer(size)
+            self._snapshot = (texture, self.ctx.framebuffer([texture], depth), depth)
         self.draw(gpu, view, self._snapshot[1], size, options, hud, quality)
 
     def release_snapshot(self) -> None:
         if self._snapshot is not None:
-            self._snapshot[1].release()
-            self._snapshot[0].release()
+            for obj in reversed(self._snapshot):
+                obj.release()
             self._snapshot = None
 
     def draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],

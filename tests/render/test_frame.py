@@ -169,11 +169,13 @@ def test_frame_timer(gl, hopf, wall):
     assert all(ms is not None and ms > 0 for ms in got[2 if not wall else 0:])
 
 
-def test_crossfade_mixes_two_whole_frames(gl, hopf):
+@pytest.mark.parametrize("level", ["fxaa", "direct"])
+def test_crossfade_mixes_two_whole_frames(gl, hopf, level):
     """capture() then draw(fade=a): a·old + (1 − a)·new per pixel, the old frame's HUD
-    included; fade 0 is the new frame exactly (never a black frame in between)."""
+    included; fade 0 is the new frame exactly (never a black frame in between). The direct
+    level draws the captured frame straight into the snapshot, which needs its own depth."""
     gpu, view = hopf
-    quality = LADDER[1]
+    quality = next(q for q in LADDER if q.name == level)
     turned = view.replace(angles=(1.0, 0.5, 0, 0, 0, 0))
     old_hud, new_hud = HudInfo(title="Old"), HudInfo(title="New", caption="another one")
     old = gl.frame(gpu, view, SIZE, RenderOptions(), old_hud, quality).astype(float)
