@@ -73,18 +73,6 @@ def _mat(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, dtype=np.float32).T).tobytes()
 
 
-def clear_depth(framebuffer: moderngl.Framebuffer) -> None:
-    """Clear depth alone (colour masked), for a frame whose next pass writes every pixel's
-    colour anyway: clearing the colour too cost 1.5 ms more of a 1920x1080 frame on llvmpipe
-    (docs/PERFORMANCE.md). The masks are as before when it returns."""
-    framebuffer.depth_mask = True
-    mask = framebuffer.color_mask
-    framebuffer.color_mask = (False, False, False, False)
-    framebuffer.clear(depth=1.0)
-    framebuffer.color_mask = mask
-    framebuffer.use()   # moderngl applies a framebuffer's masks to GL when it is bound
-
-
 def darker(color, factor: float = 0.32) -> tuple[float, float, float]:
     return tuple(float(c) * factor for c in color)
 
@@ -196,13 +184,18 @@ class Renderer:
         width, height = size or framebuffer.size
         ctx.viewport = (0, 0, width, height)
         size = (width, height)
-        clear_depth(framebuffer)
-        # Background (the depth test off, so it writes no depth; it writes every pixel's colour,
-        # which is why only depth was cleared).
-        ctx.disable(moderngl.BLEND | moderngl.CULL_FACE | moderngl.DEPTH_TEST)
+        # The background is the clear: it writes every pixel's colour, and (at the far plane,
+        # the depth test always passing, depth writes on) its depth of 1.0, so the frame needs
+        # no clear of its own (on llvmpipe a clear, even of depth alone, costs more than the
+        # depth writes: docs/PERFORMANCE.md).
+        ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
+        ctx.enable(moderngl.DEPTH_TEST)
+        ctx.depth_func = "1"   # GL_ALWAYS
+        ctx.fbo.depth_mask = True
         top, bottom = options.background
         self._set(self.programs["background"], u_top=tuple(top), u_bottom=tuple(bottom))
         self._empty["background"].render(moderngl.TRIANGLES, vertices=3)
+        ctx.depth_func = "<"
         self.render_scene(gpu, view, size, options)
         if options.hud and hud is not None:
             self.render_hud(gpu, view, hud, size, options.hud_drift, options.text)

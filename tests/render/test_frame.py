@@ -111,26 +111,21 @@ def test_the_direct_level_is_lean_without_the_fxaa_pass(gl, hopf):
     assert ssim(pictures["direct"], pictures["lean"]) > 0.98
 
 
-def test_clear_depth_keeps_colour_and_the_masks(gl):
-    """The direct path clears depth alone (its background pass writes every pixel): the colour
-    stays, depth is cleared, and the next draw writes colour again (moderngl applies masks when a
-    framebuffer is bound: without that, every frame came out black)."""
-    import moderngl
-    from exhibit.render.renderer import clear_depth
+def test_the_background_pass_is_the_clear(gl):
+    """The direct path has no clear: its background pass writes every pixel's colour and a
+    depth of 1.0 (the far plane), so nothing of the last frame survives, in colour or depth."""
+    from exhibit.surfaces.mesh import Mesh4D
     target = gl.target((16, 8), 0)
     fb = target.framebuffer
     fb.use()
     fb.clear(0.2, 0.4, 0.6, 1.0, depth=0.25)
-    clear_depth(fb)
-    assert fb.color_mask == (True, True, True, True) and fb.depth_mask
-    assert np.all(np.abs(target.read().astype(int) - (51, 102, 153)) <= 1)
-    depth = np.frombuffer(fb.read(components=1, attachment=-1, dtype="f4"), dtype=np.float32)
-    assert np.allclose(depth, 1.0)
-    gl.ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST)
-    gl.renderer._set(gl.renderer.programs["background"], u_top=(1.0, 0.0, 0.0),
-                     u_bottom=(1.0, 0.0, 0.0))
-    gl.renderer._empty["background"].render(moderngl.TRIANGLES, vertices=3)
+    gpu = gl.renderer.upload(Mesh4D(surfaces=[]))
+    view = scenes.get("hopf").view
+    gl.renderer.render(gpu, view, fb, RenderOptions(hud=False, background=((1.0, 0.0, 0.0),) * 2))
+    gpu.release()
     assert np.all(target.read() == (255, 0, 0))
+    depth = np.frombuffer(fb.read(components=1, attachment=-1, dtype="f4"), dtype=np.float32)
+    assert np.all(depth == 1.0)
 
 
 def test_ladder_pins_and_mesh_resolution():

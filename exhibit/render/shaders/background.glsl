@@ -1,4 +1,5 @@
-// A vertical gradient behind everything (a full-screen triangle, no vertex buffer).
+// A vertical gradient behind everything (a full-screen triangle, no vertex buffer), at the far
+// plane: drawn with the depth test always passing and depth writes on, it also clears depth.
 #if defined VERTEX_SHADER
 #include "fullscreen.glsl"
 out float v_y;
