@@ -249,8 +249,10 @@ def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bo
     aa = q.antialiasing_pin if q is not None else None
     scale = q.scale_pin if q is not None else None
     if software_renderer(renderer):
-        # On software GL a multisample resolve, and the pass that upscales a smaller picture,
-        # cost more than they save (docs/PERFORMANCE.md): the direct level is the cheapest.
+        # On software GL a multisample resolve costs a full-screen pass of 4x the samples, and
+        # the pass that upscales a smaller picture about what that picture saves (scale-75 is
+        # slower than direct: docs/PERFORMANCE.md); the ladder must stay in cost order, so
+        # direct is the lowest level there.
         levels = tuple(level for level in levels
                        if (aa is not None or level.antialiasing != "msaa")
                        and (scale is not None or level.scale == 1.0)) or levels
