@@ -44,7 +44,9 @@ def rasterise(text: str, style: str, size: int) -> np.ndarray:
     return np.asarray(image)
 
 
+@lru_cache(maxsize=4096)
 def text_width(text: str, style: str, size: int) -> float:
+    """Advance width in pixels; cached, since the HUD measures the same labels every frame."""
     return font(style, size).getlength(text)
 
 

@@ -9,8 +9,9 @@ GL call to glFinish (what the kiosk's governor measures on software GL). A level
 median over its frames of the slowest scene (the one the governor must hold the target for), and
 floor_ms is that scene's floor: the same triangles, same size, flat pass-through shader, depth
 test, one clear. ``chosen`` is the level a governor starting at the top settles on at this size
-(exhibit.kiosk.governor.pick) for the config's target (vsync: 60 Hz here, as headless there is no
-display; else fps_limit). Numpy is held to one BLAS thread while timing (exhibit.commands.bench).
+(exhibit.kiosk.governor.pick) among the levels the kiosk uses on this renderer (``used_here``:
+kiosk_levels leaves out MSAA and the render scales on software GL) for the config's target
+(vsync: 60 Hz here, as headless there is no display; else fps_limit). Numpy is held to one BLAS thread while timing (exhibit.commands.bench).
 With --ssim, each level's picture of the scene's own view is compared with MSAA 4x at full
 scale and full mesh (exhibit.render.ssim): over the whole frame, and over the edges alone (where
 the MSAA picture differs from one without antialiasing, grown by 3 pixels).
@@ -175,7 +176,9 @@ def run(args) -> int:
     # The levels this kiosk's governor may use here (exhibit.kiosk.governor.kiosk_levels: its
     # [quality] pins; no MSAA and no smaller render scales on software GL).
     usable = {q.name for q in kiosk_levels(config.quality, renderer_name)[0]}
-    candidates = [r for r in report_levels if r["name"] in usable] or report_levels
+    for r in report_levels:
+        r["used_here"] = r["name"] in usable
+    candidates = [r for r in report_levels if r["used_here"]] or report_levels
     chosen = candidates[pick([r["frame_ms"] for r in candidates], target)]["name"]
     report = {"size": list(size), "renderer": renderer_name, "levels": report_levels,
               "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
@@ -192,7 +195,8 @@ def run(args) -> int:
     print(f"{'level':>9} {'aa':>5} {'slowest scene':>20} {'triangles':>9} {'frame':>9} "
           f"{'floor':>8} {'ratio':>6}")
     for r in report_levels:
-        mark = "  <- chosen" if r["name"] == chosen else ""
+        mark = ("  <- chosen" if r["name"] == chosen
+                else "" if r["used_here"] else "  (the kiosk leaves it out here)")
         quality = (f"  SSIM {r['ssim']:.4f}, edges {r['ssim_edges']:.4f}" if "ssim" in r
                    else "")
         print(f"{r['name']:>9} {r['antialiasing']:>5} {r['scene']:>20} {r['triangles']:>9} "
