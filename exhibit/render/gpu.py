@@ -33,9 +33,17 @@ def unique_edges(triangles: np.ndarray) -> np.ndarray:
     return np.unique(np.sort(edges, axis=1), axis=0)
 
 
-def _segment_rows(starts, ends, color, width) -> np.ndarray:
+#: Depth layers of curves (curves.glsl's LAYER_STEP): the mesh's first wire meshes and curves
+#: lie a hair in front of its later ones, where they coincide on screen; the rest share the last.
+LAYERS = 20
+CURVE_ATTRIBUTES = ("in_p0", "in_p1", "in_style", "in_layer")
+
+
+def _segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
+    """One instance row per segment: p0 (4), p1 (4), rgb and width, depth layer."""
     n = len(starts)
-    style = np.tile(np.array([*color, width], dtype=np.float64), (n, 1))
+    style = np.tile(np.array([*color, width, min(layer, LAYERS - 1)], dtype=np.float64),
+                    (n, 1))
     return np.concatenate([starts, ends, style], axis=1)
 
 
@@ -103,7 +111,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             edges = unique_edges(surface.triangles)
             p = surface.positions
             rows.append(_segment_rows(p[edges[:, 0]], p[edges[:, 1]], surface.material.color,
-                                      surface.material.line_width))
+                                      surface.material.line_width, len(rows)))
             continue
         if len(surface.triangles) == 0:
             continue
@@ -121,7 +129,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         segments = curve.segments()
         if len(segments):
             rows.append(_segment_rows(segments[:, 0], segments[:, 1], curve.material.color,
-                                      curve.material.line_width))
+                                      curve.material.line_width, len(rows)))
     lines = markers = None
     vaos = {}
     line_count = marker_count = 0
@@ -130,7 +138,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         lines = ctx.buffer(data.tobytes())
         line_count = len(data)
         vaos["lines"] = ctx.vertex_array(
-            programs["curves"], [(lines, "4f 4f 4f/i", "in_p0", "in_p1", "in_style")])
+            programs["curves"], [(lines, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)])
     if mesh.markers:
         marker_rows = []
         for m in mesh.markers:
@@ -142,7 +150,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         markers = ctx.buffer(data.tobytes())
         marker_count = len(data)
         vaos["markers"] = ctx.vertex_array(
-            programs["curves"], [(markers, "4f 4f 4f/i", "in_p0", "in_p1", "in_style")])
+            programs["curves"], [(markers, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)])
     arrays = ([s.positions for s in mesh.surfaces] + [c.points for c in mesh.curves]
               + [m.position[None] for m in mesh.markers])
     radius = max([float(np.linalg.norm(a, axis=1).max()) for a in arrays if len(a)] + [1e-6])

@@ -69,3 +69,30 @@ def test_curves_are_depth_tested_against_surfaces(gl):
     assert dominant(image[pixel_of(view, (0.7, 0.1, -0.3, 0.0))]) == 2    # beside it: visible
     assert dominant(image[pixel_of(view, (0.0, -0.15, 0.3, 0.0))]) == 1   # in front of it
     gpu.release()
+
+
+@pytest.mark.parametrize("eye_r", [0.0, 1 / 6])
+def test_coincident_curves_do_not_fight(gl, eye_r):
+    """Two curves along the same line in the picture (Figure 6: a Hopf fibre seen edge-on lies
+    along the y axis) are drawn one over the other, never speckled: each capsule's depth is the
+    line's own depth (not stretched over the quad's end caps), and the earlier curve of the mesh
+    lies a hair in front of the later ones."""
+    view = ViewState(eye_r=eye_r, half_height=1.0,
+                     angles=(0.4, 0.3, 0.0, 0.0, 0.0, 0.0))   # the line recedes from the eye
+    a, b = np.array([-0.9, -0.6, -0.7, 0.0]), np.array([0.8, 0.7, 0.6, 0.0])
+    fine = Curve("fibre", a + np.linspace(0, 1, 37)[:, None] * (b - a),
+                 Material(color=GREEN, line_width=5.0))
+    coarse = Curve("axis", np.array([a - 0.05 * (b - a), b + 0.05 * (b - a)]),
+                   Material(color=RED, line_width=5.0))
+    gpu = gl.renderer.upload(Mesh4D(curves=[fine, coarse]))
+    image = gl.image(gpu, view, SIZE, PLAIN, samples=0).astype(int)
+    gpu.release()
+    ct = clip_transform(view, SIZE[0] / SIZE[1])
+    (x0, y0), (x1, y1) = ct.to_pixels(np.array([a, b]), *SIZE).points
+    red = green = 0
+    for t in np.linspace(0.05, 0.95, 200):   # along the shared stretch, on the line itself
+        x, y = x0 + t * (x1 - x0), y0 + t * (y1 - y0)
+        pixel = image[int(y), int(x)]   # pixel i spans [i, i + 1)
+        red += pixel[0] > 128 and pixel[1] < 64
+        green += pixel[1] > 128 and pixel[0] < 64
+    assert green == 200 and red == 0

@@ -7,7 +7,12 @@
 in vec4 in_p0;
 in vec4 in_p1;
 in vec4 in_style;   // rgb, width in px (before u_width_scale)
+in float in_layer;  // the curve's place in the mesh (0 first; markers 0)
 uniform float u_width_scale;
+// NDC depth between two layers: curves that coincide in the picture (a fibre seen edge-on along
+// an axis) are drawn in the mesh's order instead of fighting pixel by pixel; 16 steps of a
+// 24-bit depth buffer, and at most LAYERS of them, a fifth of u_line_bias.
+const float LAYER_STEP = 2e-6;
 flat out vec4 v_ends;
 flat out vec4 v_color;
 flat out float v_half_width;
@@ -22,6 +27,7 @@ void main() {
         return;
     }
     gl_Position = line_corner(c0, c1, v_half_width, gl_VertexID, v_ends);
+    gl_Position.z += in_layer * LAYER_STEP * gl_Position.w;
 }
 #endif
 

@@ -45,5 +45,11 @@ vec4 line_corner(vec4 c0, vec4 c1, float hw, int k, out vec4 ends) {
     vec4 c = far_end ? c1 : c0;
     vec2 px = (far_end ? a1 + dir * ext : a0 - dir * ext) + nrm * side * ext;
     vec2 ndc = px / u_viewport * 2.0 - 1.0;
-    return vec4(ndc * c.w, c.z - u_line_bias * c.w, c.w);
+    // The corner's depth is the line's own, carried on past the end by the cap: NDC depth is
+    // affine in screen space along a line and is interpolated so, hence exact everywhere on
+    // the quad. (The end's depth at the capped corner stretched it: two curves along one line,
+    // cut into different segments, then crossed each other in depth at every joint.)
+    float z0 = c0.z / c0.w, z1 = c1.z / c1.w;
+    float t = len > 1e-4 ? (far_end ? 1.0 + ext / len : -ext / len) : (far_end ? 1.0 : 0.0);
+    return vec4(ndc * c.w, (mix(z0, z1, t) - u_line_bias) * c.w, c.w);
 }
