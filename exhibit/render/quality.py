@@ -8,9 +8,10 @@ A level sets four things, and the ladder gives them up in this order, cheapest l
    or "none";
 2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS; the
    kiosk loads every level's meshes at start-up, never during a visitor's session);
-3. effects: "full", or "lean" (thinner live silhouettes and curves, no intersection curves:
-   their sheet buffer and passes cost 7-11 ms at 1080p on software GL). The background keeps
-   its gradient: flattening it was most of lean's SSIM drop (0.995 -> 0.917);
+3. effects: "full", or "lean" (no intersection curves: their sheet buffer and passes cost
+   7-11 ms at 1080p on software GL). Everything else stays: thinner lines (lean once drew them
+   at 0.7x) saved nothing measurable, and the background's gradient (once flattened) was most
+   of lean's SSIM drop (0.995 -> 0.917), also for nothing;
 4. the post pass: "direct" draws the lean picture straight to the screen with no antialiasing
    pass (the live silhouettes ink every outline of a closed surface with antialiased lines, so
    it hardly shows: docs/PERFORMANCE.md);
@@ -34,8 +35,6 @@ MESH_FACTORS = (1.0, 0.75, 0.5)
 #: Render scales the ladder uses (any value in [SCALE_MIN, 1] can be pinned).
 SCALES = (1.0, 0.75, 0.5)
 SCALE_MIN = 0.25
-#: Lean effects: factor on silhouette and curve widths.
-LEAN_WIDTH = 0.7
 
 
 @dataclass(frozen=True)
@@ -64,8 +63,7 @@ class Quality:
         """The render options of this level over ``base`` (the kiosk's own toggles)."""
         if self.effects == "full":
             return base
-        return replace(base, silhouette_width=base.silhouette_width * LEAN_WIDTH,
-                       curve_width=base.curve_width * LEAN_WIDTH, intersections=False)
+        return replace(base, intersections=False)
 
     def describe(self) -> str:
         return (f"{self.name}: {self.antialiasing}, mesh x{MESH_FACTORS[self.mesh]:g}, "

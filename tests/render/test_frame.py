@@ -2,6 +2,8 @@
 under the scene, FXAA that softens surface edges and leaves lines and flat areas alone, a lower
 render scale with a HUD as crisp as at full scale, and the frame timer."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -135,8 +137,9 @@ def test_ladder_pins_and_mesh_resolution():
     assert mesh_resolution(48, 0) == 48 and mesh_resolution(48, 1) == 36
     assert mesh_resolution(48, 2) == 24 and mesh_resolution(6, 2) == 4
     lean = LADDER[4].options(RenderOptions())
-    assert lean.silhouette_width < RenderOptions().silhouette_width
-    assert lean.background == RenderOptions().background   # the gradient stays
+    # lean gives up the intersection curves alone: thinner lines and a flat background saved
+    # nothing measurable (docs/PERFORMANCE.md)
+    assert lean == replace(RenderOptions(), intersections=False)
     assert not lean.intersections and LADDER[3].options(RenderOptions()).intersections
 
 
