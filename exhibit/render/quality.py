@@ -1,7 +1,9 @@
 """Quality levels of a kiosk frame: what the frame governor (exhibit.kiosk.governor) steps down
 and back up to hold its frame time, and what kiosk.toml's [quality] section can pin.
 
-A level sets four things, and the ladder gives them up in this order, cheapest loss first:
+A level sets four things (antialiasing, mesh, effects, render scale), and the ladder gives them
+up in this order, cheapest loss first (the antialiasing twice: MSAA for FXAA, later the FXAA pass
+itself):
 
 1. antialiasing: "msaa" (multisampling; cheap on real GPUs, a full-screen resolve and 4x the
    samples on software GL), "fxaa" (one post-process pass, exhibit/render/shaders/composite.glsl),
@@ -12,7 +14,7 @@ A level sets four things, and the ladder gives them up in this order, cheapest l
    7-11 ms at 1080p on software GL). Everything else stays: thinner lines (lean once drew them
    at 0.7x) saved nothing measurable, and the background's gradient (once flattened) was most
    of lean's SSIM drop (0.995 -> 0.917), also for nothing;
-4. the post pass: "direct" draws the lean picture straight to the screen with no antialiasing
+4. no antialiasing pass: "direct" draws the lean picture straight to the screen with no antialiasing
    pass (the live silhouettes ink every outline of a closed surface with antialiased lines, so
    it hardly shows: docs/PERFORMANCE.md);
 5. scale: the render scale of the 3D picture, upscaled with bilinear filtering (which smooths
