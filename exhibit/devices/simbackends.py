@@ -2,7 +2,8 @@
 
 ``sim://controller`` is a :class:`SerialController` reading the pty of a :class:`SimController`
 it owns; ``sim://controller?firmware=ELF`` reads the controller firmware itself, running in
-simavr (:class:`~exhibit.devices.simavr.FirmwareController`); ``sim://LAYOUT`` is a :class:`HidBackend` reading a scripted fake HID device. Nothing is
+simavr (:class:`~exhibit.devices.simavr.FirmwareController`); ``sim://LAYOUT`` is a
+:class:`HidBackend` reading a scripted fake HID device. Nothing is
 short-circuited: the controller's bytes cross a real pty, the fake HID device hands over the same
 report bytes hidapi would.
 """
@@ -24,10 +25,14 @@ class SimulatedController(SerialController):
 
     script: list[Step] | None = None
     seed: int | None = None
-    sim: SimController | None = field(default=None, init=False)
+    sim: object = field(default=None, init=False)
+
+    def _simulator(self):
+        """The simulated device to start (it offers ``link``, the pty, and ``stop()``)."""
+        return SimController(script=self.script, seed=self.seed)
 
     def _open(self) -> None:
-        self.sim = SimController(script=self.script, seed=self.seed).start()
+        self.sim = self._simulator().start()
         self.path = str(self.sim.link)
         super()._open()
 
@@ -39,27 +44,16 @@ class SimulatedController(SerialController):
 
 
 @dataclass
-class SimulatedFirmware(SerialController):
+class SimulatedFirmware(SimulatedController):
     """The controller firmware in simavr, started on open, and the serial backend on its pty.
     The firmware runs in real time, so this backend needs the real clock (no simulated time)."""
 
     firmware: str = ""
-    script: list[Step] | None = None
-    seed: int | None = None
-    sim: object = field(default=None, init=False)
 
-    def _open(self) -> None:
+    def _simulator(self):
         from exhibit.devices.simavr import FirmwareController
 
-        self.sim = FirmwareController(Path(self.firmware), script=self.script, seed=self.seed).start()
-        self.path = str(self.sim.link)
-        super()._open()
-
-    def _close(self) -> None:
-        super()._close()
-        if self.sim is not None:
-            self.sim.stop()
-            self.sim = None
+        return FirmwareController(Path(self.firmware), script=self.script, seed=self.seed)
 
 
 def simulated_hid(name, clock, layout, script=None, seed=None):

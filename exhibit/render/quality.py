@@ -14,9 +14,9 @@ itself):
    7-11 ms at 1080p on software GL). Everything else stays: thinner lines (lean once drew them
    at 0.7x) saved nothing measurable, and the background's gradient (once flattened) was most
    of lean's SSIM drop (0.995 -> 0.917), also for nothing;
-4. no antialiasing pass: "direct" draws the lean picture straight to the screen with no antialiasing
-   pass (the live silhouettes ink every outline of a closed surface with antialiased lines, so
-   it hardly shows: docs/PERFORMANCE.md);
+4. the antialiasing pass: "direct" draws the lean picture straight to the screen without one
+   (the live silhouettes ink every outline of a closed surface with antialiased lines, so it
+   hardly shows: docs/PERFORMANCE.md);
 5. scale: the render scale of the 3D picture, upscaled with bilinear filtering (which smooths
    its edges as well; the HUD always stays at full resolution and crisp). On software GL the
    upscaling pass (9-11 ms at 1080p) costs about what the smaller picture saves: scale-75 is

@@ -178,7 +178,8 @@ class Renderer:
         """Draw one frame of gpu in view into framebuffer; size overrides the framebuffer's own
         (a window's default framebuffer changes size with the window). The direct path: the
         background is a pass of its own and antialiasing is the framebuffer's multisampling
-        (the kiosk's frames go through exhibit.render.frame instead)."""
+        (the kiosk's frames go through exhibit.render.frame, which draws its "direct" quality
+        level, and its crossfade snapshot at that level, with this)."""
         ctx = self.ctx
         framebuffer.use()
         width, height = size or framebuffer.size

@@ -11,7 +11,8 @@ floor_ms is that scene's floor: the same triangles, same size, flat pass-through
 test, one clear. ``chosen`` is the level a governor starting at the top settles on at this size
 (exhibit.kiosk.governor.pick) among the levels the kiosk uses on this renderer (``used_here``:
 kiosk_levels leaves out MSAA and the render scales on software GL) for the config's target
-(vsync: 60 Hz here, as headless there is no display; else fps_limit). Numpy is held to one BLAS thread while timing (exhibit.commands.bench).
+(vsync: 60 Hz here, as headless there is no display; else fps_limit). Numpy is held to one BLAS
+thread while timing (exhibit.commands.bench).
 With --ssim, each level's picture of the scene's own view is compared with MSAA 4x at full
 scale and full mesh (exhibit.render.ssim): over the whole frame, and over the edges alone (where
 the MSAA picture differs from one without antialiasing, grown by 3 pixels).
