@@ -79,7 +79,8 @@ def test_bench_kiosk_json(gl):
     import sys
     result = subprocess.run(
         [sys.executable, "-m", "exhibit", "bench", "kiosk", "--json", "--size", "160x90",
-         "--frames", "3", "--scenes", "hopf", "--levels", "fxaa,scale-50", "--ssim"],
+         "--frames", "3", "--scenes", "hopf", "--levels", "fxaa,scale-50", "--ssim",
+         "--breakdown"],
         capture_output=True, text=True, timeout=300)
     assert result.returncode == 0, result.stderr
     report = json.loads(result.stdout)
@@ -93,6 +94,11 @@ def test_bench_kiosk_json(gl):
     if software_renderer(report["renderer"]):   # no render scales below 1 on software GL
         assert used == ["fxaa"]
     assert 0.5 < report["levels"][0]["ssim"] <= 1 and "ssim_edges" in report["no_antialiasing"]
+    breakdown = report["breakdown"]["hopf"]   # a direct frame, part by part
+    assert list(breakdown["parts_ms"]) == ["background", "surfaces", "curves", "silhouettes",
+                                           "lemma2", "hud"]
+    assert breakdown["parts_ms"]["background"] > 0 and breakdown["triangles"] > 100
+    assert breakdown["floor_ms"] > 0
 
 
 def test_bench_kiosk_bad_level(capsys):

@@ -15,7 +15,9 @@ kiosk_levels leaves out MSAA and the render scales on software GL) for the confi
 thread while timing (exhibit.commands.bench).
 With --ssim, each level's picture of the scene's own view is compared with MSAA 4x at full
 scale and full mesh (exhibit.render.ssim): over the whole frame, and over the edges alone (where
-the MSAA picture differs from one without antialiasing, grown by 3 pixels).
+the MSAA picture differs from one without antialiasing, grown by 3 pixels). With --breakdown,
+where a frame at the "direct" level goes: its parts added one at a time (PARTS), each variant
+timed in turn with the levels, so that docs/PERFORMANCE.md's account of a frame can be re-run.
 """
 
 from __future__ import annotations
@@ -30,6 +32,17 @@ import moderngl
 from exhibit.errors import ExhibitError
 
 HELP = "whole kiosk frames at each quality level vs the pass-through floor (shipped config)"
+
+#: --breakdown: a direct-level frame built up one part at a time; each part's cost is its
+#: variant's time less the one before. (name, RenderOptions switched off, HUD drawn)
+PARTS = (
+    ("background", ("surfaces", "curves", "silhouettes", "pinch_points"), False),
+    ("surfaces", ("curves", "silhouettes", "pinch_points"), False),
+    ("curves", ("silhouettes", "pinch_points"), False),
+    ("silhouettes", ("pinch_points",), False),
+    ("lemma2", (), False),
+    ("hud", (), True),
+)
 
 
 def add_arguments(parser) -> None:
@@ -46,6 +59,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--ssim", action="store_true",
                         help="also compare each level's picture with MSAA 4x at full scale "
                              "(SSIM of the whole frame and of the edges alone)")
+    parser.add_argument("--breakdown", action="store_true",
+                        help="also time a direct-level frame part by part (background, "
+                             "surfaces, curves, silhouettes, Lemma 2 marks, HUD)")
 
 
 def run(args) -> int:
@@ -55,6 +71,8 @@ def run(args) -> int:
     from exhibit.kiosk.governor import kiosk_levels, level_resolution, pick, target_ms
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
     from exhibit.commands.bench.render import cpu_model
+    from dataclasses import replace
+
     from exhibit.render.quality import LADDER, MESH_FACTORS
     from exhibit.scenes.cache import build_cached
 
@@ -91,7 +109,9 @@ def run(args) -> int:
             params = scene.resolve()
             gpus = {}
             # SSIM's reference is MSAA at the full mesh, whichever levels are timed.
-            for level in sorted({q.mesh for q in levels} | ({0} if args.ssim else set())):
+            direct = next(q for q in LADDER if q.name == "direct")
+            wanted = {q.mesh for q in levels} | ({0} if args.ssim else set())
+            for level in sorted(wanted | ({direct.mesh} if args.breakdown else set())):
                 resolution = level_resolution(scene, config.resolution.get(name), level)
                 mesh, _ = build_cached(scene, params, resolution)
                 gpus[level] = renderer.upload(mesh)
@@ -99,6 +119,10 @@ def run(args) -> int:
             options = RenderOptions(hud=config.hud)
             times = {q.name: [] for q in levels}
             floors = {level: [] for level in gpus}
+            part_times = {part: [] for part, _, _ in PARTS} if args.breakdown else {}
+            lean = direct.options(options)
+            part_options = {part: (replace(lean, **{k: False for k in off}), with_hud)
+                            for part, off, with_hud in PARTS}
 
             def floor(gpu, view):
                 fbo = floor_target.framebuffer
@@ -127,12 +151,26 @@ def run(args) -> int:
                           times[q.name], i < 2)
                 for level, gpu in gpus.items():
                     timed(lambda: floor(gpu, view), floors[level], i < 2)
+                for part in part_times:
+                    part_opts, with_hud = part_options[part]
+                    timed(lambda: renderer.render(gpus[direct.mesh], view,
+                                                  floor_target.framebuffer, part_opts,
+                                                  hud if with_hud else None),
+                          part_times[part], i < 2)
             rows = {}
             for q in levels:
                 frame_ms = statistics.median(times[q.name])
                 floor_ms = statistics.median(floors[q.mesh])
                 rows[q.name] = {"frame_ms": round(frame_ms, 2), "floor_ms": round(floor_ms, 2),
                                 "triangles": gpus[q.mesh].triangle_count}
+            if part_times:
+                totals = [statistics.median(part_times[part]) for part, _, _ in PARTS]
+                rows["breakdown"] = {
+                    "triangles": gpus[direct.mesh].triangle_count,
+                    "floor_ms": round(statistics.median(floors[direct.mesh]), 2),
+                    "frame_ms": round(totals[-1], 2),
+                    "parts_ms": {part: round(total - (totals[k - 1] if k else 0.0), 2)
+                                 for k, ((part, _, _), total) in enumerate(zip(PARTS, totals))}}
             if args.ssim:
                 from exhibit.render.quality import Quality
                 from exhibit.render.ssim import edge_mask, ssim
@@ -185,6 +223,8 @@ def run(args) -> int:
               "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
               "cpu": cpu_model(), "cpus": os.cpu_count(), "scenes": names,
               "load_average": [round(x, 2) for x in os.getloadavg()]}
+    if args.breakdown:
+        report["breakdown"] = {n: rows["breakdown"] for n, rows in per_scene}
     if args.ssim:  # no antialiasing at all, for comparison
         report["no_antialiasing"] = {key: round(statistics.mean(
             rows["none"][key] for _, rows in per_scene), 4) for key in ("ssim", "ssim_edges")}
@@ -207,5 +247,10 @@ def run(args) -> int:
         none = report["no_antialiasing"]
         print(f"no antialiasing: SSIM {none['ssim']:.4f}, edges {none['ssim_edges']:.4f} "
               "(all against MSAA 4x at full scale)")
+    for name, row in report.get("breakdown", {}).items():
+        parts = ", ".join(f"{part} {ms:+.1f}" if k else f"{part} {ms:.1f}"
+                          for k, (part, ms) in enumerate(row["parts_ms"].items()))
+        print(f"direct frame, {name} ({row['triangles']} triangles): {parts} "
+              f"= {row['frame_ms']:.1f} ms (floor {row['floor_ms']:.1f} ms)")
     print(f"target {target:.1f} ms per frame; the governor settles on {chosen}")
     return 0
