@@ -37,6 +37,7 @@ import os
 import resource
 import time
 import traceback
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -50,14 +51,14 @@ from exhibit.errors import ConfigError, ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.framing import frame_timeline
+from exhibit.kiosk.framing import FILL_LIMIT, frame_timeline
 from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
 from exhibit.kiosk.language import SOURCE, Catalogue, Translator, load_catalogues
 from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
 from exhibit.render.frame import Inset
-from exhibit.geometry.framing import mesh_points
+from exhibit.geometry.framing import mesh_points, mesh_sample
 from exhibit.render.inset import inset_label, inset_rect, inset_view
 from exhibit.render.layout import TextSizes, hud_layout
 from exhibit.render.renderer import HudInfo
@@ -75,6 +76,8 @@ FAILING_EXIT = 70  # EX_SOFTWARE
 ERROR_REPORT_S = 10.0
 #: A whole frame longer than this after start-up is logged (the 1st, 2nd, 4th, 8th... of them).
 SLOW_FRAME_MS = 100.0
+#: Framed views kept: every scene's start view and the poses visitors took over at lately.
+FRAMED_CACHE = 64
 #: Seconds of a crossfade between timelines and between scenes.
 CROSSFADE_S = 1.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
@@ -180,21 +183,22 @@ class Kiosk:
         #: Text sizes for the HUD, and the framing that keeps the picture clear of it.
         self.text = TextSizes(config.text.caption_cap, config.text.title_cap,
                               config.text.infinity_beyond)
+        #: The language on screen and its words (exhibit.kiosk.language).
+        self.translate = self._translator(config)
+        self._language_since = clock()
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
-                             hud=config.hud)
+                             hud=config.hud, versions=self._versions)
         #: The time-slice inset's corner (a panel for timelines that slice) and its scene.
         size = tuple(getattr(window, "size", config.size))
         self._inset_rect = inset_rect(size, hud_layout(size, sizes=self.text).margin)
         self._inset_mesh = None
         self._inset_view_cache = None
         self._inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
-                                    extra=(self._inset_rect,))
-        #: The language on screen and its words (exhibit.kiosk.language).
-        self.translate = self._translator(config)
-        self._language_since = clock()
+                                    extra=(self._inset_rect,), versions=self._versions)
         if sessions is not None:
             sessions.language = self.translate.language
-        self._framed: dict[tuple, object] = {}
+        self._framed: OrderedDict[tuple, object] = OrderedDict()
+        self._samples: dict[tuple, tuple] = {}   # (scene, params) -> its mesh_sample
         timelines = [self._frame_timeline(t) for t in timelines]
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
@@ -233,6 +237,21 @@ class Kiosk:
                 log.error("language %s left out: %s", code, "; ".join(exc.problems))
                 self.problems.append(f"language {code} left out (see the journal)")
         return Translator(catalogues, config.languages)
+
+    def _versions(self, text: str) -> tuple[str, ...]:
+        """``text`` in every language shown, in their order (a title and its caption in the same
+        language are laid out together): the framing keeps the picture clear of them all."""
+        return tuple(self.translate(text, code) for code in self.translate.order)
+
+    def _walked_away(self, now: float) -> None:
+        """Attract mode is back: the next visitor finds the museum's own language, not the one
+        the last visitor chose."""
+        if self.translate.index != 0:
+            language = self.translate.reset()
+            log.info("language %s (attract mode is back)", language)
+            if self.sessions is not None:
+                self.sessions.language = language
+        self._language_since = now
 
     def _switch_language(self, events, now: float) -> None:
         """The "language" button, or attract mode's timer, shows the next language."""
@@ -362,18 +381,31 @@ class Kiosk:
             return timeline
 
     def _frame_view(self, name: str, params, view):
-        """KioskState's framer: a scene's start view fitted into the free area (cached)."""
+        """KioskState's framer: ``view`` (a scene's start view, or the pose a visitor takes
+        over) fitted into the area the scene's own panels leave free. A pose whose picture
+        fills the world on purpose (the sensor inside the object: it would need FILL_LIMIT
+        times the zoom to fit) keeps its zoom, as a framed timeline does. Cached: the same few
+        start views come back at every "home" and scene change."""
         key = (name, tuple(params), view)
-        if key not in self._framed:
-            mesh = self._mesh(name, params)
+        framed = self._framed.get(key)
+        if framed is None:
             framed = view
+            mesh = self._mesh(name, params)
             if mesh is not None:
                 try:
-                    framed = self.framer.scene_view(scenes.get(name), mesh, view)
+                    points = self._samples.get(key[:2])
+                    if points is None:
+                        points = self._samples[key[:2]] = mesh_sample(mesh)
+                    fitted = self.framer.scene_view(scenes.get(name), mesh, view, points=points)
+                    if fitted.half_height <= FILL_LIMIT * view.half_height:
+                        framed = fitted
                 except Exception as exc:  # noqa: BLE001 - the scene's own view will do
                     log.warning("scene %s not framed: %s", name, exc)
+            while len(self._framed) >= FRAMED_CACHE:
+                self._framed.popitem(last=False)
             self._framed[key] = framed
-        return self._framed[key]
+        self._framed.move_to_end(key)
+        return framed
 
     # ------------------------------------------------------------------ input from the window
 
@@ -416,6 +448,8 @@ class Kiosk:
             self._switch_language(events, start)
             if self.sessions is not None:  # never raises, never blocks
                 self.sessions.observe(frame.mode, frame.scene, events, start)
+            if frame.mode == ATTRACT and mode != ATTRACT:  # after the session took its language
+                self._walked_away(start)
             if frame.mode != mode or frame.scene != scene:
                 fields = self._update_log_fields()
                 if frame.mode != mode:

@@ -117,6 +117,11 @@ class Translator:
         self.index = (self.index + 1) % len(self.order)
         return self.language
 
+    def reset(self) -> str:
+        """Back to the first language shown (the museum's own), for the next visitor."""
+        self.index = 0
+        return self.language
+
     def __call__(self, text: str, language: str | None = None) -> str:
         if not text:
             return text

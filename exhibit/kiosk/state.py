@@ -29,6 +29,8 @@ from exhibit.kiosk.attract import Playlist
 ATTRACT, VISITOR = "attract", "visitor"
 #: Seconds per turn of θ1 in attract mode when there is no timeline to play.
 TURN_S = 120.0
+#: Seconds the picture takes to glide into the space a visitor's caption leaves free.
+REFRAME_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -84,6 +86,8 @@ class KioskState:
         self.mode = ATTRACT
         self.playlist.restart(now)
         self._blend_from: tuple[ViewState, float, str] | None = None
+        #: The zoom and lens shift gliding after a takeover: (from, to, start time).
+        self._reframe: tuple | None = None
         self._position = 0.0
         self.frame = self._attract_frame(now)
 
@@ -115,6 +119,32 @@ class KioskState:
     def _visitor_frame(self, scene_name: str, params, view: ViewState) -> Frame:
         scene = scenes.get(scene_name)
         return Frame(VISITOR, scene_name, params, view, scene.title, scene.caption)
+
+    def _reframe_from(self, view: ViewState, now: float) -> None:
+        """A visitor took over: the scene's caption replaces the timeline's, and its panel is
+        often larger (five lines for two), so the picture, framed for the short one, would lie
+        under it. The pose stays; the zoom and lens shift glide over REFRAME_S into the area
+        the scene's own panels leave free."""
+        target = self.framer(self.frame.scene, self.frame.params, view)
+        if (target.half_height, target.center) != (view.half_height, view.center):
+            self._reframe = ((view.half_height, view.center),
+                             (target.half_height, target.center), now)
+
+    def _reframing(self, view: ViewState, now: float) -> ViewState:
+        """``view`` with the zoom and lens shift of the glide under way, if any."""
+        if self._reframe is None:
+            return view
+        (h0, c0), (h1, c1), start = self._reframe
+        u = (now - start) / REFRAME_S if REFRAME_S > 0 else 1.0
+        if u >= 1.0:
+            self._reframe = None
+            return view.replace(half_height=h1, center=c1)
+        u = max(u, 0.0)
+        u = u * u * (3 - 2 * u)
+        # the zoom eases in proportion (log space), so growing and shrinking look alike
+        half = h0 * (h1 / h0) ** u if h0 > 0 and h1 > 0 else h0 + (h1 - h0) * u
+        return view.replace(half_height=half, center=(c0[0] + (c1[0] - c0[0]) * u,
+                                                      c0[1] + (c1[1] - c0[1]) * u))
 
     def _scene_switches(self, events: list[Event]) -> int:
         return sum(1 for e in events if self.mapper.switches_scene(e))
@@ -174,19 +204,23 @@ class KioskState:
             # The scene's own start view, not the mapping's fixed angles.
             view = self.start_view(self.frame.scene, self.frame.params)
 
+        if self._home_pressed(events):
+            self._reframe = None
         if self.mode == ATTRACT:
             if active_now or switches:
                 self.mode = VISITOR  # take over from the pose on screen: no jump
-                self.frame = self._visitor_frame(self.frame.scene, self.frame.params, view)
+                self._reframe_from(view, now)
             else:
                 self.frame = self._attract_frame(now)
                 return self.frame
-        else:
-            self.frame = self._visitor_frame(self.frame.scene, self.frame.params, view)
+        view = self._reframing(view, now)
+        self.frame = self._visitor_frame(self.frame.scene, self.frame.params, view)
         for _ in range(switches):
+            self._reframe = None
             self.frame = self._next_scene()
         if activity.idle_for(now) > self.idle_timeout_s and not switches:
             self.mode = ATTRACT
+            self._reframe = None
             self._blend_from = (self.frame.view, now, self.frame.scene)
             self.playlist.restart(now)
             self.frame = self._attract_frame(now)

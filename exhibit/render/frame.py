@@ -122,6 +122,8 @@ class FramePipeline:
         #: The outgoing frame of a crossfade: (texture, framebuffer, depth), kept at the screen
         #: size.
         self._snapshot: tuple | None = None
+        #: The outgoing frame's words (gpu, view, options, hud), faded out on their own.
+        self._leaving: tuple | None = None
 
     def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
         """A cached target; kind "sheets" has the intersection curves' sheet buffer."""
@@ -142,8 +144,9 @@ class FramePipeline:
 
     def capture(self, gpu, view, size: tuple[int, int], options: RenderOptions,
                 hud: HudInfo | None, quality: Quality) -> None:
-        """Draw a whole frame into the snapshot a crossfade starts from: the last frame of
-        what is leaving the screen (drawn again, so nothing has to be read back)."""
+        """Draw the picture a crossfade starts from: the last frame of what is leaving the
+        screen (drawn again, so nothing has to be read back), without its words, which
+        draw() fades out on their own (``hud`` is kept for that)."""
         size = (int(size[0]), int(size[1]))
         if self._snapshot is None or self._snapshot[0].size != size:
             self.release_snapshot()
@@ -152,38 +155,58 @@ class FramePipeline:
             # with depth, as a screen has: the direct level draws the scene straight into it
             depth = self.ctx.depth_renderbuffer(size)
             self._snapshot = (texture, self.ctx.framebuffer([texture], depth), depth)
-        self.draw(gpu, view, self._snapshot[1], size, options, hud, quality)
+        self._draw(gpu, view, self._snapshot[1], size, options, None, quality)
+        self._leaving = (gpu, view, options, hud) if options.hud and hud is not None else None
 
     def release_snapshot(self) -> None:
         if self._snapshot is not None:
             for obj in reversed(self._snapshot):
                 obj.release()
             self._snapshot = None
+        self._leaving = None
 
     def draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
              options: RenderOptions, hud: HudInfo | None, quality: Quality,
              fade: float = 0.0, inset: Inset | None = None) -> None:
         """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``);
-        with ``fade`` > 0 the captured snapshot is laid over it with that opacity; ``inset``
-        (the time-slice inset, exhibit.render.inset) is drawn over the picture in its corner."""
-        self._draw(gpu, view, destination, size, options, hud, quality)
+        with ``fade`` > 0 the captured picture is laid over it with that opacity; ``inset``
+        (the time-slice inset, exhibit.render.inset) is drawn over the picture in its corner.
+
+        Words never cross-dissolve (two titles legible on top of each other for a second):
+        while ``fade`` runs from 1 to 0 the outgoing words fade out over its first half and
+        the new ones fade in over its second, as the pictures crossfade underneath."""
+        size = (int(size[0]), int(size[1]))
+        self._draw(gpu, view, destination, size, options, None, quality)
         if inset is not None:
-            self._inset(inset, destination, (int(size[0]), int(size[1])))
-        if fade > 0.0 and self._snapshot is not None:
-            size = (int(size[0]), int(size[1]))
-            if self._snapshot[0].size == size:
-                ctx = self.ctx
-                destination.use()
-                ctx.viewport = (0, 0, *size)
-                ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-                ctx.enable(moderngl.BLEND)
-                ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
-                self._snapshot[0].use(0)
-                prog = self.programs["fade"]
-                prog["u_snapshot"].value = 0
-                prog["u_alpha"].value = float(min(fade, 1.0))
-                self._vaos["fade"].render(moderngl.TRIANGLES, vertices=3)
-                ctx.disable(moderngl.BLEND)
+            self._inset(inset, destination, size)
+        fading = fade > 0.0 and self._snapshot is not None and self._snapshot[0].size == size
+        if fading:
+            ctx = self.ctx
+            destination.use()
+            ctx.viewport = (0, 0, *size)
+            ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+            ctx.enable(moderngl.BLEND)
+            ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
+            self._snapshot[0].use(0)
+            prog = self.programs["fade"]
+            prog["u_snapshot"].value = 0
+            prog["u_alpha"].value = float(min(fade, 1.0))
+            self._vaos["fade"].render(moderngl.TRIANGLES, vertices=3)
+            ctx.disable(moderngl.BLEND)
+        words = (gpu, view, options, hud)
+        alpha = 1.0
+        if fading:
+            fade = min(fade, 1.0)
+            if fade > 0.5 and self._leaving is not None:
+                words, alpha = self._leaving, 2.0 * fade - 1.0
+            else:
+                alpha = max(0.0, 1.0 - 2.0 * fade)
+        gpu, view, options, hud = words
+        if options.hud and hud is not None:
+            destination.use()
+            self.ctx.viewport = (0, 0, *size)
+            self.renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text,
+                                     alpha)
 
     def _draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
               options: RenderOptions, hud: HudInfo | None, quality: Quality) -> None:

@@ -9,33 +9,47 @@ A scene's start view and each of its presets are framed unless the scene or pres
 
 from __future__ import annotations
 
+from typing import Callable
+
 from exhibit.geometry.framing import frame, mesh_sample
 from exhibit.geometry.view import ViewState
 from exhibit.render.layout import Rect, TextSizes, free_rectangles, hud_layout
 
+
+def _as_shown(text: str) -> tuple[str, ...]:
+    return (text,)
+
+
 class Framer:
     """Frames views for a screen of ``size`` with the kiosk's text ``sizes`` and burn-in
     ``drift`` (pixels the panels may move); ``hud=False``: no panels, the whole screen (inside
-    the margin) is free."""
+    the margin) is free. ``versions(text)`` gives every way a text may be shown (the kiosk:
+    one per language), and the picture is kept clear of the panels of them all, so a visitor
+    who changes the language never finds the longer German caption over the surface."""
 
     def __init__(self, size: tuple[int, int], sizes: TextSizes = TextSizes(),
-                 drift: float = 0.0, hud: bool = True, extra: tuple[Rect, ...] = ()):
+                 drift: float = 0.0, hud: bool = True, extra: tuple[Rect, ...] = (),
+                 versions: Callable[[str], tuple[str, ...]] = _as_shown):
         self.size = (int(size[0]), int(size[1]))
         self.sizes = sizes
         self.drift = float(drift)
         self.hud = hud
         #: Panels beyond the HUD's (the time-slice inset, exhibit.render.inset).
         self.extra = tuple(extra)
+        self.versions = versions
 
     def panels(self, title: str, captions) -> list[Rect]:
         """Every panel the HUD may draw with ``title`` and any one of ``captions`` (each a
-        tuple of paragraphs: caption, note)."""
+        tuple of paragraphs: caption, note), in every version of the words."""
         out: list[Rect] = list(self.extra)
         if not self.hud:
             return out
+        titles = self.versions(title) if title else ("",)
         for paragraphs in captions or [("",)]:
-            out += hud_layout(self.size, title, tuple(paragraphs), self.sizes,
-                              self.drift).panels
+            shown = [self.versions(p) if p else ("",) * len(titles) for p in paragraphs]
+            for i, heading in enumerate(titles):
+                words = tuple(p[i] if i < len(p) else p[0] for p in shown)
+                out += hud_layout(self.size, heading, words, self.sizes, self.drift).panels
         return out
 
     def areas(self, title: str, captions) -> list[Rect]:
@@ -52,10 +66,11 @@ class Framer:
         return frame(view, points, self.size, self.areas(title, captions), poses)
 
     def scene_view(self, scene, mesh, view: ViewState | None = None, note: str = "",
-                   fit: bool = True) -> ViewState:
-        """A scene's start view (or ``view``, e.g. a preset's), framed unless the scene or the
-        caller opts out."""
+                   fit: bool = True, points=None) -> ViewState:
+        """A scene's start view (or ``view``, e.g. a preset's, or a visitor's pose), framed
+        for the scene's own title and caption unless the scene or the caller opts out;
+        ``points``: the mesh's sample, when the caller keeps it."""
         view = scene.view if view is None else view
         if not (fit and scene.fit):
             return view
-        return self.view(mesh, view, scene.title, [(scene.caption, note)])
+        return self.view(mesh, view, scene.title, [(scene.caption, note)], points=points)

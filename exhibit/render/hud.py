@@ -28,8 +28,9 @@ from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles, 
                                    status_lines)
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 
-#: The HUD's translucent panels.
-PANEL = (0.0, 0.0, 0.0, 0.45)
+#: The HUD's panels: nearly opaque, so text stays legible over a bright surface brought close
+#: (a visitor may drive the sensor in until the picture fills the screen).
+PANEL = (0.0, 0.0, 0.0, 0.88)
 INK = (0.96, 0.96, 0.93, 1.0)
 DIM = (0.8, 0.82, 0.86, 1.0)
 HALO = (0.02, 0.02, 0.03, 0.85)
@@ -103,8 +104,14 @@ class Hud:
         texture.repeat_x = texture.repeat_y = False
         return (texture, w, h)
 
-    def draw(self, gpu, view, hud, size, drift=(0.0, 0.0), sizes: TextSizes | None = None):
+    def draw(self, gpu, view, hud, size, drift=(0.0, 0.0), sizes: TextSizes | None = None,
+             alpha: float = 1.0):
+        """The whole HUD over the current framebuffer; ``alpha`` < 1 fades all of it alike
+        (a crossfade shows the outgoing words fading out, then the new ones fading in)."""
         r = self.renderer
+        alpha = min(max(float(alpha), 0.0), 1.0)
+        if alpha == 0.0:
+            return
         sizes = sizes or TextSizes()
         width, height = size
         r.ctx.viewport = (0, 0, width, height)
@@ -120,7 +127,7 @@ class Hud:
             x, y = layout.title_block.x0, layout.title_block.y0
             r._quads("image", texture, (block_w, block_h),
                      [(round(x + dx), round(y + dy), block_w, block_h, 0, 0, block_w, block_h,
-                       1.0, 1.0, 1.0, 1.0)], viewport)
+                       1.0, 1.0, 1.0, alpha)], viewport)
 
         rows: list[tuple] = []
         status = layout.status_block
@@ -135,6 +142,9 @@ class Hud:
 
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         items += self._marker_labels(gpu, view, size, layout, rows)
+        if alpha < 1.0:
+            rows = [(*row[:11], row[11] * alpha) for row in rows]
+            items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in items]
         r._overlay(items, viewport)
         r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
         r.ctx.disable(moderngl.BLEND)

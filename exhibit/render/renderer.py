@@ -497,10 +497,11 @@ class Renderer:
                      *color))
 
     def render_hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size,
-                   drift: tuple[float, float] = (0.0, 0.0), sizes=None) -> None:
+                   drift: tuple[float, float] = (0.0, 0.0), sizes=None,
+                   alpha: float = 1.0) -> None:
         """The HUD over the current framebuffer at its full resolution (exhibit.render.hud);
-        ``sizes``: exhibit.render.layout.TextSizes (None: the defaults)."""
-        self.hud.draw(gpu, view, hud, size, drift, sizes)
+        ``sizes``: exhibit.render.layout.TextSizes (None: the defaults); ``alpha`` fades it."""
+        self.hud.draw(gpu, view, hud, size, drift, sizes, alpha)
 
     def release(self) -> None:
         self.text.release()

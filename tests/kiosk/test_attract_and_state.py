@@ -106,6 +106,37 @@ def test_a_button_switches_scene_and_home_does_not(state):
     assert frame.scene == "hopf" and frame.view.angles == (0.0,) * 6
 
 
+def test_a_takeover_glides_the_picture_into_the_visitors_free_area(timeline):
+    """The visitor's caption replaces the timeline's: the pose stays (no jump), and the zoom
+    and lens shift glide over REFRAME_S to the framing of that pose for the scene's panels,
+    then stay while the visitor turns the knobs."""
+    import tomllib
+    from exhibit.kiosk.state import REFRAME_S
+    config = parse_config(tomllib.loads(DEVICES), "<test>")
+    asked = []
+
+    def framer(name, params, view):
+        asked.append(view.angles)
+        return view.replace(half_height=4.0 * view.half_height, center=(0.5, -0.25))
+
+    state = KioskState(Playlist([timeline]), Mapper(config.mapping), ("hopf",),
+                       idle_timeout_s=30.0, blend_s=2.0, now=0.0, framer=framer)
+    before = state.update([], 5.0).view
+    first = state.update([knob(5.0)], 5.0)
+    assert first.mode == VISITOR and not first.cut
+    assert asked[-1] == pytest.approx(first.view.angles)      # framed at the pose taken over
+    assert first.view.half_height == pytest.approx(before.half_height)
+    middle = state.update([], 5.0 + REFRAME_S / 2).view
+    assert before.half_height < middle.half_height < 4.0 * before.half_height
+    assert 0.0 < middle.center[0] < 0.5
+    done = state.update([knob(5.0 + REFRAME_S, 2)], 5.0 + REFRAME_S).view
+    assert done.half_height == pytest.approx(4.0 * before.half_height)
+    assert done.center == (0.5, -0.25)
+    later = state.update([knob(9.0, 3)], 9.0).view   # turning keeps the new framing
+    assert later.half_height == done.half_height and later.center == done.center
+    assert later.angles[0] != done.angles[0]
+
+
 def test_noise_free_idle_means_attract_forever(state):
     for t in range(0, 300, 7):
         assert state.update([], float(t)).mode == ATTRACT

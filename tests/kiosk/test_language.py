@@ -127,3 +127,25 @@ def test_the_health_file_says_the_language_and_the_session_writer_counts(headles
     assert health["language"] == "de" and health["sessions"]["recording"]
     assert set(health["sessions"]) >= {"written", "dropped", "failed"}
     writer.close()
+
+
+def test_the_next_visitor_finds_the_museums_language(headless, tmp_path):
+    """Attract mode, a visitor who takes over and switches to German, then walks away: when
+    attract mode returns, so does the first language shown (English), on screen and in the
+    session the visitor left (which keeps the German they read)."""
+    from tests.kiosk.support import IDLE_S, HeadlessKiosk
+
+    run = HeadlessKiosk(headless, tmp_path)
+    run.run(1.0)
+    assert run.frame.mode == "attract" and run.target.drawn[3].caption == "Closer still."
+    for name in ("q", "l"):   # turn θ1 (the takeover), then the language key
+        run.target.post(Key(name, True))
+        run.target.post(Key(name, False))
+        run.run(0.3)
+    assert run.frame.mode == "visitor" and run.kiosk.translate.language == "de"
+    assert run.target.drawn[3].title == "Der flache Donut"
+    run.run(IDLE_S + 1.0)
+    assert run.frame.mode == "attract"
+    assert run.kiosk.translate.language == "en"
+    assert run.target.drawn[3].caption == "Closer still."
+    assert run.target.drawn[3].axes_label == "4D axes"

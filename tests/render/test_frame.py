@@ -168,23 +168,39 @@ def test_frame_timer(gl, hopf, wall):
 
 
 @pytest.mark.parametrize("level", ["fxaa", "direct"])
-def test_crossfade_mixes_two_whole_frames(gl, hopf, level):
-    """capture() then draw(fade=a): a·old + (1 − a)·new per pixel, the old frame's HUD
-    included; fade 0 is the new frame exactly (never a black frame in between). The direct
-    level draws the captured frame straight into the snapshot, which needs its own depth."""
+def test_crossfade_mixes_the_pictures_and_never_the_words(gl, hopf, level):
+    """capture() then draw(fade=a): the pictures mix a·old + (1 − a)·new per pixel; the words
+    never cross-dissolve: the old HUD fades out while a > 1/2, the new one fades in below it,
+    and at a = 1/2 neither is there. Fade 1 is the old frame, fade 0 the new one, exactly
+    (never a black frame in between). The direct level draws the captured picture straight
+    into the snapshot, which needs its own depth."""
     gpu, view = hopf
     quality = next(q for q in LADDER if q.name == level)
     turned = view.replace(angles=(1.0, 0.5, 0, 0, 0, 0))
     old_hud, new_hud = HudInfo(title="Old"), HudInfo(title="New", caption="another one")
+    bare = RenderOptions(hud=False)
     old = gl.frame(gpu, view, SIZE, RenderOptions(), old_hud, quality).astype(float)
     new = gl.frame(gpu, turned, SIZE, RenderOptions(), new_hud, quality).astype(float)
+    old_picture = gl.frame(gpu, view, SIZE, bare, None, quality).astype(float)
+    new_picture = gl.frame(gpu, turned, SIZE, bare, None, quality).astype(float)
+    words = ((np.abs(old - old_picture).max(axis=2) > 0)
+             | (np.abs(new - new_picture).max(axis=2) > 0))
     pipeline = gl.pipeline
     pipeline.capture(gpu, view, SIZE, RenderOptions(), old_hud, quality)
     target = gl.target(SIZE, 0)
-    for alpha in (0.0, 0.25, 0.5, 1.0):
+
+    def drawn(alpha):
         pipeline.draw(gpu, turned, target.framebuffer, SIZE, RenderOptions(), new_hud,
                       quality, fade=alpha)
-        mixed = target.read().astype(float)
-        assert np.abs(mixed - (alpha * old + (1 - alpha) * new)).max() <= 1.5, alpha
-    assert np.abs(old - new).max() > 100   # the two frames do differ
+        return target.read().astype(float)
+
+    assert np.abs(drawn(0.0) - new).max() <= 1.5
+    assert np.abs(drawn(1.0) - old).max() <= 1.5
+    for alpha in (0.25, 0.5, 0.75):
+        mixed = drawn(alpha)
+        pictures = alpha * old_picture + (1 - alpha) * new_picture
+        assert np.abs(mixed - pictures)[~words].max() <= 1.5, alpha
+        if alpha == 0.5:   # no words at all: neither title is legible
+            assert np.abs(mixed - pictures).max() <= 1.5
+    assert words.any() and np.abs(old - new).max() > 100   # the two frames do differ
     assert mixed.mean() > 5   # not black
