@@ -17,6 +17,7 @@
     half_height = 1.6                         # zoom (interpolated geometrically)
     caption = "..."                           # shown from this keyframe on
     while = { sensor_distance = [2.9, 3.1] }  # optional: what the caption says of the view
+    while = { angles_within = 5 }             # ... or: the pose turns at most 5 degrees
     ease = "smooth"                           # into the next keyframe: smooth | linear | hold
     slice = -1.5                              # the slice axis = -1.5 glows on the surface
                                               # (exhibit.surfaces.slice); "off" ends it
@@ -24,8 +25,12 @@
 A caption that describes the view states it in ``while``, so `exhibit check-config` can play the
 timeline and report where the caption is shown while the view says otherwise:
 ``sensor_distance = "inf"`` or ``[low, high]`` (high may be "inf"), ``sensor_motion = "closer"``,
-``"farther"`` or ``"still"``. The condition belongs to the caption: it holds until a keyframe sets
-a new caption (with its own ``while``, or none); a keyframe may also restate ``while`` alone.
+``"farther"`` or ``"still"``, and ``angles_within = D``: every one of the six angles and the eye's
+azimuth and incidence stays within D degrees (0..180) of the pose at the keyframe that states the
+``while`` (a caption about one particular view, such as "in the plane ...": it must not be left
+on screen while the view turns away). The condition belongs to the caption: it holds until a
+keyframe sets a new caption (with its own ``while``, or none); a keyframe may also restate
+``while`` alone (``angles_within`` then counts from that keyframe's pose).
 
 A timeline lasts until its last keyframe; the playlist plays the files in name order and loops.
 Limits: t 0..86400 s, angles and eye -3600..3600 degrees, sensor_distance "inf" or 0.05..1e6,
@@ -59,11 +64,15 @@ class Condition:
     """What a caption says about the view, for `exhibit check-config` to hold it to.
 
     ``sensor_r``: the range of r = 1/d the sensor must stay in (None: any); ``motion``: the
-    sensor must move closer (r grows), farther (r shrinks) or stay still."""
+    sensor must move closer (r grows), farther (r shrinks) or stay still; ``angles_within``: the
+    six angles and the eye (azimuth, incidence) stay within that many degrees of ``pose``, the
+    pose at the keyframe that states the condition (radians: θ1..θ6, azimuth, incidence)."""
 
     sensor_r: tuple[float, float] | None = None
     sensor_distance: tuple[float, float] | None = None  # as written, for messages
     motion: str | None = None
+    angles_within: float | None = None
+    pose: tuple[float, ...] | None = None
 
 
 @dataclass(frozen=True)
@@ -137,17 +146,24 @@ class WhileSpec(Model):
 
     sensor_distance: DistanceRange | None = None
     sensor_motion: Literal[MOTIONS] | None = None
+    #: degrees the pose (six angles and the eye) may turn from the stating keyframe's
+    angles_within: Number(0, 180) | None = None
 
     @model_validator(mode="after")
     def _not_empty(self):
-        if self.sensor_distance is None and self.sensor_motion is None:
-            raise ValueError("states no condition: give sensor_distance or sensor_motion")
+        if (self.sensor_distance is None and self.sensor_motion is None
+                and self.angles_within is None):
+            raise ValueError("states no condition: give sensor_distance, sensor_motion or "
+                             "angles_within")
         return self
 
-    def condition(self) -> Condition:
+    def condition(self, pose: tuple[float, ...]) -> Condition:
+        """The condition, with ``pose`` (the stating keyframe's angles and eye, radians)."""
         d = self.sensor_distance
         r = None if d is None else (distance_to_r(d[1]), distance_to_r(d[0]))
-        return Condition(r, d, self.sensor_motion)
+        within = None if self.angles_within is None else float(self.angles_within)
+        return Condition(r, d, self.sensor_motion, within,
+                         None if within is None else tuple(pose))
 
 
 class KeyframeSpec(Model):
@@ -226,16 +242,19 @@ def load_timeline(path: Path) -> Timeline:
         if i > 0 and raw.t <= frames[-1].t:
             problem(where + "t", f"{raw.t:g} must be later than the keyframe before "
                                  f"({frames[-1].t:g})")
+        angles = (previous.angles if raw.angles is None
+                  else tuple(math.radians(a) for a in raw.angles))
+        eye = previous.eye if raw.eye is None else tuple(math.radians(a) for a in raw.eye)
         previous = Keyframe(
             raw.t,
-            previous.angles if raw.angles is None else tuple(math.radians(a) for a in raw.angles),
+            angles,
             previous.sensor_r if raw.sensor_distance is None
             else distance_to_r(raw.sensor_distance),
-            previous.eye if raw.eye is None else tuple(math.radians(a) for a in raw.eye),
+            eye,
             previous.half_height if raw.half_height is None else raw.half_height,
             previous.caption if raw.caption is None else raw.caption,
             raw.ease,
-            _condition(previous, raw),
+            _condition(previous, raw, angles + eye),
             previous.caption_from if raw.caption is None and raw.while_ is None else i,
             previous.slice_at if raw.slice is None else None if raw.slice == "off"
             else float(raw.slice))
@@ -246,11 +265,13 @@ def load_timeline(path: Path) -> Timeline:
                     tuple(frames), spec.fit, slice_axis)
 
 
-def _condition(previous: Keyframe, raw: KeyframeSpec) -> Condition | None:
-    """The condition in force from this keyframe: its own, else the caption's it keeps (a new
-    caption without ``while`` states none)."""
+def _condition(previous: Keyframe, raw: KeyframeSpec, pose: tuple[float, ...]
+               ) -> Condition | None:
+    """The condition in force from this keyframe: its own (``angles_within`` counted from
+    ``pose``, this keyframe's), else the caption's it keeps (a new caption without ``while``
+    states none)."""
     if raw.while_ is not None:
-        return raw.while_.condition()
+        return raw.while_.condition(pose)
     return previous.condition if raw.caption is None else None
 
 

@@ -3,8 +3,9 @@ contradicts what it says, or too briefly to be read.
 
 A caption such as "At distance 2 the viewpoint touches the 4D ball" is true only while the sensor
 is there; once the timeline moves on, the words must change with it. A keyframe states what its
-caption claims in ``while`` (see :mod:`exhibit.kiosk.attract`); this module samples the timeline
-every ``STEP_S`` seconds and holds each caption to its condition.
+caption claims in ``while`` (see :mod:`exhibit.kiosk.attract`): the sensor's distance or motion,
+or a pose the view must stay near ("in the plane ..." is true only while the view is the plane
+view); this module samples the timeline every ``STEP_S`` seconds and holds each caption to it.
 
 `exhibit check-config` runs it over the attract timelines and reports ``file: key: reason``. The
 kiosk itself does not refuse a timeline for it: a wrong caption is the curator's to fix, not a
@@ -80,13 +81,39 @@ def _condition_problems(timeline: Timeline) -> list[str]:
         if condition is None:
             continue
         times = _samples(t0, t1)
-        r = [timeline.at(t)[0].sensor_r for t in times]
+        views = [timeline.at(t)[0] for t in times]
+        r = [view.sensor_r for view in views]
         where = f"{timeline.path}: keyframe[{first}].while"
         if condition.sensor_r is not None:
             out += _distance_problems(where, condition, times, r)
         if condition.motion is not None:
             out += _motion_problems(where, condition.motion, times, r)
+        if condition.angles_within is not None:
+            out += _turn_problems(where, condition, times, views, first)
     return out
+
+
+#: The pose's eight angles, as check-config names them.
+POSE_NAMES = ("θ1", "θ2", "θ3", "θ4", "θ5", "θ6", "eye azimuth", "eye incidence")
+
+
+def _turn_problems(where: str, condition: Condition, times: list[float], views, first: int
+                   ) -> list[str]:
+    """The pose turned more than ``angles_within`` degrees from the stating keyframe's."""
+    limit = condition.angles_within
+    turns = []   # per sample: (largest turn in degrees, which angle)
+    for view in views:
+        pose = view.angles + (view.eye_azimuth, view.eye_incidence)
+        diffs = [abs(math.degrees(a - b)) for a, b in zip(pose, condition.pose)]
+        k = max(range(len(diffs)), key=diffs.__getitem__)
+        turns.append((diffs[k], k))
+    bad = [j for j, (turn, _) in enumerate(turns) if turn > limit + 1e-6]
+    if not bad:
+        return []
+    worst, k = max(turns[j] for j in bad)
+    return [f"{where}.angles_within: the caption is shown at t = {_spans(times, bad)} with the "
+            f"view turned up to {worst:.1f}° ({POSE_NAMES[k]}) from keyframe[{first}]'s pose, "
+            f"more than {limit:g}°"]
 
 
 def _distance(r: float) -> str:

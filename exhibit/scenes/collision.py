@@ -213,9 +213,11 @@ def build(params: dict, resolution: int) -> Mesh4D:
 
 
 def _view(**changes) -> ViewState:
-    # "The sensor's position is just a little off the t axis": θ2, θ3 tilt it slightly.
+    # "The sensor's position is just a little off the t axis": θ2, θ3 tilt it slightly. The eye
+    # looks down from above the pipe, rolled (twist = π) so that z points up on the screen: the
+    # ball moves along -z, so it falls on screen, in the inset (which keeps this eye) too.
     base = ViewState(angles=(0.0, -0.12, -0.1, 0.0, 0.0, 0.0), eye_azimuth=0.6,
-                     eye_incidence=-1.15, half_height=2.0, eye_r=1 / 10)
+                     eye_incidence=-1.15, half_height=2.0, eye_r=1 / 10, twist=math.pi)
     return base.replace(**changes)
 
 
@@ -229,8 +231,8 @@ SCENE = Scene(
     name="collision",
     title="When a ball meets a pipe",
     caption=("A ball falls through a pipe. Stack every moment of the motion along a fourth "
-             "direction, time, and the places where they touch form this surface. Its lowest "
-             "point in time, marked, is the very first touch."),
+             "direction, time, and the places where they touch form this surface. Its earliest "
+             "point, marked, is the very first touch."),
     parameters=(
         Parameter("rc", 1.0, 0.1, 5.0, "cylinder radius"),
         Parameter("rs", 1.2, 0.1, 5.0, "sphere radius"),

@@ -132,7 +132,10 @@ def test_kiosk_frame(kiosk_shots, name, mode, tmp_path, update):
     compare(f"kiosk-{name}", shot.image, update, tmp_path / "golden-out")
     check_text(shot.image, shot.layout, shot.drift, shot.caption)
     assert surface_pixels_under_panels(shot.surfaces, shot.layout.panels) == []
-    assert surface_pixels_in_the_margin(shot.surfaces, shot.layout.margin) == []
+    if name == "attract":
+        # The visitor's own turns (and the glide back from them) may take the picture into the
+        # margin: the framing is set at the takeover, and the panels are opaque for the rest.
+        assert surface_pixels_in_the_margin(shot.surfaces, shot.layout.margin) == []
     marker = scenes.get("collision").build(shot.params, 8).markers[0]
     assert [text for text, *_ in shot.labels] == [marker.label]
     assert label_problems(shot.image, shot.labels, marker.material.color) == []

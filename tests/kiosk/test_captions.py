@@ -138,7 +138,10 @@ t = 20
 
 
 @pytest.mark.parametrize("condition, key, reason", [
-    ("{}", "keyframe[0].while", "states no condition: give sensor_distance or sensor_motion"),
+    ("{}", "keyframe[0].while",
+     "states no condition: give sensor_distance, sensor_motion or angles_within"),
+    ("{ angles_within = -1 }", "keyframe[0].while.angles_within", "must lie in [0, 180]"),
+    ("{ angles_within = \"start\" }", "keyframe[0].while.angles_within", "must be a number"),
     ("{ sensor_distance = [3, 2] }", "keyframe[0].while.sensor_distance",
      'must be "inf" or [low, high] distances with low <= high'),
     ("{ sensor_distance = 2 }", "keyframe[0].while.sensor_distance", 'must be "inf" or [low'),
@@ -147,7 +150,7 @@ t = 20
     ("{ sensor_motion = \"nearer\" }", "keyframe[0].while.sensor_motion",
      "must be 'closer', 'farther' or 'still'"),
     ("{ sensor_distans = 2 }", "keyframe[0].while.sensor_distans",
-     "unknown key (allowed: sensor_distance, sensor_motion)"),
+     "unknown key (allowed: angles_within, sensor_distance, sensor_motion)"),
     ("3", "keyframe[0].while", "must be a table"),
 ])
 def test_bad_conditions_name_file_key_and_reason(tmp_path, condition, key, reason):
@@ -164,6 +167,74 @@ def test_unknown_keyframe_keys_list_while_as_written(tmp_path):
     with pytest.raises(ConfigError) as info:
         load_timeline(path)
     assert "while" in info.value.problems[0] and "while_" not in info.value.problems[0]
+
+
+#: A caption about one pose ("in the plane ...") left on screen while the view turns away: the
+#: shipped 02-offset-parabola.toml as it was, with the condition its first caption states.
+PLANE_CAPTION = """
+scene = "offset-parabola"
+preset = "figure-9"
+[[keyframe]]
+t = 0
+angles = [0, 0, 0, 0, 0, 0]
+eye = [0, -10]
+caption = "Points at distance 1 from the parabola: in the plane a curve with corners and a loop."
+while = { angles_within = 5 }
+[[keyframe]]
+t = 10
+angles = [60, -40, -30, 0, 0, 0]
+caption = "In 4D the red curve is the smooth outline of a tube – no corners, no loop."
+[[keyframe]]
+t = 20
+"""
+
+
+def test_a_caption_about_one_pose_is_refused_once_the_view_turns_away(tmp_path):
+    path = write(tmp_path, PLANE_CAPTION)
+    assert caption_problems(load_timeline(path)) == [
+        f"{path}: keyframe[0].while.angles_within: the caption is shown at t = 1.8..10.0 s with "
+        "the view turned up to 60.0° (θ1) from keyframe[0]'s pose, more than 5°"]
+    # the caption changes before the view turns (it drifts 4° meanwhile): accepted
+    held = PLANE_CAPTION.replace("""[[keyframe]]
+t = 10
+angles""", """[[keyframe]]
+t = 8
+eye = [4, -10]
+caption = "In 4D the red curve is the smooth outline of a tube – no corners, no loop."
+[[keyframe]]
+t = 16
+angles""")
+    timeline = load_timeline(write(tmp_path, held, "held.toml"))
+    assert [k.t for k in timeline.keyframes] == [0, 8, 16, 20]
+    assert caption_problems(timeline) == []
+
+
+def test_angles_within_counts_from_the_stating_keyframe_and_includes_the_eye(tmp_path):
+    """``while`` restated alone measures from its own keyframe's pose; the eye's azimuth and
+    incidence count like the six angles."""
+    text = """
+scene = "hopf"
+[[keyframe]]
+t = 0
+angles = [0, 0, 0, 0, 0, 0]
+eye = [0, -60]
+caption = "Seen straight on, the three doughnuts look like rings."
+while = { angles_within = 3 }
+[[keyframe]]
+t = 5
+eye = [10, -60]
+[[keyframe]]
+t = 10
+while = { angles_within = 3 }
+[[keyframe]]
+t = 15
+"""
+    path = write(tmp_path, text)
+    problems = caption_problems(load_timeline(path))
+    # 0..10: the eye swings 10° from keyframe[0]'s; 10..15 holds still at keyframe[2]'s pose
+    assert problems == [
+        f"{path}: keyframe[0].while.angles_within: the caption is shown at t = 1.9..10.0 s with "
+        "the view turned up to 10.0° (eye azimuth) from keyframe[0]'s pose, more than 3°"]
 
 
 def test_reading_time():
@@ -183,6 +254,11 @@ def test_shipped_timelines_keep_their_captions_true():
     for caption, condition in stated.items():
         if "distance 2" in caption:
             assert condition.sensor_distance == (1.9, 2.1)
+    # a caption about the plane view states that it holds only near that pose
+    parabola = next(t for t in timelines if t.scene == "offset-parabola")
+    plane = [k for k in parabola.keyframes if "in the plane" in k.caption]
+    assert plane and all(k.condition and k.condition.angles_within <= 5 for k in plane)
+    assert all(a == 0 for a in plane[0].angles)
 
 
 def test_check_config_reports_a_caption_that_lies(tmp_path, capsys):
@@ -211,3 +287,15 @@ def test_a_caption_held_for_a_day_is_checked_quickly(tmp_path):
     assert len(problems) == 1 and problems[0].startswith(
         f"{path}: keyframe[0].while.sensor_distance: the caption is shown at t = ")
     assert problems[0].endswith("..86400.0 s with the sensor at 2..2.67e+08, outside inf")
+
+
+def test_check_config_refuses_a_plane_caption_shown_after_the_view_turned(tmp_path, capsys):
+    tree = tmp_path / "configs"
+    shutil.copytree(CONFIGS, tree)
+    write(tree / "attract", PLANE_CAPTION, "02-offset-parabola.toml")
+    assert main(["check-config", str(tree / "kiosk.toml")]) == 2
+    out = capsys.readouterr().out.splitlines()
+    assert out[-1] == "1 problem(s) found."
+    assert any(line.startswith(f"{tree / 'attract' / '02-offset-parabola.toml'}: keyframe[0]."
+                               "while.angles_within: the caption is shown at t = 1.8..10.0 s")
+               for line in out), out

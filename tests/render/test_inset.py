@@ -100,3 +100,29 @@ def test_the_touching_curve_in_closed_form(c, loops):
         assert curve.closed and len(curve.points) > 20 and np.all(t == c)
         assert np.abs(np.hypot(y, z) - 1.0).max() < 1e-9
         assert np.abs(np.sqrt(x**2 + y**2 + (z + c) ** 2) - 1.2).max() < 1e-9
+
+
+def _screen_y(view, points):
+    """Pixel rows (down the screen) of 4D points in ``view``."""
+    from exhibit.geometry.pipeline import clip_transform
+
+    projected = clip_transform(view, 1.0).to_pixels(np.asarray(points, float), 100, 100)
+    xy = np.asarray(projected[0] if isinstance(projected, tuple) else projected.points)
+    return xy[:, 1]
+
+
+def test_the_ball_falls_on_screen_in_the_inset_and_the_main_view(collision):
+    """The ball moves along -z (centre z = -vs·t): z must point up on the screen, so the ball
+    seen in the inset falls as the captions say, and the main view's first contact (the top of
+    the pipe, where the falling ball meets it) is drawn at the top of the surface."""
+    params = collision.resolve({})
+    world = {c: inset_mesh(collision, params, None, 3, c) for c in (-1.5, 1.5)}
+    view = inset_view(collision.view, np.concatenate(
+        [w.surfaces[0].positions for w in world.values()]), (400, 300))
+    early, late = (_screen_y(view, world[c].surfaces[0].positions).mean() for c in (-1.5, 1.5))
+    pipe = _screen_y(view, [[0, 0, 0, 0]])[0]
+    assert early < pipe < late   # above the pipe, then below it: falling
+    mesh = collision.build(params, 24)
+    first = mesh.markers[0].position
+    rows = _screen_y(collision.view, mesh.surfaces[0].positions)
+    assert _screen_y(collision.view, [first])[0] < rows.min() + 0.1 * (rows.max() - rows.min())
