@@ -126,6 +126,17 @@ _WIDEST_STATUS = ["θ1 -179.9°  θ2 -179.9°  θ3 -179.9°",
                   "sensor 9999.99   eye 99.99  fov 180°"]
 
 
+def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[str]:
+    """A caption paragraph's lines: one line when it fits the ``room`` beside the gizmo (a
+    short caption broken in two reads as a narrow column and costs the picture height);
+    otherwise as few lines as the ``measure`` (a comfortable line length) needs, balanced
+    across that many lines."""
+    line = " ".join(paragraph.split())
+    if text_width(line, "sans", px) <= room:
+        return [line]
+    return wrap_balanced(line, "sans", px, measure)
+
+
 @dataclass(frozen=True)
 class HudLayout:
     """The panels of one screen: rectangles in pixels, before the burn-in drift (``drift``
@@ -178,11 +189,11 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     # about 45 characters reads best).
     room = gizmo.x0 - 2 * margin - 2 * pad - margin
     title_lines = tuple(wrap_balanced(title, "bold", title_px, room)) if title else ()
-    caption_width = min(room, max(0.42 * width, 22 * body_px))
+    measure = min(room, max(0.42 * width, 22 * body_px))
     caption_lines: list[str] = []
     for paragraph in captions:
         if paragraph:
-            caption_lines += wrap_balanced(paragraph, "sans", body_px, caption_width)
+            caption_lines += caption_wrap(paragraph, body_px, measure, room)
     lines = [(t, "bold", title_px) for t in title_lines] + \
             [(t, "sans", body_px) for t in caption_lines]
     block = None
