@@ -24,7 +24,8 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
-from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles, hud_layout,
+from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles,
+                                   gizmo_caption_rect, gizmo_labels, gizmo_tips, hud_layout,
                                    status_lines)
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 
@@ -55,6 +56,8 @@ class Hud:
         self.layout: HudLayout | None = None
         #: The latest labels drawn: (marker label, Rect, point (x, y), hidden), for checks.
         self.labels: list[tuple[str, Rect, tuple[float, float], bool]] = []
+        #: The gizmo's latest letters: (axis name, Rect), in axis order, for checks.
+        self.gizmo_labels: list[tuple[str, Rect]] = []
 
     def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
         key = (tuple(size), hud.title, hud.caption, hud.note, sizes)
@@ -143,28 +146,26 @@ class Hud:
                axes_label: str = "4D axes") -> list[tuple]:
         """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
         pointing towards the sensor (out of the 3D image, into the 4th dimension). Returns its
-        capsules; its labels go to ``rows``."""
+        capsules; its letters (placed apart: exhibit.render.layout.gizmo_labels) go to
+        ``rows``, and to ``gizmo_labels`` for checks."""
         r = self.renderer
         body = layout.body_px
         radius = layout.gizmo_radius
         cx, cy = layout.gizmo_center
         rot = view.rotation()
+        tips = gizmo_tips(rot, layout)
+        self.gizmo_labels = gizmo_labels(rot, axes, layout, axes_label)
         items = [((cx, cy), (cx, cy), PANEL, 2 * (radius + body))]
         for i in np.argsort(rot[2]):  # back to front along the eye's z
-            v = rot[:, i]
-            tip = (cx + 0.78 * radius * v[0], cy - 0.78 * radius * v[1])
             rgba = (*AXIS_COLORS[i], 1.0)
-            items.append(((cx, cy), tip, rgba, max(1.5, 0.036 * radius)))
-            items.append((tip, tip, rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * v[3]))))
-            label = axes[i]
-            lw = text_width(label, "bold", body)
-            lx = tip[0] + (0.35 * body if v[0] >= 0 else -lw - 0.35 * body)
-            ly = tip[1] - 0.6 * body
-            r._glyph_rows(label, "bold", body, lx, ly, rgba, rows)
-        caption = axes_label
+            items.append(((cx, cy), tips[i], rgba, max(1.5, 0.036 * radius)))
+            items.append((tips[i], tips[i], rgba,
+                          max(3.0, 0.16 * radius * (1.0 + 0.7 * rot[3, i]))))
+            label, rect = self.gizmo_labels[i]
+            r._glyph_rows(label, "bold", body, rect.x0, rect.y0, rgba, rows)
         # As large as the caption: every word on screen meets the size rule.
-        cw = text_width(caption, "sans", body)
-        r._glyph_rows(caption, "sans", body, cx - cw / 2, cy + radius + 0.1 * body,
+        caption = gizmo_caption_rect(axes_label, layout)
+        r._glyph_rows(axes_label, "sans", body, caption.x0, caption.y0,
                       (0.75, 0.77, 0.8, 1.0), rows)
         return items
 
