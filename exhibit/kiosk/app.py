@@ -574,7 +574,8 @@ class Kiosk:
         """The HUD's words in the language on screen (or ``language``)."""
         tr = self.translate
         return HudInfo(title=tr(title, language), caption=tr(caption, language),
-                       axes=scenes.get(scene).axes, axes_label=tr("4D axes", language))
+                       axes=scenes.get(scene).axes, axes_label=tr("4D axes", language),
+                       words=tr.hud_words(language))
 
     def _draw(self, frame, now: float) -> None:
         hud = self._hud(frame.title, frame.caption, frame.scene)

@@ -60,11 +60,11 @@ class Hud:
         self.gizmo_labels: list[tuple[str, Rect]] = []
 
     def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
-        key = (tuple(size), hud.title, hud.caption, hud.note, sizes)
+        key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
         layout = self._layouts.get(key)
         if layout is None:
             layout = self._layouts[key] = hud_layout(size, hud.title, (hud.caption, hud.note),
-                                                     sizes)
+                                                     sizes, words=hud.words)
             while len(self._layouts) > self.CACHED:
                 self._layouts.popitem(last=False)
         self._layouts.move_to_end(key)
@@ -129,7 +129,7 @@ class Hud:
         status = layout.status_block
         r._panel_row(status.x0 + dx, status.y0 - dy, status.width, status.height, PANEL, rows)
         mono_h = line_height("mono", body)
-        lines = status_lines(view, sizes.infinity_beyond)
+        lines = status_lines(view, sizes.infinity_beyond, hud.words)
         if not has_greek():
             lines = [t.replace("θ", "t").replace("∞", "inf").replace("°", "") for t in lines]
         for i, text in enumerate(lines):
@@ -137,7 +137,7 @@ class Hud:
                           status.y0 - dy + pad + i * mono_h, INK, rows)
 
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
-        items += self._marker_labels(gpu, view, size, layout, rows)
+        items += self._marker_labels(gpu, view, size, layout, rows, hud.word)
         r._overlay(items, viewport)
         r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
         r.ctx.disable(moderngl.BLEND)
@@ -169,8 +169,10 @@ class Hud:
                       (0.75, 0.77, 0.8, 1.0), rows)
         return items
 
-    def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list) -> list[tuple]:
-        """Labelled markers above the surfaces, labels placed on screen and off the panels."""
+    def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list,
+                       word=lambda english: english) -> list[tuple]:
+        """Labelled markers above the surfaces, labels placed on screen and off the panels;
+        ``word`` translates their words (HudInfo.word)."""
         self.labels = []
         markers = [m for m in gpu.mesh.markers if m.label]
         if not markers:
@@ -190,7 +192,8 @@ class Hud:
                 continue
             color = (*m.material.color, 1.0)
             disc = max(9.0, 11.0 * scale)
-            label = place_label(m.label, (x, y), body, layout, taken)
+            text = marker_text(m.label, word)
+            label = place_label(text, (x, y), body, layout, taken)
             taken.append(label.grow(0.3 * body))
             # The leader: from the point to the label's nearest edge, when not right beside it.
             nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
@@ -201,9 +204,8 @@ class Hud:
             items.append(((x, y), (x, y), color, disc))
             if covered:   # behind a sheet: a ring, the halo showing through its middle
                 items.append(((x, y), (x, y), HALO, 0.5 * disc))
-            self._halo_text(m.label, "bold", body, label.x0 + 0.25 * body, label.y0, color,
-                            rows)
-            self.labels.append((m.label, label, (float(x), float(y)), bool(covered)))
+            self._halo_text(text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows)
+            self.labels.append((text, label, (float(x), float(y)), bool(covered)))
         return items
 
     def _halo_text(self, text, style, px, x, y, color, rows) -> None:
@@ -220,6 +222,14 @@ class Hud:
                 texture.release()
         self._blocks.clear()
         self._layouts.clear()
+
+
+def marker_text(label: str, word) -> str:
+    """A marker's label in the language on screen: labels are words, then a formula after a
+    comma ("first contact, t = 0.123", exhibit.scenes.collision); ``word`` translates the
+    words, the formula reads the same in every language."""
+    words, comma, formula = label.partition(", ")
+    return word(words) + comma + formula
 
 
 def place_label(text: str, point: tuple[float, float], px: int, layout: HudLayout,

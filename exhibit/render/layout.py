@@ -111,21 +111,41 @@ def format_angle(radians: float) -> str:
     return f"{degrees:6.1f}°"
 
 
-def status_lines(view, beyond: float = INFINITY_BEYOND) -> list[str]:
+def status_lines(view, beyond: float = INFINITY_BEYOND,
+                 words: tuple[tuple[str, str], ...] = ()) -> list[str]:
     """The numbers panel: six angles on two lines and the two distances, every field of fixed
     width so nothing jitters while a knob turns. θ with plain digits: subscripts are too small
-    to read from a distance."""
+    to read from a distance. ``words``: (English, shown) pairs for "sensor", "eye", "fov"."""
     a = [format_angle(x) for x in view.angles]
     eye = format_distance(view.eye_distance, beyond).strip()
-    fov = "" if view.eye_r == 0 else f"  fov {view.field_of_view:3.0f}°"
-    return ["  ".join(f"θ{i + 1} {a[i]}" for i in range(3)),
-            "  ".join(f"θ{i + 1} {a[i]}" for i in range(3, 6)),
-            f"sensor {format_distance(view.sensor_distance, beyond)}   eye {eye:>5}{fov}"]
+    fov = None if view.eye_r == 0 else view.field_of_view
+    return [_angles_line(a[:3], 1), _angles_line(a[3:], 4),
+            _distances_line(dict(words), format_distance(view.sensor_distance, beyond), eye,
+                            fov)]
 
 
-#: The status panel is as wide as its widest possible lines (these), whatever the numbers.
-_WIDEST_STATUS = ["θ1 -179.9°  θ2 -179.9°  θ3 -179.9°",
-                  "sensor 9999.99   eye 99.99  fov 180°"]
+def _angles_line(angles: list[str], first: int) -> str:
+    return "  ".join(f"θ{first + i} {text}" for i, text in enumerate(angles))
+
+
+def _distances_line(words: dict, sensor: str, eye: str, fov: float | None) -> str:
+    """The sensor's and the eye's distance and the eye's field of view, labelled in the
+    language on screen."""
+    def word(english: str) -> str:
+        return words.get(english, english)
+
+    fov_text = "" if fov is None else f"  {word('fov')} {fov:3.0f}°"
+    return f"{word('sensor')} {sensor}   {word('eye')} {eye:>5}{fov_text}"
+
+
+def widest_status(words: tuple[tuple[str, str], ...] = (),
+                  beyond: float = INFINITY_BEYOND) -> list[str]:
+    """The widest lines the numbers panel can show in the language of ``words``, with
+    distances up to ``beyond`` (farther is ∞): the panel is this wide whatever the numbers, so
+    it never jitters while a knob turns."""
+    farthest = format_distance(beyond, beyond)
+    return [_angles_line(["-179.9°"] * 3, 1),
+            _distances_line(dict(words), farthest, farthest.strip(), 180.0)]
 
 
 def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[str]:
@@ -171,9 +191,11 @@ class HudLayout:
 
 
 def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...] = ("",),
-               sizes: TextSizes = TextSizes(), drift: float = 0.0) -> HudLayout:
+               sizes: TextSizes = TextSizes(), drift: float = 0.0,
+               words: tuple[tuple[str, str], ...] = ()) -> HudLayout:
     """The panels for ``title`` and the caption paragraphs ``captions`` (the caption and a
-    note, each wrapped on its own) on a ``size`` screen."""
+    note, each wrapped on its own) on a ``size`` screen; ``words``: the numbers panel's words
+    in the language on screen (HudInfo.words), which set its width."""
     width, height = int(size[0]), int(size[1])
     margin = max(4, round(0.022 * height))
     title_px = size_for_cap("bold", sizes.title_cap * height)
@@ -206,7 +228,8 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
 
     # The numbers, bottom left, in a fixed-width font.
     advance = text_width("0", "mono", body_px)
-    status_w = max(len(t) for t in _WIDEST_STATUS) * advance + 2 + 2 * pad
+    widest = widest_status(words, sizes.infinity_beyond)
+    status_w = max(len(t) for t in widest) * advance + 2 + 2 * pad
     status_h = 3 * line_height("mono", body_px) + 2 * pad
     status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
     return HudLayout((width, height), margin, title_px, body_px, pad, title_lines,
