@@ -389,7 +389,7 @@ class Kiosk:
         keyboard = self.devices.keyboard
         if isinstance(event, Key):
             if keyboard is not None:
-                keyboard.key(event.name, event.pressed)
+                keyboard.key(event.name, event.pressed, mods=event.mods)
             quit_combo = set(self.config.quit_keys)
             if event.pressed and quit_combo and quit_combo == event.mods | {event.name.lower()}:
                 log.info("maintenance key combination: quitting")
