@@ -17,6 +17,7 @@ and the staff viewer (`exhibit render --window`) read the same keys the same way
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 from exhibit.devices.base import Backend, Capabilities, Event, Kind, State
@@ -74,8 +75,15 @@ class KeyboardBackend(Backend):
     def _t(self, t: float | None) -> float:
         return self.clock() if t is None else t
 
-    def key(self, name: str, pressed: bool, t: float | None = None) -> None:
-        """A key went down or up (repeats of a held key are harmless)."""
+    def key(self, name: str, pressed: bool, t: float | None = None,
+            mods: Iterable[str] = ()) -> None:
+        """A key went down or up (repeats of a held key are harmless); ``mods``: the modifiers
+        held ("ctrl", "alt", "shift", "super"). A press with any modifier but Shift is a
+        shortcut meant for someone else (Ctrl+Q, Alt+Tab, the staff's quit combination), not
+        a visitor at the knobs: it is dropped. A release always counts, so a key pressed
+        before the modifier never sticks."""
+        if pressed and set(mods) - {"shift"}:
+            return
         name = name.lower()
         if name in BUTTON_KEYS:
             if pressed != (name in self._down):

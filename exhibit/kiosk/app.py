@@ -187,14 +187,15 @@ class Kiosk:
         self.translate = self._translator(config)
         self._language_since = clock()
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
-                             hud=config.hud, versions=self._versions)
+                             hud=config.hud, versions=self._versions, words=self._words())
         #: The time-slice inset's corner (a panel for timelines that slice) and its scene.
         size = tuple(getattr(window, "size", config.size))
         self._inset_rect = inset_rect(size, hud_layout(size, sizes=self.text).margin)
         self._inset_mesh = None
         self._inset_view_cache = None
         self._inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
-                                    extra=(self._inset_rect,), versions=self._versions)
+                                    extra=(self._inset_rect,), versions=self._versions,
+                                    words=self._words())
         if sessions is not None:
             sessions.language = self.translate.language
         self._framed: OrderedDict[tuple, object] = OrderedDict()
@@ -252,6 +253,10 @@ class Kiosk:
             if self.sessions is not None:
                 self.sessions.language = language
         self._language_since = now
+
+    def _words(self) -> tuple:
+        """The numbers panel's words in every language shown, as _versions orders them."""
+        return tuple(self.translate.hud_words(code) for code in self.translate.order)
 
     def _switch_language(self, events, now: float) -> None:
         """The "language" button, or attract mode's timer, shows the next language."""
@@ -421,7 +426,7 @@ class Kiosk:
         keyboard = self.devices.keyboard
         if isinstance(event, Key):
             if keyboard is not None:
-                keyboard.key(event.name, event.pressed)
+                keyboard.key(event.name, event.pressed, mods=event.mods)
             quit_combo = set(self.config.quit_keys)
             if event.pressed and quit_combo and quit_combo == event.mods | {event.name.lower()}:
                 log.info("maintenance key combination: quitting")
@@ -608,7 +613,8 @@ class Kiosk:
         """The HUD's words in the language on screen (or ``language``)."""
         tr = self.translate
         return HudInfo(title=tr(title, language), caption=tr(caption, language),
-                       axes=scenes.get(scene).axes, axes_label=tr("4D axes", language))
+                       axes=scenes.get(scene).axes, axes_label=tr("4D axes", language),
+                       words=tr.hud_words(language))
 
     def _draw(self, frame, now: float) -> None:
         hud = self._hud(frame.title, frame.caption, frame.scene)

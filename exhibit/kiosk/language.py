@@ -35,8 +35,10 @@ from exhibit.schema.types import Caption, Name, Number
 log = logging.getLogger("exhibit.kiosk")
 
 SOURCE = "en"
-#: Words the HUD itself shows, beside the scenes' and timelines' own.
-HUD_WORDS = ("4D axes",)
+#: Words the HUD itself shows, beside the scenes' and timelines' own: the gizmo's caption,
+#: the numbers panel's labels, and the words of marker labels (exhibit.scenes.collision's
+#: "first contact, t = ..."; the formula after the comma is not translated).
+HUD_WORDS = ("4D axes", "sensor", "eye", "fov", "first contact")
 LanguageCode = Annotated[str, Field(pattern=r"^[a-z]{2,3}(-[A-Z]{2})?$")]
 #: The shortest time between two changes of language by attract mode's timer.
 MIN_SWITCH_S = 10.0
@@ -121,6 +123,10 @@ class Translator:
         """Back to the first language shown (the museum's own), for the next visitor."""
         self.index = 0
         return self.language
+
+    def hud_words(self, language: str | None = None) -> tuple[tuple[str, str], ...]:
+        """Every HUD word in the language on screen (or ``language``): HudInfo.words."""
+        return tuple((word, self(word, language)) for word in HUD_WORDS)
 
     def __call__(self, text: str, language: str | None = None) -> str:
         if not text:

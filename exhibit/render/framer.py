@@ -29,7 +29,8 @@ class Framer:
 
     def __init__(self, size: tuple[int, int], sizes: TextSizes = TextSizes(),
                  drift: float = 0.0, hud: bool = True, extra: tuple[Rect, ...] = (),
-                 versions: Callable[[str], tuple[str, ...]] = _as_shown):
+                 versions: Callable[[str], tuple[str, ...]] = _as_shown,
+                 words: tuple[tuple[tuple[str, str], ...], ...] = ((),)):
         self.size = (int(size[0]), int(size[1]))
         self.sizes = sizes
         self.drift = float(drift)
@@ -37,6 +38,8 @@ class Framer:
         #: Panels beyond the HUD's (the time-slice inset, exhibit.render.inset).
         self.extra = tuple(extra)
         self.versions = versions
+        #: The numbers panel's words (HudInfo.words) in each version, in the same order.
+        self.words = tuple(words) or ((),)
 
     def panels(self, title: str, captions) -> list[Rect]:
         """Every panel the HUD may draw with ``title`` and any one of ``captions`` (each a
@@ -44,12 +47,14 @@ class Framer:
         out: list[Rect] = list(self.extra)
         if not self.hud:
             return out
-        titles = self.versions(title) if title else ("",)
+        titles = self.versions(title)   # one per language, "" included
         for paragraphs in captions or [("",)]:
-            shown = [self.versions(p) if p else ("",) * len(titles) for p in paragraphs]
+            shown = [self.versions(p) for p in paragraphs]
             for i, heading in enumerate(titles):
                 words = tuple(p[i] if i < len(p) else p[0] for p in shown)
-                out += hud_layout(self.size, heading, words, self.sizes, self.drift).panels
+                hud_words = self.words[i] if i < len(self.words) else self.words[0]
+                out += hud_layout(self.size, heading, words, self.sizes, self.drift,
+                                  hud_words).panels
         return out
 
     def areas(self, title: str, captions) -> list[Rect]:

@@ -24,7 +24,8 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
-from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles, hud_layout,
+from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles,
+                                   gizmo_caption_rect, gizmo_labels, gizmo_tips, hud_layout,
                                    status_lines)
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 
@@ -56,13 +57,15 @@ class Hud:
         self.layout: HudLayout | None = None
         #: The latest labels drawn: (marker label, Rect, point (x, y), hidden), for checks.
         self.labels: list[tuple[str, Rect, tuple[float, float], bool]] = []
+        #: The gizmo's latest letters: (axis name, Rect), in axis order, for checks.
+        self.gizmo_labels: list[tuple[str, Rect]] = []
 
     def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
-        key = (tuple(size), hud.title, hud.caption, hud.note, sizes)
+        key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
         layout = self._layouts.get(key)
         if layout is None:
             layout = self._layouts[key] = hud_layout(size, hud.title, (hud.caption, hud.note),
-                                                     sizes)
+                                                     sizes, words=hud.words)
             while len(self._layouts) > self.CACHED:
                 self._layouts.popitem(last=False)
         self._layouts.move_to_end(key)
@@ -133,7 +136,7 @@ class Hud:
         status = layout.status_block
         r._panel_row(status.x0 + dx, status.y0 - dy, status.width, status.height, PANEL, rows)
         mono_h = line_height("mono", body)
-        lines = status_lines(view, sizes.infinity_beyond)
+        lines = status_lines(view, sizes.infinity_beyond, hud.words)
         if not has_greek():
             lines = [t.replace("θ", "t").replace("∞", "inf").replace("°", "") for t in lines]
         for i, text in enumerate(lines):
@@ -141,7 +144,7 @@ class Hud:
                           status.y0 - dy + pad + i * mono_h, INK, rows)
 
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
-        items += self._marker_labels(gpu, view, size, layout, rows)
+        items += self._marker_labels(gpu, view, size, layout, rows, hud.word)
         if alpha < 1.0:
             rows = [(*row[:11], row[11] * alpha) for row in rows]
             items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in items]
@@ -153,33 +156,33 @@ class Hud:
                axes_label: str = "4D axes") -> list[tuple]:
         """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
         pointing towards the sensor (out of the 3D image, into the 4th dimension). Returns its
-        capsules; its labels go to ``rows``."""
+        capsules; its letters (placed apart: exhibit.render.layout.gizmo_labels) go to
+        ``rows``, and to ``gizmo_labels`` for checks."""
         r = self.renderer
         body = layout.body_px
         radius = layout.gizmo_radius
         cx, cy = layout.gizmo_center
         rot = view.rotation()
+        tips = gizmo_tips(rot, layout)
+        self.gizmo_labels = gizmo_labels(rot, axes, layout, axes_label)
         items = [((cx, cy), (cx, cy), PANEL, 2 * (radius + body))]
         for i in np.argsort(rot[2]):  # back to front along the eye's z
-            v = rot[:, i]
-            tip = (cx + 0.78 * radius * v[0], cy - 0.78 * radius * v[1])
             rgba = (*AXIS_COLORS[i], 1.0)
-            items.append(((cx, cy), tip, rgba, max(1.5, 0.036 * radius)))
-            items.append((tip, tip, rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * v[3]))))
-            label = axes[i]
-            lw = text_width(label, "bold", body)
-            lx = tip[0] + (0.35 * body if v[0] >= 0 else -lw - 0.35 * body)
-            ly = tip[1] - 0.6 * body
-            r._glyph_rows(label, "bold", body, lx, ly, rgba, rows)
-        caption = axes_label
+            items.append(((cx, cy), tips[i], rgba, max(1.5, 0.036 * radius)))
+            items.append((tips[i], tips[i], rgba,
+                          max(3.0, 0.16 * radius * (1.0 + 0.7 * rot[3, i]))))
+            label, rect = self.gizmo_labels[i]
+            r._glyph_rows(label, "bold", body, rect.x0, rect.y0, rgba, rows)
         # As large as the caption: every word on screen meets the size rule.
-        cw = text_width(caption, "sans", body)
-        r._glyph_rows(caption, "sans", body, cx - cw / 2, cy + radius + 0.1 * body,
+        caption = gizmo_caption_rect(axes_label, layout)
+        r._glyph_rows(axes_label, "sans", body, caption.x0, caption.y0,
                       (0.75, 0.77, 0.8, 1.0), rows)
         return items
 
-    def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list) -> list[tuple]:
-        """Labelled markers above the surfaces, labels placed on screen and off the panels."""
+    def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list,
+                       word=lambda english: english) -> list[tuple]:
+        """Labelled markers above the surfaces, labels placed on screen and off the panels;
+        ``word`` translates their words (HudInfo.word)."""
         self.labels = []
         markers = [m for m in gpu.mesh.markers if m.label]
         if not markers:
@@ -199,7 +202,8 @@ class Hud:
                 continue
             color = (*m.material.color, 1.0)
             disc = max(9.0, 11.0 * scale)
-            label = place_label(m.label, (x, y), body, layout, taken)
+            text = marker_text(m.label, word)
+            label = place_label(text, (x, y), body, layout, taken)
             taken.append(label.grow(0.3 * body))
             # The leader: from the point to the label's nearest edge, when not right beside it.
             nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
@@ -210,9 +214,8 @@ class Hud:
             items.append(((x, y), (x, y), color, disc))
             if covered:   # behind a sheet: a ring, the halo showing through its middle
                 items.append(((x, y), (x, y), HALO, 0.5 * disc))
-            self._halo_text(m.label, "bold", body, label.x0 + 0.25 * body, label.y0, color,
-                            rows)
-            self.labels.append((m.label, label, (float(x), float(y)), bool(covered)))
+            self._halo_text(text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows)
+            self.labels.append((text, label, (float(x), float(y)), bool(covered)))
         return items
 
     def _halo_text(self, text, style, px, x, y, color, rows) -> None:
@@ -229,6 +232,14 @@ class Hud:
                 texture.release()
         self._blocks.clear()
         self._layouts.clear()
+
+
+def marker_text(label: str, word) -> str:
+    """A marker's label in the language on screen: labels are words, then a formula after a
+    comma ("first contact, t = 0.123", exhibit.scenes.collision); ``word`` translates the
+    words, the formula reads the same in every language."""
+    words, comma, formula = label.partition(", ")
+    return word(words) + comma + formula
 
 
 def place_label(text: str, point: tuple[float, float], px: int, layout: HudLayout,

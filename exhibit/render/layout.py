@@ -20,6 +20,8 @@ from dataclasses import dataclass
 from functools import lru_cache
 from typing import NamedTuple
 
+import numpy as np
+
 from exhibit.render.text import font, line_height, text_width, wrap_balanced
 
 #: The smallest caption cap height the exhibit allows, as a fraction of the screen height.
@@ -109,21 +111,52 @@ def format_angle(radians: float) -> str:
     return f"{degrees:6.1f}°"
 
 
-def status_lines(view, beyond: float = INFINITY_BEYOND) -> list[str]:
+def status_lines(view, beyond: float = INFINITY_BEYOND,
+                 words: tuple[tuple[str, str], ...] = ()) -> list[str]:
     """The numbers panel: six angles on two lines and the two distances, every field of fixed
     width so nothing jitters while a knob turns. θ with plain digits: subscripts are too small
-    to read from a distance."""
+    to read from a distance. ``words``: (English, shown) pairs for "sensor", "eye", "fov"."""
     a = [format_angle(x) for x in view.angles]
     eye = format_distance(view.eye_distance, beyond).strip()
-    fov = "" if view.eye_r == 0 else f"  fov {view.field_of_view:3.0f}°"
-    return ["  ".join(f"θ{i + 1} {a[i]}" for i in range(3)),
-            "  ".join(f"θ{i + 1} {a[i]}" for i in range(3, 6)),
-            f"sensor {format_distance(view.sensor_distance, beyond)}   eye {eye:>5}{fov}"]
+    fov = None if view.eye_r == 0 else view.field_of_view
+    return [_angles_line(a[:3], 1), _angles_line(a[3:], 4),
+            _distances_line(dict(words), format_distance(view.sensor_distance, beyond), eye,
+                            fov)]
 
 
-#: The status panel is as wide as its widest possible lines (these), whatever the numbers.
-_WIDEST_STATUS = ["θ1 -179.9°  θ2 -179.9°  θ3 -179.9°",
-                  "sensor 9999.99   eye 99.99  fov 180°"]
+def _angles_line(angles: list[str], first: int) -> str:
+    return "  ".join(f"θ{first + i} {text}" for i, text in enumerate(angles))
+
+
+def _distances_line(words: dict, sensor: str, eye: str, fov: float | None) -> str:
+    """The sensor's and the eye's distance and the eye's field of view, labelled in the
+    language on screen."""
+    def word(english: str) -> str:
+        return words.get(english, english)
+
+    fov_text = "" if fov is None else f"  {word('fov')} {fov:3.0f}°"
+    return f"{word('sensor')} {sensor}   {word('eye')} {eye:>5}{fov_text}"
+
+
+def widest_status(words: tuple[tuple[str, str], ...] = (),
+                  beyond: float = INFINITY_BEYOND) -> list[str]:
+    """The widest lines the numbers panel can show in the language of ``words``, with
+    distances up to ``beyond`` (farther is ∞): the panel is this wide whatever the numbers, so
+    it never jitters while a knob turns."""
+    farthest = format_distance(beyond, beyond)
+    return [_angles_line(["-179.9°"] * 3, 1),
+            _distances_line(dict(words), farthest, farthest.strip(), 180.0)]
+
+
+def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[str]:
+    """A caption paragraph's lines: one line when it fits the ``room`` beside the gizmo (a
+    short caption broken in two reads as a narrow column and costs the picture height);
+    otherwise as few lines as the ``measure`` (a comfortable line length) needs, balanced
+    across that many lines."""
+    line = " ".join(paragraph.split())
+    if text_width(line, "sans", px) <= room:
+        return [line]
+    return wrap_balanced(line, "sans", px, measure)
 
 
 @dataclass(frozen=True)
@@ -158,9 +191,11 @@ class HudLayout:
 
 
 def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...] = ("",),
-               sizes: TextSizes = TextSizes(), drift: float = 0.0) -> HudLayout:
+               sizes: TextSizes = TextSizes(), drift: float = 0.0,
+               words: tuple[tuple[str, str], ...] = ()) -> HudLayout:
     """The panels for ``title`` and the caption paragraphs ``captions`` (the caption and a
-    note, each wrapped on its own) on a ``size`` screen."""
+    note, each wrapped on its own) on a ``size`` screen; ``words``: the numbers panel's words
+    in the language on screen (HudInfo.words), which set its width."""
     width, height = int(size[0]), int(size[1])
     margin = max(4, round(0.022 * height))
     title_px = size_for_cap("bold", sizes.title_cap * height)
@@ -178,11 +213,11 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     # about 45 characters reads best).
     room = gizmo.x0 - 2 * margin - 2 * pad - margin
     title_lines = tuple(wrap_balanced(title, "bold", title_px, room)) if title else ()
-    caption_width = min(room, max(0.42 * width, 22 * body_px))
+    measure = min(room, max(0.42 * width, 22 * body_px))
     caption_lines: list[str] = []
     for paragraph in captions:
         if paragraph:
-            caption_lines += wrap_balanced(paragraph, "sans", body_px, caption_width)
+            caption_lines += caption_wrap(paragraph, body_px, measure, room)
     lines = [(t, "bold", title_px) for t in title_lines] + \
             [(t, "sans", body_px) for t in caption_lines]
     block = None
@@ -193,11 +228,104 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
 
     # The numbers, bottom left, in a fixed-width font.
     advance = text_width("0", "mono", body_px)
-    status_w = max(len(t) for t in _WIDEST_STATUS) * advance + 2 + 2 * pad
+    widest = widest_status(words, sizes.infinity_beyond)
+    status_w = max(len(t) for t in widest) * advance + 2 + 2 * pad
     status_h = 3 * line_height("mono", body_px) + 2 * pad
     status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
     return HudLayout((width, height), margin, title_px, body_px, pad, title_lines,
                      tuple(caption_lines), block, status, (cx, cy), radius, gizmo, drift)
+
+
+# ---------------------------------------------------------------------- the gizmo's letters
+
+#: Where an axis' tip is drawn, as a fraction of the gizmo's radius from its centre.
+GIZMO_TIP = 0.78
+
+
+def gizmo_tips(rotation: np.ndarray, layout: HudLayout) -> list[tuple[float, float]]:
+    """The screen position of each axis' tip: the 4D rotation's columns seen along the eye's z
+    (screen y down)."""
+    cx, cy = layout.gizmo_center
+    reach = GIZMO_TIP * layout.gizmo_radius
+    return [(cx + reach * rotation[0, i], cy - reach * rotation[1, i]) for i in range(4)]
+
+
+def gizmo_caption_rect(caption: str, layout: HudLayout) -> Rect:
+    """The line under the gizmo ("4D axes"), centred, at the caption's size."""
+    cx, cy = layout.gizmo_center
+    px = layout.body_px
+    w = text_width(caption, "sans", px)
+    top = cy + layout.gizmo_radius + 0.1 * px
+    return Rect(cx - w / 2, top, cx + w / 2, top + line_height("sans", px))
+
+
+def gizmo_labels(rotation: np.ndarray, axes, layout: HudLayout,
+                 caption: str = "4D axes") -> list[tuple[str, Rect]]:
+    """Where each axis' letter goes: (letter, rectangle in whole pixels), in axis order.
+
+    Letters placed beside their tips collide whenever two axes point the same way on screen
+    (x over y, t over y), and two letters on top of each other read as neither. So each letter
+    takes the free spot nearest to just beyond its tip along its axis (a few distances and
+    directions around the tip), clear of the letters already placed and of the caption, inside
+    the gizmo's disc if it can, else inside its block. The axes nearest the eye go first: their
+    tips are drawn on top."""
+    px = layout.body_px
+    tips = gizmo_tips(rotation, layout)
+    taken = [gizmo_caption_rect(caption, layout)]
+    gap = max(1.0, 0.08 * px)
+    out: dict[int, tuple[str, Rect]] = {}
+    for i in np.argsort(-np.asarray(rotation)[2], kind="stable"):
+        label = axes[i]
+        rect = _free_label_spot(label, tips[i], layout, taken)
+        out[int(i)] = (label, rect)
+        taken.append(rect.grow(gap))
+    return [out[i] for i in range(4)]
+
+
+def _free_label_spot(label: str, tip: tuple[float, float], layout: HudLayout,
+                     taken: list[Rect]) -> Rect:
+    """The candidate rectangle for ``label`` nearest the ideal spot (just beyond ``tip``, away
+    from the centre) that is clear of ``taken``: around the tip within the disc, then within
+    the block, then anywhere on a grid over the block; the ideal spot itself if the block is
+    full (never on a screen of sensible size)."""
+    px = layout.body_px
+    w, h = math.ceil(text_width(label, "bold", px)) + 2, line_height("bold", px)
+    cx, cy = layout.gizmo_center
+    tx, ty = tip
+    outward = math.atan2(ty - cy, tx - cx) if math.hypot(tx - cx, ty - cy) > 0.15 * px else 0.0
+    angles = outward + np.radians(np.arange(0, 360, 15))
+    gaps = np.array([0.3, 0.8, 1.5, 2.3]) * px
+    ux, uy = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    reach = gaps[None, :] + np.abs(ux) * w / 2 + np.abs(uy) * h / 2
+    around = np.stack([tx + ux * reach, ty + uy * reach], axis=-1).reshape(-1, 2)
+    ideal = around[0]
+    block, disc = layout.gizmo_block, layout.gizmo_radius + px
+
+    def in_disc(rect: Rect) -> bool:
+        return all(math.hypot(x - cx, y - cy) <= disc
+                   for x in (rect.x0, rect.x1) for y in (rect.y0, rect.y1))
+
+    def grid() -> np.ndarray:
+        step = max(1.0, px / 4)
+        xs, ys = np.meshgrid(np.arange(block.x0 + w / 2, block.x1 - w / 2 + 1, step),
+                             np.arange(block.y0 + h / 2, block.y1 - h / 2 + 1, step))
+        return np.stack([xs.ravel(), ys.ravel()], axis=-1)
+
+    for centres, inside in ((lambda: around, in_disc), (lambda: around, block.contains),
+                            (grid, block.contains)):
+        points = centres()
+        for x, y in points[np.argsort(np.hypot(*(points - ideal).T), kind="stable")]:
+            rect = _pixel_rect(x - w / 2, y - h / 2, w, h)
+            if block.contains(rect) and inside(rect) and not any(rect.overlaps(t)
+                                                                 for t in taken):
+                return rect
+    return _pixel_rect(ideal[0] - w / 2, ideal[1] - h / 2, w, h)
+
+
+def _pixel_rect(x: float, y: float, w: float, h: float) -> Rect:
+    """A rectangle at whole pixels, as the glyphs are drawn (exhibit.render.renderer)."""
+    x, y = round(x), round(y)
+    return Rect(x, y, x + w, y + h)
 
 
 def free_rectangles(size: tuple[int, int], panels: list[Rect], margin: float) -> list[Rect]:

@@ -66,6 +66,14 @@ class HudInfo:
     note: str = ""
     #: The gizmo's label, in the language on screen (exhibit.kiosk.language).
     axes_label: str = "4D axes"
+    #: The HUD's other words in the language on screen, (English, shown) pairs: the numbers
+    #: panel's "sensor", "eye", "fov" and the words of marker labels ("first contact").
+    #: A tuple, not a dict, so the HUD can key its caches by it.
+    words: tuple[tuple[str, str], ...] = ()
+
+    def word(self, english: str) -> str:
+        """``english`` in the language on screen (itself when there is no translation)."""
+        return dict(self.words).get(english, english)
 
 
 def _mat(m: np.ndarray) -> bytes:

@@ -55,14 +55,31 @@ def line_height(style: str, size: int) -> int:
     return ascent + descent
 
 
-def wrap(text: str, style: str, size: int, width: float) -> list[str]:
-    """Greedy word wrap to a pixel width."""
-    lines, current = [], ""
+#: Dashes that join two clauses: a line never starts with one (it would read as a list item
+#: or a minus sign), so each stays on the line of the word before it.
+DASHES = ("–", "—", "-")
+
+
+def units(text: str) -> list[str]:
+    """The pieces a line may break between: words, with a dash that follows a space ("a – b",
+    "a - b", "a —b") glued to the word before it."""
+    out: list[str] = []
     for word in text.split():
-        trial = f"{current} {word}".strip()
+        if out and word.startswith(DASHES) and (word[0] != "-" or not word.strip("-")):
+            out[-1] = f"{out[-1]} {word}"
+        else:
+            out.append(word)
+    return out
+
+
+def wrap(text: str, style: str, size: int, width: float) -> list[str]:
+    """Greedy word wrap to a pixel width, never starting a line with a dash."""
+    lines, current = [], ""
+    for unit in units(text):
+        trial = f"{current} {unit}".strip()
         if current and text_width(trial, style, size) > width:
             lines.append(current)
-            current = word
+            current = unit
         else:
             current = trial
     if current:
@@ -81,7 +98,7 @@ def wrap_balanced(text: str, style: str, size: int, width: float) -> list[str]:
     lines = wrap(text, style, size, width)
     if len(lines) < 2:
         return lines
-    low, high = max(text_width(w, style, size) for w in text.split()), float(width)
+    low, high = max(text_width(u, style, size) for u in units(text)), float(width)
     for _ in range(14):
         middle = 0.5 * (low + high)
         if len(wrap(text, style, size, middle)) <= len(lines):
@@ -89,8 +106,8 @@ def wrap_balanced(text: str, style: str, size: int, width: float) -> list[str]:
         else:
             low = middle
     lines = wrap(text, style, size, high)
-    if len(lines[-1].split()) == 1 and len(lines[-2].split()) >= 3:
-        *head, moved = lines[-2].split()
+    if len(units(lines[-1])) == 1 and len(units(lines[-2])) >= 3:
+        *head, moved = units(lines[-2])
         candidate = f"{moved} {lines[-1]}"
         if text_width(candidate, style, size) <= width:
             lines[-2:] = [" ".join(head), candidate]

@@ -43,6 +43,20 @@ def test_keyboard_pairs_of_keys_are_axes_drag_and_scroll_are_deltas(clock):
     assert kb.poll() == [] and kb.capabilities.axes == 7
 
 
+def test_keyboard_presses_with_ctrl_alt_or_super_are_shortcuts_not_knobs(clock):
+    kb = KeyboardBackend(name="kb", clock=clock).open()
+    for mods in ({"ctrl"}, {"alt"}, {"super"}, {"ctrl", "shift"}):
+        kb.key("q", True, mods=frozenset(mods))
+        kb.key("space", True, mods=frozenset(mods))
+        kb.key("q", False, mods=frozenset(mods))
+        kb.key("space", False, mods=frozenset(mods))
+    assert kb.poll() == []
+    kb.key("q", True, mods=frozenset({"shift"}))   # Shift+Q is still q
+    assert [(e.kind, e.value) for e in kb.poll()] == [(Kind.ABS, 1.0)]
+    kb.key("q", False, mods=frozenset({"ctrl"}))   # Ctrl went down while q was held
+    assert [(e.kind, e.value) for e in kb.poll()] == [(Kind.ABS, 0.0)]
+
+
 def session(clock):
     """A scripted knob box and keyboard through a DeviceSet, recorded as it goes."""
     config = parse_config({

@@ -97,6 +97,7 @@ def test_the_language_button_shows_the_kiosk_in_german(headless, tmp_path):
     hud = run.target.drawn[3]
     assert run.kiosk.translate.language == "de"
     assert hud.title == "Der flache Donut" and hud.axes_label == "4D-Achsen"
+    assert hud.word("sensor") == "Sensor" and hud.word("first contact") == "erste Berührung"
 
 
 def test_attract_mode_changes_language_on_its_timer(headless, tmp_path):

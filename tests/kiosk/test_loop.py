@@ -40,6 +40,33 @@ def test_a_key_takes_over_and_idle_time_gives_the_exhibit_back(loop):
     assert loop.frame.mode == "attract"
 
 
+@pytest.mark.parametrize("mods", [{"ctrl"}, {"alt"}, {"super"}, {"ctrl", "shift"}])
+def test_a_key_with_ctrl_alt_or_super_does_not_turn_the_knobs(loop, mods):
+    """Ctrl+Q, Ctrl+W, Alt+Q, Super+W are someone's shortcuts: no takeover, no turn."""
+    loop.run(0.5)
+    for name in ("q", "w"):
+        loop.target.post(Key(name, True, frozenset(mods)))
+    loop.run(1.0)
+    assert loop.frame.mode == "attract"
+    for name in ("q", "w"):
+        loop.target.post(Key(name, False, frozenset(mods)))
+    loop.run(0.2)
+    assert loop.frame.mode == "attract"
+
+
+def test_shift_q_turns_and_a_release_under_ctrl_lets_go(loop):
+    loop.run(0.5)
+    before = loop.frame.view.angles[0]
+    loop.target.post(Key("q", True, frozenset({"shift"})))
+    loop.run(1.0)
+    assert loop.frame.mode == "visitor" and loop.frame.view.angles[0] > before + 0.1
+    loop.target.post(Key("q", False, frozenset({"ctrl"})))   # Ctrl pressed before letting go
+    loop.run(0.3)
+    held = loop.frame.view.angles[0]
+    loop.run(1.0)
+    assert loop.frame.view.angles[0] == pytest.approx(held)
+
+
 def test_the_next_scene_key_switches_scene(loop):
     loop.run(0.3)
     loop.target.post(Key("n", True))
