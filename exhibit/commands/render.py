@@ -1,5 +1,6 @@
 """`exhibit render`: a scene or one of the paper's figures to a PNG, or an animation of the sensor
-approaching (frames in a folder, a GIF, or an MP4 through ffmpeg), on the headless EGL renderer."""
+approaching (frames in a folder, a GIF, or an MP4 through ffmpeg), on the headless EGL renderer.
+`--timeline` and `--takeover` play the running kiosk instead (exhibit.commands._review)."""
 
 from __future__ import annotations
 
@@ -58,6 +59,25 @@ def add_arguments(parser) -> None:
                              "moment (the collision's pipe and ball), or the slice curves alone")
     parser.add_argument("--out", metavar="FILE",
                         help="output .png (or, with --frames, a folder, .gif or .mp4)")
+    parser.add_argument("--timeline", metavar="FILE",
+                        help="play an attract timeline headlessly as the kiosk shows it; --out "
+                             "is a folder (DIR/: numbered PNGs), an .mp4 or a .png contact sheet "
+                             "(one frame per caption)")
+    parser.add_argument("--takeover", metavar="SCENE",
+                        help="the frame a visitor sees --after seconds after taking over from "
+                             "attract mode in SCENE; --out FILE.png")
+    parser.add_argument("--after", default="2.0", metavar="S",
+                        help="with --takeover: seconds after the takeover (default: "
+                             "%(default)s)")
+    parser.add_argument("--fps", metavar="N",
+                        help="with --timeline or --takeover: kiosk frames per second (default: "
+                             "25 for frames and MP4, 10 for a contact sheet or a takeover)")
+    parser.add_argument("--language", metavar="CODE",
+                        help="with --timeline or --takeover: the language shown (default: the "
+                             "kiosk's first)")
+    parser.add_argument("--config", metavar="KIOSK.toml",
+                        help="with --timeline or --takeover: a kiosk site file (text sizes, "
+                             "languages, mesh resolutions; default: the shipped config)")
     parser.add_argument("--window", action="store_true",
                         help="show it in a window instead, driven by the kiosk's keyboard keys "
                              "(q/a w/s e/d r/f t/g y/h turn theta1..6, u/j move the sensor, "
@@ -155,6 +175,12 @@ def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
 
 
 def run(args) -> int:
+    if args.timeline is not None or args.takeover is not None:
+        from exhibit.commands import _review
+        return _review.run(args)
+    for flag in ("language", "config", "fps"):
+        if getattr(args, flag) is not None:
+            raise ExhibitError(f"--{flag} goes with --timeline or --takeover")
     scene, params, view, note = resolve(args)
     size = parse_size(args.size)
     samples = _int(args.samples, "--samples", 0, 16)
@@ -178,9 +204,8 @@ def run(args) -> int:
             raise ExhibitError(f"--out: folder {out.parent} does not exist")
         if kind == "folder" and out.exists() and not out.is_dir():
             raise ExhibitError(f"--out: {out} exists and is not a folder")
-        if kind == "mp4" and shutil.which("ffmpeg") is None:
-            raise ExhibitError("--out: writing .mp4 needs ffmpeg on PATH (Debian: apt-get install "
-                               "ffmpeg); use a .gif or a folder instead")
+        if kind == "mp4":
+            need_ffmpeg("a .gif or a folder")
     end_r = 1.0 / _distance(args.sensor_to, "--sensor-to")
 
     from exhibit.render import Headless, HudInfo, RenderOptions, save_png
@@ -276,12 +301,24 @@ def _write_animation(images, out: Path, kind: str) -> None:
         Image.fromarray(image).save(folder / f"frame_{i:04d}.png")
     if kind == "mp4":
         try:
-            result = subprocess.run(
-                ["ffmpeg", "-y", "-loglevel", "error", "-framerate", "25",
-                 "-i", str(folder / "frame_%04d.png"), "-pix_fmt", "yuv420p",
-                 "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(out)],
-                capture_output=True, text=True, check=False)
-            if result.returncode != 0:
-                raise ExhibitError(f"ffmpeg failed: {result.stderr.strip().splitlines()[-1:]}")
+            encode_mp4(folder, out)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
+
+
+def need_ffmpeg(instead: str) -> None:
+    """An ExhibitError unless ffmpeg is on PATH (``instead``: what to write without it)."""
+    if shutil.which("ffmpeg") is None:
+        raise ExhibitError("--out: writing .mp4 needs ffmpeg on PATH (Debian: apt-get install "
+                           f"ffmpeg); use {instead} instead")
+
+
+def encode_mp4(folder: Path, out: Path, fps: float = 25) -> None:
+    """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg)."""
+    result = subprocess.run(
+        ["ffmpeg", "-y", "-loglevel", "error", "-framerate", f"{fps:g}",
+         "-i", str(folder / "frame_%04d.png"), "-pix_fmt", "yuv420p",
+         "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(out)],
+        capture_output=True, text=True, check=False)
+    if result.returncode != 0:
+        raise ExhibitError(f"ffmpeg failed: {result.stderr.strip().splitlines()[-1:]}")
