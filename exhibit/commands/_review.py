@@ -20,7 +20,7 @@ import tempfile
 from pathlib import Path
 
 from exhibit import scenes
-from exhibit.commands.render import encode_mp4, need_ffmpeg, parse_size
+from exhibit.commands._media import encode_mp4, need_ffmpeg, parse_size
 from exhibit.errors import ExhibitError
 
 #: Contact sheet geometry: tiles at most TILE_W wide, up to COLUMNS a row, GAP between them, a

@@ -7,18 +7,18 @@ from __future__ import annotations
 import argparse
 import math
 import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 
 from exhibit import scenes
 from exhibit.commands import _args
+from exhibit.commands._media import (MAX_PIXELS, encode_mp4, need_ffmpeg,  # noqa: F401
+                                       parse_size, whole_number as _int)
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import parse_overrides
 from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
 HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
-MAX_PIXELS = 8192
 
 
 def add_arguments(parser) -> None:
@@ -84,16 +84,6 @@ def add_arguments(parser) -> None:
                              "space = home; c colours by 4D depth, Esc quits)")
 
 
-def _int(text: str, name: str, low: int, high: int) -> int:
-    try:
-        value = int(text)
-    except (TypeError, ValueError):
-        raise ExhibitError(f"{name}: {text!r} is not a whole number") from None
-    if not low <= value <= high:
-        raise ExhibitError(f"{name}: {value} must lie in [{low}, {high}]")
-    return value
-
-
 def _distance(text: str, name: str) -> float:
     try:
         return _args.distance()(text)
@@ -115,14 +105,6 @@ def _floats(text: str, count: int, name: str) -> list[float]:
             raise ExhibitError(f"{name}: {item!r} must be finite degrees within ±{MAX_ANGLE:g}")
         values.append(value)
     return values
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    parts = text.lower().split("x")
-    if len(parts) != 2:
-        raise ExhibitError(f"--size: {text!r} is not WIDTHxHEIGHT (e.g. 1280x720)")
-    return (_int(parts[0], "--size width", 16, MAX_PIXELS),
-            _int(parts[1], "--size height", 16, MAX_PIXELS))
 
 
 def resolve(args):
@@ -304,21 +286,3 @@ def _write_animation(images, out: Path, kind: str) -> None:
             encode_mp4(folder, out)
         finally:
             shutil.rmtree(folder, ignore_errors=True)
-
-
-def need_ffmpeg(instead: str) -> None:
-    """An ExhibitError unless ffmpeg is on PATH (``instead``: what to write without it)."""
-    if shutil.which("ffmpeg") is None:
-        raise ExhibitError("--out: writing .mp4 needs ffmpeg on PATH (Debian: apt-get install "
-                           f"ffmpeg); use {instead} instead")
-
-
-def encode_mp4(folder: Path, out: Path, fps: float = 25) -> None:
-    """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg)."""
-    result = subprocess.run(
-        ["ffmpeg", "-y", "-loglevel", "error", "-framerate", f"{fps:g}",
-         "-i", str(folder / "frame_%04d.png"), "-pix_fmt", "yuv420p",
-         "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(out)],
-        capture_output=True, text=True, check=False)
-    if result.returncode != 0:
-        raise ExhibitError(f"ffmpeg failed: {result.stderr.strip().splitlines()[-1:]}")
