@@ -1,23 +1,24 @@
 """`exhibit render`: a scene or one of the paper's figures to a PNG, or an animation of the sensor
-approaching (frames in a folder, a GIF, or an MP4 through ffmpeg), on the headless EGL renderer."""
+approaching (frames in a folder, a GIF, or an MP4 through ffmpeg), on the headless EGL renderer.
+`--timeline` and `--takeover` play the running kiosk instead (exhibit.commands._review)."""
 
 from __future__ import annotations
 
 import argparse
 import math
 import shutil
-import subprocess
 import tempfile
 from pathlib import Path
 
 from exhibit import scenes
 from exhibit.commands import _args
+from exhibit.commands._media import (MAX_PIXELS, encode_mp4, need_ffmpeg,  # noqa: F401
+                                       parse_size, whole_number as _int)
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import parse_overrides
 from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
 HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
-MAX_PIXELS = 8192
 
 
 def add_arguments(parser) -> None:
@@ -58,20 +59,29 @@ def add_arguments(parser) -> None:
                              "moment (the collision's pipe and ball), or the slice curves alone")
     parser.add_argument("--out", metavar="FILE",
                         help="output .png (or, with --frames, a folder, .gif or .mp4)")
+    parser.add_argument("--timeline", metavar="FILE",
+                        help="play an attract timeline headlessly as the kiosk shows it; --out "
+                             "is a folder (DIR/: numbered PNGs), an .mp4 or a .png contact sheet "
+                             "(one frame per caption)")
+    parser.add_argument("--takeover", metavar="SCENE",
+                        help="the frame a visitor sees --after seconds after taking over from "
+                             "attract mode in SCENE; --out FILE.png")
+    parser.add_argument("--after", default="2.0", metavar="S",
+                        help="with --takeover: seconds after the takeover (default: "
+                             "%(default)s)")
+    parser.add_argument("--fps", metavar="N",
+                        help="with --timeline or --takeover: kiosk frames per second (default: "
+                             "25 for frames and MP4, 10 for a contact sheet or a takeover)")
+    parser.add_argument("--language", metavar="CODE",
+                        help="with --timeline or --takeover: the language shown (default: the "
+                             "kiosk's first)")
+    parser.add_argument("--config", metavar="KIOSK.toml",
+                        help="with --timeline or --takeover: a kiosk site file (text sizes, "
+                             "languages, mesh resolutions; default: the shipped config)")
     parser.add_argument("--window", action="store_true",
                         help="show it in a window instead, driven by the kiosk's keyboard keys "
                              "(q/a w/s e/d r/f t/g y/h turn theta1..6, u/j move the sensor, "
                              "space = home; c colours by 4D depth, Esc quits)")
-
-
-def _int(text: str, name: str, low: int, high: int) -> int:
-    try:
-        value = int(text)
-    except (TypeError, ValueError):
-        raise ExhibitError(f"{name}: {text!r} is not a whole number") from None
-    if not low <= value <= high:
-        raise ExhibitError(f"{name}: {value} must lie in [{low}, {high}]")
-    return value
 
 
 def _distance(text: str, name: str) -> float:
@@ -95,14 +105,6 @@ def _floats(text: str, count: int, name: str) -> list[float]:
             raise ExhibitError(f"{name}: {item!r} must be finite degrees within ±{MAX_ANGLE:g}")
         values.append(value)
     return values
-
-
-def parse_size(text: str) -> tuple[int, int]:
-    parts = text.lower().split("x")
-    if len(parts) != 2:
-        raise ExhibitError(f"--size: {text!r} is not WIDTHxHEIGHT (e.g. 1280x720)")
-    return (_int(parts[0], "--size width", 16, MAX_PIXELS),
-            _int(parts[1], "--size height", 16, MAX_PIXELS))
 
 
 def resolve(args):
@@ -155,6 +157,12 @@ def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
 
 
 def run(args) -> int:
+    if args.timeline is not None or args.takeover is not None:
+        from exhibit.commands import _review
+        return _review.run(args)
+    for flag in ("language", "config", "fps"):
+        if getattr(args, flag) is not None:
+            raise ExhibitError(f"--{flag} goes with --timeline or --takeover")
     scene, params, view, note = resolve(args)
     size = parse_size(args.size)
     samples = _int(args.samples, "--samples", 0, 16)
@@ -178,9 +186,8 @@ def run(args) -> int:
             raise ExhibitError(f"--out: folder {out.parent} does not exist")
         if kind == "folder" and out.exists() and not out.is_dir():
             raise ExhibitError(f"--out: {out} exists and is not a folder")
-        if kind == "mp4" and shutil.which("ffmpeg") is None:
-            raise ExhibitError("--out: writing .mp4 needs ffmpeg on PATH (Debian: apt-get install "
-                               "ffmpeg); use a .gif or a folder instead")
+        if kind == "mp4":
+            need_ffmpeg("a .gif or a folder")
     end_r = 1.0 / _distance(args.sensor_to, "--sensor-to")
 
     from exhibit.render import Headless, HudInfo, RenderOptions, save_png
@@ -276,12 +283,6 @@ def _write_animation(images, out: Path, kind: str) -> None:
         Image.fromarray(image).save(folder / f"frame_{i:04d}.png")
     if kind == "mp4":
         try:
-            result = subprocess.run(
-                ["ffmpeg", "-y", "-loglevel", "error", "-framerate", "25",
-                 "-i", str(folder / "frame_%04d.png"), "-pix_fmt", "yuv420p",
-                 "-vf", "pad=ceil(iw/2)*2:ceil(ih/2)*2", str(out)],
-                capture_output=True, text=True, check=False)
-            if result.returncode != 0:
-                raise ExhibitError(f"ffmpeg failed: {result.stderr.strip().splitlines()[-1:]}")
+            encode_mp4(folder, out)
         finally:
             shutil.rmtree(folder, ignore_errors=True)

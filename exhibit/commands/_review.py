@@ -1,0 +1,199 @@
+"""`exhibit render --timeline FILE` and `exhibit render --takeover SCENE`: the running kiosk
+(exhibit.kiosk.review.KioskPlayer) played headlessly for a curator's review.
+
+--timeline: every frame at --fps into a folder (numbered PNGs and index.json, each frame's time
+and caption), an MP4 (ffmpeg, as `exhibit render --frames` writes one), or a contact sheet PNG:
+one tile per caption, the frame when it has been on screen SETTLED_S (fully faded in; half its
+time on screen when that is shorter), labelled with its time and the language.
+
+--takeover: the frame --after seconds after a visitor takes over from attract mode in a scene.
+
+Every check on the arguments runs before any GL work: bad input is one line and exit 2.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+import tempfile
+from pathlib import Path
+
+from exhibit import scenes
+from exhibit.commands._media import encode_mp4, need_ffmpeg, parse_size
+from exhibit.errors import ExhibitError
+
+#: Contact sheet geometry: tiles at most TILE_W wide, up to COLUMNS a row, GAP between them, a
+#: LABEL_H strip under each tile and a HEADER_H strip above the grid.
+TILE_W = 640
+COLUMNS = 3
+GAP = 8
+LABEL_H = 30
+HEADER_H = 40
+BACKGROUND = (24, 24, 28)
+INK = (235, 235, 235)
+MAX_FPS = 120
+MAX_AFTER_S = 600.0
+
+
+def _number(text: str, name: str, low: float, high: float) -> float:
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        raise ExhibitError(f"{name}: {text!r} is not a number") from None
+    if not (math.isfinite(value) and low <= value <= high):
+        raise ExhibitError(f"{name}: {text} must lie in [{low:g}, {high:g}]")
+    return value
+
+
+def output_kind(out: str) -> str:
+    """"folder" (ends in / or is a folder), "mp4" or "sheet" (.png); else an ExhibitError."""
+    path = Path(out)
+    if out.endswith(("/", "\\")) or path.is_dir():
+        if path.exists() and not path.is_dir():
+            raise ExhibitError(f"--out: {path} exists and is not a folder")
+        return "folder"
+    kind = {".mp4": "mp4", ".png": "sheet"}.get(path.suffix.lower())
+    if kind is None:
+        raise ExhibitError(f"--out: {out} must be a folder (ending in /), an .mp4 or a .png "
+                           "contact sheet")
+    if not path.parent.is_dir():
+        raise ExhibitError(f"--out: folder {path.parent} does not exist")
+    return kind
+
+
+def _conflicts(args) -> None:
+    if args.timeline is not None and args.takeover is not None:
+        raise ExhibitError("give --timeline or --takeover, not both")
+    flag = "--timeline" if args.timeline is not None else "--takeover"
+    for name, given in (("scene name", bool(args.scene)), ("--figure", args.figure is not None),
+                        ("--frames", args.frames is not None), ("--window", args.window),
+                        ("--slice", args.slice is not None), ("--angles", bool(args.angles)),
+                        ("--param", bool(args.param))):
+        if given:
+            raise ExhibitError(f"{flag} plays the kiosk: it takes no {name}")
+    if args.out is None:
+        raise ExhibitError("--out is required")
+
+
+def run(args) -> int:
+    from exhibit.kiosk.review import base_config, check_language
+
+    _conflicts(args)
+    size = parse_size(args.size)
+    config = base_config(args.config)
+    language, _ = check_language(config, args.language)
+    if args.timeline is not None:
+        return _timeline(args, size, config, language)
+    return _takeover(args, size, config, language)
+
+
+def _timeline(args, size, config, language) -> int:
+    from exhibit.kiosk.review import KioskPlayer, read_timeline
+
+    kind = output_kind(args.out)
+    timeline = read_timeline(args.timeline)  # one line if it is not a timeline
+    fps = _number(args.fps, "--fps", 1, MAX_FPS) if args.fps else (10 if kind == "sheet" else 25)
+    if kind == "mp4":
+        need_ffmpeg("a folder (DIR/) or a .png contact sheet")
+    out = Path(args.out)
+    with KioskPlayer(size, timeline=args.timeline, language=language, config=config) as player:
+        if kind == "sheet":
+            spans = player.captions()
+            if not spans:
+                raise ExhibitError(f"--timeline: {timeline.path} shows no caption for a contact "
+                                   "sheet")
+            frames = list(player.play(fps, times=[s.settled for s in spans]))
+            sheet = contact_sheet(frames, f"{timeline.name} ({Path(timeline.path).name}), "
+                                          f"language {language}")
+            sheet.save(out)
+            print(out)
+            return 0
+        folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            index = []
+            from PIL import Image
+            for i, frame in enumerate(player.play(fps)):
+                name = f"frame_{i:04d}.png"
+                Image.fromarray(frame.image).save(folder / name)
+                index.append({"file": name, "t": round(frame.t, 4), "caption": frame.caption,
+                              "mode": frame.mode})
+            if kind == "folder":
+                (folder / "index.json").write_text(json.dumps(
+                    {"timeline": timeline.path, "scene": timeline.scene, "language": language,
+                     "fps": fps, "size": list(size), "frames": index},
+                    ensure_ascii=False, indent=1) + "\n", encoding="utf-8")
+            else:
+                encode_mp4(folder, out, fps)
+        finally:
+            if kind != "folder":
+                shutil.rmtree(folder, ignore_errors=True)
+    print(out)
+    return 0
+
+
+def _takeover(args, size, config, language) -> int:
+    from PIL import Image
+
+    from exhibit.kiosk.review import KioskPlayer, shipped_timeline
+
+    scenes.get(args.takeover)  # "no scene named ..." before any GL work
+    out = Path(args.out)
+    if out.suffix.lower() != ".png":
+        raise ExhibitError(f"--out: {out} must end in .png")
+    if not out.parent.is_dir():
+        raise ExhibitError(f"--out: folder {out.parent} does not exist")
+    after = _number(args.after, "--after", 0.0, MAX_AFTER_S)
+    fps = _number(args.fps, "--fps", 1, MAX_FPS) if args.fps else 10
+    timeline = shipped_timeline(args.takeover, config.attract_dir)
+    with KioskPlayer(size, timeline=timeline, scene=args.takeover, language=language,
+                     config=config) as player:
+        frame = player.takeover(after, fps)
+        Image.fromarray(frame.image).save(out)
+    print(out)
+    return 0
+
+
+def _font(size: int):
+    from PIL import ImageFont
+    try:
+        from exhibit.render.text import font
+        return font("sans", size)
+    except Exception:  # noqa: BLE001 - any font will label a tile
+        return ImageFont.load_default(size)
+
+
+def sheet_size(count: int, frame_size: tuple[int, int]) -> tuple[tuple[int, int], int, int]:
+    """((width, height) of the sheet, the tiles' width and height) for ``count`` frames."""
+    w, h = frame_size
+    tile_w = min(w, TILE_W)
+    tile_h = max(1, round(h * tile_w / w))
+    cols = min(count, COLUMNS)
+    rows = math.ceil(count / cols)
+    return ((cols * tile_w + (cols + 1) * GAP,
+             HEADER_H + rows * (tile_h + LABEL_H) + (rows + 1) * GAP), tile_w, tile_h)
+
+
+def contact_sheet(frames, title: str):
+    """The frames in a grid, each labelled "t = 9.0 s · de", under ``title``."""
+    from PIL import Image, ImageDraw
+
+    height, width = frames[0].image.shape[:2]
+    (sheet_w, sheet_h), tile_w, tile_h = sheet_size(len(frames), (width, height))
+    sheet = Image.new("RGB", (sheet_w, sheet_h), BACKGROUND)
+    draw = ImageDraw.Draw(sheet)
+    draw.text((GAP, HEADER_H // 2), title, font=_font(20), fill=INK, anchor="lm")
+    label = _font(16)
+    cols = min(len(frames), COLUMNS)
+    for i, frame in enumerate(frames):
+        row, col = divmod(i, cols)
+        x = GAP + col * (tile_w + GAP)
+        y = HEADER_H + GAP + row * (tile_h + LABEL_H + GAP)
+        tile = Image.fromarray(frame.image).convert("RGB")
+        if tile.size != (tile_w, tile_h):
+            tile = tile.resize((tile_w, tile_h), Image.LANCZOS)
+        sheet.paste(tile, (x, y))
+        draw.text((x, y + tile_h + LABEL_H // 2), f"t = {frame.t:.1f} s \u00b7 {frame.language}",
+                  font=label, fill=INK, anchor="lm")
+    return sheet

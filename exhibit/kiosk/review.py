@@ -1,0 +1,329 @@
+"""Reviewing attract mode off the exhibit: the real kiosk (exhibit.kiosk.app.Kiosk), headless, on
+a clock this module sets, so a curator sees a timeline exactly as visitors will (its framing,
+captions, crossfades, language, the time-slice inset and the HUD) without a screen.
+
+:class:`KioskPlayer` builds a Kiosk for one timeline (or for one scene with no timeline) from a
+kiosk config: the content is that scene, the attract folder holds just that timeline, the
+keyboard is the only device (the config's own keyboard bindings), the quality level is pinned
+(the frame governor would step on the timing of whatever machine renders) and attract mode never
+changes language by itself. It steps the kiosk on a fake clock and hands back the frames.
+
+`exhibit render --timeline` and `--takeover` (exhibit.commands.render) are built on it, and so
+are the golden tests of what a visitor sees after taking over (tests/golden/test_takeover.py).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import shutil
+import tempfile
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Iterable, Iterator
+
+import numpy as np
+
+from exhibit.errors import ConfigError, ExhibitError
+from exhibit.kiosk.attract import Timeline, load_timeline, timeline_paths
+from exhibit.kiosk.config import KioskConfig, QualityConfig, load_kiosk_config
+from exhibit.kiosk.language import SOURCE, load_catalogues
+from exhibit.resources import shipped
+
+log = logging.getLogger("exhibit.kiosk")
+
+#: The quality level a review is drawn at (pinned: the governor would follow the machine).
+LEVEL = "fxaa"
+#: How long a caption has been on screen in the frame a contact sheet shows of it (fully faded
+#: in by then), or half its time on screen when that is shorter.
+SETTLED_S = 1.5
+#: Takeover: attract plays this long, then a view key is held this long.
+ATTRACT_S = 3.0
+HOLD_S = 0.25
+#: The key a takeover presses (the shipped keyboard turns θ1 with q).
+TAKEOVER_KEY = "q"
+
+
+class FakeClock:
+    """The kiosk's clock, set by the player."""
+
+    def __init__(self, t: float = 0.0):
+        self.t = t
+
+    def __call__(self) -> float:
+        return self.t
+
+
+@dataclass(frozen=True)
+class CaptionSpan:
+    """A caption of a timeline and when it is on screen (``text`` in English, as written)."""
+
+    start: float
+    end: float
+    text: str
+
+    @property
+    def settled(self) -> float:
+        """The moment a contact sheet shows it: fully faded in, still on screen."""
+        return self.start + min(SETTLED_S, (self.end - self.start) / 2)
+
+
+@dataclass
+class ReviewFrame:
+    """One kiosk frame: when, the picture, and the words as shown (``caption``, translated) and
+    as written (``caption_en``)."""
+
+    t: float
+    image: np.ndarray
+    caption: str
+    caption_en: str
+    language: str
+    mode: str
+    scene: str
+
+
+def caption_spans(timeline: Timeline) -> list[CaptionSpan]:
+    """The captions of a timeline in the order shown, each with its time on screen; a caption
+    set on the last keyframe is shown for an instant only and left out, as are empty ones."""
+    spans: list[CaptionSpan] = []
+    frames = timeline.keyframes
+    for i, keyframe in enumerate(frames[:-1]):
+        if spans and spans[-1].text == keyframe.caption and spans[-1].end == keyframe.t:
+            spans[-1] = dataclasses.replace(spans[-1], end=frames[i + 1].t)
+        else:
+            spans.append(CaptionSpan(keyframe.t, frames[i + 1].t, keyframe.caption))
+    return [s for s in spans if s.text and s.end > s.start]
+
+
+def read_timeline(path: str | Path) -> Timeline:
+    """A timeline file, or an ExhibitError that says in one line why not."""
+    path = Path(path)
+    if not path.is_file():
+        raise ExhibitError(f"--timeline: {path} is not a file" if path.exists()
+                           else f"--timeline: {path} does not exist")
+    try:
+        return load_timeline(path)
+    except ConfigError as exc:
+        first = exc.problems[0] if exc.problems else str(exc)
+        more = f" (and {len(exc.problems) - 1} more)" if len(exc.problems) > 1 else ""
+        raise ExhibitError(f"--timeline: not a timeline: {first}{more}") from None
+
+
+def shipped_timeline(scene: str, attract_dir: Path | None = None) -> Path | None:
+    """The first attract timeline (in name order) in ``attract_dir`` (default: the shipped
+    configs/attract) whose scene is ``scene``; None when there is none."""
+    folder = attract_dir or shipped("configs", "attract")
+    for path in timeline_paths(folder):
+        try:
+            doc = tomllib.loads(path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeError, tomllib.TOMLDecodeError):
+            continue
+        if doc.get("scene") == scene:
+            return path
+    return None
+
+
+def _toml(value) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, float) and math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml(v) for v in value) + "]"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    return repr(value)
+
+
+def keyboard_only(devices_config: Path | None, out: Path) -> Path:
+    """A device config with the keyboard alone, its bindings as ``devices_config`` has them
+    (the shipped one when that binds no keyboard): no serial port or HID device is opened."""
+    sources = [p for p in (devices_config, shipped("configs", "devices", "default.toml")) if p]
+    for source in sources:
+        doc = tomllib.loads(Path(source).read_text(encoding="utf-8"))
+        mapping = doc.get("mapping", {})
+        binds = [b for b in mapping.get("bind", []) if b.get("device") == "keyboard"]
+        if binds:
+            break
+    lines = ["[devices.keyboard]", 'url = "keyboard://"', "[mapping]"]
+    lines += [f"{k} = {_toml(v)}" for k, v in mapping.items()
+              if not isinstance(v, (dict, list)) or k == "home_angles"]
+    for bind in binds:
+        lines.append("[[mapping.bind]]")
+        lines += [f"{k} = {_toml(v)}" for k, v in bind.items()]
+    out.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return out
+
+
+def base_config(path: str | Path | None = None) -> KioskConfig:
+    """The kiosk config a review starts from: ``path`` over the shipped defaults (else the
+    shipped defaults alone, not /etc/exhibit: a review is of what ships unless told)."""
+    try:
+        return load_kiosk_config(path if path is not None else shipped("configs", "kiosk.toml"),
+                                 check_linked=False)
+    except ConfigError as exc:
+        first = exc.problems[0] if exc.problems else str(exc)
+        more = f" (and {len(exc.problems) - 1} more)" if len(exc.problems) > 1 else ""
+        raise ExhibitError(f"--config: {first}{more}") from None
+
+
+def check_language(config: KioskConfig, language: str | None) -> tuple[str, Path | None]:
+    """The language to show (default: the config's first) and the folder of its catalogue; an
+    ExhibitError for a language with no catalogue or a broken one."""
+    language = language or config.languages[0]
+    if language == SOURCE:
+        return language, config.catalogues_dir
+    folder = config.catalogues_dir or shipped("configs", "languages")
+    known = sorted({SOURCE, *(p.stem for p in Path(folder).glob("*.toml"))})
+    if language not in known:
+        raise ExhibitError(f"--language: no catalogue for {language!r} in {folder} "
+                           f"(languages: {', '.join(known)})")
+    try:
+        load_catalogues(folder, [language])
+    except ConfigError as exc:
+        raise ExhibitError(f"--language: {exc.problems[0]}") from None
+    return language, folder
+
+
+class KioskPlayer:
+    """The real kiosk for one ``timeline`` file (attract mode plays it, from t = 0) or, with
+    ``timeline=None``, one ``scene`` with no timeline (attract mode turns it slowly), at
+    ``size``, in ``language``, on a fake clock. ``headless`` (an exhibit.render.Headless) is
+    used if given, else made and released by :meth:`close`."""
+
+    def __init__(self, size: tuple[int, int], timeline: str | Path | None = None,
+                 scene: str | None = None, language: str | None = None,
+                 config: KioskConfig | None = None, headless=None):
+        from exhibit.kiosk import app
+        from exhibit.render.target import HeadlessTarget
+
+        config = config or base_config()
+        self.timeline = read_timeline(timeline) if timeline is not None else None
+        if self.timeline is None and scene is None:
+            raise ExhibitError("name a timeline or a scene")
+        self.scene = self.timeline.scene if self.timeline is not None else scene
+        self.language, catalogues = check_language(config, language)
+        self._tmp = Path(tempfile.mkdtemp(prefix="exhibit-review-"))
+        self._own_headless = headless is None
+        try:
+            attract = self._tmp / "attract"
+            attract.mkdir()
+            if self.timeline is not None:
+                shutil.copyfile(timeline, attract / Path(timeline).name)
+            languages = (self.language, *(c for c in config.languages if c != self.language))
+            config = dataclasses.replace(
+                config, size=(int(size[0]), int(size[1])), fullscreen=False,
+                scenes=(self.scene,), start_scene=self.scene, attract_dir=attract,
+                devices_config=keyboard_only(config.devices_config, self._tmp / "devices.toml"),
+                quality=QualityConfig(level=LEVEL), languages=languages,
+                catalogues_dir=catalogues, language_switch_s=0.0)
+            self.config = config
+            if headless is None:
+                from exhibit.render import Headless
+                headless = Headless()
+            self.headless = headless
+            self.clock = FakeClock(0.0)
+            self.window = HeadlessTarget(headless, config.size)
+            quiet = self.timeline is None  # no timeline is what we asked for, not a problem
+            logger = logging.getLogger("exhibit.kiosk")
+            level = logger.level
+            if quiet:
+                logger.setLevel(logging.CRITICAL)
+            try:
+                self.kiosk = app.Kiosk(config, self.window, clock=self.clock)
+            finally:
+                logger.setLevel(level)
+            if self.kiosk.state is None:
+                raise ExhibitError(f"the kiosk could not prepare {self.scene}: "
+                                   + "; ".join(self.kiosk.problems))
+            translate = self.kiosk.translate
+            if self.language in translate.order:  # shown first already; select it all the same
+                translate.index = translate.order.index(self.language)
+            self.started = False
+        except BaseException:
+            self.close()
+            raise
+
+    @property
+    def duration(self) -> float:
+        return self.timeline.duration if self.timeline is not None else 0.0
+
+    def captions(self) -> list[CaptionSpan]:
+        return caption_spans(self.timeline) if self.timeline is not None else []
+
+    # ------------------------------------------------------------------ stepping
+
+    def step_to(self, t: float) -> None:
+        """One kiosk frame at time ``t`` (never before the last)."""
+        self.clock.t = max(float(t), self.clock.t)
+        self.kiosk.step()
+        self.started = True
+
+    def run_to(self, t: float, fps: float) -> None:
+        """Frames at ``fps`` up to time ``t``, the last exactly at ``t``."""
+        step = 1.0 / fps
+        n = math.floor((t - self.clock.t) / step - 1e-9) if self.started else 0
+        base = self.clock.t
+        for i in range(1, n + 1):
+            self.step_to(base + i * step)
+        self.step_to(t)
+
+    def frame(self) -> ReviewFrame:
+        """The frame drawn last."""
+        frame = self.kiosk.state.frame
+        return ReviewFrame(self.clock.t, self.window.image.copy(),
+                           self.kiosk.translate(frame.caption), frame.caption,
+                           self.kiosk.translate.language, frame.mode, frame.scene)
+
+    def key(self, name: str, pressed: bool) -> None:
+        """A key on the kiosk's keyboard device, now."""
+        self.kiosk.devices.keyboard.key(name, pressed, t=self.clock())
+
+    def play(self, fps: float, times: Iterable[float] | None = None) -> Iterator[ReviewFrame]:
+        """The timeline from t = 0 to its end at ``fps`` frames a second, every frame (or only
+        those at ``times``, the kiosk still stepping at ``fps`` between them). The last frame
+        is taken just before the end, where the playlist would loop back to the start."""
+        end = self.duration
+        count = max(1, int(round(end * fps)))
+        grid = [min(i / fps, end) for i in range(count + 1)]
+        wanted = None if times is None else sorted({min(max(float(t), 0.0), end) for t in times})
+        if wanted is not None:
+            grid = sorted(set(grid) | set(wanted))
+        last = end - 1e-4 if end > 0 else 0.0
+        for t in grid:
+            if t > end:
+                break
+            self.step_to(min(t, last))
+            if wanted is None or t in wanted:
+                shown = self.frame()
+                shown.t = t
+                yield shown
+
+    def takeover(self, after: float, fps: float = 10.0, attract_s: float = ATTRACT_S,
+                 key: str = TAKEOVER_KEY, hold_s: float = HOLD_S) -> ReviewFrame:
+        """What a visitor sees ``after`` seconds after taking over: attract plays
+        ``attract_s`` seconds, then ``key`` is pressed for ``hold_s`` seconds and let go."""
+        self.run_to(attract_s, fps)
+        self.key(key, True)
+        self.run_to(attract_s + min(hold_s, after), fps)
+        self.key(key, False)
+        self.run_to(attract_s + after, fps)
+        return self.frame()
+
+    def close(self) -> None:
+        kiosk = getattr(self, "kiosk", None)
+        if kiosk is not None:
+            kiosk.devices.close()
+            self.kiosk = None
+        if self._own_headless and getattr(self, "headless", None) is not None:
+            self.headless.release()
+            self.headless = None
+        shutil.rmtree(self._tmp, ignore_errors=True)
+
+    def __enter__(self) -> "KioskPlayer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
