@@ -37,15 +37,16 @@ class StaffControls:
         self.depth_colour = False
         self.quit = False
 
-    def key(self, name: str, pressed: bool) -> None:
-        """A key went down or up (auto-repeats are the caller's to drop)."""
+    def key(self, name: str, pressed: bool, mods=frozenset()) -> None:
+        """A key went down or up (auto-repeats are the caller's to drop); a view key with
+        Ctrl, Alt or Super held does nothing, as in the kiosk."""
         name = name.lower()
         if name == QUIT_KEY:
             self.quit = self.quit or pressed
         elif name == DEPTH_KEY:
             self.depth_colour ^= pressed
         else:
-            self.keyboard.key(name, pressed)
+            self.keyboard.key(name, pressed, mods=mods)
 
     def step(self, view, now: float):
         """The view after the keys since the last step, at time ``now``."""
@@ -61,7 +62,7 @@ def run(window, gpu, view, hud, config: DeviceConfig, options) -> None:
 
     def on_input(event) -> None:
         if isinstance(event, Key):
-            controls.key(event.name, event.pressed)
+            controls.key(event.name, event.pressed, event.mods)
         elif isinstance(event, Focus) and not event.focused:
             controls.keyboard.release_all()
 

@@ -75,6 +75,7 @@ class BindSpec(Model):
     curve: Number(0.2, 5.0) = 1.0
     invert: bool = False
     action: Literal[ACTIONS] | None = None
+    hold_s: Number(0.5, 10.0) | None = None
 
 
 class MappingSpec(Model):
@@ -112,8 +113,12 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
     if kind is Kind.BUTTON and (spec.action is None) == (spec.param is None):
         return problem(where, "a button takes either action = \"home\" or \"next-scene\", or a "
                               "param it moves at rate while held")
+    if spec.hold_s is not None and spec.action != "language":
+        return problem(f"{where}.hold_s", "only a \"language\" button waits to be held (a "
+                                          "long press: a button that does something else "
+                                          "when pressed can also switch the language)")
     if kind is Kind.BUTTON and spec.action is not None:
-        return Binding(spec.device, kind, index, action=spec.action)
+        return Binding(spec.device, kind, index, action=spec.action, hold_s=spec.hold_s)
     if spec.action is not None:
         return problem(f"{where}.action", "only buttons have actions")
     if spec.param is None:

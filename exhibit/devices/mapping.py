@@ -63,6 +63,9 @@ class Binding:
     curve: float = 1.0
     invert: bool = False
     action: str | None = None  # BUTTON: one of ACTIONS
+    #: BUTTON with an action: it fires once the button has been held this long (a long press),
+    #: not when pressed; None: when pressed.
+    hold_s: float | None = None
 
 
 @dataclass(frozen=True)
@@ -165,6 +168,10 @@ class Mapper:
         self._held: dict[tuple[str, Kind, int], list[float]] = {}
         self._rate_buttons = {key for key, binds in self._by_channel.items()
                               if key[1] is Kind.BUTTON and any(b.param for b in binds)}
+        # long presses: channel -> when its button went down (None once it has fired)
+        self._holds: dict[tuple[str, Kind, int], float | None] = {}
+        #: Actions whose long press came due in the latest apply().
+        self.fired: set[str] = set()
 
     def switches_scene(self, e: Event) -> bool:
         """Whether ``e`` asks the kiosk for the next scene: a press of a ``next-scene`` button,
@@ -180,13 +187,39 @@ class Mapper:
         binds = self._by_channel.get((device, Kind.BUTTON, index), ())
         if not binds:
             return "next-scene"  # as switches_scene: a button bound to nothing
-        return ", ".join(b.action or f"{b.param} {'-' if b.invert else '+'}" for b in binds)
+        return ", ".join((f"{b.action} (held {b.hold_s:g} s)" if b.hold_s else b.action)
+                         or f"{b.param} {'-' if b.invert else '+'}" for b in binds)
 
     def pressed(self, events: Iterable[Event], action: str) -> bool:
-        """Whether ``events`` press a button bound to ``action`` (one of ACTIONS)."""
-        return any(e.kind is Kind.BUTTON and e.value > 0 and any(
-            b.action == action for b in self._by_channel.get((e.device, e.kind, e.index), ()))
-            for e in events)
+        """Whether ``events`` press a button bound to ``action`` (one of ACTIONS), or a long
+        press of one came due in the latest apply()."""
+        return action in self.fired or any(e.kind is Kind.BUTTON and e.value > 0 and any(
+            b.action == action and b.hold_s is None
+            for b in self._by_channel.get((e.device, e.kind, e.index), ())) for e in events)
+
+    def _long_presses(self, e: Event, key, now: float) -> None:
+        """Track the buttons of long-press bindings: down starts the wait, up ends it."""
+        if e.kind is not Kind.BUTTON or not any(
+                b.hold_s is not None for b in self._by_channel.get(key, ())):
+            return
+        if e.value > 0:
+            if key not in self._holds:
+                self._holds[key] = min(e.t, now)
+        else:
+            self._holds.pop(key, None)
+
+    def _due(self, now: float) -> set[str]:
+        """The actions whose button has now been held for its hold_s (each fires once)."""
+        fired = set()
+        for key, down in self._holds.items():
+            if down is None:
+                continue
+            due = [b for b in self._by_channel[key] if b.hold_s is not None
+                   and now - down >= b.hold_s]
+            if due:
+                fired |= {b.action for b in due}
+                self._holds[key] = None
+        return fired
 
     def _integrate(self, key: tuple[str, Kind, int], st: list[float], t: float,
                    acc: list[float]) -> None:
@@ -212,6 +245,7 @@ class Mapper:
                 continue
             self.activity.observe(e)
             key = (e.device, e.kind, e.index)
+            self._long_presses(e, key, now)
             if e.kind is Kind.ABS or key in self._rate_buttons:
                 st = self._held.get(key)
                 if st is None:
@@ -226,6 +260,7 @@ class Mapper:
                     home = True
         for key, st in self._held.items():
             self._integrate(key, st, now, acc)
+        self.fired = self._due(now)
         self.activity.update(now)
         if home:
             view = self.home(view)

@@ -187,6 +187,9 @@ def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
     assert a.sensor_r > 0 and not staff.depth_colour  # d turns theta3, it no longer colours
     staff.key("space", True)
     assert staff.step(a, clock()) == home  # home is the view the viewer opened with
+    staff.key("q", True, frozenset({"ctrl"}))   # a shortcut, not a knob
+    clock.advance(0.5)
+    assert staff.step(home, clock()) == home
 
 
 def test_the_staff_viewer_loop_takes_keys_from_the_window():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -12,6 +13,7 @@ from exhibit.devices.mapping import ActivityDetector, Mapper, shape
 from exhibit.geometry.view import ViewState
 
 DEG = math.pi / 180
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def cfg(binds, **mapping):
@@ -165,6 +167,13 @@ def test_default_config_binds_all_seven_parameters():
     ({"mapping": {"bind": [{"device": "d", "input": "button 1", "param": "theta1",
                             "action": "home"}]}},
      "a button takes either action = \"home\" or \"next-scene\", or a param"),
+    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "action": "home",
+                            "hold_s": 2}]}},
+     "mapping.bind[0].hold_s: only a \"language\" button waits to be held"),
+    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "action": "language",
+                            "hold_s": 0.1}]}}, "mapping.bind[0].hold_s: must lie in [0.5, 10]"),
+    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "action": "language",
+                            "hold_s": float("nan")}]}}, "mapping.bind[0].hold_s"),
 ])
 def test_bad_configs_name_the_key(doc, fragment):
     with pytest.raises(DeviceError) as info:
@@ -190,3 +199,32 @@ def test_a_wrong_url_is_one_problem_not_one_per_binding():
     assert info.value.problems == [
         "museum.toml: devices.c.url: device URL 'serail:///dev/x': unknown scheme 'serail' "
         "(one of serial://, hid://, hidraw://, sim://, replay://, keyboard://)"]
+
+
+def test_a_long_press_fires_once_after_hold_s_and_a_press_at_once_still_works():
+    """The controller's button 1: home when pressed, the next language once held for 2 s
+    (once per press); let go earlier and no language changes."""
+    m = Mapper(cfg([{"device": "d", "input": "button 1", "action": "home"},
+                    {"device": "d", "input": "button 1", "action": "language", "hold_s": 2}]))
+    view = ViewState(angles=(1.0,) * 6)
+    down = [ev(10.0, "button", 0, 1.0)]
+    assert m.apply(view, down, 10.0).angles == (0.0,) * 6        # home at once
+    assert not m.pressed(down, "language")
+    fired = []
+    for t in (10.5, 11.0, 11.99, 12.0, 12.5, 14.0):
+        m.apply(view, [], t)
+        fired.append(m.pressed([], "language"))
+    assert fired == [False, False, False, True, False, False]     # once, at 2 s
+    m.apply(view, [ev(14.5, "button", 0, 0.0)], 14.5)
+    m.apply(view, [ev(15.0, "button", 0, 1.0)], 15.0)             # a short press
+    m.apply(view, [ev(16.0, "button", 0, 0.0)], 16.0)
+    assert not any(m.apply(view, [], t) and m.pressed([], "language") for t in (17.0, 20.0))
+    assert m.button_role("d", 0) == "home, language (held 2 s)"
+
+
+def test_the_shipped_controller_switches_language_on_a_long_press_of_home():
+    config = load_config(ROOT / "configs" / "devices" / "default.toml").mapping
+    m = Mapper(config)
+    m.apply(ViewState(), [ev(0.0, "button", 0, 1.0, device="controller")], 0.0)
+    m.apply(ViewState(), [], 2.0)
+    assert m.pressed([], "language")
