@@ -30,12 +30,13 @@ GOLDEN_DIR = Path(__file__).resolve().parent
 #: The least SSIM (the lowest channel's) of a whole frame against its golden image, and of its
 #: worst 24x24 tile. Measured at 480x270 on Figures 6, 11 and 15 (tests/golden/README.md):
 #: the same frame again gives 1.0 and 1.0; Mesa-like noise (every edge pixel off by up to 6
-#: levels, every pixel by 1) 0.990 and 0.973 at worst; θ1 turned by 0.25 degrees 0.985-0.996
+#: levels, every pixel by 1) 0.990 and 0.973 at worst (0.9498 in the tile of Figure 15 drawn
+#: z up, where the pipe's dense green grid lies on the dark background: TILE_SSIM 0.94); θ1 turned by 0.25 degrees 0.985-0.996
 #: and 0.84-0.87; the zoom off by 1 % 0.88-0.98 and 0.12-0.48; the silhouettes gone 0.988-0.993
 #: and 0.60-0.81; the intersection curves gone 0.997 and 0.80-0.82; one word of the caption
 #: changed 0.989-0.992 and 0.60-0.66. The tile catches what the whole frame averages away.
 GOLDEN_SSIM = 0.985
-TILE_SSIM = 0.95
+TILE_SSIM = 0.94
 TILE = 24
 #: The surfaces alone, on black, for the panel check.
 SURFACES_ONLY = RenderOptions(hud=False, curves=False, silhouettes=False, pinch_points=False,
