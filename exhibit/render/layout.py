@@ -213,7 +213,10 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     # about 45 characters reads best).
     room = gizmo.x0 - 2 * margin - 2 * pad - margin
     title_lines = tuple(wrap_balanced(title, "bold", title_px, room)) if title else ()
-    measure = min(room, max(0.42 * width, 22 * body_px))
+    # The panel is at least as wide as the title: a caption uses that width before it wraps
+    # into a column narrower than the heading above it.
+    heading = max((text_width(t, "bold", title_px) for t in title_lines), default=0.0)
+    measure = min(room, max(0.42 * width, 22 * body_px, heading))
     caption_lines: list[str] = []
     for paragraph in captions:
         if paragraph:

@@ -122,8 +122,8 @@ def test_balanced_wrap_has_no_orphan_and_even_lines():
     assert len(balanced) == len(greedy) and " ".join(balanced) == caption
     widths = [text_width(line, "sans", 35) for line in balanced]
     assert max(widths) <= 700
-    # The greedy last line is a stub (110 px); balanced lines are within 15% of each other.
-    assert min(widths) > 0.85 * max(widths)
+    # The greedy last line is a stub; balanced lines are within 20% of each other.
+    assert min(widths) > 0.8 * max(widths)
     for width in (300, 450, 806, 2000):
         for text in (title, caption, "one", "two words"):
             lines = wrap_balanced(text, "sans", 35, width)
