@@ -6,7 +6,8 @@ It also plays every attract timeline (exhibit.kiosk.captions): a caption shown w
 contradicts its ``while`` condition, or too briefly to be read, is a problem here, though the
 kiosk still plays such a timeline (a wrong caption is no reason to show nothing). Likewise a
 text without a translation in a language shown, or with characters the font lacks
-(exhibit.kiosk.language): the kiosk shows the English text instead."""
+(exhibit.kiosk.language): the kiosk shows the English text instead. And a curator's scene whose
+colours a colour-blind visitor cannot tell apart (exhibit.scenes.colours)."""
 
 from __future__ import annotations
 
@@ -31,7 +32,8 @@ def add_arguments(parser) -> None:
 def run(args) -> int:
     try:
         config = load_kiosk_config(args.config)
-        problems = _caption_problems(config.attract_dir) + coverage_problems(config)
+        problems = (_caption_problems(config.attract_dir) + coverage_problems(config)
+                    + _colour_problems(config))
     except ConfigError as exc:
         problems = exc.problems
     if problems:
@@ -57,6 +59,26 @@ def _caption_problems(attract_dir) -> list[str]:
     if attract_dir is None:
         return []
     return [p for path in timeline_paths(attract_dir) for p in caption_problems(load_timeline(path))]
+
+
+def _colour_problems(config) -> list[str]:
+    """The colours of every curator's scene the kiosk shows, held to the rule the shipped
+    scenes keep (exhibit.scenes.colours; those are held to it by the tests)."""
+    from exhibit import scenes
+    from exhibit.scenes.colours import colour_problems
+
+    names = list(config.scenes)
+    if config.attract_dir is not None:
+        names += [load_timeline(path).scene for path in timeline_paths(config.attract_dir)]
+    out: list[str] = []
+    for name in dict.fromkeys(names):
+        try:
+            scene = scenes.get(name)
+        except Exception:  # noqa: BLE001 - an unknown scene is reported by the config check
+            continue
+        if scene.source is not None:
+            out += colour_problems(scene)
+    return out
 
 
 def _toml(value) -> str:

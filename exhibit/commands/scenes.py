@@ -12,9 +12,15 @@ HELP = "list the scenes with their titles and parameters"
 
 def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
+    parser.add_argument("--check-colours", action="store_true",
+                        help="check that every scene's colours stay apart for colour-blind "
+                             "visitors (ΔE 15 under protanopia, deuteranopia, tritanopia); "
+                             "exit 2 on any pair that does not")
 
 
 def run(args) -> int:
+    if args.check_colours:
+        return _check_colours()
     listing = [scenes.get(name).to_json() for name in scenes.names()]
     for _, message in scenes.problems():
         print(f"exhibit scenes: skipped {message}", file=sys.stderr)
@@ -26,4 +32,28 @@ def run(args) -> int:
         presets = ", ".join(scene["presets"]) or "-"
         print(f"{scene['name']:20} {scene['title']}")
         print(f"{'':20} parameters: {params}; presets: {presets}")
+    return 0
+
+
+def _check_colours() -> int:
+    """Every scene's colour pairs held to exhibit.scenes.colours' rule, one line a problem."""
+    from exhibit.scenes.colours import colour_problems, least_delta_e, parts_of, \
+        PROBE_RESOLUTION
+
+    problems = []
+    for name in scenes.names():
+        scene = scenes.get(name)
+        found = colour_problems(scene)
+        problems += found
+        if not found:
+            parts = parts_of(scene.build(scene.resolve(), PROBE_RESOLUTION))
+            least, vision = least_delta_e(parts)
+            margin = "one colour" if least == float("inf") else f"least ΔE {least:.1f} " \
+                                                                 f"({vision})"
+            print(f"{name:20} OK: {len(parts)} colours, {margin}")
+    for problem in problems:
+        print(problem)
+    if problems:
+        print(f"{len(problems)} problem(s) found.")
+        return 2
     return 0

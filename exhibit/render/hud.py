@@ -28,6 +28,7 @@ from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles,
                                    gizmo_caption_rect, gizmo_labels, gizmo_tips, hud_layout,
                                    status_lines)
 from exhibit.render.text import block_image, has_greek, line_height, text_width
+from exhibit.scenes import palette
 
 #: The HUD's panels: nearly opaque, so text stays legible over a bright surface brought close
 #: (a visitor may drive the sensor in until the picture fills the screen).
@@ -35,8 +36,9 @@ PANEL = (0.0, 0.0, 0.0, 0.88)
 INK = (0.96, 0.96, 0.93, 1.0)
 DIM = (0.8, 0.82, 0.86, 1.0)
 HALO = (0.02, 0.02, 0.03, 0.85)
-#: The paper's axis colours (Figures 6-8): x red, y orange, z green, w blue.
-AXIS_COLORS = ((0.9, 0.22, 0.18), (0.97, 0.6, 0.12), (0.25, 0.78, 0.3), (0.3, 0.5, 1.0))
+#: The axis colours of Figures 6-8's scene (x red, y amber, z green, w blue), from the palette
+#: every visitor can tell apart (exhibit.scenes.palette).
+AXIS_COLORS = (palette.RED, palette.AMBER, palette.MINT, palette.BLUE)
 
 
 class Hud:

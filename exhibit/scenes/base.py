@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Callable, Mapping
 
 from exhibit.errors import ExhibitError
@@ -64,6 +65,8 @@ class Scene:
     #: (the pipe and the ball at time c). None: the inset shows the slice curves alone.
     slice_axis: int | None = None
     world_at: Callable[[dict, float], Mesh4D] | None = None
+    #: The file a curator wrote it in (a TOML scene), None for the shipped Python scenes.
+    source: Path | None = None
 
     def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""

@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from exhibit.geometry.view import ViewState
+from exhibit.scenes import palette
 from exhibit.scenes.base import Parameter, Preset, Scene
 from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
 from exhibit.surfaces.mesh import Curve, Marker, Material, Mesh4D
@@ -21,9 +22,7 @@ from exhibit.surfaces.slice import SLICE_MATERIAL
 AXES = ("x", "y", "z", "t")
 CYLINDER = "(y - vc*t)^2 + z^2 - rc^2"
 SPHERE = "x^2 + y^2 + (z + vs*t)^2 - rs^2"
-SURFACE_COLOR = (0.85, 0.55, 0.25)
-SILHOUETTE_COLOR = (0.15, 0.3, 0.95)
-WIRE_COLOR = (0.2, 0.75, 0.3)
+SURFACE_COLOR, SILHOUETTE_COLOR, WIRE_COLOR = palette.ORANGE, palette.BLUE, palette.WIRE
 
 
 def contact_interval(params: dict) -> float:

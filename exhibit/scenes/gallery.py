@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from exhibit.geometry.view import ViewState
+from exhibit.scenes import palette
 from exhibit.scenes.base import Parameter, Preset, Scene
 from exhibit.surfaces.mesh import Curve, Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
@@ -30,7 +31,7 @@ def _clifford(params: dict, resolution: int) -> Mesh4D:
                          Material(color=(0.9, 0.6, 0.2)), adaptive=False)
     a = np.linspace(0, 2 * math.pi, 4 * resolution, endpoint=False)
     circles = [Curve(f"circle b = {k}π/2", point(a, np.full_like(a, k * math.pi / 2)),
-                     Material(color=(0.2, 0.3, 0.9), line_width=2.5), closed=True)
+                     Material(color=palette.BLUE, line_width=2.5), closed=True)
                for k in range(4)]
     return Mesh4D([surface], circles)
 
@@ -49,12 +50,12 @@ def _complex_square(params: dict, resolution: int) -> Mesh4D:
 
     side = Interval(-size, size)
     surface = tessellate("w = z²", point, side, side, (resolution, resolution), tangents,
-                         Material(color=(0.35, 0.75, 0.75)))
+                         Material(color=palette.TEAL))
     x = np.linspace(-size, size, 4 * resolution)
     real = Curve("real numbers: w = x²", point(x, np.zeros_like(x)),
-                 Material(color=(0.85, 0.2, 0.2), line_width=3.0))
+                 Material(color=palette.RED, line_width=3.0))
     imaginary = Curve("imaginary numbers: w = -y²", point(np.zeros_like(x), x),
-                      Material(color=(0.2, 0.3, 0.9), line_width=3.0))
+                      Material(color=palette.BLUE, line_width=3.0))
     return Mesh4D([surface], [real, imaginary])
 
 

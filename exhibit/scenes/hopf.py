@@ -9,16 +9,15 @@ import numpy as np
 from exhibit.geometry.hopf import hopf_torus, hopf_torus_tangents
 from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Preset, Scene
+from exhibit.scenes.palette import AMBER, BLUE, GREEN, GREY, MINT, PURPLE, RED
 from exhibit.surfaces.mesh import Curve, Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 
-GREEN, GRAY, RED = (0.25, 0.75, 0.3), (0.62, 0.62, 0.62), (0.85, 0.2, 0.18)
-MAGENTA, BLUE, ORANGE = (0.85, 0.2, 0.8), (0.2, 0.35, 0.95), (0.95, 0.55, 0.1)
 #: (name, latitude Z on S^2, colour) as in Figures 6-8.
-TORI = (("torus Z=-√2/2", -math.sqrt(0.5), GREEN), ("torus Z=0", 0.0, GRAY),
+TORI = (("torus Z=-√2/2", -math.sqrt(0.5), GREEN), ("torus Z=0", 0.0, GREY),
         ("torus Z=√2/2", math.sqrt(0.5), RED))
-FIBRES = (("fibre Z=-1", -1.0, MAGENTA), ("fibre Z=1", 1.0, BLUE))
-AXES = (("x axis", 0, RED), ("y axis", 1, ORANGE), ("z axis", 2, (0.2, 0.7, 0.25)),
+FIBRES = (("fibre Z=-1", -1.0, PURPLE), ("fibre Z=1", 1.0, BLUE))
+AXES = (("x axis", 0, RED), ("y axis", 1, AMBER), ("z axis", 2, MINT),
         ("w axis", 3, BLUE))
 
 

@@ -16,14 +16,13 @@ import math
 import numpy as np
 
 from exhibit.geometry.view import ViewState
+from exhibit.scenes import palette
 from exhibit.scenes.base import Parameter, Preset, Scene
 from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
 from exhibit.surfaces.mesh import Curve, Material, Mesh4D
 
 PIPE = "(x - u)^2 + (y - v)^2 - r^2"
-PIPE_COLOR = (0.55, 0.7, 0.9)
-OFFSET_COLOR = (0.9, 0.15, 0.15)
-SINGULAR_COLOR = (0.95, 0.8, 0.1)
+PIPE_COLOR, OFFSET_COLOR, SINGULAR_COLOR = palette.SKY, palette.RED, palette.YELLOW
 CURVE_COLOR = (0.1, 0.1, 0.1)
 XYUV = ("x", "y", "u", "v")
 PARAMETERS = (Parameter("r", 1.0, 0.1, 3.0, "offset distance"),)

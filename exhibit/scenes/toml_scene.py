@@ -191,7 +191,7 @@ def load_scene_file(path: Path) -> Scene:
     return Scene(name=spec.name, title=spec.title, caption=spec.caption,
                  parameters=tuple(parameters), build_mesh=build, view=_view(path, spec.view),
                  axes=spec.axes, default_resolution=spec.resolution, fit=spec.view.fit,
-                 version=hashlib.sha256(read_bytes(path)).hexdigest()[:16])
+                 version=hashlib.sha256(read_bytes(path)).hexdigest()[:16], source=path)
 
 
 def _check(path, key, text, variables, defaults, box) -> str:
