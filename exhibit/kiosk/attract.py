@@ -108,8 +108,13 @@ class Timeline:
     def duration(self) -> float:
         return self.keyframes[-1].t
 
-    def at(self, t: float) -> tuple[ViewState, str]:
-        """The view and caption ``t`` seconds into the timeline (clamped to its ends)."""
+    def at(self, t: float, stepped: bool = False) -> tuple[ViewState, str]:
+        """The view and caption ``t`` seconds into the timeline (clamped to its ends).
+
+        ``stepped`` (reduced motion): the camera does not glide. The pose of the keyframe in
+        force (angles, sensor distance, eye, zoom and lens shift) is held until the next
+        keyframe, which the kiosk shows as a crossfaded cut; the slice, content rather than
+        camera motion, still moves with the keyframes' ease."""
         frames = self.keyframes
         t = min(max(t, 0.0), self.duration)
         index = self.index_at(t)
@@ -120,7 +125,11 @@ class Timeline:
         u = (t - a.t) / (b.t - a.t)
         if a.ease == "smooth":
             u = u * u * (3 - 2 * u)
-        return self._view(a, b, u), a.caption
+        view = self._view(a, b, u)
+        if stepped:
+            view = self._view(a, a, 0.0).replace(slice_axis=view.slice_axis,
+                                                 slice_at=view.slice_at)
+        return view, a.caption
 
     def index_at(self, t: float) -> int:
         """The keyframe in force ``t`` seconds in (its caption is the one shown)."""
@@ -308,11 +317,13 @@ class Playlist:
     def restart(self, now: float, index: int = 0) -> None:
         self.started = now - sum(t.duration for t in self.timelines[:index])
 
-    def at(self, now: float) -> tuple[Timeline, ViewState, str]:
+    def at(self, now: float, stepped: bool = False) -> tuple[Timeline, ViewState, str]:
+        """The timeline playing at ``now``, its view and caption (``stepped``: Timeline.at's,
+        for reduced motion)."""
         t = (now - self.started) % self._total if self._total > 0 else 0.0
         for timeline in self.timelines:
             if t <= timeline.duration:
-                view, caption = timeline.at(t)
+                view, caption = timeline.at(t, stepped)
                 return timeline, view, caption
             t -= timeline.duration
         last = self.timelines[-1]
