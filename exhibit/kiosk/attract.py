@@ -114,10 +114,14 @@ class Timeline:
         ``stepped`` (reduced motion): the camera does not glide. The pose of the keyframe in
         force (angles, sensor distance, eye, zoom and lens shift) is held until the next
         keyframe, which the kiosk shows as a crossfaded cut; the slice, content rather than
-        camera motion, still moves with the keyframes' ease."""
+        camera motion, still moves with the keyframes' ease. The last keyframe only ends the
+        last stretch then: its pose would be shown for an instant before the playlist moves on,
+        so the instant ``t = duration`` belongs to the stretch before it."""
         frames = self.keyframes
         t = min(max(t, 0.0), self.duration)
         index = self.index_at(t)
+        if stepped and index == len(frames) - 1:
+            index -= 1
         a = frames[index]
         if index == len(frames) - 1 or a.ease == "hold":
             return self._view(a, a, 0.0), a.caption
