@@ -210,7 +210,8 @@ class Kiosk:
         if content or timelines:
             self.state = KioskState(Playlist(timelines), mapper, content,
                                     config.idle_timeout_s, config.blend_s, now,
-                                    framer=self._frame_view)
+                                    framer=self._frame_view,
+                                    reduced_motion=config.reduced_motion)
         else:
             log.critical("no scene could be prepared: the kiosk shows a notice until it is "
                          "fixed and restarted")
@@ -495,7 +496,10 @@ class Kiosk:
         return fields
 
     def drift(self, now: float) -> tuple[float, float]:
-        """Where the text panels sit now: a slow Lissajous path within drift_px (burn-in care)."""
+        """Where the text panels sit now: a slow Lissajous path within drift_px (burn-in care);
+        still with reduced motion, where the crossfaded pose changes do that work."""
+        if self.config.reduced_motion:
+            return (0.0, 0.0)
         phase = 2 * math.pi * (now - self.started) / self.config.drift_period_s
         amplitude = self.config.drift_px / 2
         return (amplitude * (1 + math.sin(phase)), amplitude * (1 + math.sin(0.71 * phase + 1.3)))

@@ -108,11 +108,20 @@ class Timeline:
     def duration(self) -> float:
         return self.keyframes[-1].t
 
-    def at(self, t: float) -> tuple[ViewState, str]:
-        """The view and caption ``t`` seconds into the timeline (clamped to its ends)."""
+    def at(self, t: float, stepped: bool = False) -> tuple[ViewState, str]:
+        """The view and caption ``t`` seconds into the timeline (clamped to its ends).
+
+        ``stepped`` (reduced motion): the camera does not glide. The pose of the keyframe in
+        force (angles, sensor distance, eye, zoom and lens shift) is held until the next
+        keyframe, which the kiosk shows as a crossfaded cut; the slice, content rather than
+        camera motion, still moves with the keyframes' ease. The last keyframe only ends the
+        last stretch then: its pose would be shown for an instant before the playlist moves on,
+        so the instant ``t = duration`` belongs to the stretch before it."""
         frames = self.keyframes
         t = min(max(t, 0.0), self.duration)
         index = self.index_at(t)
+        if stepped and index == len(frames) - 1:
+            index -= 1
         a = frames[index]
         if index == len(frames) - 1 or a.ease == "hold":
             return self._view(a, a, 0.0), a.caption
@@ -120,7 +129,11 @@ class Timeline:
         u = (t - a.t) / (b.t - a.t)
         if a.ease == "smooth":
             u = u * u * (3 - 2 * u)
-        return self._view(a, b, u), a.caption
+        view = self._view(a, b, u)
+        if stepped:
+            view = self._view(a, a, 0.0).replace(slice_axis=view.slice_axis,
+                                                 slice_at=view.slice_at)
+        return view, a.caption
 
     def index_at(self, t: float) -> int:
         """The keyframe in force ``t`` seconds in (its caption is the one shown)."""
@@ -308,11 +321,13 @@ class Playlist:
     def restart(self, now: float, index: int = 0) -> None:
         self.started = now - sum(t.duration for t in self.timelines[:index])
 
-    def at(self, now: float) -> tuple[Timeline, ViewState, str]:
+    def at(self, now: float, stepped: bool = False) -> tuple[Timeline, ViewState, str]:
+        """The timeline playing at ``now``, its view and caption (``stepped``: Timeline.at's,
+        for reduced motion)."""
         t = (now - self.started) % self._total if self._total > 0 else 0.0
         for timeline in self.timelines:
             if t <= timeline.duration:
-                view, caption = timeline.at(t)
+                view, caption = timeline.at(t, stepped)
                 return timeline, view, caption
             t -= timeline.duration
         last = self.timelines[-1]

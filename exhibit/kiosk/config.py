@@ -98,6 +98,10 @@ def _caption_cap(value: Any) -> float:
                    value) from None
 
 
+class Accessibility(Model):
+    reduced_motion: bool = False
+
+
 class Text_(Model):
     caption_cap_height: Annotated[float, PlainValidator(_caption_cap)] = 0.024
     title_cap_height: Number(MIN_CAPTION_CAP, 0.15) = 0.034
@@ -191,6 +195,7 @@ class KioskFile(Model):
     text: Text_ = Text_()
     sessions: SessionsSection = SessionsSection()
     languages: LanguagesSection = LanguagesSection()
+    accessibility: Accessibility = Accessibility()
 
 
 @dataclass(frozen=True)
@@ -224,6 +229,10 @@ class KioskConfig:
     languages: tuple[str, ...] = (SOURCE,)
     catalogues_dir: Path | None = None
     language_switch_s: float = 0.0
+    #: [accessibility]: no continuous camera glides (attract mode holds each keyframe's pose and
+    #: cuts, crossfaded, to the next; the glide back from a visitor and the takeover reframe are
+    #: cuts too) and no drift of the text panels
+    reduced_motion: bool = False
     #: the site file layered over the shipped defaults (None: the defaults alone)
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
@@ -346,7 +355,8 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
                       drift_px=spec.burn_in.drift_px,
                       drift_period_s=spec.burn_in.drift_period_s,
                       quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality),
-                      sessions=sessions_config(spec.sessions))
+                      sessions=sessions_config(spec.sessions),
+                      reduced_motion=spec.accessibility.reduced_motion)
         t = spec.text
         if t.title_cap_height <= t.caption_cap_height:
             problems.append(f"{where('text', 'title_cap_height')}: text.title_cap_height: must be "

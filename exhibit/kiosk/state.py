@@ -8,6 +8,10 @@ by events and a clock, so it is tested without a window or devices.
   (Mapper.switches_scene).
 * After ``idle_timeout_s`` without real input, attract mode returns, gliding from the visitor's
   view into the timeline over ``blend_s`` when the scene is the same.
+* Reduced motion (``[accessibility] reduced_motion``): the camera never glides by itself. Attract
+  mode holds each keyframe's pose (Timeline.at's ``stepped``) and every change of it is a cut
+  (crossfaded by the kiosk); so is the return from a visitor, and the takeover's reframing
+  jumps to its end. What a visitor turns still turns smoothly.
 
 Either list may be empty when the kiosk skipped scenes that failed to load (never both): with no
 timeline, attract mode slowly turns the first scene of the content list; with no content list,
@@ -31,6 +35,8 @@ ATTRACT, VISITOR = "attract", "visitor"
 TURN_S = 120.0
 #: Seconds the picture takes to glide into the space a visitor's caption leaves free.
 REFRAME_S = 1.0
+#: Reduced motion with no timeline: the turn of θ1 goes in this many held steps (cuts).
+TURN_STEPS = 12
 
 
 @dataclass(frozen=True)
@@ -67,6 +73,11 @@ def _blend(a: ViewState, b: ViewState, u: float) -> ViewState:
                      center=(mix(a.center[0], b.center[0]), mix(a.center[1], b.center[1])))
 
 
+def _camera(view: ViewState) -> ViewState:
+    """``view`` without its slice: what the camera shows, whatever moment the slice is at."""
+    return view.replace(slice_axis=None, slice_at=0.0)
+
+
 def unframed(scene_name: str, params, view: ViewState) -> ViewState:
     """The framer when there is none: the view as the scene gives it."""
     return view
@@ -74,20 +85,25 @@ def unframed(scene_name: str, params, view: ViewState) -> ViewState:
 
 class KioskState:
     def __init__(self, playlist: Playlist, mapper: Mapper, content: tuple[str, ...],
-                 idle_timeout_s: float, blend_s: float, now: float, framer=unframed):
+                 idle_timeout_s: float, blend_s: float, now: float, framer=unframed,
+                 reduced_motion: bool = False):
         """``framer(scene name, params, view) -> view`` frames a scene's start view for the
-        screen (zoom and lens shift only)."""
+        screen (zoom and lens shift only). ``reduced_motion``: no glides of the camera but a
+        visitor's own (the module docstring)."""
         self.playlist = playlist
         self.framer = framer
         self.mapper = mapper
         self.content = content
         self.idle_timeout_s = idle_timeout_s
         self.blend_s = blend_s
+        self.reduced_motion = reduced_motion
         self.mode = ATTRACT
         self.playlist.restart(now)
         self._blend_from: tuple[ViewState, float, str] | None = None
         #: The zoom and lens shift gliding after a takeover: (from, to, start time).
         self._reframe: tuple | None = None
+        #: Reduced motion: this step's takeover jumped to the reframing's end (a cut).
+        self._jumped = False
         self._position = 0.0
         self.frame = self._attract_frame(now)
 
@@ -96,7 +112,7 @@ class KioskState:
     def _attract_frame(self, now: float) -> Frame:
         label = ""
         if self.playlist.timelines:
-            timeline, view, caption = self.playlist.at(now)
+            timeline, view, caption = self.playlist.at(now, stepped=self.reduced_motion)
             name, params = timeline.scene, tuple(sorted(timeline.params.items()))
             scene = scenes.get(name)
             label = timeline.path or timeline.name
@@ -104,7 +120,10 @@ class KioskState:
             name = self.content[0]
             scene = scenes.get(name)
             params, caption = tuple(sorted(scene.resolve().items())), scene.caption
-            turn = 2 * math.pi * ((now - self.playlist.started) / TURN_S % 1.0)
+            turn = (now - self.playlist.started) / TURN_S % 1.0
+            if self.reduced_motion:
+                turn = math.floor(turn * TURN_STEPS) / TURN_STEPS
+            turn *= 2 * math.pi
             start = self.start_view(name, params)
             view = start.replace(angles=(start.angles[0] + turn, *start.angles[1:]))
         if self._blend_from is not None:
@@ -124,11 +143,13 @@ class KioskState:
         """A visitor took over: the scene's caption replaces the timeline's, and its panel is
         often larger (five lines for two), so the picture, framed for the short one, would lie
         under it. The pose stays; the zoom and lens shift glide over REFRAME_S into the area
-        the scene's own panels leave free."""
+        the scene's own panels leave free. Reduced motion: it starts at its end, a cut."""
         target = self.framer(self.frame.scene, self.frame.params, view)
         if (target.half_height, target.center) != (view.half_height, view.center):
+            self._jumped = self.reduced_motion
             self._reframe = ((view.half_height, view.center),
-                             (target.half_height, target.center), now)
+                             (target.half_height, target.center),
+                             now - REFRAME_S if self.reduced_motion else now)
 
     def _reframing(self, view: ViewState, now: float) -> ViewState:
         """``view`` with the zoom and lens shift of the glide under way, if any."""
@@ -189,12 +210,17 @@ class KioskState:
             cut = frame.scene != previous.scene or frame.params != previous.params
         else:
             cut = (frame.scene != previous.scene or frame.params != previous.params
-                   or self._home_pressed(events))
+                   or self._home_pressed(events) or self._jumped)
+        if self.reduced_motion and frame.mode == ATTRACT:
+            # The camera only ever jumps (to the next keyframe's pose, into the timeline from a
+            # visitor's view, a step of the turn): each jump is crossfaded.
+            cut = cut or _camera(frame.view) != _camera(previous.view)
         if cut != frame.cut:
             frame = self.frame = dataclasses.replace(frame, cut=cut)
         return frame
 
     def _update(self, events: list[Event], now: float) -> Frame:
+        self._jumped = False
         activity = self.mapper.activity
         before = activity.last_active
         view = self.mapper.apply(self.frame.view, events, now)
@@ -221,7 +247,8 @@ class KioskState:
         if activity.idle_for(now) > self.idle_timeout_s and not switches:
             self.mode = ATTRACT
             self._reframe = None
-            self._blend_from = (self.frame.view, now, self.frame.scene)
+            if not self.reduced_motion:  # with reduced motion, a cut (update)
+                self._blend_from = (self.frame.view, now, self.frame.scene)
             self.playlist.restart(now)
             self.frame = self._attract_frame(now)
         return self.frame

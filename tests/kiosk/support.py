@@ -89,12 +89,15 @@ class Notifier:
         return lambda *a: self.calls.append(name)
 
 
-def kiosk(tmp_path, monkeypatch, broken=()):
-    """A Kiosk on a fake window and a clock that moves 0.1 s per reading (about 0.2 s a frame);
-    building a mesh for a scene in ``broken`` raises (``broken`` True: every scene)."""
+def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_motion=False):
+    """A Kiosk on a fake window (``window``, default FakeWindow()) and a clock that moves 0.1 s
+    per reading (about 0.2 s a frame; or ``clock``); building a mesh for a scene in ``broken``
+    raises (``broken`` True: every scene). ``reduced_motion``: [accessibility]'s."""
     path = make_config(tmp_path, "")
     devices = path.parent / "devices" / "default.toml"  # keyboards only: no simulator thread
     devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"', devices.read_text()))
+    if reduced_motion:
+        edit(path, "reduced_motion = false", "reduced_motion = true")
     config = load_kiosk_config(path)
 
     def build(scene, params, resolution):
@@ -103,10 +106,14 @@ def kiosk(tmp_path, monkeypatch, broken=()):
         return f"mesh {scene.name}", None
 
     monkeypatch.setattr(app, "build_cached", build)
-    ticks = iter(np.arange(1e6) * 0.1)
+    if clock is None:
+        ticks = iter(np.arange(1e6) * 0.1)
+
+        def clock():
+            return float(next(ticks))
     notifier = Notifier()
-    k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)), notifier=notifier,
-                  health_path=tmp_path / "health.json")
+    k = app.Kiosk(config, window if window is not None else FakeWindow(), clock=clock,
+                  notifier=notifier, health_path=tmp_path / "health.json")
     # the start-up warm-up drew every quality level once through a crossfade (not frames;
     # nothing when no scene could be prepared)
     warm = len(k.governor.levels) if k.state is not None else 0

@@ -3,6 +3,7 @@
 import math
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from exhibit.devices.base import Event, Kind
@@ -324,3 +325,86 @@ def test_a_scene_without_a_time_axis_can_name_one(tmp_path):
                     '[[keyframe]]\nt = 2\n')
     view = load_timeline(path).at(1.0)[0]
     assert view.slice_axis == 3 and view.slice_at == 0.3
+
+
+# ---------------------------------------------------------------------- reduced motion
+
+def _reduced(timelines, framer=None, content=("hopf", "collision")):
+    import tomllib
+    config = parse_config(tomllib.loads(DEVICES), "<test>")
+    extra = {} if framer is None else {"framer": framer}
+    return KioskState(Playlist(timelines), Mapper(config.mapping), content,
+                      idle_timeout_s=30.0, blend_s=2.0, now=0.0, reduced_motion=True, **extra)
+
+
+def test_stepped_timelines_hold_the_pose_and_keep_the_slice_moving(tmp_path):
+    """Reduced motion: the keyframe's pose (angles, sensor, eye, zoom) holds for its stretch,
+    the slice (the collision's moment: content, not camera) still moves; the last keyframe
+    only ends the last stretch."""
+    path = tmp_path / "sliced.toml"
+    path.write_text(SLICED.replace("slice = -2.0\n", "slice = -2.0\nangles = [0, 0, 0, 0, 0, 0]"
+                                   "\nsensor_distance = 4\neye = [10, 10]\nhalf_height = 2\n")
+                    .replace("slice = 0.0\n", "slice = 0.0\nangles = [60, 0, 0, 0, 0, 0]\n"
+                             "sensor_distance = 2\neye = [40, 20]\nhalf_height = 3\n"))
+    timeline = load_timeline(path)
+    start = timeline.at(4.0, stepped=True)[0]
+    for t in (4.5, 5.0, 6.0, 7.9):
+        view = timeline.at(t, stepped=True)[0]
+        assert view.replace(slice_at=0.0) == start.replace(slice_at=0.0)
+        assert view.slice_at == pytest.approx(timeline.at(t)[0].slice_at)   # as without
+        assert view.angles != timeline.at(t)[0].angles                       # which glides
+    assert timeline.at(6.0, stepped=True)[0].slice_at == pytest.approx(-1.0)
+    assert timeline.at(8.0, stepped=True)[0] == timeline.at(8.0)[0]          # the next pose
+    assert timeline.at(10.0, stepped=True) == timeline.at(9.0, stepped=True)  # not "off"'s
+
+
+def test_reduced_motion_cuts_at_each_keyframe_and_the_loop(timeline):
+    state = _reduced([timeline])
+    frames = [state.update([], round(i * 0.1, 6)) for i in range(1, 401)]
+    cuts = [round(i * 0.1, 6) for i, f in enumerate(frames, 1) if f.cut]
+    assert cuts == [10.0, 20.0, 30.0, 40.0]   # keyframe 1, the loop, again
+    for a, b in zip(frames, frames[1:]):
+        assert b.cut or b.view == a.view
+    assert frames[0].view.angles == timeline.at(0)[0].angles
+    assert frames[150].view.angles == pytest.approx(timeline.at(10)[0].angles)
+
+
+def test_reduced_motion_returns_from_a_visitor_with_a_cut(timeline):
+    state = _reduced([timeline])
+    state.update([knob(1.0)], 1.0)
+    state.update([knob(2.0, 3)], 2.0)
+    assert state.update([], 31.0).mode == VISITOR
+    frame = state.update([], 32.5)
+    assert frame.mode == ATTRACT and frame.cut       # a crossfade, not a glide...
+    assert frame.view == state.playlist.at(32.5, stepped=True)[1]   # ...straight into it
+    assert not state.update([], 33.0).cut and state.frame.view == frame.view
+
+
+def test_reduced_motion_takeover_reframes_at_once_and_knobs_turn_as_ever(timeline):
+    def framer(name, params, view):
+        return view.replace(half_height=4.0 * view.half_height, center=(0.5, -0.25))
+
+    state = _reduced([timeline], framer, ("hopf",))
+    before = state.update([], 5.0).view
+    first = state.update([knob(5.0)], 5.0)
+    assert first.mode == VISITOR and first.cut       # the reframing jumps: crossfaded
+    assert first.view.half_height == pytest.approx(4.0 * before.half_height)
+    assert first.view.center == (0.5, -0.25)
+    assert first.view.angles[0] == pytest.approx(before.angles[0] + math.radians(5))
+    turned = state.update([knob(5.1, 2)], 5.1)       # the visitor's knob: one step at a time
+    assert not turned.cut
+    assert turned.view.angles[0] == pytest.approx(first.view.angles[0] + math.radians(10))
+    assert turned.view.half_height == first.view.half_height
+
+
+def test_reduced_motion_without_timelines_turns_in_held_steps():
+    from exhibit.kiosk.state import TURN_S, TURN_STEPS
+    state = _reduced([])
+    step = TURN_S / TURN_STEPS
+    frames = [(t, state.update([], t)) for t in np.arange(0.5, 2.5 * step, 0.5)]
+    cuts = [t for t, f in frames if f.cut]
+    assert cuts == [step, 2 * step]
+    for (_, a), (_, b) in zip(frames, frames[1:]):
+        assert b.cut or b.view == a.view
+    assert frames[-1][1].view.angles[0] == pytest.approx(
+        frames[0][1].view.angles[0] + 2 * math.tau / TURN_STEPS)

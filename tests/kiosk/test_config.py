@@ -23,6 +23,20 @@ def tree(tmp_path):
 def test_shipped_config_is_valid():
     config = load_kiosk_config(CONFIGS / "kiosk.toml")
     assert config.start_scene in config.scenes and config.quit_keys
+    assert config.reduced_motion is False
+
+
+def test_reduced_motion_is_read_from_a_site_file(tmp_path, capsys):
+    site = tmp_path / "site.toml"
+    site.write_text("[accessibility]\nreduced_motion = true\n")
+    config = load_kiosk_config(site)
+    assert config.reduced_motion is True
+    assert config.sources["accessibility.reduced_motion"] == (True, site)
+    assert main(["check-config", str(site)]) == 0
+    site.write_text('[accessibility]\nreduced_motion = "yes"\n')
+    assert main(["check-config", str(site)]) == 2
+    assert (f"{site}: accessibility.reduced_motion: must be true or false, got 'yes'"
+            in capsys.readouterr().out)
 
 
 KIOSK = [
@@ -64,6 +78,12 @@ KIOSK = [
     ("calm_s = 1.5 ", "calm_s = -1 ", "quality.calm_s", "must lie in"),
     ("headroom = 0.7 ", "headroom = 1.5 ", "quality.headroom", "must lie in"),
     ("[quality]", "[quality]\nsharpness = 2", "quality.sharpness", "unknown key"),
+    ("reduced_motion = false ", 'reduced_motion = "yes" ', "accessibility.reduced_motion",
+     "must be true or false, got 'yes'"),
+    ("reduced_motion = false ", "reduced_motion = 1 ", "accessibility.reduced_motion",
+     "must be true or false, got 1"),
+    ("[accessibility]", "[accessibility]\nlarge_text = true", "accessibility.large_text",
+     "unknown key"),
 ]
 
 

@@ -74,7 +74,7 @@ KIOSK_KEYS = [("display", "monitor"), ("display", "size"), ("display", "samples"
               ("display", "fps_limit"), ("display", "vsync"), ("content", "resolution"),
               ("content", "start_scene"), ("attract", "idle_timeout_s"), ("attract", "blend_s"),
               ("burn_in", "drift_px"), ("burn_in", "drift_period_s"),
-              ("maintenance", "quit_keys")]
+              ("maintenance", "quit_keys"), ("accessibility", "reduced_motion")]
 MAPPING_KEYS = ["sensor_min_distance", "home_angles", "home_sensor_distance", "limits"]
 BIND_KEYS = ["step", "rate", "dead_zone", "curve", "invert", "input", "param"]
 KEYFRAME_KEYS = ["t", "angles", "sensor_distance", "eye", "half_height", "caption", "ease"]
@@ -167,7 +167,8 @@ def run_kiosk_logic(config) -> None:
     device_config = load_config(config.devices_config)
     mapper = Mapper(device_config.mapping, ActivityDetector(device_config.activity_threshold))
     state = KioskState(Playlist(load_playlist(config.attract_dir)), mapper, config.scenes,
-                       config.idle_timeout_s, config.blend_s, now=0.0)
+                       config.idle_timeout_s, config.blend_s, now=0.0,
+                       reduced_motion=config.reduced_motion)
     rng = np.random.default_rng(0)
     t = 0.0
     for i in range(400):
