@@ -57,6 +57,9 @@ from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, DistanceRange, H
 
 EASES = ("smooth", "linear", "hold")
 MOTIONS = ("closer", "farther", "still")
+#: Reduced motion: a stretch between keyframes plays as held poses about this long, each
+#: crossfaded into the next (a 1 s crossfade, then 3 s still).
+STEP_S = 4.0
 
 
 @dataclass(frozen=True)
@@ -111,9 +114,9 @@ class Timeline:
     def at(self, t: float, stepped: bool = False) -> tuple[ViewState, str]:
         """The view and caption ``t`` seconds into the timeline (clamped to its ends).
 
-        ``stepped`` (reduced motion): the camera does not glide. The pose of the keyframe in
-        force (angles, sensor distance, eye, zoom and lens shift) is held until the next
-        keyframe, which the kiosk shows as a crossfaded cut; the slice, content rather than
+        ``stepped`` (reduced motion): the camera does not glide. The pose (angles, sensor
+        distance, eye, zoom and lens shift) moves in slow steps of about STEP_S seconds, each
+        held, which the kiosk shows as crossfaded cuts; the slice, content rather than
         camera motion, still moves with the keyframes' ease. The last keyframe only ends the
         last stretch then: its pose would be shown for an instant before the playlist moves on,
         so the instant ``t = duration`` belongs to the stretch before it."""
@@ -127,13 +130,27 @@ class Timeline:
             return self._view(a, a, 0.0), a.caption
         b = frames[index + 1]
         u = (t - a.t) / (b.t - a.t)
-        if a.ease == "smooth":
-            u = u * u * (3 - 2 * u)
-        view = self._view(a, b, u)
+
+        def eased(x: float) -> float:
+            return x * x * (3 - 2 * x) if a.ease == "smooth" else x
+
+        view = self._view(a, b, eased(u))
         if stepped:
-            view = self._view(a, a, 0.0).replace(slice_axis=view.slice_axis,
-                                                 slice_at=view.slice_at)
+            # Slow steps: the stretch in steps of about STEP_S, each pose held (a caption
+            # saying "the viewpoint moves closer" stays true, a step at a time).
+            steps = max(1, round((b.t - a.t) / STEP_S))
+            held = self._view(a, b, eased(min(steps - 1, int(u * steps)) / steps))
+            view = held.replace(slice_axis=view.slice_axis, slice_at=view.slice_at)
         return view, a.caption
+
+    def step_times(self) -> list[float]:
+        """When a stepped (reduced-motion) playback moves to its next held pose: the slow steps
+        of every stretch and its keyframes, from the first step on."""
+        out = []
+        for a, b in zip(self.keyframes, self.keyframes[1:]):
+            steps = max(1, round((b.t - a.t) / STEP_S))
+            out += [a.t + (b.t - a.t) * k / steps for k in range(1, steps)] + [b.t]
+        return out[:-1]   # the last keyframe ends the last stretch (Timeline.at)
 
     def index_at(self, t: float) -> int:
         """The keyframe in force ``t`` seconds in (its caption is the one shown)."""

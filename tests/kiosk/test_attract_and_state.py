@@ -362,11 +362,13 @@ def test_reduced_motion_cuts_at_each_keyframe_and_the_loop(timeline):
     state = _reduced([timeline])
     frames = [state.update([], round(i * 0.1, 6)) for i in range(1, 401)]
     cuts = [round(i * 0.1, 6) for i, f in enumerate(frames, 1) if f.cut]
-    assert cuts == [10.0, 20.0, 30.0, 40.0]   # keyframe 1, the loop, again
+    steps = timeline.step_times()            # slow steps of about STEP_S, keyframe 1 among them
+    assert steps == [5.0, 10.0, 15.0]
+    assert cuts == [5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0]   # and the loop, again
     for a, b in zip(frames, frames[1:]):
         assert b.cut or b.view == a.view
     assert frames[0].view.angles == timeline.at(0)[0].angles
-    assert frames[150].view.angles == pytest.approx(timeline.at(10)[0].angles)
+    assert frames[150].view.angles == pytest.approx(timeline.at(15.0)[0].angles)   # a step
 
 
 def test_reduced_motion_returns_from_a_visitor_with_a_cut(timeline):

@@ -1,5 +1,5 @@
-"""Reduced motion ([accessibility] reduced_motion) in the running kiosk loop: attract mode holds
-each keyframe's pose and cuts, crossfaded, to the next; the text panels do not drift. The same
+"""Reduced motion ([accessibility] reduced_motion) in the running kiosk loop: attract mode moves
+in slow steps, each pose held and cut, crossfaded, to the next; the text panels do not drift. The same
 kiosk without it glides, so these tests fail without the feature."""
 
 from __future__ import annotations
@@ -60,19 +60,29 @@ def test_reduced_motion_holds_each_pose_and_crossfades_to_the_next(tmp_path, mon
     moved = [t for (t, _, _), a, b in zip(frames[1:], window.views, window.views[1:])
              if _camera(a) != _camera(b)]
     cuts = [t for t, cut, _ in frames if cut]
-    # the view changes only at the keyframes (and the loop), each time a cut...
-    assert moved == cuts == [*KEYFRAMES, LOOP_S, LOOP_S + KEYFRAMES[0]]
+    # the view changes only in slow steps (the keyframes among them) and at the loop, each time
+    # a cut...
+    timeline = k.state.playlist.timelines[0]
+    steps = [round(t, 6) for t in timeline.step_times()]
+    assert moved == cuts
+    assert set(KEYFRAMES) <= set(cuts) <= {*steps, LOOP_S, *(round(LOOP_S + t, 6)
+                                                             for t in steps)}
+    assert len([t for t in cuts if t < LOOP_S]) > len(KEYFRAMES)   # steps between keyframes
     # ...that the window crossfades: the outgoing picture captured, the new one fading in
     for (t, cut, captured), fade in zip(frames, window.fades):
         assert captured == cut, t
         if cut:
             assert fade == pytest.approx(1.0), t
-    # each pose held is the keyframe's own, reached instantly: the timeline's pose at the cut
+    # each pose held is the stepped timeline's, reached at once
     playlist = k.state.playlist
-    for t in KEYFRAMES:
+    for t in cuts:
         index = next(i for i, (ft, _, _) in enumerate(frames) if ft == t)
-        assert window.views[index].angles == pytest.approx(playlist.at(t)[1].angles)
-        assert window.views[index].sensor_r == pytest.approx(playlist.at(t)[1].sensor_r)
+        want = playlist.at(t, stepped=True)[1]
+        assert window.views[index].angles == pytest.approx(want.angles)
+        assert window.views[index].sensor_r == pytest.approx(want.sensor_r)
+    # "Now the 4D viewpoint moves closer" (7..14 s) stays true: closer a step at a time
+    closer = [v.sensor_r for (t, _, _), v in zip(frames, window.views) if 7.0 <= t < 14.0]
+    assert all(b >= a for a, b in zip(closer, closer[1:])) and closer[-1] > closer[0]
     # the text panels hold still
     assert set(window.drifts) == {(0.0, 0.0)}
 
