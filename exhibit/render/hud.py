@@ -240,8 +240,9 @@ class Hud:
             items.append((tips[i], tips[i], rgba,
                           max(3.0, 0.16 * radius * (1.0 + 0.7 * rot[3, i]))))
             label, rect = self.gizmo_labels[i]
-            self._text("axis letter", label, "bold", body, rect.x0, rect.y0,
-                       (*AXIS_LETTERS[i], 1.0), rows)
+            # on a halo: a letter may sit over another axis' line (w pointing at the sensor)
+            self._halo_text("axis letter", label, "bold", body, rect.x0, rect.y0,
+                            (*AXIS_LETTERS[i], 1.0), rows)
         # As large as the caption: every word on screen meets the size rule. It hangs below
         # the disc, so it has a halo of its own for a picture behind it.
         caption = gizmo_caption_rect(axes_label, layout)
