@@ -25,6 +25,8 @@ import moderngl
 
 from exhibit.render import inset as inset_look
 from exhibit.render import shaders
+from exhibit.render.hud import TextMark
+from exhibit.render.layout import Rect
 from exhibit.render.options import RenderOptions
 from exhibit.render.quality import Quality, software_renderer
 from exhibit.render.renderer import HudInfo, Renderer
@@ -124,6 +126,9 @@ class FramePipeline:
         self._snapshot: tuple | None = None
         #: The outgoing frame's words (gpu, view, options, hud), faded out on their own.
         self._leaving: tuple | None = None
+        #: The latest frame's inset label (exhibit.render.hud.TextMark), for the contrast checks;
+        #: the HUD's own are the renderer's ``hud.texts``.
+        self.texts: list = []
 
     def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
         """A cached target; kind "sheets" has the intersection curves' sheet buffer."""
@@ -176,6 +181,7 @@ class FramePipeline:
         while ``fade`` runs from 1 to 0 the outgoing words fade out over its first half and
         the new ones fade in over its second, as the pictures crossfade underneath."""
         size = (int(size[0]), int(size[1]))
+        self.texts = []
         self._draw(gpu, view, destination, size, options, None, quality)
         if inset is not None:
             self._inset(inset, destination, size)
@@ -266,8 +272,16 @@ class FramePipeline:
             renderer._panel_row(bx, by, bw, bh, inset_look.BORDER, rows)
         if inset.label:
             px = max(10, round(0.085 * h))
-            renderer._glyph_rows(inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px,
-                                 inset_look.BORDER, rows)
+            # on a dark tab in the corner: the inset's picture may be light behind it
+            glyphs: list = []
+            box = renderer._glyph_rows(inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px,
+                                       inset_look.LABEL, glyphs)
+            renderer._panel_row(x + edge, y + edge, box[2] + 0.4 * px - x - edge,
+                                box[3] + 0.3 * px - y - edge, inset_look.TAB, rows)
+            if renderer.hud.ink:
+                rows += glyphs
+            self.texts.append(TextMark("inset label", inset.label, Rect(*box),
+                                       inset_look.LABEL))
         renderer._quads("glyphs", renderer.atlas.texture, (renderer.atlas.size,) * 2, rows,
                         viewport)
         ctx.disable(moderngl.BLEND)

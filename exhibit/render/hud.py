@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from typing import NamedTuple
 
 import moderngl
 import numpy as np
@@ -39,6 +40,49 @@ HALO = (0.02, 0.02, 0.03, 0.85)
 #: The axis colours of Figures 6-8's scene (x red, y amber, z green, w blue), from the palette
 #: every visitor can tell apart (exhibit.scenes.palette).
 AXIS_COLORS = (palette.RED, palette.AMBER, palette.MINT, palette.BLUE)
+#: The relative luminance (WCAG) every coloured word is lifted to: 7:1 (AAA) against the panel
+#: over white (0.12 grey, luminance 0.014) needs 0.40; this leaves a margin.
+LEGIBLE = 0.45
+
+
+def luminance(rgb) -> float:
+    """Relative luminance of an sRGB colour (0..1 channels), as WCAG 2.x defines it."""
+    lin = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb[:3]]
+    return 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
+
+
+def legible(rgb, minimum: float = LEGIBLE) -> tuple[float, float, float]:
+    """``rgb`` mixed toward white just enough to reach the luminance ``minimum`` (itself when
+    it does): the same hue, light enough for text on the HUD's dark panels."""
+    rgb = tuple(float(c) for c in rgb[:3])
+    if luminance(rgb) >= minimum:
+        return rgb
+    lo, hi = 0.0, 1.0
+    for _ in range(24):
+        mid = 0.5 * (lo + hi)
+        if luminance([c + mid * (1.0 - c) for c in rgb]) >= minimum:
+            hi = mid
+        else:
+            lo = mid
+    return tuple(c + hi * (1.0 - c) for c in rgb)
+
+
+#: The gizmo's letters: the axis colours lifted to LEGIBLE (the lines keep AXIS_COLORS).
+AXIS_LETTERS = tuple(legible(c) for c in AXIS_COLORS)
+#: The "4D axes" line under the gizmo.
+AXES_CAPTION = (0.75, 0.77, 0.8, 1.0)
+
+
+class TextMark(NamedTuple):
+    """One piece of text drawn in a frame, for the contrast checks (tests/golden/contrast.py):
+    what it is (``kind``: title, caption, numbers, axis letter, axes caption, marker label,
+    inset label), its words, the box its glyphs cover and the colour they are drawn in (rgba,
+    alpha as drawn, a fade included)."""
+
+    kind: str
+    text: str
+    rect: Rect
+    rgba: tuple[float, float, float, float]
 
 
 class Hud:
@@ -61,6 +105,11 @@ class Hud:
         self.labels: list[tuple[str, Rect, tuple[float, float], bool]] = []
         #: The gizmo's latest letters: (axis name, Rect), in axis order, for checks.
         self.gizmo_labels: list[tuple[str, Rect]] = []
+        #: Every piece of text of the latest HUD (TextMark), for the contrast checks.
+        self.texts: list[TextMark] = []
+        #: False: every glyph is left out (halos and panels stay), so a check can see what
+        #: lies behind the text; never in a kiosk.
+        self.ink = True
 
     def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
         key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
@@ -81,15 +130,15 @@ class Hud:
 
     def _title_block(self, layout: HudLayout):
         """The title and caption panel as one cached texture, rewrapped and redrawn only when
-        the words or the screen size change: (texture, width, height), texture None when
-        there is nothing to show."""
+        the words or the screen size change: (texture, width, height, lines), texture None
+        when there is nothing to show; ``lines`` are (kind, text, Rect in the block, rgba)."""
         key = (layout.title_lines, layout.caption_lines, layout.title_px, layout.body_px,
                layout.pad)
         block = self._blocks.get(key)
         if block is None:
             block = self._blocks[key] = self._rasterise(layout)
             while len(self._blocks) > self.CACHED:
-                _, (old, _, _) = self._blocks.popitem(last=False)
+                _, (old, *_) = self._blocks.popitem(last=False)
                 if old is not None:
                     old.release()
         self._blocks.move_to_end(key)
@@ -100,14 +149,20 @@ class Hud:
         lines = [(t, "bold", layout.title_px, INK) for t in layout.title_lines]
         lines += [(t, "sans", layout.body_px, DIM) for t in layout.caption_lines]
         if not lines:
-            return (None, 0, 0)
+            return (None, 0, 0, ())
         image = block_image(lines, layout.pad, PANEL)
         h, w = image.shape[:2]
         ctx = self.renderer.ctx
         texture = ctx.texture((w, h), 4, np.ascontiguousarray(image).tobytes(), alignment=1)
         texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         texture.repeat_x = texture.repeat_y = False
-        return (texture, w, h)
+        boxes, y = [], layout.pad
+        for text, style, px, rgba in lines:
+            x1 = min(layout.pad + math.ceil(text_width(text, style, px)), w - layout.pad)
+            boxes.append(("title" if style == "bold" else "caption", text,
+                          Rect(layout.pad, y, x1, y + line_height(style, px)), rgba))
+            y += line_height(style, px)
+        return (texture, w, h, tuple(boxes))
 
     def draw(self, gpu, view, hud, size, drift=(0.0, 0.0), sizes: TextSizes | None = None,
              alpha: float = 1.0):
@@ -115,6 +170,7 @@ class Hud:
         (a crossfade shows the outgoing words fading out, then the new ones fading in)."""
         r = self.renderer
         alpha = min(max(float(alpha), 0.0), 1.0)
+        self.texts = []
         if alpha == 0.0:
             return
         sizes = sizes or TextSizes()
@@ -127,12 +183,21 @@ class Hud:
         layout = self.layout_for(size, hud, sizes)
         body, pad = layout.body_px, layout.pad
 
-        texture, block_w, block_h = self._title_block(layout)
+        texture, block_w, block_h, block_lines = self._title_block(layout)
         if texture is not None:
-            x, y = layout.title_block.x0, layout.title_block.y0
-            r._quads("image", texture, (block_w, block_h),
-                     [(round(x + dx), round(y + dy), block_w, block_h, 0, 0, block_w, block_h,
-                       1.0, 1.0, 1.0, alpha)], viewport)
+            x, y = round(layout.title_block.x0 + dx), round(layout.title_block.y0 + dy)
+            if self.ink:
+                r._quads("image", texture, (block_w, block_h),
+                         [(x, y, block_w, block_h, 0, 0, block_w, block_h,
+                           1.0, 1.0, 1.0, alpha)], viewport)
+            else:   # the panel alone, as the block draws it under its words
+                panel: list[tuple] = []
+                r._panel_row(x, y, block_w, block_h, (*PANEL[:3], PANEL[3] * alpha), panel)
+                r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), panel,
+                         viewport)
+            self.texts += [TextMark(kind, text, Rect(x + b.x0, y + b.y0, x + b.x1, y + b.y1),
+                                    (*rgba[:3], rgba[3] * alpha))
+                           for kind, text, b, rgba in block_lines]
 
         rows: list[tuple] = []
         status = layout.status_block
@@ -142,14 +207,17 @@ class Hud:
         if not has_greek():
             lines = [t.replace("θ", "t").replace("∞", "inf").replace("°", "") for t in lines]
         for i, text in enumerate(lines):
-            r._glyph_rows(text, "mono", body, status.x0 + dx + pad,
-                          status.y0 - dy + pad + i * mono_h, INK, rows)
+            self._text("numbers", text, "mono", body, status.x0 + dx + pad,
+                       status.y0 - dy + pad + i * mono_h, INK, rows)
 
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         items += self._marker_labels(gpu, view, size, layout, rows, hud.word)
         if alpha < 1.0:
             rows = [(*row[:11], row[11] * alpha) for row in rows]
             items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in items]
+            self.texts = [t if t.kind in ("title", "caption")
+                          else t._replace(rgba=(*t.rgba[:3], t.rgba[3] * alpha))
+                          for t in self.texts]
         r._overlay(items, viewport)
         r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
         r.ctx.disable(moderngl.BLEND)
@@ -174,11 +242,14 @@ class Hud:
             items.append((tips[i], tips[i], rgba,
                           max(3.0, 0.16 * radius * (1.0 + 0.7 * rot[3, i]))))
             label, rect = self.gizmo_labels[i]
-            r._glyph_rows(label, "bold", body, rect.x0, rect.y0, rgba, rows)
-        # As large as the caption: every word on screen meets the size rule.
+            # on a halo: a letter may sit over another axis' line (w pointing at the sensor)
+            self._halo_text("axis letter", label, "bold", body, rect.x0, rect.y0,
+                            (*AXIS_LETTERS[i], 1.0), rows)
+        # As large as the caption: every word on screen meets the size rule. It hangs below
+        # the disc, so it has a halo of its own for a picture behind it.
         caption = gizmo_caption_rect(axes_label, layout)
-        r._glyph_rows(axes_label, "sans", body, caption.x0, caption.y0,
-                      (0.75, 0.77, 0.8, 1.0), rows)
+        self._halo_text("axes caption", axes_label, "sans", body, caption.x0, caption.y0,
+                        AXES_CAPTION, rows)
         return items
 
     def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list,
@@ -216,24 +287,40 @@ class Hud:
             items.append(((x, y), (x, y), color, disc))
             if covered:   # behind a sheet: a ring, the halo showing through its middle
                 items.append(((x, y), (x, y), HALO, 0.5 * disc))
-            self._halo_text(text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows)
+            self._halo_text("marker label", text, "bold", body, label.x0 + 0.25 * body,
+                            label.y0, color, rows)
             self.labels.append((text, label, (float(x), float(y)), bool(covered)))
         return items
 
-    def _halo_text(self, text, style, px, x, y, color, rows) -> None:
+    def _text(self, kind, text, style, px, x, y, color, rows) -> None:
+        """One line of glyphs in ``color`` (none when ``ink`` is off), kept in ``texts``."""
+        if self.ink:
+            box = self.renderer._glyph_rows(text, style, px, x, y, color, rows)
+        else:
+            box = self.renderer._glyph_rows(text, style, px, x, y, color, [])
+        self.texts.append(TextMark(kind, text, Rect(*box), tuple(color)))
+
+    def _halo_text(self, kind, text, style, px, x, y, color, rows) -> None:
         """Text on a dark halo: the glyphs drawn dark around it first, then in colour."""
-        r = self.renderer
-        k = max(1, round(px / 14))
-        for ox, oy in ((-k, 0), (k, 0), (0, -k), (0, k), (-k, -k), (k, k), (-k, k), (k, -k)):
-            r._glyph_rows(text, style, px, x + ox, y + oy, HALO, rows)
-        r._glyph_rows(text, style, px, x, y, color, rows)
+        halo_rows(self.renderer, text, style, px, x, y, rows)
+        self._text(kind, text, style, px, x, y, color, rows)
 
     def release(self) -> None:
-        for texture, _, _ in self._blocks.values():
+        for texture, *_ in self._blocks.values():
             if texture is not None:
                 texture.release()
         self._blocks.clear()
         self._layouts.clear()
+
+
+def halo_rows(renderer, text: str, style: str, px: int, x: float, y: float, rows: list) -> None:
+    """A dark halo for a line of text at (x, y): its glyphs in HALO, moved in eight directions
+    by two distances (at least 1 and 2 pixels; px / 10 at most), so no pixel of the picture
+    touches a stroke (text over a bright surface keeps 7:1, tests/golden/contrast.py)."""
+    k = max(2, round(px / 10))
+    for d in sorted({max(1, k // 2), k}):
+        for ox, oy in ((-d, 0), (d, 0), (0, -d), (0, d), (-d, -d), (d, d), (-d, d), (d, -d)):
+            renderer._glyph_rows(text, style, px, x + ox, y + oy, HALO, rows)
 
 
 def marker_text(label: str, word) -> str:

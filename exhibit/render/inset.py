@@ -25,10 +25,14 @@ from exhibit.surfaces.slice import SLICE_MATERIAL, slice_curves
 HEIGHT = 0.36
 ASPECT = 4.0 / 3.0
 #: Its own picture: a background a shade lighter than the screen's, so it reads as a window;
-#: no HUD. Its border and label (rgba).
+#: no HUD. Its border (rgba).
 OPTIONS = RenderOptions(hud=False, pinch_points=False, intersections=False,
                         background=((0.22, 0.24, 0.30), (0.10, 0.11, 0.15)))
 BORDER = (0.80, 0.82, 0.88, 1.0)
+#: The label's colour and the dark tab it sits on in the corner (a light picture may lie behind
+#: it): at least 7:1 over white (tests/golden/test_contrast.py).
+LABEL = (0.90, 0.91, 0.94, 1.0)
+TAB = (0.0, 0.0, 0.0, 0.88)
 
 
 def inset_rect(size: tuple[int, int], margin: float) -> Rect:

@@ -494,10 +494,16 @@ class Renderer:
 
     def _glyph_rows(self, text: str, style: str, px: int, x: float, y: float, color,
                     rows: list) -> None:
-        """Instances for one line of text whose top-left corner is at (x, y)."""
+        """Instances for one line of text whose top-left corner is at (x, y); returns the box
+        its glyph images cover, (x0, y0, x1, y1) in pixels (empty at (x, y) for no glyphs)."""
         x, y = round(x), round(y)
-        for dx, g in self.atlas.layout(text, style, px):
+        x0 = x1 = x
+        y1 = y
+        for i, (dx, g) in enumerate(self.atlas.layout(text, style, px)):
             rows.append((x + dx, y, g.width, g.height, g.u, g.v, g.width, g.height, *color))
+            x0 = x + dx if i == 0 else min(x0, x + dx)
+            x1, y1 = max(x1, x + dx + g.width), max(y1, y + g.height)
+        return (x0, y, x1, y1)
 
     def _panel_row(self, x, y, w, h, color, rows: list) -> None:
         g = self.atlas.solid

@@ -107,6 +107,7 @@ class HeadlessTarget:
         self.image: np.ndarray | None = None
         #: (gpu, view, options, hud) of the latest frame drawn.
         self.drawn: tuple | None = None
+        self._fade_inset: tuple = (0.0, None)
         self.cursor_hidden = False
         self._handler: InputHandler | None = None
         self._queue: deque[InputEvent] = deque()
@@ -144,6 +145,22 @@ class HeadlessTarget:
             self.frame_ms = self._timer.end()
         self.image = target.read()
         self.drawn = (gpu, view, options, hud)
+        self._fade_inset = (fade, inset)
+
+    def redraw(self) -> np.ndarray:
+        """The latest frame drawn again with the same arguments and read back (``image`` is
+        left as it was): a check draws it with something changed, e.g. the HUD's ``ink`` off."""
+        if self.drawn is None:
+            raise RuntimeError("nothing has been drawn yet")
+        gpu, view, options, hud = self.drawn
+        fade, inset = self._fade_inset
+        target = self._target()
+        if options.quality is None:
+            self.renderer.render(gpu, view, target.framebuffer, options, hud)
+        else:
+            self.headless.pipeline.draw(gpu, view, target.framebuffer, self._size, options, hud,
+                                        options.quality, fade, inset)
+        return target.read()
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
         self.headless.activate()
