@@ -687,6 +687,23 @@ class Kiosk:
             self._inset_view_cache = (key, inset_view(view, points, size))
         return self._inset_view_cache[1]
 
+    def release(self) -> None:
+        """Free the GPU meshes this kiosk uploaded (each level once) and the inset's. The
+        museum's kiosk never needs it (its meshes live as long as the process); a review or a
+        test that builds many kiosks on one GL context does, or the context fills up."""
+        uploaded = {id(g): g for levels in self.gpu.values() for g in levels.values()}
+        if self._inset_mesh is not None:
+            uploaded[id(self._inset_mesh[1])] = self._inset_mesh[1]
+        for gpu in uploaded.values():
+            if hasattr(gpu, "release"):
+                gpu.release()
+        self.gpu, self._inset_mesh, self._shown = {}, None, None
+        # the crossfade's snapshot keeps the outgoing frame's mesh for its words
+        headless = getattr(self.window, "headless", None)
+        pipeline = getattr(headless, "pipeline", None) or getattr(self.window, "_pipeline", None)
+        if pipeline is not None and hasattr(pipeline, "release_snapshot"):
+            pipeline.release_snapshot()
+
     def _screenshot(self, path: Path) -> None:
         from PIL import Image
 

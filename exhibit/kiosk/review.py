@@ -316,6 +316,7 @@ class KioskPlayer:
         kiosk = getattr(self, "kiosk", None)
         if kiosk is not None:
             kiosk.devices.close()
+            kiosk.release()
             self.kiosk = None
         if self._own_headless and getattr(self, "headless", None) is not None:
             self.headless.release()

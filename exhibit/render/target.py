@@ -100,6 +100,9 @@ class HeadlessTarget:
     def __init__(self, headless, size: tuple[int, int], refresh_hz: float | None = 60.0):
         self.headless = headless
         self.ctx, self.renderer = headless.ctx, headless.renderer
+        # current from the start, as a window's context is: the kiosk uploads its meshes before
+        # the first draw, and another context in the process may have been current (or released)
+        headless.activate()
         self._size = (int(size[0]), int(size[1]))
         self._refresh_hz = refresh_hz
         self.frame_ms: float | None = None

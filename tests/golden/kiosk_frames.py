@@ -133,3 +133,4 @@ level = "fxaa"
 
     def close(self) -> None:
         self.kiosk.devices.close()
+        self.kiosk.release()
