@@ -150,16 +150,3 @@ def test_the_next_visitor_finds_the_museums_language(headless, tmp_path):
     assert run.kiosk.translate.language == "en"
     assert run.target.drawn[3].caption == "Closer still."
     assert run.target.drawn[3].axes_label == "4D axes"
-
-
-def test_release_frees_every_mesh_the_kiosk_uploaded(headless, tmp_path):
-    """A review or a test builds many kiosks on one GL context: release() frees each uploaded
-    mesh once (levels share meshes) and forgets them."""
-    from tests.kiosk.support import HeadlessKiosk
-
-    run = HeadlessKiosk(headless, tmp_path)
-    run.run(0.3)
-    uploaded = {id(g): g for levels in run.kiosk.gpu.values() for g in levels.values()}
-    assert uploaded and all(g.surfaces for g in uploaded.values())
-    run.kiosk.release()
-    assert run.kiosk.gpu == {} and all(not g.surfaces for g in uploaded.values())

@@ -133,3 +133,16 @@ def test_the_shipped_collision_timeline_travels_through_time(headless, tmp_path)
     assert frame.view.slice_axis == 3 and frame.view.slice_at == 0.0
     assert glow() > 40, glow()
     assert border() > 0.95                  # the inset: the 3D world at that moment
+
+
+def test_release_frees_every_mesh_the_kiosk_uploaded(headless, tmp_path):
+    """A review or a test builds many kiosks on one GL context: release() frees each uploaded
+    mesh once (levels share meshes) and forgets them."""
+    from tests.kiosk.support import HeadlessKiosk
+
+    run = HeadlessKiosk(headless, tmp_path)
+    run.run(0.3)
+    uploaded = {id(g): g for levels in run.kiosk.gpu.values() for g in levels.values()}
+    assert uploaded and all(g.surfaces for g in uploaded.values())
+    run.kiosk.release()
+    assert run.kiosk.gpu == {} and all(not g.surfaces for g in uploaded.values())
