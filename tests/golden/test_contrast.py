@@ -16,7 +16,6 @@ captions and the hostile frames (about 20 s on llvmpipe); every timeline and Ger
 from __future__ import annotations
 
 import dataclasses
-import os
 
 import pytest
 
@@ -31,19 +30,6 @@ WHITE = ((1.0, 1.0, 1.0), (1.0, 1.0, 1.0))
 #: The timeline the default run plays: it slices (the inset) and labels a marker.
 DEFAULT_TIMELINE = "06-collision-17.toml"
 TIMELINES = sorted(p.name for p in shipped("configs", "attract").glob("*.toml"))
-
-
-@pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    """One mesh cache for the module (each scene built once, at its shipped resolution)."""
-    folder = tmp_path_factory.mktemp("meshes")
-    before = os.environ.get("EXHIBIT_CACHE_DIR")
-    os.environ["EXHIBIT_CACHE_DIR"] = str(folder)
-    yield folder
-    if before is None:
-        os.environ.pop("EXHIBIT_CACHE_DIR", None)
-    else:
-        os.environ["EXHIBIT_CACHE_DIR"] = before
 
 
 def _check(measured, where: str) -> None:
@@ -75,7 +61,7 @@ def _scene_cases():
 
 
 @pytest.mark.parametrize("scene, language", list(_scene_cases()))
-def test_start_view(headless, cache, scene, language):
+def test_start_view(headless, mesh_cache, scene, language):
     with KioskPlayer(SIZE, scene=scene, language=language, config=CONFIG,
                      headless=headless) as player:
         player.step_to(0.0)
@@ -93,7 +79,7 @@ def _timeline_cases():
 
 
 @pytest.mark.parametrize("timeline, language", list(_timeline_cases()))
-def test_attract_captions(headless, cache, timeline, language):
+def test_attract_captions(headless, mesh_cache, timeline, language):
     path = shipped("configs", "attract", timeline)
     with KioskPlayer(SIZE, timeline=path, language=language, config=CONFIG,
                      headless=headless) as player:

@@ -14,7 +14,6 @@ the picture framed for the shorter one.
 
 from __future__ import annotations
 
-import os
 
 import pytest
 
@@ -36,21 +35,8 @@ def _cases():
                                    id=f"{scene}-{size[0]}x{size[1]}-{language}")
 
 
-@pytest.fixture(scope="module")
-def cache(tmp_path_factory):
-    """One mesh cache for the module (each scene built once, at its shipped resolution)."""
-    folder = tmp_path_factory.mktemp("meshes")
-    before = os.environ.get("EXHIBIT_CACHE_DIR")
-    os.environ["EXHIBIT_CACHE_DIR"] = str(folder)
-    yield folder
-    if before is None:
-        os.environ.pop("EXHIBIT_CACHE_DIR", None)
-    else:
-        os.environ["EXHIBIT_CACHE_DIR"] = before
-
-
 @pytest.mark.parametrize("scene, size, language", list(_cases()))
-def test_the_takeover_frame_is_readable(headless, cache, scene, size, language):
+def test_the_takeover_frame_is_readable(headless, mesh_cache, scene, size, language):
     player = KioskPlayer(size, timeline=shipped_timeline(scene), scene=scene,
                          language=language, config=CONFIG, headless=headless)
     try:

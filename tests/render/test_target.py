@@ -43,7 +43,7 @@ def test_the_window_turns_glfw_callbacks_into_events():
 
 def test_the_headless_target_delivers_posted_input_at_swap():
     events = []
-    target = HeadlessTarget(SimpleNamespace(ctx=None, renderer=None), (64, 32))
+    target = HeadlessTarget(SimpleNamespace(ctx=None, renderer=None, activate=lambda: None), (64, 32))
     target.set_input(events.append)
     target.post(Key("n", True))
     target.post(CloseRequest())
