@@ -14,7 +14,9 @@ missing), uptime and how old the file is. The exit code is for monitoring script
   started), named with how long on stderr. A file from an older kiosk, without the durations,
   never gives 3;
 - with --prometheus FILE: 0 once the metrics file is written, whatever it says (the metrics are
-  the product, and alerts come from them), 4 if it could not be written.
+  the product, and alerts come from them), 4 if it could not be written; 2 when FILE cannot be
+  a metrics file at all: an empty or folder-like name ("", ".", "/"), or a folder, FIFO, device
+  (/dev/null, /dev/full) or symlink in its place, which is never replaced.
 
 Without --file it looks at $EXHIBIT_STATE_DIR (else the XDG state folder) and then at the
 service's /var/lib/exhibit, so it works from a staff shell on the kiosk without sudo. Text from
@@ -24,6 +26,7 @@ drive the staff terminal.
 
 from __future__ import annotations
 
+import argparse
 import json
 import re
 import sys
@@ -31,8 +34,10 @@ import time
 from pathlib import Path
 
 from exhibit.commands import _args
+from exhibit.errors import ExhibitError
 from exhibit.kiosk.health import (MISSING_STATES, HealthError, candidate_paths, format_duration,
                                   freshness, missing_devices, read_health)
+from exhibit.schema.files import UnsafePath, check_target, split_target
 
 HELP = ("health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken, 3 a "
         "device missing for longer than --max-lost; --prometheus FILE: 0 once written)")
@@ -63,13 +68,29 @@ def add_arguments(parser) -> None:
                              f"seconds (default {DEFAULT_MAX_LOST:g})")
     parser.add_argument("--file", type=Path, metavar="PATH",
                         help="read this health file instead of looking in the usual places")
-    parser.add_argument("--prometheus", type=Path, metavar="FILE",
+    parser.add_argument("--prometheus", type=_metrics_file, metavar="FILE",
                         help="write the health as Prometheus metrics to FILE (atomically; for "
                              "node_exporter's textfile collector) instead of the summary; exit 0 "
                              "once written, whatever the health, 4 if it cannot be written")
 
 
+def _metrics_file(text: str) -> Path:
+    """--prometheus FILE: a file name, never "", "." or "dir/" (Path("") would be ".")."""
+    try:
+        split_target(text)
+    except UnsafePath as exc:
+        raise argparse.ArgumentTypeError(f"{printable(exc)}: give the metrics file to write, "
+                                         "e.g. /var/lib/prometheus/node-exporter/exhibit.prom"
+                                         ) from None
+    return Path(text)
+
+
 def run(args) -> int:
+    if args.prometheus is not None:
+        try:
+            check_target(args.prometheus)  # a FIFO, device or folder there: misuse, before reading
+        except UnsafePath as exc:
+            raise ExhibitError(f"--prometheus: {printable(exc)}") from None
     paths = [args.file] if args.file else candidate_paths()
     path = next((p for p in paths if p.exists()), paths[0])
     now = time.time()
@@ -120,6 +141,9 @@ def _write_metrics(target: Path, data: dict | None, status: str, age: float | No
 
     try:
         write_metrics(target, render(data, status, age))
+    except UnsafePath as exc:  # swapped in since run() checked it
+        print(f"exhibit status: cannot write the metrics file: {printable(exc)}", file=sys.stderr)
+        return EXIT_METRICS_UNWRITTEN
     except OSError as exc:
         why = exc.strerror or str(exc)
         hint = (": is node_exporter (prometheus-node-exporter) installed?"

@@ -11,8 +11,8 @@ has been in that state and "missing_s" the seconds since it was last connected (
 start, if never), null while connected; all as of "time". Files from kiosks older than these
 three device keys have only "url" and "state", and are read as before (durations unknown).
 `exhibit status` (staff, monitoring scripts, the Prometheus metrics) reads it. Writes are
-atomic (a temporary file in the same folder, then os.replace), so a reader never sees half a
-file, and the file is world-readable (0644) so staff can read it without sudo: nothing in it is
+atomic (exhibit.schema.files.write_atomic: a temporary file in the same folder, then a rename;
+never over a device, FIFO, folder or symlink), so a reader never sees half a file, and the file is world-readable (0644) so staff can read it without sudo: nothing in it is
 secret.
 
 Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
@@ -30,6 +30,7 @@ from collections.abc import Mapping
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
+from exhibit.schema import files
 
 __all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "MAX_HEALTH_BYTES", "HealthError", "state_dir",
            "default_path", "candidate_paths", "write_health", "write_atomic", "read_health",
@@ -118,43 +119,16 @@ def write_health(path: str | os.PathLike, data: Mapping) -> None:
     cannot hold. No fsync: the file is rewritten every second, and losing the last one to a power
     cut is harmless, while syncing 86,400 times a day wears the kiosk's flash for nothing.
     """
-    path = Path(path)
     text = json.dumps(_finite(dict(data)), allow_nan=False, separators=(",", ":")) + "\n"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    write_atomic(path, text)
+    files.write_atomic(path, text, sync=False, make_folder=True)
 
 
 def write_atomic(path: str | os.PathLike, text: str, mode: int = 0o644) -> None:
-    """Replace the file at ``path`` with ``text`` (UTF-8) at once: a reader sees the old file or
-    the new one, never a part. The text goes to a temporary ``.NAME.PID.tmp`` in the same folder,
-    created with O_CREAT|O_EXCL|O_NOFOLLOW (a planted file or link of that name is removed, never
-    written through), given ``mode`` whatever the umask, then renamed over ``path``. Its name
-    does not end in .prom or .json, so a collector globbing ``*.prom`` never reads it half
-    written. Raises OSError (the folder missing or read-only, a full disk) and leaves no
-    temporary file behind."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
-    try:
-        try:
-            fd = os.open(tmp, flags, mode)
-        except FileExistsError:  # left by a crash, or planted: unlink never follows a link
-            os.unlink(tmp)
-            fd = os.open(tmp, flags, mode)
-        try:
-            os.fchmod(fd, mode)  # the service's UMask would make it private to the kiosk user
-            view = memoryview(text.encode("utf-8"))
-            while view:
-                view = view[os.write(fd, view):]
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
+    """Replace the file at ``path`` with ``text`` at once, without fsync (it is rewritten every
+    few seconds): :func:`exhibit.schema.files.write_atomic`, which refuses a target that is a
+    device, FIFO, folder or symlink, or an empty name (UnsafePath, an OSError). Raises OSError
+    (the folder missing or read-only, a full disk) and leaves no temporary file behind."""
+    files.write_atomic(path, text, mode=mode, sync=False)
 
 
 def read_health(path: str | os.PathLike) -> dict:

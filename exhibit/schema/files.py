@@ -3,15 +3,22 @@
 A config path can name a FIFO (reading blocks forever), /dev/zero (never ends), a 4 GB log or a
 file in another encoding. Each is refused with a reason instead: the file is opened without
 blocking, must be a regular file (a symlink to one is fine: deployments link configs), is read
-up to a size cap, and must be UTF-8 TOML.
+up to a size cap, and must be UTF-8 TOML. Numbers inside texts are ASCII digits only
+(:func:`parse_int`: "²", "①" or "٣" are not numbers), JSON from a file or a database row is
+bounded in size and depth (:func:`loads_json`), and every file exhibit writes goes through
+:func:`write_atomic`, which never writes through a device, FIFO or folder.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import re
+import secrets
 import stat
 import tomllib
 from pathlib import Path
+from typing import Any
 
 from exhibit.errors import ConfigError
 
@@ -95,3 +102,227 @@ def check_file_ref(path: Path, want_dir: bool = False, limit: int = MAX_CONFIG_B
     if info.st_size > limit:
         return f"{path} is {info.st_size} bytes, over the {limit}-byte limit"
     return None
+
+
+# ---------------------------------------------------------------------- numbers in texts
+
+_ASCII_INT = re.compile(r"[0-9]{1,18}", re.ASCII)
+
+
+def parse_int(text: str, low: int, high: int) -> int:
+    """The whole number ``text`` writes in ASCII digits (no sign, no spaces), in [low, high].
+
+    str.isdigit() and int() accept superscripts, circled and Arabic-Indic digits ("²", "①",
+    "٣"), and int() then fails on some of them: a file's text is read with this instead.
+    ValueError says why, in words fit for ``file: key: reason``."""
+    if not isinstance(text, str) or _ASCII_INT.fullmatch(text) is None:
+        raise ValueError(f"expected a whole number written with the digits 0-9, got {text!r}")
+    value = int(text)
+    if not low <= value <= high:
+        raise ValueError(f"must lie in [{low}, {high}], got {value}")
+    return value
+
+
+# ---------------------------------------------------------------------- JSON from files and rows
+
+#: The most JSON text :func:`loads_json` parses by default, and how deep it may nest.
+MAX_JSON_BYTES = 1 << 16
+MAX_JSON_DEPTH = 32
+
+
+def json_depth(text: str) -> int:
+    """How deep the arrays and objects of a JSON text nest (brackets inside strings ignored)."""
+    depth = deepest = 0
+    in_string = escaped = False
+    for c in text:
+        if in_string:
+            if escaped:
+                escaped = False
+            elif c == "\\":
+                escaped = True
+            elif c == '"':
+                in_string = False
+        elif c == '"':
+            in_string = True
+        elif c in "[{":
+            depth += 1
+            deepest = max(deepest, depth)
+        elif c in "]}":
+            depth -= 1
+    return deepest
+
+
+def loads_json(text: Any, max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH
+               ) -> Any:
+    """``json.loads`` of a text of at most ``max_bytes`` characters nested at most ``max_depth``
+    deep; ValueError otherwise (never RecursionError or MemoryError), with a short reason."""
+    if isinstance(text, (bytes, bytearray)):
+        try:
+            text = bytes(text).decode("utf-8")
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"not UTF-8 (byte {exc.start})") from None
+    if not isinstance(text, str):
+        raise ValueError(f"not JSON text but {type(text).__name__}")
+    if len(text) > max_bytes:
+        raise ValueError(f"JSON of {len(text)} characters is over the {max_bytes} limit")
+    if json_depth(text) > max_depth:
+        raise ValueError(f"JSON nested more than {max_depth} deep")
+    try:
+        return json.loads(text)
+    except (ValueError, RecursionError, OverflowError, MemoryError) as exc:
+        raise ValueError(f"not valid JSON ({type(exc).__name__})") from None
+
+
+# ---------------------------------------------------------------------- writing files
+
+class UnsafePath(OSError):
+    """A path :func:`write_atomic` refuses; the message names the file or folder and why. An
+    OSError, so callers that already report a folder they cannot write report this too."""
+
+
+def split_target(path: str | os.PathLike) -> tuple[str, str]:
+    """(folder, name) of a file to write; UnsafePath for "", ".", "/", "dir/" and the like."""
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        text = os.fsdecode(text)
+    if text == "":
+        raise UnsafePath("an empty file name")
+    folder, name = os.path.split(text)
+    if text.endswith("/") or name in ("", ".", ".."):
+        raise UnsafePath(f"{text}: names a folder, not a file")
+    return folder or ".", name
+
+
+def open_folder(folder: str | os.PathLike, root: str | os.PathLike | None = None,
+                create: bool = False) -> int:
+    """A descriptor of ``folder`` (O_DIRECTORY; close it). With ``root``, ``folder`` must lie
+    below it, and each component below ``root`` is opened with O_NOFOLLOW (created with
+    ``create``): a symlink there, even to a folder inside the root, is refused, so nothing is
+    ever written outside it. UnsafePath names the component; OSError for the rest."""
+    dflags = os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC
+    if root is None:
+        if create:
+            os.makedirs(folder, exist_ok=True)
+        return os.open(folder, dflags)
+    root_text = os.path.abspath(os.fspath(root))
+    rel = os.path.relpath(os.path.abspath(os.fspath(folder)), root_text)
+    if rel == ".." or rel.startswith("../"):
+        raise UnsafePath(f"{folder} is not below {root_text}")
+    fd = os.open(root_text, dflags)
+    here = root_text
+    try:
+        for part in ([] if rel == "." else rel.split("/")):
+            here = os.path.join(here, part)
+            try:
+                info = os.stat(part, dir_fd=fd, follow_symlinks=False)
+            except FileNotFoundError:
+                if not create:
+                    raise
+                os.mkdir(part, 0o755, dir_fd=fd)
+                info = os.stat(part, dir_fd=fd, follow_symlinks=False)
+            if stat.S_ISLNK(info.st_mode):
+                raise UnsafePath(f"{here} is a symbolic link (to {os.readlink(part, dir_fd=fd)})"
+                                 f": refusing to write through it")
+            if not stat.S_ISDIR(info.st_mode):
+                raise UnsafePath(f"{here} is {_kind(info.st_mode)}, not a folder")
+            try:
+                child = os.open(part, dflags | os.O_NOFOLLOW, dir_fd=fd)
+            except OSError as exc:
+                raise OSError(exc.errno, exc.strerror, here) from None
+            os.close(fd)
+            fd = child
+    except BaseException:
+        os.close(fd)
+        raise
+    return fd
+
+
+def _check_at(dir_fd: int, name: str, shown: str) -> None:
+    """UnsafePath when ``name`` in the folder exists and is not a regular file: a folder, FIFO,
+    device, socket, or a symbolic link to one (a unit masked by a link to /dev/null, say). A
+    link to a regular file, or a dangling one, is replaced by the rename, never written through."""
+    try:
+        info = os.stat(name, dir_fd=dir_fd, follow_symlinks=False)
+    except FileNotFoundError:
+        return
+    link = ""
+    if stat.S_ISLNK(info.st_mode):
+        try:
+            info = os.stat(name, dir_fd=dir_fd)
+        except OSError:
+            return  # dangling (or a loop): the rename replaces the link itself
+        link = "a symbolic link to "
+    if not stat.S_ISREG(info.st_mode):
+        raise UnsafePath(f"{shown} is {link}{_kind(info.st_mode)}, not a file: refusing to "
+                         "replace it")
+
+
+def check_target(path: str | os.PathLike, root: str | os.PathLike | None = None) -> None:
+    """What :func:`write_atomic` checks before writing, without writing or creating anything:
+    UnsafePath for a bad name, a symlinked folder below ``root``, or something at ``path`` that
+    is not a regular file (nor a link to one). A folder that does not exist yet is fine (it would be created)."""
+    folder, name = split_target(path)
+    try:
+        fd = open_folder(folder, root)
+    except FileNotFoundError:
+        return
+    try:
+        _check_at(fd, name, os.fspath(path))
+    finally:
+        os.close(fd)
+
+
+def write_atomic(path: str | os.PathLike, data: bytes | str, mode: int = 0o644,
+                 root: str | os.PathLike | None = None, sync: bool = True,
+                 make_folder: bool = False) -> None:
+    """Replace the file at ``path`` with ``data`` at once: a reader sees the old file or the new
+    one, never a part. The one way exhibit writes a file.
+
+    Refused with UnsafePath (an OSError naming the path): an empty or folder-like name, and
+    anything at ``path`` that is not a regular file: a device such as /dev/null, a FIFO, a
+    folder, or a symlink to one (a symlink to a file is replaced, not followed). With ``root`` (exhibit install --root), the folders below it are walked
+    with O_NOFOLLOW (:func:`open_folder`), so a symlinked etc/ cannot lead outside. The data goes
+    to a temporary ``.NAME.RANDOM.tmp`` in the same folder, created with O_EXCL|O_NOFOLLOW
+    (nothing planted there is written through), given ``mode`` on the descriptor whatever the
+    umask, fsynced (``sync``: files rewritten every few seconds pass False, since losing the last
+    one to a power cut is harmless and wearing the flash is not), then renamed over the name.
+    The temporary name does not end in .prom or .json, so a collector globbing ``*.prom`` never
+    reads it half written. ``make_folder`` creates missing folders. Raises OSError (a missing or
+    read-only folder, a full disk), leaving no temporary file behind."""
+    folder, name = split_target(path)
+    shown = os.fspath(path)
+    if isinstance(data, str):
+        data = data.encode("utf-8")
+    fd = open_folder(folder, root, create=make_folder)
+    try:
+        _check_at(fd, name, shown)
+        flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+        for _ in range(100):
+            tmp = f".{name}.{secrets.token_hex(6)}.tmp"
+            try:
+                out = os.open(tmp, flags, 0o600, dir_fd=fd)
+                break
+            except FileExistsError:
+                continue
+        else:
+            raise FileExistsError(f"no free temporary name next to {shown}")
+        try:
+            try:
+                os.fchmod(out, mode)  # the service's UMask would make it private
+                view = memoryview(data)
+                while view:
+                    view = view[os.write(out, view):]
+                if sync:
+                    os.fsync(out)
+            finally:
+                os.close(out)
+            _check_at(fd, name, shown)  # nothing swapped in meanwhile
+            os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
+        except BaseException:
+            try:
+                os.unlink(tmp, dir_fd=fd)
+            except OSError:
+                pass
+            raise
+    finally:
+        os.close(fd)

@@ -11,6 +11,8 @@ import sys
 import threading
 import time
 
+from pathlib import Path
+
 import pytest
 
 from exhibit.cli import main
@@ -489,3 +491,49 @@ def test_status_survives_an_odd_quality_detail(tmp_path, capsys):
     main(["status", "--file", str(path)])
     out = capsys.readouterr().out
     assert "quality   x (level ? of ?, auto; ?, mesh x?, ?, scale ?), frames ? ms" in out
+
+
+# ---------------------------------------------------------------------- targets never replaced
+
+@pytest.mark.parametrize("target", ["", "/", ".", "..", "some/folder/"])
+def test_status_prometheus_refuses_a_name_that_is_no_file(capsys, tmp_path, target):
+    with pytest.raises(SystemExit) as stop:  # a usage error, from argparse
+        main(["status", "--file", str(tmp_path / "health.json"), "--prometheus", target])
+    err = capsys.readouterr().err
+    assert stop.value.code == 2
+    assert "internal error" not in err and "--prometheus" in err
+    assert "names a folder" in err or "empty file name" in err
+    assert len(err.strip().splitlines()) == 1
+
+
+def _special_targets(tmp_path):
+    fifo = tmp_path / "metrics.fifo"
+    os.mkfifo(fifo)
+    folder = tmp_path / "metrics.prom"
+    folder.mkdir()
+    link = tmp_path / "link.prom"
+    link.symlink_to(fifo)
+    targets = {"fifo": (fifo, stat.S_ISFIFO), "folder": (folder, stat.S_ISDIR),
+               "link to a fifo": (link, stat.S_ISFIFO)}
+    if os.geteuid() == 0:  # only root could replace a device node; it must not
+        targets["/dev/null"] = (Path("/dev/null"), stat.S_ISCHR)
+        targets["/dev/full"] = (Path("/dev/full"), stat.S_ISCHR)
+    return targets
+
+
+def test_status_prometheus_never_replaces_a_fifo_folder_or_device(cli, tmp_path):
+    write_health(tmp_path / "health.json", sample())
+    for what, (target, kind) in _special_targets(tmp_path).items():
+        result = status(cli, tmp_path / "health.json", "--prometheus", str(target))
+        assert result.returncode == 2, what
+        assert str(target) in result.stderr and "internal error" not in result.stderr, what
+        assert kind(os.stat(target).st_mode), what
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+def test_write_health_never_replaces_a_fifo_folder_or_device(tmp_path):
+    for what, (target, kind) in _special_targets(tmp_path).items():
+        with pytest.raises(OSError, match="refusing"):
+            write_health(target, sample())
+        assert kind(os.stat(target).st_mode), what
+    assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
