@@ -34,6 +34,7 @@ from exhibit.devices.url import backend_for_url
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
+from exhibit.schema.files import parse_int
 from exhibit.schema.types import (MAX_ANGLE, MAX_DISTANCE, MIN_DISTANCE, Distance, Name, Number,
                                   Numbers, Text)
 
@@ -105,11 +106,16 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
         return problem(f"{where}.device", f"no device {spec.device!r} (configured: "
                                           f"{', '.join(devices)})")
     words = spec.input.split()
-    if len(words) != 2 or words[0] not in _INPUTS or not words[1].isdigit() \
-            or not 1 <= int(words[1]) <= 256:
+    number = None
+    if len(words) == 2 and words[0] in _INPUTS:
+        try:
+            number = parse_int(words[1], 1, 256)  # ASCII digits only: never "²", "①" or "٣"
+        except ValueError:
+            pass
+    if number is None:
         return problem(f"{where}.input", "expected 'axis N', 'delta N' or 'button N' (N from 1 "
-                                         f"to 256), got {spec.input!r}")
-    kind, index = _INPUTS[words[0]], int(words[1]) - 1
+                                         f"to 256, in the digits 0-9), got {spec.input!r}")
+    kind, index = _INPUTS[words[0]], number - 1
     if kind is Kind.BUTTON and (spec.action is None) == (spec.param is None):
         return problem(where, "a button takes either action = \"home\" or \"next-scene\", or a "
                               "param it moves at rate while held")

@@ -228,3 +228,40 @@ def test_the_shipped_controller_switches_language_on_a_long_press_of_home():
     m.apply(ViewState(), [ev(0.0, "button", 0, 1.0, device="controller")], 0.0)
     m.apply(ViewState(), [], 2.0)
     assert m.pressed([], "language")
+
+
+@pytest.mark.parametrize("text", ["delta ²", "axis ①", "button ⑨", "delta ¹⁰", "axis ₁",
+                                  "axis ٣", "delta ۷", "axis ４", "axis +1", "axis -1", "axis 0",
+                                  "axis 257", "axis 1e1", "axis 0x1", "axis 1_0", "axis " + "9" * 30])
+def test_an_input_number_is_ascii_digits_in_range(text):
+    """str.isdigit() accepts "²" and "①" (and int() then fails on them); int() accepts "٣"."""
+    doc = {"mapping": {"bind": [{"device": "d", "input": text, "param": "theta1"}]}}
+    with pytest.raises(DeviceError) as info:
+        parse_config(doc, "museum.toml")
+    assert info.value.problems == [
+        f"museum.toml: mapping.bind[0].input: expected 'axis N', 'delta N' or 'button N' (N from "
+        f"1 to 256, in the digits 0-9), got {text!r}"]
+
+
+@pytest.mark.parametrize("text", ["delta ²", "axis ①", "axis ٣"])
+def test_check_config_and_devices_name_a_unicode_digit_input(tmp_path, capsys, text):
+    from exhibit.cli import main
+
+    devices = tmp_path / "devices.toml"
+    devices.write_text(f'[devices.c]\nurl = "keyboard://"\n[[mapping.bind]]\ndevice = "c"\n'
+                       f'input = "{text}"\nparam = "theta1"\n', encoding="utf-8")
+    kiosk = tmp_path / "kiosk.toml"
+    kiosk.write_text(f'[devices]\nconfig = "{devices}"\n', encoding="utf-8")
+    for argv in (["check-config", str(kiosk)], ["devices", "--devices-config", str(devices),
+                                                 "--only"]):
+        assert main(argv) == 2
+        out, err = capsys.readouterr()
+        assert "internal error" not in out + err and "Traceback" not in out + err
+        assert f"{devices}: mapping.bind[0].input: " in out + err
+
+
+def test_input_numbers_at_the_ends_of_the_range_are_accepted():
+    doc = {"mapping": {"bind": [{"device": "d", "input": "axis 1", "param": "theta1"},
+                                {"device": "d", "input": "delta 256", "param": "theta2"}]}}
+    indexes = [b.index for b in parse_config(doc, "museum.toml").mapping.bindings]
+    assert indexes == [0, 255]
