@@ -10,7 +10,10 @@ imported only then, so every other command stays quick to start.
 Without --db it reads ``[sessions] path`` of the kiosk config, else sessions.db in the state
 folder, then the service's /var/lib/exhibit. The database is opened read-only: a running kiosk
 goes on writing. A date that is not a date, a path that is no sessions database (a FIFO, a
-folder, another file) is one line on stderr and exit 2, never a traceback.
+folder, another file) is one line on stderr and exit 2, never a traceback. Rows that no kiosk
+writes (a start outside 2000..2200, a duration over a week or not finite, JSON lists too long or
+nested: exhibit.kiosk.sessions.read_sessions) are left out of every figure and counted in the
+report: "skipped N rows: why (count)", and "skipped" and "skipped_reasons" in --json.
 """
 
 from __future__ import annotations
@@ -66,9 +69,12 @@ def run(args) -> int:
             raise ExhibitError(f"--plot: folder {args.plot.parent} does not exist")
     path = args.db if args.db is not None else _default_db(args.config)
     since = None if args.since is None else (args.since - EPOCH).days * 86400.0
-    report = summarize(read_sessions(path, since))
+    skipped: Counter = Counter()
+    report = summarize(read_sessions(path, since, skipped))
     report = {"db": str(path), "since": None if args.since is None else args.since.isoformat(),
-              **report}
+              **report, "skipped": sum(skipped.values()),
+              "skipped_reasons": [{"reason": r["name"], "rows": r["sessions"]}
+                                  for r in _ranked(skipped)]}
     if args.plot is not None:  # first: a reader that stops early (| head) still gets it
         plot(report, args.plot)
     if args.json:
@@ -76,6 +82,15 @@ def run(args) -> int:
     else:
         print(text(report) + ("" if args.plot is None else f"\nplot: {args.plot}"))
     return 0
+
+
+def skipped_line(report: dict) -> str | None:
+    """"skipped N rows: why (count); ..." for rows of the database that were not counted."""
+    n = report.get("skipped", 0)
+    if not n:
+        return None
+    why = "; ".join(f"{_printable(r['reason'])} ({r['rows']})" for r in report["skipped_reasons"])
+    return f"skipped {n} row{'s' if n != 1 else ''}: {why}"
 
 
 def _default_db(config_path: str | None) -> Path:
@@ -146,8 +161,11 @@ def text(report: dict) -> str:
     lines = [f"{n} visitor session{'s' if n != 1 else ''}"
              + (f", {report['first']} .. {report['last']}" if n else "")
              + f" ({_printable(report['db'])})"]
+    skipped = skipped_line(report)
+    if skipped:
+        lines.append(skipped)
     if not n:
-        return lines[0]
+        return "\n".join(lines)
     lines.append(f"median length {format_duration(report['median_s'])} (takeover to idle "
                  f"return); {format_duration(report['median_active_s'])} to the last input")
     width = max(len(str(d["sessions"])) for d in report["per_day"])
@@ -203,7 +221,8 @@ def plot(report: dict, path: Path) -> None:
     n = report["sessions"]
     fig.suptitle(f"{n} visitor session{'s' if n != 1 else ''}"
                  + (f", {report['first']} to {report['last']}, median length "
-                    f"{format_duration(median)}" if median is not None else ""))
+                    f"{format_duration(median)}" if median is not None else "")
+                 + (f" ({report['skipped']} rows skipped)" if report.get("skipped") else ""))
     try:
         fig.savefig(path, format="png", dpi=100)
     except OSError as exc:

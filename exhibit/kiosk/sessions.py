@@ -45,6 +45,7 @@ import sqlite3
 import stat
 import threading
 import time
+from collections import Counter
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Callable, Iterable
@@ -55,6 +56,7 @@ from exhibit.devices.base import Event, Kind
 from exhibit.errors import ExhibitError
 from exhibit.kiosk.health import SERVICE_STATE_DIR, state_dir
 from exhibit.schema import Model
+from exhibit.schema.files import loads_json
 from exhibit.schema.types import Integer, fail, text_check
 
 log = logging.getLogger("exhibit.kiosk.sessions")
@@ -609,10 +611,14 @@ def open_session_log(config: SessionsConfig) -> SessionLog | None:
 
 # ---------------------------------------------------------------------- reading (exhibit stats)
 
-def read_sessions(path: str | os.PathLike, since_local: float | None = None) -> list[Session]:
+def read_sessions(path: str | os.PathLike, since_local: float | None = None,
+                  skipped: Counter | None = None) -> list[Session]:
     """Every stored session (starting at or after ``since_local``, in the kiosk's local seconds
     since 1970, when given), oldest first. Read-only: never creates, rotates or repairs.
-    SessionsError says, in one line, why a file cannot be read."""
+    SessionsError says, in one line, why a file cannot be read. A row whose values are out of
+    bounds (:func:`_session_from_row`: a date outside 2000..2200, a duration over a week or not
+    finite, JSON lists too long or nested) is left out and, with ``skipped``, counted there by
+    reason."""
     path = Path(path)
     try:
         st = os.stat(path)
@@ -646,21 +652,69 @@ def read_sessions(path: str | os.PathLike, since_local: float | None = None) -> 
     finally:
         db.close()
     out = []
-    for start, end, duration, active, offset, language, scenes, inputs in rows:
+    for row in rows:
         try:
-            numbers = (float(start), float(end), float(duration), float(active))
-            session = Session(*numbers, int(offset), str(language), _names(scenes),
-                              _names(inputs))
-        except (TypeError, ValueError, OverflowError):
-            continue  # a row written by hand, not by the kiosk: not counted
-        if all(math.isfinite(x) for x in numbers) and abs(session.utc_offset_s) <= 86400:
-            out.append(session)
+            out.append(_session_from_row(*row))
+        except ValueError as exc:  # a row written by hand or by a broken kiosk: counted, not used
+            if skipped is not None:
+                skipped[str(exc)] += 1
     return out
 
 
-def _names(text: Any) -> list[str]:
+#: What a stored row must hold to be counted (a hand-written or damaged row is skipped, and
+#: `exhibit stats` says how many and why): sessions that start (in local time) within these years,
+#: last at most MAX_SESSION_S, with a UTC offset of at most a day and short name lists.
+FIRST_YEAR, LAST_YEAR = 2000, 2200
+_FIRST_S = 946684800.0   # 2000-01-01 00:00
+_END_S = 7289654400.0    # 2201-01-01 00:00
+MAX_SESSION_S = 7 * 86400.0
+MAX_OFFSET_S = 86400
+#: The most JSON text a scenes or inputs cell may hold (the kiosk writes MAX_ITEMS short names).
+MAX_LIST_TEXT = 1 << 16
+MAX_LANGUAGE = 64
+
+
+def _real(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValueError(f"{what} is not a number")
     try:
-        value = json.loads(text)
-    except (TypeError, ValueError):
-        return []
-    return [str(v) for v in value if isinstance(v, str)] if isinstance(value, list) else []
+        value = float(value)
+    except OverflowError:  # an integer beyond any float
+        raise ValueError(f"{what} is out of range") from None
+    if not math.isfinite(value):
+        raise ValueError(f"{what} is not finite")
+    return value
+
+
+def _session_from_row(start, end, duration, active, offset, language, scenes,
+                      inputs) -> Session:
+    """The Session a stored row describes; ValueError with a short reason (the same for every
+    row with that problem, so they can be counted) when any value is out of bounds."""
+    start, end = _real(start, "start"), _real(end, "end")
+    duration, active = _real(duration, "duration"), _real(active, "active time")
+    if isinstance(offset, bool) or not isinstance(offset, int) or abs(offset) > MAX_OFFSET_S:
+        raise ValueError("utc offset is not whole seconds within a day")
+    if not _FIRST_S <= start + offset < _END_S:
+        raise ValueError(f"start outside the years {FIRST_YEAR}..{LAST_YEAR} (clock not set?)")
+    if not 0.0 <= duration <= MAX_SESSION_S:
+        raise ValueError(f"duration outside 0..{MAX_SESSION_S:.0f} s")
+    if not 0.0 <= active <= MAX_SESSION_S:
+        raise ValueError(f"active time outside 0..{MAX_SESSION_S:.0f} s")
+    if not isinstance(language, str) or len(language) > MAX_LANGUAGE:
+        raise ValueError(f"language is not a text of at most {MAX_LANGUAGE} characters")
+    return Session(start, end, duration, active, offset, language, _names(scenes, "scenes"),
+                   _names(inputs, "inputs"))
+
+
+def _names(text: Any, what: str = "list") -> list[str]:
+    """The names of a stored JSON list (at most MAX_ITEMS, strings only); ValueError for a text
+    that is too long, nested, or not a JSON list."""
+    try:
+        value = loads_json(text, max_bytes=MAX_LIST_TEXT, max_depth=2)
+    except ValueError as exc:
+        reason = str(exc)
+        raise ValueError(f"{what}: " + ("too long or too deep" if "limit" in reason
+                                        or "nested" in reason else "not a JSON list")) from None
+    if not isinstance(value, list):
+        raise ValueError(f"{what}: not a JSON list")
+    return [v for v in value if isinstance(v, str)][:MAX_ITEMS]

@@ -591,3 +591,74 @@ def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
     assert writer.written == 1 and writer.failed == 0 and len(calls) == 2
     assert len(writer.store.moved_aside) == 1 and caplog.text.count("moved aside") == 1
     assert len(read_sessions(tmp_path / "s.db")) == 1
+
+
+# ---------------------------------------------------------------------- hostile rows
+
+def _plant(db: Path, rows: list[tuple]) -> None:
+    """Rows put in with sqlite3 directly, as a hand or a broken kiosk could."""
+    SessionStore(db, wall=lambda: NOON_ISH).open().close()
+    with sqlite3.connect(db) as c:
+        c.executemany("INSERT INTO sessions (start, end, duration_s, active_s, utc_offset_s, "
+                      "language, scenes, inputs) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", rows)
+    c.close()
+
+
+def _row(start=NOON_ISH, duration=60.0, active=30.0, offset=0, language="en",
+         scenes='["hopf"]', inputs='["knobs.knob"]'):
+    return (start, start + duration if isinstance(start, float) and isinstance(duration, float)
+            else start, duration, active, offset, language, scenes, inputs)
+
+
+DEEP = "[" * 100_000 + "]" * 100_000
+HOSTILE_ROWS = {
+    "year 33658": _row(start=1e12),
+    "before 1970": _row(start=-1e12),
+    "1e300": _row(start=1e300),
+    "first day": _row(start=-62135596800.0),      # 0001-01-01
+    "last day": _row(start=253402214400.0),       # 9999-12-31
+    "last day, offset": _row(start=253402300799.0, offset=86400),
+    "huge duration": _row(duration=1.7e308, active=1.7e308),
+    "negative duration": _row(duration=-5.0),
+    "infinite duration": _row(duration=float("inf")),
+    "deep scenes": _row(scenes=DEEP),
+    "deep inputs": _row(inputs=DEEP),
+    "text start": _row(start="tomorrow"),
+    "huge offset": _row(offset=2**62),
+    "long scenes": _row(scenes=json.dumps(["x" * 100] * 2000)),
+}
+
+
+@pytest.mark.parametrize("what", sorted(HOSTILE_ROWS))
+def test_stats_skips_a_hostile_row_and_says_so(tmp_path, capsys, what):
+    db = tmp_path / "s.db"
+    _plant(db, [_row(), HOSTILE_ROWS[what], HOSTILE_ROWS[what], _row(start=NOON_ISH + 86400)])
+    out = report(capsys, db)
+    assert out["sessions"] == 2 and out["skipped"] == 2, what
+    assert out["median_s"] == 60.0 and out["first"] == "2026-11-30"
+    assert main(["stats", "--db", str(db)]) == 0
+    text = capsys.readouterr().out
+    assert "\nskipped 2 rows: " in text and "2 visitor sessions" in text
+    assert main(["stats", "--db", str(db), "--plot", str(tmp_path / "r.png")]) == 0
+    assert (tmp_path / "r.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_stats_survives_every_hostile_row_at_once(tmp_path, capsys):
+    db = tmp_path / "s.db"
+    _plant(db, list(HOSTILE_ROWS.values()) * 2)
+    out = report(capsys, db)
+    assert out["sessions"] == 0 and out["skipped"] == 2 * len(HOSTILE_ROWS)
+    assert sum(r["rows"] for r in out["skipped_reasons"]) == out["skipped"]
+    assert main(["stats", "--db", str(db), "--since", "2026-01-01"]) == 0
+    assert main(["stats", "--db", str(db), "--plot", str(tmp_path / "r.png")]) == 0
+    err = capsys.readouterr().err
+    assert "internal error" not in err and "Error" not in err
+
+
+def test_read_sessions_bounds_every_value():
+    from exhibit.kiosk.sessions import _session_from_row
+    ok = _session_from_row(*_row())
+    assert ok.scenes == ["hopf"] and ok.duration_s == 60.0
+    for what, row in HOSTILE_ROWS.items():
+        with pytest.raises(ValueError):
+            _session_from_row(*row)
