@@ -8,6 +8,11 @@ rest: creates the `exhibit` system user, loads the USB-serial modules, applies t
 kiosk takes over tty1. With --root (staging an image, or reviewing) or as another user it writes
 under DIR and prints the exact commands still to run on the target. --dry-run writes and runs
 nothing and says what it would do.
+
+It never writes outside the root, nor over what is not a file: every target is checked before
+anything is written, and a symlinked folder below the root (etc/ linked elsewhere), or a folder,
+FIFO or device (or a link to one, such as a unit masked to /dev/null) at a target, stops it with
+one line naming the path, having written nothing. "wrote PATH" is said once PATH is in place.
 """
 
 from __future__ import annotations
@@ -16,7 +21,6 @@ import grp
 import os
 import pwd
 import re
-import secrets
 import shlex
 import stat
 import subprocess
@@ -26,6 +30,7 @@ from pathlib import Path
 
 from exhibit.errors import ExhibitError
 from exhibit.resources import shipped
+from exhibit.schema.files import UnsafePath, check_target, write_atomic
 
 HELP = "install the kiosk's systemd units and udev rules (--root DIR to stage, --dry-run to look)"
 
@@ -120,8 +125,11 @@ def render(text: str, prefix: str) -> str:
 
 
 def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
-    """The files to write under ``root``, rendered for ``prefix``."""
-    planned = []
+    """The files to write under ``root``, rendered for ``prefix``, every target checked first:
+    ExhibitError (nothing written) when any folder below the root is a symlink or not a folder,
+    or when something at a target is not a regular file (a folder, FIFO, device, or a link to
+    one: a unit masked by a link to /dev/null). Writing happens only when all of them can be."""
+    planned, problems = [], []
     for name, dest in FILES.items():
         src = source / name
         try:
@@ -132,6 +140,14 @@ def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
                                "./bootstrap.sh does)") from None
         path = root / dest
         try:
+            check_target(path, root=root)
+        except UnsafePath as exc:
+            problems.append(str(exc))
+            continue
+        except OSError as exc:
+            problems.append(f"{path}: {exc.strerror or exc}")
+            continue
+        try:
             old = _read_existing(path)
         except FileNotFoundError:
             state = "new"
@@ -140,13 +156,18 @@ def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
         else:
             state = "unchanged" if old == text.encode("utf-8") else "changed"
         planned.append(Planned(path, text, state))
+    if problems:
+        unique = list(dict.fromkeys(problems))  # a symlinked etc/ is one problem, not seven
+        more = f" (and {len(unique) - 1} more)" if len(unique) > 1 else ""
+        raise ExhibitError(f"nothing written: {unique[0]}{more}")
     return planned
 
 
 def _read_existing(path: Path, limit: int = 1 << 20) -> bytes:
     """The bytes of the regular file at ``path``; ValueError for a FIFO, device or folder (which
-    would hang or flood the read) or a file over ``limit``. Non-blocking, so a FIFO opens."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    would hang or flood the read) or a file over ``limit``. Non-blocking, so a FIFO opens; a
+    symlink there is not followed (it is replaced)."""
+    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | os.O_NOFOLLOW)
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode) or info.st_size > limit:
@@ -156,49 +177,24 @@ def _read_existing(path: Path, limit: int = 1 << 20) -> bytes:
         os.close(fd)
 
 
-def write(planned: list[Planned]) -> None:
-    """Write each changed file atomically (mode 0644), creating folders as needed."""
+def write(planned: list[Planned], root: Path = Path("/"),
+          out: Callable[[str], None] | None = None) -> None:
+    """Write each changed file atomically (mode 0644, fsynced) with
+    :func:`exhibit.schema.files.write_atomic`, creating folders as needed but never following a
+    symlink below ``root``; ``out`` hears "wrote PATH" once each file is in place."""
+    done = 0
     for item in planned:
         if item.state == "unchanged":
             continue
         try:
-            item.path.parent.mkdir(parents=True, exist_ok=True)
-            _replace(item.path, item.text.encode("utf-8"), 0o644)
-        except OSError as exc:
-            raise ExhibitError(f"cannot write {item.path}: {exc.strerror or exc}") from None
-
-
-def _replace(path: Path, data: bytes, mode: int) -> None:
-    """Put ``data`` at ``path`` through a temporary file that only this call created.
-
-    Run as root into /etc, so nothing at a temporary name may be trusted: the name is random,
-    O_CREAT|O_EXCL|O_NOFOLLOW refuses anything already there (a planted symlink to /etc/shadow
-    stays untouched), the mode is set on the descriptor (fchmod, not chmod by name), and
-    os.replace renames over ``path`` itself, never through a symlink there.
-    """
-    for _ in range(100):
-        tmp = path.with_name(f".{path.name}.{secrets.token_hex(8)}.exhibit-install")
-        try:
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC,
-                         0o600)
-            break
-        except FileExistsError:
-            continue
-    else:
-        raise FileExistsError(f"no free temporary name next to {path}")
-    try:
-        try:
-            os.fchmod(fd, mode)
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view):]
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+            write_atomic(item.path, item.text, 0o644, root=root, make_folder=True)
+        except OSError as exc:  # UnsafePath too: something changed since plan() looked
+            why = str(exc) if isinstance(exc, UnsafePath) else exc.strerror or str(exc)
+            written = f" ({done} file{'s' if done != 1 else ''} written before it)" if done else ""
+            raise ExhibitError(f"cannot write {item.path}: {why}{written}") from None
+        done += 1
+        if out is not None:
+            out(f"wrote {item.path} ({item.state})")
 
 
 def steps(need_user: bool = True) -> list[list[str]]:
@@ -260,14 +256,13 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
             raise ExhibitError(f"group(s) {', '.join(missing)} do not exist here; exhibit.service "
                                "names them in SupplementaryGroups= and would not start: create "
                                f"them (groupadd --system {missing[0]}) or edit that line")
-    verb = "would write" if dry_run else "wrote"
     for item in planned:
         if item.state == "unchanged":
             out(f"unchanged: {item.path}")
-        else:
-            out(f"{verb} {item.path} ({item.state})")
+        elif dry_run:
+            out(f"would write {item.path} ({item.state})")
     if not dry_run:
-        write(planned)
+        write(planned, root, out)
 
     on_target = perform or root == Path("/")
     # Staging for another machine: whether its user exists cannot be known from here.

@@ -367,25 +367,28 @@ def test_installing_into_slash_needs_root(monkeypatch, capsys):
 
 
 def test_install_never_writes_through_a_planted_temporary_name(tmp_path, monkeypatch, capsys):
-    """A symlink at the old fixed temporary name, and at the random one with its random part
+    """A symlink at the old fixed temporary names, and at the random one with its random part
     guessed (the first try for each file), is left alone, and so are its target and mode."""
     from exhibit.cli import main
+    from exhibit.schema import files
 
     victim = tmp_path / "shadow"
     victim.write_text("root:secret\n")
     victim.chmod(0o600)
     root = tmp_path / "root"
-    guessed = "0" * 16
+    guessed = "0" * 12
     planted = []
     for dest in inst.FILES.values():
         path = root / dest
         path.parent.mkdir(parents=True, exist_ok=True)
-        for name in (f".{path.name}.exhibit-install", f".{path.name}.{guessed}.exhibit-install"):
-            (path.parent / name).symlink_to(victim)
-            planted.append(path.parent / name)
+        for name in (f".{path.name}.exhibit-install", f".{path.name}.{'0' * 16}.exhibit-install",
+                     f".{path.name}.{guessed}.tmp"):
+            if not (path.parent / name).is_symlink():
+                (path.parent / name).symlink_to(victim)
+                planted.append(path.parent / name)
     calls = iter(range(10**6))
-    real = inst.secrets.token_hex
-    monkeypatch.setattr(inst.secrets, "token_hex",
+    real = files.secrets.token_hex
+    monkeypatch.setattr(files.secrets, "token_hex",
                         lambda n: guessed if next(calls) % 2 == 0 else real(n))
     old_umask = os.umask(0o077)
     try:
@@ -398,31 +401,74 @@ def test_install_never_writes_through_a_planted_temporary_name(tmp_path, monkeyp
         path = root / dest
         assert path.is_file() and not path.is_symlink()
         assert stat.S_IMODE(path.stat().st_mode) == 0o644  # despite the umask
-        assert sorted(p.name for p in path.parent.iterdir() if "exhibit-install" in p.name) == \
+        assert sorted(p.name for p in path.parent.iterdir() if p.name.startswith(".")) == \
             sorted(p.name for p in planted if p.parent == path.parent)
     capsys.readouterr()
 
 
-def test_install_replaces_a_symlink_or_fifo_at_the_destination_without_following_it(tmp_path):
+@pytest.mark.parametrize("linked", ["etc", "etc/systemd/system", "etc/udev"])
+def test_install_never_writes_through_a_symlinked_folder_below_the_root(tmp_path, capsys,
+                                                                        linked):
+    from exhibit.cli import main
+
+    root, outside = tmp_path / "root", tmp_path / "outside"
+    root.mkdir()
+    outside.mkdir()
+    link = root / linked
+    link.parent.mkdir(parents=True, exist_ok=True)
+    link.symlink_to(outside)
+    for argv in (["install", "--root", str(root)], ["install", "--root", str(root), "--dry-run"]):
+        assert main(argv) == 2
+        out, err = capsys.readouterr()
+        assert "wrote" not in out and "internal error" not in err
+        assert err.count("\n") == 1 and f"{link} is a symbolic link" in err
+    assert list(outside.rglob("*")) == []
+    assert [p for p in root.rglob("*") if p.is_file()] == []
+
+
+def test_install_replaces_a_symlink_to_a_file_without_following_it(tmp_path):
     victim = tmp_path / "victim"
     victim.write_text("keep")
     root = tmp_path / "root"
-    service, rules = (root / inst.FILES[n] for n in ("exhibit.service", "99-exhibit.rules"))
+    service = root / inst.FILES["exhibit.service"]
     service.parent.mkdir(parents=True)
     service.symlink_to(victim)
+    inst.install(root, "/opt/exhibit", out=lambda line: None)
+    assert victim.read_text() == "keep"
+    assert service.is_file() and not service.is_symlink()
+
+
+@pytest.mark.parametrize("kind", ["fifo", "folder", "link to a fifo", "masked"])
+def test_install_refuses_what_is_not_a_file_at_a_target_and_writes_nothing(tmp_path, kind,
+                                                                            capsys):
+    """Checked before any write, without hanging on a FIFO: one line naming it, no 'wrote'."""
+    from exhibit.cli import main
+
+    root = tmp_path / "root"
+    rules = root / inst.FILES["99-exhibit.rules"]
     rules.parent.mkdir(parents=True)
-    os.mkfifo(rules)  # reading it to compare would block forever
-    done = threading.Thread(target=inst.install, args=(root, "/opt/exhibit"),
-                            kwargs={"out": lambda line: None}, daemon=True)
+    if kind == "fifo":
+        os.mkfifo(rules)
+    elif kind == "folder":  # the last file: the old code said "wrote" for six, then failed
+        rules = root / inst.FILES["exhibit-metrics.timer"]
+        rules.mkdir(parents=True)
+    elif kind == "link to a fifo":
+        os.mkfifo(tmp_path / "fifo")
+        rules.symlink_to(tmp_path / "fifo")
+    else:  # systemctl mask: a unit linked to /dev/null
+        rules = root / inst.FILES["exhibit-metrics.timer"]
+        rules.parent.mkdir(parents=True)
+        rules.symlink_to("/dev/null")
+    done = threading.Thread(target=main, args=(["install", "--root", str(root)],), daemon=True)
     done.start()
     done.join(20)
-    assert not done.is_alive(), "install hung on a FIFO"
-    assert victim.read_text() == "keep"
-    assert service.is_file() and not service.is_symlink() and rules.is_file()
-
-
+    assert not done.is_alive(), "install hung"
+    out, err = capsys.readouterr()
+    assert "wrote" not in out and "internal error" not in err
+    assert err.count("\n") == 1 and str(rules) in err and "nothing written" in err
+    assert [p for p in root.rglob("*") if p.is_file() and not p.is_symlink()] == []
 def test_a_failed_write_leaves_no_temporary_file(tmp_path, monkeypatch):
-    def fail(*args):
+    def fail(*args, **kwargs):
         raise OSError(28, "No space left on device")
     monkeypatch.setattr(inst.os, "replace", fail)
     with pytest.raises(ExhibitError, match="No space left on device"):
