@@ -12,6 +12,8 @@ docs/DEVICES.md; with --firmware a deflection is a voltage on the pot (-1 = 0 V,
 
 from __future__ import annotations
 
+import argparse
+import os
 import sys
 import time
 from pathlib import Path
@@ -28,7 +30,7 @@ HELP = "run a simulated controller on a pseudo-terminal (prints the tty path)"
 def add_arguments(parser) -> None:
     parser.add_argument("device", choices=["controller"], help="what to simulate")
     parser.add_argument("--script", type=Path, help="a script of stick moves, buttons and faults")
-    parser.add_argument("--link", type=Path,
+    parser.add_argument("--link", type=_link_arg,
                         help="also make this symlink to the pty, a stable name that survives "
                              "the script's unplug/replug (like /dev/serial/by-id/...)")
     parser.add_argument("--duration", type=_args.seconds(), default=None,
@@ -46,7 +48,36 @@ def add_arguments(parser) -> None:
                         help="speak another protocol version (to check a host's refusal)")
 
 
+def _link_arg(text: str) -> Path:
+    if text == "":  # Path("") would be "."
+        raise argparse.ArgumentTypeError("'': give the name of the symlink to make, e.g. "
+                                         "/tmp/exhibit-controller")
+    return Path(text)
+
+
+def check_link(link: Path | None) -> None:
+    """ExhibitError unless ``link`` can be the stable symlink: a name in an existing folder, and
+    nothing there but an old symlink (a file, folder, FIFO or device is never replaced by it)."""
+    if link is None:
+        return
+    text = str(link)
+    if text in ("", ".", "..") or text.endswith("/") or link.name in ("", ".", ".."):
+        raise ExhibitError(f"--link {text!r}: give the name of the symlink to make, e.g. "
+                           "/tmp/exhibit-controller")
+    folder = link.parent
+    if not folder.is_dir():
+        what = "does not exist" if not folder.exists() else "is not a folder"
+        raise ExhibitError(f"--link {link}: folder {folder} {what}")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ExhibitError(f"--link {link}: folder {folder} is not writable")
+    if link.is_symlink() or not os.path.lexists(link):
+        return
+    raise ExhibitError(f"--link {link}: something other than a symlink is there; refusing to "
+                       "replace it")
+
+
 def run(args) -> int:
+    check_link(args.link)
     script = None
     if args.script is not None:
         text = read_text(args.script)  # ConfigError names the file: FIFO, size, encoding
