@@ -244,14 +244,34 @@ def site_config_path(path: str | Path | None = None) -> Path | None:
     exists; None when the shipped defaults stand alone."""
     chosen = path or os.environ.get("EXHIBIT_CONFIG")
     if not chosen:
-        return SITE_CONFIG if SITE_CONFIG.exists() else None
+        # lstat, not exists(): a dangling symlink, a symlink loop or a file behind a folder
+        # that cannot be searched is a site file that cannot be read (an error naming it), not
+        # an absent one (the shipped defaults, silently without the museum's settings).
+        try:
+            os.lstat(SITE_CONFIG)
+        except FileNotFoundError:
+            return None
+        except OSError:
+            pass
+        return SITE_CONFIG
     chosen = Path(chosen)
     try:
         if chosen.resolve() == DEFAULT_CONFIG.resolve():
             return None
-    except OSError:
+    except (OSError, RuntimeError):  # a symlink loop: reported when it is read
         pass
     return chosen
+
+
+def _unreadable(file: Path, problems: list[str]) -> list[str]:
+    """A config file that cannot be read, said plainly when it is a dangling symlink."""
+    try:
+        if os.path.islink(file) and not os.path.lexists(os.path.realpath(file)):
+            return [f"{file}: cannot read: a symlink to {os.readlink(file)}, which does not "
+                    "exist"]
+    except OSError:
+        pass
+    return problems
 
 
 def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_dir: bool
@@ -289,7 +309,7 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
         try:
             layers.append((file, read_toml(file)))
         except ConfigError as exc:
-            problems.extend(exc.problems)
+            problems.extend(_unreadable(file, exc.problems))
     doc, origin = merge(layers)
     last = site or DEFAULT_CONFIG
     spec = None
