@@ -293,6 +293,19 @@ def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_
     return path, named_by
 
 
+def _start_problem(start: str, start_from: Path, scenes_from: Path, site: Path | None) -> str:
+    """content.start_scene not among content.scenes, reported against the file a museum edits:
+    the site file, when it set either of the two (the shipped defaults are not edited)."""
+    if site is None or (start_from != site and scenes_from != site):
+        return f"{start_from}: content.start_scene: {start!r} is not one of content.scenes"
+    if start_from == site:
+        return (f"{site}: content.start_scene: {start!r} is not one of content.scenes"
+                + ("" if scenes_from == site else " (the shipped defaults' list)"))
+    return (f"{site}: content.scenes: does not include the start scene {start!r} (the shipped "
+            f"default of content.start_scene); add it, or set content.start_scene to one of "
+            f"the scenes listed here")
+
+
 def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True) -> KioskConfig:
     """Read and check the shipped defaults with the site file over them; raises ConfigError
     listing every problem found.
@@ -339,8 +352,8 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
         values["scenes"] = tuple(s for s in scene_list if s in known) or tuple(sorted(known))
         start = c.start_scene if c.start_scene is not None else values["scenes"][0]
         if start not in values["scenes"]:
-            problems.append(f"{where('content', 'start_scene')}: content.start_scene: {start!r} "
-                            "is not one of content.scenes")
+            problems.append(_start_problem(start, where("content", "start_scene"),
+                                           where("content", "scenes"), site))
         values["start_scene"] = start
         for name in c.resolution:
             if name not in known:

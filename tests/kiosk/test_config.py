@@ -329,3 +329,19 @@ def test_an_unreadable_site_file_is_an_error(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(files.os, "open", refuse)
     assert main(["check-config"]) == 2
     assert f"{site}: cannot read: Permission denied" in capsys.readouterr().out
+
+
+def test_a_start_scene_conflict_is_reported_against_the_site_file(tmp_path, capsys):
+    site = tmp_path / "kiosk.toml"
+    site.write_text('[content]\nscenes = ["collision"]\n')
+    assert main(["check-config", str(site)]) == 2
+    out = capsys.readouterr().out
+    assert (f"{site}: content.scenes: does not include the start scene 'hopf' (the shipped "
+            "default of content.start_scene)") in out, out
+    assert str(CONFIGS / "kiosk.toml") + ":" not in out
+    site.write_text('[content]\nstart_scene = "nothing-like-it"\n')
+    assert main(["check-config", str(site)]) == 2
+    out = capsys.readouterr().out
+    assert f"{site}: content.start_scene: 'nothing-like-it' is not one of content.scenes" in out
+    site.write_text('[content]\nscenes = ["collision"]\nstart_scene = "collision"\n')
+    assert main(["check-config", str(site)]) == 0
