@@ -591,3 +591,22 @@ def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
     assert writer.written == 1 and writer.failed == 0 and len(calls) == 2
     assert len(writer.store.moved_aside) == 1 and caplog.text.count("moved aside") == 1
     assert len(read_sessions(tmp_path / "s.db")) == 1
+
+
+def test_the_health_file_says_sessions_are_not_recorded_when_the_database_cannot_open(
+        tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    writer = SessionWriter(blocker / "sessions.db")
+    recorder = SessionLog(writer)
+    assert writer.ready.wait(5.0)
+    state = recorder.health()["sessions"]
+    assert state["recording"] is False
+    assert "cannot open" in state["reason"] and str(blocker / "sessions.db") in state["reason"]
+    recorder.close(0.0, 1.0)
+    good = SessionWriter(tmp_path / "sessions.db")
+    recorder = SessionLog(good)
+    assert good.ready.wait(5.0)
+    state = recorder.health()["sessions"]
+    assert state["recording"] is True and "reason" not in state
+    recorder.close(0.0, 1.0)
