@@ -237,6 +237,9 @@ class KioskConfig:
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
     sources: dict = field(default_factory=dict)
+    #: scene files on the scene path that failed to load, "file: key: reason" each (only when
+    #: loaded with ``broken_scenes_ok``: the kiosk runs with the others and reports these)
+    scene_problems: tuple[str, ...] = ()
 
 
 def site_config_path(path: str | Path | None = None) -> Path | None:
@@ -306,12 +309,16 @@ def _start_problem(start: str, start_from: Path, scenes_from: Path, site: Path |
             f"the scenes listed here")
 
 
-def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True) -> KioskConfig:
+def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True,
+                      broken_scenes_ok: bool = False) -> KioskConfig:
     """Read and check the shipped defaults with the site file over them; raises ConfigError
     listing every problem found.
 
     With ``check_linked`` the device config, the attract timelines and the scene files are
-    loaded and checked too (what `exhibit check-config` and `exhibit run` do).
+    loaded and checked too (what `exhibit check-config` and `exhibit run` do). A scene file
+    that fails to load is a problem too, unless ``broken_scenes_ok`` (`exhibit run`): then the
+    kiosk runs with the valid scenes, and the broken files are in ``scene_problems`` (a scene
+    the config names that did not load is still a problem: no scene named ...).
     """
     site = site_config_path(path)
     problems: list[str] = []
@@ -427,7 +434,10 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
             except ConfigError as exc:
                 problems.extend(exc.problems)
         # scene files that failed to load are part of the kiosk's content too
-        problems.extend(message for _, message in scene_problems)
+        if broken_scenes_ok:
+            values["scene_problems"] = tuple(message for _, message in scene_problems)
+        else:
+            problems.extend(message for _, message in scene_problems)
     if problems:
         raise ConfigError(problems)
     return KioskConfig(**values)
