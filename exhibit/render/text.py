@@ -72,10 +72,44 @@ def units(text: str) -> list[str]:
     return out
 
 
+def split_word(word: str, style: str, size: int, width: float) -> list[str]:
+    """``word`` broken by characters into pieces no wider than ``width`` (at least one
+    character each): a word too long for any line (a URL, a 2,000-character mistake) is
+    wrapped visibly instead of making a text wider than the screen or than GL can hold."""
+    if text_width(word, style, size) <= width:
+        return [word]
+    pieces = []
+    while word:
+        low, high = 1, len(word)   # the longest prefix that fits, by bisection
+        while low < high:
+            middle = (low + high + 1) // 2
+            if text_width(word[:middle], style, size) <= width:
+                low = middle
+            else:
+                high = middle - 1
+        pieces.append(word[:low])
+        word = word[low:]
+    return pieces
+
+
+def fitted_units(text: str, style: str, size: int, width: float) -> list[str]:
+    """:func:`units`, each no wider than ``width`` (an over-long one broken by characters)."""
+    return [piece for unit in units(text) for piece in split_word(unit, style, size, width)]
+
+
+def ellipsize(text: str, style: str, size: int, width: float) -> str:
+    """``text`` ending in "…" (shortened as needed) within ``width``: a line cut short."""
+    text = text.rstrip()
+    while text and text_width(text + "…", style, size) > width:
+        text = text[:-1].rstrip()
+    return text + "…"
+
+
 def wrap(text: str, style: str, size: int, width: float) -> list[str]:
-    """Greedy word wrap to a pixel width, never starting a line with a dash."""
+    """Greedy word wrap to a pixel width, never starting a line with a dash; a word wider than
+    the width is broken by characters."""
     lines, current = [], ""
-    for unit in units(text):
+    for unit in fitted_units(text, style, size, width):
         trial = f"{current} {unit}".strip()
         if current and text_width(trial, style, size) > width:
             lines.append(current)
@@ -98,7 +132,8 @@ def wrap_balanced(text: str, style: str, size: int, width: float) -> list[str]:
     lines = wrap(text, style, size, width)
     if len(lines) < 2:
         return lines
-    low, high = max(text_width(u, style, size) for u in units(text)), float(width)
+    low = max(text_width(u, style, size) for u in fitted_units(text, style, size, width))
+    high = float(width)
     for _ in range(14):
         middle = 0.5 * (low + high)
         if len(wrap(text, style, size, middle)) <= len(lines):
