@@ -29,10 +29,6 @@ from exhibit.render.text import (ellipsize, font, line_height, text_width, units
 MIN_CAPTION_CAP = 1.0 / 45.0
 #: Beyond this sensor or eye distance the HUD shows ∞ (a number of 26163.17 means nothing).
 INFINITY_BEYOND = 1000.0
-#: The tallest the title and caption panel is drawn, as a fraction of the screen height: lines
-#: beyond it are left out, the last one shown ending in "…" (text no panel can hold still
-#: leaves the numbers panel and some picture on screen).
-PANEL_CLIP = 0.5
 #: The tallest check-config lets a title or caption make that panel (exhibit check-config).
 PANEL_LIMIT = 0.4
 #: The widest check-config lets a word of the numbers panel make it (the English panel is 45 %
@@ -166,7 +162,7 @@ def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[s
     line = " ".join(paragraph.split())
     if text_width(line, "sans", px) <= room:
         return [line]
-    return wrap_balanced(line, "sans", px, measure)
+    return wrap_balanced(line, "sans", px, measure, break_words=True)
 
 
 @dataclass(frozen=True)
@@ -224,9 +220,9 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     in the language on screen (HudInfo.words), which set its width.
 
     A word wider than the panel's room is broken by characters, and with ``clip`` the lines
-    that would make the title and caption panel taller than ``PANEL_CLIP`` of the screen are
-    left out ("…"): whatever text arrives, the panel stays on the screen (check-config refuses
-    such text before it gets here: :func:`text_problems`)."""
+    that would make the title and caption panel reach the numbers panel are left out ("…"):
+    whatever text arrives, the panel stays on the screen (check-config refuses such text
+    before it gets here: :func:`text_problems`)."""
     width, height = int(size[0]), int(size[1])
     margin = max(4, round(0.022 * height))
     title_px = size_for_cap("bold", sizes.title_cap * height)
@@ -243,7 +239,8 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     # Title and caption, top left, short of the gizmo; captions a little narrower (a measure of
     # about 45 characters reads best).
     room = gizmo.x0 - 2 * margin - 2 * pad - margin
-    title_lines = tuple(wrap_balanced(title, "bold", title_px, room)) if title else ()
+    title_lines = (tuple(wrap_balanced(title, "bold", title_px, room, break_words=True))
+                   if title else ())
     # The panel is at least as wide as the title: a caption uses that width before it wraps
     # into a column narrower than the heading above it.
     heading = max((text_width(t, "bold", title_px) for t in title_lines), default=0.0)
@@ -254,8 +251,9 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
             caption_lines += caption_wrap(paragraph, body_px, measure, room)
     lines = [(t, "bold", title_px) for t in title_lines] + \
             [(t, "sans", body_px) for t in caption_lines]
-    if clip:
-        lines = _clip(lines, PANEL_CLIP * height - 2 * pad, room)
+    status_h = 3 * line_height("mono", body_px) + 2 * pad
+    if clip:   # never over the numbers panel
+        lines = _clip(lines, height - 3 * margin - status_h - 2 * pad, room)
         title_lines = tuple(t for t, s, _ in lines if s == "bold")
         caption_lines = [t for t, s, _ in lines if s == "sans"]
     block = None

@@ -123,6 +123,7 @@ def test_the_health_file_says_the_language_and_the_session_writer_counts(headles
     run.kiosk.health_path = tmp_path / "health.json"
     run.target.post(Key("l", True))
     run.run(1.5)
+    assert writer.ready.wait(5.0)   # recording only once the database is open
     run.kiosk._report(run.clock())
     health = json.loads((tmp_path / "health.json").read_text())
     assert health["language"] == "de" and health["sessions"]["recording"]
