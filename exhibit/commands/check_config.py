@@ -33,7 +33,7 @@ def run(args) -> int:
     try:
         config = load_kiosk_config(args.config)
         problems = (_caption_problems(config.attract_dir) + coverage_problems(config)
-                    + _colour_problems(config))
+                    + _colour_problems(config) + _layout_problems(config))
     except ConfigError as exc:
         problems = exc.problems
     if problems:
@@ -79,6 +79,59 @@ def _colour_problems(config) -> list[str]:
         if scene.source is not None:
             out += colour_problems(scene)
     return out
+
+
+def _layout_problems(config) -> list[str]:
+    """Every title, caption and HUD word, in every language shown, laid out as the HUD lays it
+    out on the smallest kiosk screen (exhibit.render.layout.CHECK_SIZE): a panel it would make
+    too tall or too wide, or a word wider than its panel, is a problem here (the kiosk breaks
+    and shortens such text rather than draw it off the screen)."""
+    from exhibit.kiosk.attract import load_playlist
+    from exhibit.kiosk.language import SOURCE, load_catalogues, shown_texts
+    from exhibit.render.layout import TextSizes, text_problems
+
+    timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
+    texts = shown_texts(config.scenes, timelines)
+    t = config.text
+    sizes = TextSizes(t.caption_cap, t.title_cap, t.infinity_beyond)
+    hud = {"4D axes": "gizmo", "sensor": "numbers", "eye": "numbers", "fov": "numbers"}
+
+    def kind(english: str, where: str) -> str:
+        if where == "the HUD":
+            return hud.get(english, "label")
+        return "title" if where.endswith(": title") else "caption"
+
+    catalogues = {SOURCE: None}
+    if config.catalogues_dir is not None:
+        catalogues = load_catalogues(config.catalogues_dir, config.languages)
+    out: list[str] = []
+    seen: set = set()
+    for code, catalogue in catalogues.items():
+        if code not in config.languages:
+            continue
+        for english, where in texts.items():
+            if not english:
+                continue
+            what = kind(english, where)
+            if code == SOURCE or catalogue is None:
+                text, prefix = english, f"{where}: {_short(english)}"
+                if where == "the HUD":
+                    continue   # the HUD's own English words fit (tests/render)
+            else:
+                if english not in catalogue.text:
+                    continue   # reported as missing; the English is shown
+                text = catalogue.text[english]
+                prefix = f"{catalogue.path}: text.{english!r}"
+            for reason in text_problems(what, text, sizes, word=english):
+                line = f"{prefix}: {reason}"
+                if line not in seen:
+                    seen.add(line)
+                    out.append(line)
+    return out
+
+
+def _short(text: str) -> str:
+    return repr(text) if len(text) <= 40 else repr(text[:30] + "…")
 
 
 def _toml(value) -> str:

@@ -37,7 +37,9 @@ def run(args) -> int:
     screenshot = Path(args.screenshot) if args.screenshot else None
     if screenshot is not None and not screenshot.parent.is_dir():
         raise ExhibitError(f"--screenshot: folder {screenshot.parent} does not exist")
-    config = load_kiosk_config(args.config)  # ConfigError: every problem, exit 2
+    # ConfigError: every problem, exit 2. A broken scene file the config does not need stops
+    # nothing: the kiosk runs with the others and names it in the log and the health file.
+    config = load_kiosk_config(args.config, broken_scenes_ok=True)
     logging.basicConfig(level=logging.INFO, format="%(name)s: %(message)s")
     journal.install()  # under systemd: native journal records with the scene and mode as fields
     # When the watchdog kills a hung loop (SIGABRT), every thread's stack goes to the journal.

@@ -168,6 +168,9 @@ class Kiosk:
         #: For the health file: [{"scene", "reason"}] and one line per problem, for people.
         self.scenes_failed: list[dict] = []
         self.problems: list[str] = []
+        for problem in getattr(config, "scene_problems", ()):  # broken files, left out
+            log.error("scene file left out: %s", problem)
+            self.problems.append(f"scene file left out: {problem}")
         try:
             timelines = load_playlist(config.attract_dir)
         except Exception as exc:  # noqa: BLE001 - attract mode can do without timelines

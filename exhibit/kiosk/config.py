@@ -237,6 +237,9 @@ class KioskConfig:
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
     sources: dict = field(default_factory=dict)
+    #: scene files on the scene path that failed to load, "file: key: reason" each (only when
+    #: loaded with ``broken_scenes_ok``: the kiosk runs with the others and reports these)
+    scene_problems: tuple[str, ...] = ()
 
 
 def site_config_path(path: str | Path | None = None) -> Path | None:
@@ -244,14 +247,34 @@ def site_config_path(path: str | Path | None = None) -> Path | None:
     exists; None when the shipped defaults stand alone."""
     chosen = path or os.environ.get("EXHIBIT_CONFIG")
     if not chosen:
-        return SITE_CONFIG if SITE_CONFIG.exists() else None
+        # lstat, not exists(): a dangling symlink, a symlink loop or a file behind a folder
+        # that cannot be searched is a site file that cannot be read (an error naming it), not
+        # an absent one (the shipped defaults, silently without the museum's settings).
+        try:
+            os.lstat(SITE_CONFIG)
+        except FileNotFoundError:
+            return None
+        except OSError:
+            pass
+        return SITE_CONFIG
     chosen = Path(chosen)
     try:
         if chosen.resolve() == DEFAULT_CONFIG.resolve():
             return None
-    except OSError:
+    except (OSError, RuntimeError):  # a symlink loop: reported when it is read
         pass
     return chosen
+
+
+def _unreadable(file: Path, problems: list[str]) -> list[str]:
+    """A config file that cannot be read, said plainly when it is a dangling symlink."""
+    try:
+        if os.path.islink(file) and not os.path.lexists(os.path.realpath(file)):
+            return [f"{file}: cannot read: a symlink to {os.readlink(file)}, which does not "
+                    "exist"]
+    except OSError:
+        pass
+    return problems
 
 
 def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_dir: bool
@@ -273,12 +296,29 @@ def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_
     return path, named_by
 
 
-def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True) -> KioskConfig:
+def _start_problem(start: str, start_from: Path, scenes_from: Path, site: Path | None) -> str:
+    """content.start_scene not among content.scenes, reported against the file a museum edits:
+    the site file, when it set either of the two (the shipped defaults are not edited)."""
+    if site is None or (start_from != site and scenes_from != site):
+        return f"{start_from}: content.start_scene: {start!r} is not one of content.scenes"
+    if start_from == site:
+        return (f"{site}: content.start_scene: {start!r} is not one of content.scenes"
+                + ("" if scenes_from == site else " (the shipped defaults' list)"))
+    return (f"{site}: content.scenes: does not include the start scene {start!r} (the shipped "
+            f"default of content.start_scene); add it, or set content.start_scene to one of "
+            f"the scenes listed here")
+
+
+def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True,
+                      broken_scenes_ok: bool = False) -> KioskConfig:
     """Read and check the shipped defaults with the site file over them; raises ConfigError
     listing every problem found.
 
     With ``check_linked`` the device config, the attract timelines and the scene files are
-    loaded and checked too (what `exhibit check-config` and `exhibit run` do).
+    loaded and checked too (what `exhibit check-config` and `exhibit run` do). A scene file
+    that fails to load is a problem too, unless ``broken_scenes_ok`` (`exhibit run`): then the
+    kiosk runs with the valid scenes, and the broken files are in ``scene_problems`` (a scene
+    the config names that did not load is still a problem: no scene named ...).
     """
     site = site_config_path(path)
     problems: list[str] = []
@@ -289,7 +329,7 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
         try:
             layers.append((file, read_toml(file)))
         except ConfigError as exc:
-            problems.extend(exc.problems)
+            problems.extend(_unreadable(file, exc.problems))
     doc, origin = merge(layers)
     last = site or DEFAULT_CONFIG
     spec = None
@@ -319,8 +359,8 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
         values["scenes"] = tuple(s for s in scene_list if s in known) or tuple(sorted(known))
         start = c.start_scene if c.start_scene is not None else values["scenes"][0]
         if start not in values["scenes"]:
-            problems.append(f"{where('content', 'start_scene')}: content.start_scene: {start!r} "
-                            "is not one of content.scenes")
+            problems.append(_start_problem(start, where("content", "start_scene"),
+                                           where("content", "scenes"), site))
         values["start_scene"] = start
         for name in c.resolution:
             if name not in known:
@@ -394,7 +434,10 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True)
             except ConfigError as exc:
                 problems.extend(exc.problems)
         # scene files that failed to load are part of the kiosk's content too
-        problems.extend(message for _, message in scene_problems)
+        if broken_scenes_ok:
+            values["scene_problems"] = tuple(message for _, message in scene_problems)
+        else:
+            problems.extend(message for _, message in scene_problems)
     if problems:
         raise ConfigError(problems)
     return KioskConfig(**values)

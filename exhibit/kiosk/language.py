@@ -30,7 +30,7 @@ from pydantic import Field, field_validator
 
 from exhibit.errors import ConfigError
 from exhibit.schema import Model, read_toml, validate
-from exhibit.schema.types import Caption, Name, Number
+from exhibit.schema.types import Caption, Name, Number, Text
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -63,10 +63,15 @@ class LanguagesSection(Model):
         return value
 
 
+#: A translation: never empty or blank (the title or caption would be shown blank), as long as
+#: an English caption may be.
+Translation = Text(2000, multiline=True)
+
+
 class CatalogueFile(Model):
     language: LanguageCode
     name: Name
-    text: dict[Caption, Caption] = {}
+    text: dict[Caption, Translation] = {}
 
 
 @dataclass(frozen=True)
@@ -78,7 +83,23 @@ class Catalogue:
 
 
 def load_catalogue(path: Path) -> Catalogue:
-    spec = validate(CatalogueFile, read_toml(path), str(path))
+    doc = read_toml(path)
+    # A blank translation would show the title or caption blank: refused, named by its English
+    # key as check-config names every translation (text.'English': reason).
+    blank = []
+    if isinstance(doc.get("text"), dict):
+        for english, text in list(doc["text"].items()):
+            if isinstance(text, str) and not text.strip():
+                blank.append(f"{path}: text.{english!r}: the translation is empty (a blank "
+                             "title or caption); translate it or leave the line out to show "
+                             "the English")
+                del doc["text"][english]
+    try:
+        spec = validate(CatalogueFile, doc, str(path))
+    except ConfigError as exc:
+        raise ConfigError(blank + exc.problems) from None
+    if blank:
+        raise ConfigError(blank)
     if spec.language != path.stem:
         raise ConfigError([f"{path}: language: {spec.language!r} does not match the file name "
                            f"({path.stem}.toml)"])

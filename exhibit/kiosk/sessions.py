@@ -417,6 +417,8 @@ class SessionWriter:
         self.written = 0
         self.ready = threading.Event()   # set once the database is open (or given up)
         self.usable = False
+        #: Why sessions are not recorded (None while they are): for the health file.
+        self.reason: str | None = None
         self._thread = threading.Thread(target=self._run, name="exhibit-sessions", daemon=True)
         self._thread.start()
 
@@ -447,6 +449,8 @@ class SessionWriter:
             self.store.open()
             self.usable = True
         except (OSError, sqlite3.Error) as exc:
+            self.reason = (f"cannot open {self.store.path} "
+                           f"({getattr(exc, 'strerror', None) or exc})")
             log.warning("sessions: cannot open %s (%s): visitor sessions are not recorded",
                         self.store.path, getattr(exc, "strerror", None) or exc)
         finally:
@@ -490,6 +494,7 @@ class SessionWriter:
                     except (OSError, sqlite3.Error) as again:
                         exc = again
                         self.usable = False
+                        self.reason = f"cannot reopen {self.store.path} ({again})"
                 self.failed += 1
                 if self.failed & (self.failed - 1) == 0:
                     log.warning("sessions: a session was not written (%s; %d so far)", exc,
@@ -524,8 +529,21 @@ class SessionLog:
         was behind, refused by the database) and the language on screen."""
         w = self.writer
         counts = {"written": w.written, "dropped": w.dropped, "failed": w.failed} if w else {}
-        return {"sessions": {**counts, "recording": w is not None and not self._broken},
-                "language": self.language}
+        # What the writer really does: recording only once the database is open and while it
+        # stays usable; otherwise false, with the reason the log gave.
+        reason = None
+        if w is None:
+            reason = "no writer"
+        elif self._broken:
+            reason = "the recorder failed (see the log)"
+        elif not w.ready.is_set():
+            reason = "opening the database"
+        elif not w.usable:
+            reason = w.reason or "the database cannot be written"
+        state = {**counts, "recording": reason is None}
+        if reason is not None:
+            state["reason"] = reason
+        return {"sessions": state, "language": self.language}
 
     # -- the steps
 

@@ -22,12 +22,18 @@ from typing import NamedTuple
 
 import numpy as np
 
-from exhibit.render.text import font, line_height, text_width, wrap_balanced
+from exhibit.render.text import (ellipsize, font, line_height, text_width, units,
+                                 wrap_balanced)
 
 #: The smallest caption cap height the exhibit allows, as a fraction of the screen height.
 MIN_CAPTION_CAP = 1.0 / 45.0
 #: Beyond this sensor or eye distance the HUD shows ∞ (a number of 26163.17 means nothing).
 INFINITY_BEYOND = 1000.0
+#: The tallest check-config lets a title or caption make that panel (exhibit check-config).
+PANEL_LIMIT = 0.4
+#: The widest check-config lets a word of the numbers panel make it (the English panel is 45 %
+#: of a 1280x720 screen, the German 55 %).
+NUMBERS_LIMIT = 0.6
 
 
 @dataclass(frozen=True)
@@ -156,7 +162,7 @@ def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[s
     line = " ".join(paragraph.split())
     if text_width(line, "sans", px) <= room:
         return [line]
-    return wrap_balanced(line, "sans", px, measure)
+    return wrap_balanced(line, "sans", px, measure, break_words=True)
 
 
 @dataclass(frozen=True)
@@ -190,12 +196,33 @@ class HudLayout:
                 for b in boxes]
 
 
+def _clip(lines: list[tuple[str, str, int]], room_h: float, room_w: float
+          ) -> list[tuple[str, str, int]]:
+    """The first lines that fit ``room_h`` pixels, the last of them ending in "…" when some
+    are left out (at least one line)."""
+    kept, used = [], 0
+    for line in lines:
+        used += line_height(line[1], line[2])
+        if used > room_h and kept:
+            break
+        kept.append(line)
+    if len(kept) < len(lines):
+        text, style, px = kept[-1]
+        kept[-1] = (ellipsize(text, style, px, room_w), style, px)
+    return kept
+
+
 def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...] = ("",),
                sizes: TextSizes = TextSizes(), drift: float = 0.0,
-               words: tuple[tuple[str, str], ...] = ()) -> HudLayout:
+               words: tuple[tuple[str, str], ...] = (), clip: bool = True) -> HudLayout:
     """The panels for ``title`` and the caption paragraphs ``captions`` (the caption and a
     note, each wrapped on its own) on a ``size`` screen; ``words``: the numbers panel's words
-    in the language on screen (HudInfo.words), which set its width."""
+    in the language on screen (HudInfo.words), which set its width.
+
+    A word wider than the panel's room is broken by characters, and with ``clip`` the lines
+    that would make the title and caption panel reach the numbers panel are left out ("…"):
+    whatever text arrives, the panel stays on the screen (check-config refuses such text
+    before it gets here: :func:`text_problems`)."""
     width, height = int(size[0]), int(size[1])
     margin = max(4, round(0.022 * height))
     title_px = size_for_cap("bold", sizes.title_cap * height)
@@ -212,7 +239,8 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     # Title and caption, top left, short of the gizmo; captions a little narrower (a measure of
     # about 45 characters reads best).
     room = gizmo.x0 - 2 * margin - 2 * pad - margin
-    title_lines = tuple(wrap_balanced(title, "bold", title_px, room)) if title else ()
+    title_lines = (tuple(wrap_balanced(title, "bold", title_px, room, break_words=True))
+                   if title else ())
     # The panel is at least as wide as the title: a caption uses that width before it wraps
     # into a column narrower than the heading above it.
     heading = max((text_width(t, "bold", title_px) for t in title_lines), default=0.0)
@@ -223,6 +251,11 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
             caption_lines += caption_wrap(paragraph, body_px, measure, room)
     lines = [(t, "bold", title_px) for t in title_lines] + \
             [(t, "sans", body_px) for t in caption_lines]
+    status_h = 3 * line_height("mono", body_px) + 2 * pad
+    if clip:   # never over the numbers panel
+        lines = _clip(lines, height - 3 * margin - status_h - 2 * pad, room)
+        title_lines = tuple(t for t, s, _ in lines if s == "bold")
+        caption_lines = [t for t, s, _ in lines if s == "sans"]
     block = None
     if lines:
         w = math.ceil(max(text_width(t, s, px) for t, s, px in lines)) + 2 * pad
@@ -237,6 +270,62 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
     return HudLayout((width, height), margin, title_px, body_px, pad, title_lines,
                      tuple(caption_lines), block, status, (cx, cy), radius, gizmo, drift)
+
+
+# ---------------------------------------------------------------------- for check-config
+
+#: The screen check-config lays every text out on: the smallest a kiosk screen is expected to
+#: be (text sizes are fractions of the height, so a 720-line screen is the narrowest room).
+CHECK_SIZE = (1280, 720)
+
+
+def text_problems(kind: str, text: str, sizes: TextSizes = TextSizes(),
+                  size: tuple[int, int] = CHECK_SIZE, word: str = "sensor") -> list[str]:
+    """Why ``text`` cannot be laid out in its place on a ``size`` screen (empty when it can):
+    ``kind`` is "title", "caption", "gizmo" (the line under the 4D axes), "numbers" (``word``
+    of the numbers panel: "sensor", "eye" or "fov", the others in English) or "label" (a
+    marker label's words)."""
+    width, height = size
+    if kind in ("title", "caption"):
+        layout = hud_layout(size, text if kind == "title" else "",
+                            ("",) if kind == "title" else (text,), sizes, clip=False)
+        style, px = ("bold", layout.title_px) if kind == "title" else ("sans", layout.body_px)
+        room = layout.gizmo_block.x0 - 2 * layout.margin - 2 * layout.pad - layout.margin
+        out = []
+        widest = max((text_width(u, style, px) for u in units(text)), default=0.0)
+        if widest > room:
+            word = max(units(text), key=lambda u: text_width(u, style, px))
+            out.append(f"the word {_short(word)} is {widest:.0f} px wide at {width}x{height}, "
+                       f"wider than the panel's {room:.0f} px")
+        block = layout.title_block
+        if block is not None and block.height > PANEL_LIMIT * height:
+            out.append(f"makes the {kind} panel {block.height:.0f} px tall at {width}x{height}"
+                       f" ({len(layout.title_lines) + len(layout.caption_lines)} lines), more "
+                       f"than {PANEL_LIMIT:.0%} of the screen")
+        return out
+    layout = hud_layout(size, sizes=sizes)
+    if kind == "gizmo":
+        w = text_width(text, "sans", layout.body_px)
+        if w > layout.gizmo_block.width:
+            return [f"is {w:.0f} px wide at {width}x{height}, wider than the 4D axes' "
+                    f"{layout.gizmo_block.width:.0f} px"]
+        return []
+    if kind == "numbers":
+        panel = hud_layout(size, sizes=sizes, words=tuple(
+            (english, text if english == word else english)
+            for english in ("sensor", "eye", "fov"))).status_block
+        if panel.width > NUMBERS_LIMIT * width:
+            return [f"makes the numbers panel {panel.width:.0f} px wide at {width}x{height}, "
+                    f"more than {NUMBERS_LIMIT:.0%} of the screen"]
+        return []
+    w = text_width(text, "bold", layout.body_px)
+    if w > width / 2:
+        return [f"is {w:.0f} px wide at {width}x{height}, more than half the screen"]
+    return []
+
+
+def _short(word: str) -> str:
+    return repr(word) if len(word) <= 40 else repr(word[:30] + "…") + f" ({len(word)} characters)"
 
 
 # ---------------------------------------------------------------------- the gizmo's letters

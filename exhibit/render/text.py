@@ -72,10 +72,45 @@ def units(text: str) -> list[str]:
     return out
 
 
-def wrap(text: str, style: str, size: int, width: float) -> list[str]:
-    """Greedy word wrap to a pixel width, never starting a line with a dash."""
+def split_word(word: str, style: str, size: int, width: float) -> list[str]:
+    """``word`` broken by characters into pieces no wider than ``width`` (at least one
+    character each): a word too long for any line (a URL, a 2,000-character mistake) is
+    wrapped visibly instead of making a text wider than the screen or than GL can hold."""
+    if text_width(word, style, size) <= width:
+        return [word]
+    pieces = []
+    while word:
+        low, high = 1, len(word)   # the longest prefix that fits, by bisection
+        while low < high:
+            middle = (low + high + 1) // 2
+            if text_width(word[:middle], style, size) <= width:
+                low = middle
+            else:
+                high = middle - 1
+        pieces.append(word[:low])
+        word = word[low:]
+    return pieces
+
+
+def fitted_units(text: str, style: str, size: int, width: float) -> list[str]:
+    """:func:`units`, each no wider than ``width`` (an over-long one broken by characters)."""
+    return [piece for unit in units(text) for piece in split_word(unit, style, size, width)]
+
+
+def ellipsize(text: str, style: str, size: int, width: float) -> str:
+    """``text`` ending in "…" (shortened as needed) within ``width``: a line cut short."""
+    text = text.rstrip()
+    while text and text_width(text + "…", style, size) > width:
+        text = text[:-1].rstrip()
+    return text + "…"
+
+
+def wrap(text: str, style: str, size: int, width: float, break_words: bool = False
+         ) -> list[str]:
+    """Greedy word wrap to a pixel width, never starting a line with a dash; with
+    ``break_words`` a word wider than the width is broken by characters (else it overhangs)."""
     lines, current = [], ""
-    for unit in units(text):
+    for unit in (fitted_units(text, style, size, width) if break_words else units(text)):
         trial = f"{current} {unit}".strip()
         if current and text_width(trial, style, size) > width:
             lines.append(current)
@@ -87,7 +122,8 @@ def wrap(text: str, style: str, size: int, width: float) -> list[str]:
     return lines
 
 
-def wrap_balanced(text: str, style: str, size: int, width: float) -> list[str]:
+def wrap_balanced(text: str, style: str, size: int, width: float, break_words: bool = False
+                  ) -> list[str]:
     """Word wrap to a pixel width in as few lines as greedy wrapping needs, with the lines as
     even as possible and never one word alone on the last line (an orphan reads as an
     afterthought, and a ragged panel wastes the screen the picture needs).
@@ -95,17 +131,18 @@ def wrap_balanced(text: str, style: str, size: int, width: float) -> list[str]:
     The narrowest width that still gives the greedy line count is found by bisection; wrapping
     to it evens the lines. A last line of one word then takes the previous line's last word
     when that still fits the width."""
-    lines = wrap(text, style, size, width)
+    lines = wrap(text, style, size, width, break_words)
     if len(lines) < 2:
         return lines
-    low, high = max(text_width(u, style, size) for u in units(text)), float(width)
+    pieces = fitted_units(text, style, size, width) if break_words else units(text)
+    low, high = max(text_width(u, style, size) for u in pieces), float(width)
     for _ in range(14):
         middle = 0.5 * (low + high)
-        if len(wrap(text, style, size, middle)) <= len(lines):
+        if len(wrap(text, style, size, middle, break_words)) <= len(lines):
             high = middle
         else:
             low = middle
-    lines = wrap(text, style, size, high)
+    lines = wrap(text, style, size, high, break_words)
     if len(units(lines[-1])) == 1 and len(units(lines[-2])) >= 3:
         *head, moved = units(lines[-2])
         candidate = f"{moved} {lines[-1]}"

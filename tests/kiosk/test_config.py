@@ -272,3 +272,76 @@ def test_text_sizes_reach_the_renderer(tmp_path):
     site.write_text("[text]\ncaption_cap_height = 0.03\ntitle_cap_height = 0.05\n")
     config = load_kiosk_config(site, check_linked=False)
     assert config.text == TextConfig(0.03, 0.05, 1000.0)
+
+
+def _broken_site_files(tmp_path):
+    """A dangling symlink, a symlink loop, and a file that cannot be opened (root reads any
+    file, so its opening is refused by a stand-in)."""
+    (tmp_path / "dangling.toml").symlink_to(tmp_path / "nowhere.toml")
+    (tmp_path / "loop.toml").symlink_to(tmp_path / "loop.toml")
+    return {"dangling": tmp_path / "dangling.toml", "loop": tmp_path / "loop.toml"}
+
+
+@pytest.mark.parametrize("kind", ["dangling", "loop"])
+@pytest.mark.parametrize("how", ["etc", "env", "argument"])
+def test_a_site_file_that_cannot_be_read_is_an_error_not_the_defaults(tmp_path, monkeypatch,
+                                                                       capsys, kind, how):
+    from exhibit.kiosk import config as kiosk_config
+    site = _broken_site_files(tmp_path)[kind]
+    monkeypatch.delenv("EXHIBIT_CONFIG", raising=False)
+    args = ["check-config"]
+    if how == "etc":
+        monkeypatch.setattr(kiosk_config, "SITE_CONFIG", site)
+    elif how == "env":
+        monkeypatch.setenv("EXHIBIT_CONFIG", str(site))
+    else:
+        args.append(str(site))
+    assert main(args) == 2
+    out = capsys.readouterr().out
+    assert out.startswith(f"{site}: cannot read: "), out
+    assert "OK" not in out and "internal error" not in out
+    if kind == "dangling":
+        assert "which does not exist" in out
+    # exhibit run refuses it too, with one line per problem and exit 2, before any window
+    run_args = ["run", "--windowed", "--duration", "1"]
+    if how == "argument":
+        run_args += ["--config", str(site)]
+    assert main(run_args) == 2
+    captured = capsys.readouterr()
+    assert f"{site}: cannot read: " in captured.err + captured.out
+    assert "Traceback" not in captured.err and "internal error" not in captured.err
+
+
+def test_an_unreadable_site_file_is_an_error(tmp_path, monkeypatch, capsys):
+    from exhibit.kiosk import config as kiosk_config
+    from exhibit.schema import files
+    site = tmp_path / "kiosk.toml"
+    site.write_text("[display]\nsamples = 0\n")
+    real_open = files.os.open
+
+    def refuse(path, *args, **kwargs):
+        if str(path) == str(site):
+            raise PermissionError(13, "Permission denied")
+        return real_open(path, *args, **kwargs)
+
+    monkeypatch.delenv("EXHIBIT_CONFIG", raising=False)
+    monkeypatch.setattr(kiosk_config, "SITE_CONFIG", site)
+    monkeypatch.setattr(files.os, "open", refuse)
+    assert main(["check-config"]) == 2
+    assert f"{site}: cannot read: Permission denied" in capsys.readouterr().out
+
+
+def test_a_start_scene_conflict_is_reported_against_the_site_file(tmp_path, capsys):
+    site = tmp_path / "kiosk.toml"
+    site.write_text('[content]\nscenes = ["collision"]\n')
+    assert main(["check-config", str(site)]) == 2
+    out = capsys.readouterr().out
+    assert (f"{site}: content.scenes: does not include the start scene 'hopf' (the shipped "
+            "default of content.start_scene)") in out, out
+    assert str(CONFIGS / "kiosk.toml") + ":" not in out
+    site.write_text('[content]\nstart_scene = "nothing-like-it"\n')
+    assert main(["check-config", str(site)]) == 2
+    out = capsys.readouterr().out
+    assert f"{site}: content.start_scene: 'nothing-like-it' is not one of content.scenes" in out
+    site.write_text('[content]\nscenes = ["collision"]\nstart_scene = "collision"\n')
+    assert main(["check-config", str(site)]) == 0

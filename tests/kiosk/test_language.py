@@ -123,6 +123,7 @@ def test_the_health_file_says_the_language_and_the_session_writer_counts(headles
     run.kiosk.health_path = tmp_path / "health.json"
     run.target.post(Key("l", True))
     run.run(1.5)
+    assert writer.ready.wait(5.0)   # recording only once the database is open
     run.kiosk._report(run.clock())
     health = json.loads((tmp_path / "health.json").read_text())
     assert health["language"] == "de" and health["sessions"]["recording"]
@@ -150,3 +151,18 @@ def test_the_next_visitor_finds_the_museums_language(headless, tmp_path):
     assert run.kiosk.translate.language == "en"
     assert run.target.drawn[3].caption == "Closer still."
     assert run.target.drawn[3].axes_label == "4D axes"
+
+
+@pytest.mark.parametrize("blank", ['""', '"   "', '"\\n\\t "'])
+def test_an_empty_translation_is_refused_by_its_english_key(tmp_path, capsys, blank):
+    german = (SHIPPED / "languages" / "de.toml").read_text().replace('language = "de"',
+                                                                     'language = "xx"')
+    line = '"When a ball meets a pipe" = "Wenn eine Kugel auf ein Rohr trifft"'
+    assert line in german
+    german = german.replace(line, f'"When a ball meets a pipe" = {blank}')
+    path = site(tmp_path, german)
+    assert main(["check-config", str(path)]) == 2
+    out = capsys.readouterr().out
+    catalogue = tmp_path / "languages" / "xx.toml"
+    assert f"{catalogue}: text.'When a ball meets a pipe': the translation is empty" in out, out
+    assert "internal error" not in out

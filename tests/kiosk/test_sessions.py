@@ -662,3 +662,22 @@ def test_read_sessions_bounds_every_value():
     for what, row in HOSTILE_ROWS.items():
         with pytest.raises(ValueError):
             _session_from_row(*row)
+
+
+def test_the_health_file_says_sessions_are_not_recorded_when_the_database_cannot_open(
+        tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    writer = SessionWriter(blocker / "sessions.db")
+    recorder = SessionLog(writer)
+    assert writer.ready.wait(5.0)
+    state = recorder.health()["sessions"]
+    assert state["recording"] is False
+    assert "cannot open" in state["reason"] and str(blocker / "sessions.db") in state["reason"]
+    recorder.close(0.0, 1.0)
+    good = SessionWriter(tmp_path / "sessions.db")
+    recorder = SessionLog(good)
+    assert good.ready.wait(5.0)
+    state = recorder.health()["sessions"]
+    assert state["recording"] is True and "reason" not in state
+    recorder.close(0.0, 1.0)

@@ -15,7 +15,7 @@ from PIL import Image
 
 from exhibit.kiosk import app
 from exhibit.render.window import GlfwErrors
-from tests.kiosk.support import ROOT, kiosk, make_config
+from tests.kiosk.support import ROOT, FakeWindow, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
 
 
@@ -151,3 +151,53 @@ def test_a_cut_is_crossfaded_from_the_last_frame_shown(tmp_path, monkeypatch):
     assert 0.5 < fading[0] <= 1.0 and fading == sorted(fading, reverse=True)
     assert len(fading) <= app.CROSSFADE_S / seconds + 1
     assert not any(window.fades[:start]) and not any(window.fades[start + len(fading):])
+
+
+def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monkeypatch,
+                                                                 capsys):
+    """One broken curator's file on the scene path: check-config still says so (exit 2), but
+    `exhibit run` runs with the valid scenes and names the file in the log and health file."""
+    from exhibit import scenes
+    from exhibit.cli import main
+    from exhibit.kiosk.config import load_kiosk_config
+
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    (folder / "broken.toml").write_text('name = "broken"\n[surface]\nkind = 3\n')
+    monkeypatch.setenv("EXHIBIT_SCENE_PATH", str(folder))
+    scenes.load(reload=True)
+    try:
+        path = make_config(tmp_path, "")
+        assert main(["check-config", str(path)]) == 2
+        assert str(folder / "broken.toml") in capsys.readouterr().out
+        config = load_kiosk_config(path, broken_scenes_ok=True)
+        assert any(str(folder / "broken.toml") in p for p in config.scene_problems)
+
+        # exhibit run gets as far as opening its window with that config
+        opened = []
+
+        def open_window(config, windowed):
+            opened.append(config)
+            raise SystemExit(0)
+
+        monkeypatch.setattr(app, "open_window", open_window)
+        monkeypatch.setattr("faulthandler.enable", lambda *a, **k: None)  # pytest's stderr
+        try:
+            main(["run", "--config", str(path), "--windowed"])
+        except SystemExit:
+            pass
+        assert opened and opened[0].scene_problems == config.scene_problems
+
+        monkeypatch.setattr(app, "build_cached",
+                            lambda scene, params, res: (f"mesh {scene.name}", None))
+        ticks = iter(np.arange(1e6) * 0.1)
+        k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)),
+                      health_path=tmp_path / "health.json")
+        assert k.state is not None
+        k._report(k.clock())
+        report = health(tmp_path)
+        assert any("scene file left out" in p and str(folder / "broken.toml") in p
+                   for p in report["problems"]), report["problems"]
+    finally:
+        monkeypatch.delenv("EXHIBIT_SCENE_PATH")
+        scenes.load(reload=True)
