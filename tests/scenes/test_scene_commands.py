@@ -61,6 +61,10 @@ def test_silhouette_json_gives_the_offset_curve(capsys):
     (["inspect", "collision", "--param", "rs=-1"], "must lie in"),
     (["collide", "--rc", "1", "--rs", "x", "--vc", "0", "--vs", "1"], "--rs must be a number"),
     (["collide", "--rc", "1", "--rs", "1", "--vc", "0", "--vs", "0"], "nothing moves"),
+    *[([command, "collision", *extra, "--param", "vc=0", "--param", "vs=0"],
+       "collision: vc and vs cannot both be 0") for command, extra in (
+        ("inspect", []), ("slice", ["--axis", "t", "--at", "0"]), ("render", []),
+        ("silhouette", ["--along", "x,y"]))],
     (["silhouette", "offset-parabola", "--along", "u,q"], "'q' is not an axis"),
     (["silhouette", "offset-parabola", "--along", "u"], "two different axis names"),
 ])
@@ -86,3 +90,26 @@ def test_silhouette_json_reports_the_refinement(capsys):
                    "--json")
     assert out["refined"] > 100 and out["excluded"] > 0 and out["dropped"] >= 0
     assert 0 < out["max_residual"] <= 1e-9
+
+
+def test_a_timeline_of_a_collision_with_nothing_moving_is_refused_by_file_and_key(tmp_path,
+                                                                                  capsys):
+    """vc = vs = 0 lie in their ranges, but give no collision surface (the closed form divides
+    by the speed): the timeline is refused at load, so check-config names it and the kiosk
+    never builds it."""
+    from exhibit.errors import ConfigError
+    from exhibit.kiosk.attract import load_timeline
+    attract = tmp_path / "attract"
+    attract.mkdir()
+    path = attract / "still.toml"
+    path.write_text('scene = "collision"\nparams = { vc = 0, vs = 0 }\n'
+                    '[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\n')
+    with pytest.raises(ConfigError) as caught:
+        load_timeline(path)
+    assert caught.value.problems == [
+        f"{path}: params: collision: vc and vs cannot both be 0: with no motion the cylinder "
+        "and sphere never move, so there is no collision surface"]
+    site = tmp_path / "kiosk.toml"
+    site.write_text(f'[attract]\ntimelines = "{attract}"\n')
+    assert main(["check-config", str(site)]) == 2
+    assert f"{path}: params: collision: vc and vs cannot both be 0" in capsys.readouterr().out
