@@ -113,3 +113,23 @@ def test_a_timeline_of_a_collision_with_nothing_moving_is_refused_by_file_and_ke
     site.write_text(f'[attract]\ntimelines = "{attract}"\n')
     assert main(["check-config", str(site)]) == 2
     assert f"{path}: params: collision: vc and vs cannot both be 0" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("command", [["inspect"], ["slice", "--axis", "w", "--at", "0"],
+                                     ["silhouette", "--along", "x,y"], ["render"]])
+def test_a_scene_whose_file_failed_to_load_says_why(cli, tmp_path, monkeypatch, command):
+    """Every command that takes a scene name (through scenes.get) says why a scene file of
+    that name did not load, as `exhibit scenes` does, not just "no scene named"."""
+    (tmp_path / "broken-scene.toml").write_text('name = "broken-scene"\ntitle = \n')
+    (tmp_path / "misnamed.toml").write_text('name = "renamed"\ntitle = "A scene"\n')
+    monkeypatch.setenv("EXHIBIT_SCENE_PATH", str(tmp_path))
+    result = cli(command[0], "broken-scene", *command[1:])
+    assert result.returncode == 2, result.stderr
+    assert (f"scene 'broken-scene' failed to load: {tmp_path / 'broken-scene.toml'}: not valid "
+            "TOML" in result.stderr)
+    assert "Traceback" not in result.stderr and len(result.stderr.strip().splitlines()) == 1
+    if command[0] == "inspect":   # named inside the file, not by the file's name
+        result = cli("inspect", "renamed")
+        assert result.returncode == 2
+        assert f"scene 'renamed' failed to load: {tmp_path / 'misnamed.toml'}: " in result.stderr
+        assert "Traceback" not in result.stderr
