@@ -133,3 +133,26 @@ def test_a_scene_whose_file_failed_to_load_says_why(cli, tmp_path, monkeypatch, 
         assert result.returncode == 2
         assert f"scene 'renamed' failed to load: {tmp_path / 'misnamed.toml'}: " in result.stderr
         assert "Traceback" not in result.stderr
+
+
+SCALES = (1e-6, 1e-3, 1.0, 1e3, 1e6)
+
+
+@pytest.mark.parametrize("vc, vs", [(1.0, 1.0), (0.0, 1.0), (-5.0, 0.1), (5.0, -5.0),
+                                    (1e-6, 0.0)])
+@pytest.mark.parametrize("rc", SCALES)
+def test_collide_finds_first_contact_at_every_scale(capsys, rc, vc, vs):
+    """Moving bodies always touch: over twelve decades of radii and the speeds' range the
+    command gives the closed form's first contact (it said "never touch" for rc = 1e-6,
+    rs = 1e6, where the closed form has t0 = -707106.8)."""
+    for rs in SCALES:
+        p = {"rc": rc, "rs": rs, "vc": vc, "vs": vs}
+        out = run_json(capsys, "collide", *[f"--{k}={v!r}" for k, v in p.items()],
+                       "--resolution", "8", "--json")
+        expected = collision.initial_colliding_point_closed_form(p)
+        point = out["colliding_point"]
+        assert point is not None, p
+        assert point["t"] == pytest.approx(expected["t"], rel=1e-9), p
+        for key in ("x", "y", "z"):
+            assert point[key] == pytest.approx(expected[key], rel=1e-9,
+                                               abs=1e-9 * (rc + rs)), (p, key)
