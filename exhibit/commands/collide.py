@@ -44,6 +44,18 @@ def components_through_singular_points(part, cell: float) -> int:
     return len(np.unique(labels[np.unique(surface.triangles)]))
 
 
+def first_contact(part, unit: dict) -> np.ndarray:
+    """(x, y, z, t) of first contact in scale-free units (t = -1): the mesh's lowest point
+    refined by Newton on condition C where it agrees with the closed form, else the closed form
+    (moving bodies with a speed always touch: the centres meet the axis at t = 0)."""
+    exact = collision.initial_colliding_point_closed_form(unit)
+    exact = np.array([exact["x"], exact["y"], exact["z"], exact["t"]])
+    refined = collision.colliding_point(part)
+    if refined is not None and np.max(np.abs(refined - exact)) < 1e-6:
+        return np.asarray(refined, dtype=float)
+    return exact
+
+
 def run(args) -> int:
     params = {}
     for name in ("rc", "rs", "vc", "vs"):
@@ -59,23 +71,32 @@ def run(args) -> int:
     if params["vc"] == 0 and params["vs"] == 0:
         raise ExhibitError("--vc and --vs are both 0: nothing moves, so there is no first contact")
     resolution = parse_resolution(args.resolution) or collision.SCENE.default_resolution
+    # Scale-free: lengths in units of rc + rs, time in units of (rc + rs)/√(vc² + vs²), so the
+    # mesh and Newton see first contact at t = -1 whatever the radii and speeds (rc = 1e-6
+    # with rs = 1e6 no longer falls between the cells); scaled back at the end.
+    length, speed = params["rc"] + params["rs"], math.hypot(params["vc"], params["vs"])
+    unit = {"rc": params["rc"] / length, "rs": params["rs"] / length,
+            "vc": params["vc"] / speed, "vs": params["vs"] / speed}
     with progress.on_terminal():
-        part = collision.build_part(params, resolution)
-    point = collision.colliding_point(part)
-    lo, hi = collision.box(params)
+        part = collision.build_part(unit, resolution)
+    lo, hi = collision.box(unit)
     cell = max(h - l for l, h in zip(lo, hi)) / resolution
+    point = first_contact(part, unit)
+    scale = np.array([length, length, length, length / speed])
+    point = point * scale
+    components = components_through_singular_points(part, cell)
     result = {
-        "colliding_point": None if point is None else
-        {"t": float(point[3]), "x": float(point[0]), "y": float(point[1]), "z": float(point[2])},
-        "components": components_through_singular_points(part, cell),
+        "colliding_point": {"t": float(point[3]), "x": float(point[0]), "y": float(point[1]),
+                            "z": float(point[2])},
+        # None: the surface is too thin for a mesh at this resolution (a tiny radius)
+        "components": components or None,
     }
     if args.json:
         print(json.dumps(result, indent=2))
-    elif point is None:
-        print("They never touch.")
     else:
         p = result["colliding_point"]
-        print(f"First contact at t = {p['t']:.6f}, at (x, y, z) = "
-              f"({p['x']:.6f}, {p['y']:.6f}, {p['z']:.6f}); the collision surface has "
-              f"{result['components']} component(s).")
+        pieces = (f"the collision surface has {components} component(s)" if components else
+                  "the collision surface is too thin to mesh at this resolution")
+        print(f"First contact at t = {p['t']:.6g}, at (x, y, z) = "
+              f"({p['x']:.6g}, {p['y']:.6g}, {p['z']:.6g}); {pieces}.")
     return 0

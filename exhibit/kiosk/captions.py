@@ -14,12 +14,17 @@ reason to show a visitor nothing.
 
 from __future__ import annotations
 
+import bisect
+import dataclasses
 import math
 
 from exhibit.kiosk.attract import Condition, Timeline
 
 #: Sampling step (s): a tenth of the shortest stretch anyone would write between keyframes.
 STEP_S = 0.05
+#: Samples for a whole timeline: past it the step grows (a caption held for hours, thousands of
+#: captions), so check-config stays quick whatever the timeline's length. Each caption's two
+#: ends are always sampled.
 MAX_SAMPLES = 20_000
 #: Reading time: 0.4 s a word (150 words a minute: slower than a seated reader, because a visitor
 #: also watches the picture), and never under 3 s. A caption shown for less is lost.
@@ -67,21 +72,39 @@ def _reading_problems(timeline: Timeline) -> list[str]:
     return out
 
 
-def _samples(t0: float, t1: float) -> list[float]:
-    """Every STEP_S from t0 to t1, both ends included; at most MAX_SAMPLES (a caption held for
-    hours is sampled more coarsely, so check-config stays quick)."""
-    n = min(MAX_SAMPLES, max(1, math.ceil((t1 - t0) / STEP_S)))
+def _samples(t0: float, t1: float, step: float = STEP_S) -> list[float]:
+    """Every ``step`` from t0 to t1, both ends included."""
+    n = max(1, math.ceil((t1 - t0) / step))
     return [t0 + (t1 - t0) * j / n for j in range(n + 1)]
+
+
+class _Poses:
+    """``timeline.at(t)[0]`` played on the two keyframes around ``t`` (the same view), so a
+    sample does not scan every keyframe of a long timeline."""
+
+    def __init__(self, timeline: Timeline):
+        self.timeline = timeline
+        self.times = [k.t for k in timeline.keyframes]
+
+    def __call__(self, t: float):
+        frames = self.timeline.keyframes
+        t = min(max(t, 0.0), self.timeline.duration)
+        i = max(0, bisect.bisect_right(self.times, t) - 1)
+        return dataclasses.replace(self.timeline, keyframes=frames[i:i + 2]).at(t)[0]
 
 
 def _condition_problems(timeline: Timeline) -> list[str]:
     out = []
-    for first, t0, t1 in _runs(timeline, lambda k: (k.caption_from, k.condition)):
+    runs = [(first, t0, t1) for first, t0, t1
+            in _runs(timeline, lambda k: (k.caption_from, k.condition))
+            if timeline.keyframes[first].condition is not None]
+    # one step for the whole timeline: STEP_S, or coarser where that would pass MAX_SAMPLES
+    step = max(STEP_S, sum(t1 - t0 for _, t0, t1 in runs) / MAX_SAMPLES)
+    pose = _Poses(timeline)
+    for first, t0, t1 in runs:
         condition = timeline.keyframes[first].condition
-        if condition is None:
-            continue
-        times = _samples(t0, t1)
-        views = [timeline.at(t)[0] for t in times]
+        times = _samples(t0, t1, step)
+        views = [pose(t) for t in times]
         r = [view.sensor_r for view in views]
         where = f"{timeline.path}: keyframe[{first}].while"
         if condition.sensor_r is not None:

@@ -2,7 +2,7 @@
 exhibit.geometry.framing's fit), done once at start-up for the whole playlist.
 
 * One area of the free space for all of a timeline (the best for all its poses sampled every
-  0.5 s, clear of all its captions), so moving between keyframes never crosses a panel.
+  0.5 s and at every keyframe, clear of all its captions), so moving between keyframes never crosses a panel.
 * Either one zoom and shift for all of it, or one per keyframe (each keyframe fitted to the
   poses half way to its neighbours, both ends of a stretch zoomed out a little where a sample
   between them spills out; FramedTimeline interpolates the lens shift as the rest of the view),
@@ -12,6 +12,10 @@ exhibit.geometry.framing's fit), done once at start-up for the whole playlist.
   at distance 2, Figure 8's moment), which keeps its own; the framing moves into and out of it.
   A timeline that says ``fit = false`` is left as written, and so is one whose scene or preset
   opts out.
+* A fixed budget whatever the timeline's length (a day-long stretch, tens of thousands of
+  keyframes): at most MAX_POSES poses are sampled (keyframes first, up to MAX_KEYFRAME_POSES,
+  spread evenly; then an even grid), and a timeline of more than MAX_FOLLOWED_KEYFRAMES
+  keyframes gets the one framing for all (left as written if a sampled pose fills the world).
 
 Here in the kiosk's layer because a timeline is the kiosk's (exhibit.kiosk.attract); the
 framing itself is pure math below it.
@@ -19,7 +23,10 @@ framing itself is pure math below it.
 
 from __future__ import annotations
 
+import bisect
 import dataclasses
+import functools
+import math
 
 import numpy as np
 
@@ -41,6 +48,12 @@ MAX_GROWTH_STEPS = 12
 #: A keyframe whose picture would need more than this much zooming out to fit on the screen
 #: fills the world on purpose (the sensor inside the object: Figure 8's moment) and is kept.
 FILL_LIMIT = 3.0
+#: The budget: poses sampled along one timeline (the shipped ones, a minute or so with a dozen
+#: keyframes, stay under it and are sampled as described above), of them keyframes at most
+#: MAX_KEYFRAME_POSES; keyframes fitted one by one at most MAX_FOLLOWED_KEYFRAMES.
+MAX_POSES = 400
+MAX_KEYFRAME_POSES = 200
+MAX_FOLLOWED_KEYFRAMES = 64
 
 
 def frame_timeline(framer: Framer, timeline: Timeline, scene, mesh) -> Timeline:
@@ -65,10 +78,12 @@ class _TimelineFramer:
             return timeline
         points = mesh_sample(mesh, TIMELINE_POINTS)
         frames = timeline.keyframes
-        times = sorted({*np.arange(0.0, timeline.duration, TIMELINE_STEP_S).tolist(),
-                        *(k.t for k in frames), timeline.duration})
-        bounds = {t: sample_bounds(points, timeline.at(t)[0]) for t in times}
-        fills = tuple(self._fills(timeline.at(k.t)[0], bounds[k.t]) for k in frames)
+        times = sample_times(timeline)
+        pose = _Poses(timeline)
+        bounds = {t: sample_bounds(points, pose(t)) for t in times}
+        if len(frames) > MAX_FOLLOWED_KEYFRAMES:
+            return self._uniform(timeline, scene, bounds, pose)
+        fills = tuple(self._fills(pose(k.t), bounds[k.t]) for k in frames)
         if all(fills):
             return timeline
 
@@ -104,6 +119,22 @@ class _TimelineFramer:
             return following
         return FramedTimeline.of(timeline, [uniform] * len(frames), fills)
 
+    def _uniform(self, timeline, scene, bounds, pose):
+        """One framing for all of a timeline with too many keyframes to fit one by one; the
+        timeline as written when a sampled pose fills the world (or nothing is seen)."""
+        if any(self._fills(pose(t), b) for t, b in bounds.items()):
+            return timeline
+        seen = list(bounds.values())
+        union = seen[0]
+        for b in seen[1:]:
+            union = union.union(b)
+        captions = [(c,) for c in dict.fromkeys(k.caption for k in timeline.keyframes)]
+        area = best_area(union, self.size, self.framer.areas(scene.title, captions))
+        if area is None:
+            return timeline
+        uniform = fit(timeline.base_view, union, self.size, [area])
+        return FramedTimeline.of(timeline, [uniform] * len(timeline.keyframes))
+
     def _fills(self, view: ViewState, bounds) -> bool:
         """Whether a keyframe's picture fills the world on purpose (Figure 8's moment in a
         timeline): it would have to zoom out more than FILL_LIMIT times beyond its own zoom
@@ -120,9 +151,10 @@ class _TimelineFramer:
         out of ``area``; keyframes that fill the world keep their own view. None if it still
         spills."""
         frames = timeline.keyframes
+        pose = _Poses(timeline)
         views = []
         for i, k in enumerate(frames):
-            own = timeline.at(k.t)[0]
+            own = pose(k.t)
             if fills[i]:
                 views.append(own)
                 continue
@@ -137,11 +169,12 @@ class _TimelineFramer:
         checked = [t for t in times if framed_stretch(t)]
         for _ in range(MAX_GROWTH_STEPS):   # between keyframes: zoom out where it spills
             framed = FramedTimeline.of(timeline, views, fills)
+            framed_pose = _Poses(framed)
             spills = set()
             for t in checked:
                 if bounds[t] is None:
                     continue
-                box = to_pixels(bounds[t], framed.at(t)[0], self.size)
+                box = to_pixels(bounds[t], framed_pose(t), self.size)
                 if not _inside(box, area):
                     i = framed.index_at(t)
                     spills |= {j for j in (i, i + 1) if j < len(frames) and not fills[j]}
@@ -150,6 +183,41 @@ class _TimelineFramer:
             views = [zoom_about(v, GROWTH, area, self.size) if i in spills else v
                      for i, v in enumerate(views)]
         return None
+
+
+def sample_times(timeline: Timeline) -> list[float]:
+    """The times framing samples: every TIMELINE_STEP_S, every keyframe and the end; for a
+    timeline that would need more than MAX_POSES of them, keyframes (up to MAX_KEYFRAME_POSES,
+    spread evenly, the first and last among them) and an even grid filling up MAX_POSES."""
+    frames, duration = timeline.keyframes, timeline.duration
+    if math.ceil(duration / TIMELINE_STEP_S) + len(frames) + 1 <= MAX_POSES:
+        return sorted({*np.arange(0.0, duration, TIMELINE_STEP_S).tolist(),
+                       *(k.t for k in frames), duration})
+    keys = [k.t for k in frames]
+    if len(keys) > MAX_KEYFRAME_POSES:
+        picks = np.linspace(0, len(keys) - 1, MAX_KEYFRAME_POSES).round().astype(int)
+        keys = [keys[i] for i in np.unique(picks)]
+    grid = np.linspace(0.0, duration, MAX_POSES - len(keys)).tolist()
+    return sorted({*keys, *grid})
+
+
+class _Poses:
+    """``timeline.at(t)[0]`` in O(log n): played on the two keyframes around ``t`` only (the
+    same view: Timeline.at interpolates between those two), so sampling a timeline of many
+    keyframes does not cost a scan of them all per sample."""
+
+    def __init__(self, timeline: Timeline):
+        self.timeline = timeline
+        self.times = [k.t for k in timeline.keyframes]
+
+    def __call__(self, t: float) -> ViewState:
+        timeline, frames = self.timeline, self.timeline.keyframes
+        t = min(max(t, 0.0), timeline.duration)
+        i = max(0, bisect.bisect_right(self.times, t) - 1)
+        changes = {"keyframes": frames[i:i + 2]}
+        if isinstance(timeline, FramedTimeline):
+            changes.update(centers=timeline.centers[i:i + 2], fills=timeline.fills[i:i + 2])
+        return dataclasses.replace(timeline, **changes).at(t)[0]
 
 
 def _inside(box, area, tolerance: float = 1.0) -> bool:
@@ -182,4 +250,8 @@ class FramedTimeline(Timeline):
         return view.replace(center=(ax + (bx - ax) * u, ay + (by - ay) * u))
 
     def _index(self, keyframe) -> int:
-        return next(i for i, k in enumerate(self.keyframes) if k.t == keyframe.t)
+        return bisect.bisect_left(self._times, keyframe.t)
+
+    @functools.cached_property
+    def _times(self) -> list[float]:
+        return [k.t for k in self.keyframes]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
@@ -38,7 +39,25 @@ def get(name: str) -> Scene:
     try:
         return _REGISTRY[name]
     except KeyError:
+        failed = [message.replace("\n", "; ") for path, message in LOAD_ERRORS
+                  if _names_scene(Path(path), name)]
+        if failed:
+            raise ExhibitError(f"scene {name!r} failed to load: {'; '.join(failed)}") from None
         raise ExhibitError(f"no scene named {name!r} (scenes: {', '.join(names())})") from None
+
+
+def _names_scene(path: Path, name: str) -> bool:
+    """Whether a scene file that failed to load meant to be scene ``name``: it is called
+    NAME.toml, or says ``name = "NAME"`` on a line of its own (read again, as far as it can be:
+    the file did not load)."""
+    if path.stem == name:
+        return True
+    try:
+        with open(path, "rb") as file:
+            text = file.read(1 << 20).decode("utf-8", "replace")
+    except OSError:
+        return False
+    return re.search(rf"""^\s*name\s*=\s*["']{re.escape(name)}["']""", text, re.M) is not None
 
 
 #: The paper's figures: number -> (scene, preset).

@@ -67,6 +67,9 @@ class Scene:
     world_at: Callable[[dict, float], Mesh4D] | None = None
     #: The file a curator wrote it in (a TOML scene), None for the shipped Python scenes.
     source: Path | None = None
+    #: Whether parameter values make sense together beyond each one's range: (params) -> None,
+    #: or the reason they do not (the collision with nothing moving). Scene.resolve asks it.
+    check: Callable[[dict], str | None] | None = None
 
     def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""
@@ -89,6 +92,9 @@ class Scene:
                 raise ExhibitError(f"parameter {key}={raw} of scene {self.name!r} must lie in "
                                    f"[{p.minimum}, {p.maximum}]")
             values[key] = value
+        reason = self.check(values) if self.check is not None else None
+        if reason:
+            raise ExhibitError(f"{self.name}: {reason}")
         return values
 
     def preset(self, name: str) -> Preset:

@@ -25,6 +25,14 @@ SPHERE = "x^2 + y^2 + (z + vs*t)^2 - rs^2"
 SURFACE_COLOR, SILHOUETTE_COLOR, WIRE_COLOR = palette.ORANGE, palette.BLUE, palette.WIRE
 
 
+def check(params: dict) -> str | None:
+    """Why these parameters give no collision surface (None: they give one)."""
+    if params["vc"] == 0 and params["vs"] == 0:
+        return ("vc and vs cannot both be 0: with no motion the cylinder and sphere never "
+                "move, so there is no collision surface")
+    return None
+
+
 def contact_interval(params: dict) -> float:
     """|t| beyond which the two never touch: the centres are |t|·√(vc² + vs²) apart."""
     speed = math.hypot(params["vc"], params["vs"])
@@ -249,4 +257,5 @@ SCENE = Scene(
     default_resolution=48,
     slice_axis=3,
     world_at=world_at,
+    check=check,
 )

@@ -299,3 +299,25 @@ def test_check_config_refuses_a_plane_caption_shown_after_the_view_turned(tmp_pa
     assert any(line.startswith(f"{tree / 'attract' / '02-offset-parabola.toml'}: keyframe[0]."
                                "while.angles_within: the caption is shown at t = 1.8..10.0 s")
                for line in out), out
+
+
+def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monkeypatch):
+    """A timeline of a thousand captions, each with its ``while``, costs check-config a fixed
+    number of samples (MAX_SAMPLES for the whole timeline), each looked up without a scan of
+    every keyframe: the old check played 100,000 poses, each scanning 1,000 keyframes."""
+    from exhibit.kiosk import attract
+    body = "".join(f'[[keyframe]]\nt = {5 * i}\ncaption = "Caption {i} stays still."\n'
+                   f'while = {{ sensor_motion = "still" }}\n' for i in range(1000))
+    body += "[[keyframe]]\nt = 5000\n"
+    timeline = load_timeline(write(tmp_path, 'scene = "hopf"\n' + body))
+    scanned = []
+    real = attract.Timeline.at
+
+    def at(self, t, stepped=False):
+        scanned.append(len(self.keyframes))
+        if sum(scanned) > 200_000:
+            raise AssertionError("the caption check scans the timeline over and over")
+        return real(self, t, stepped)
+    monkeypatch.setattr(attract.Timeline, "at", at)
+    assert caption_problems(timeline) == []
+    assert len(scanned) <= 20_000 + 2 * 1000
