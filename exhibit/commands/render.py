@@ -15,6 +15,10 @@ from exhibit.commands import _args
 from exhibit.commands._media import (MAX_PIXELS, encode_mp4, need_ffmpeg,  # noqa: F401
                                        parse_size, whole_number as _int)
 from exhibit.errors import ExhibitError
+
+#: The most --fps and --after a review may ask for (exhibit.commands._review).
+MAX_FPS = 120
+MAX_AFTER_S = 600.0
 from exhibit.scenes.base import parse_overrides
 from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
@@ -66,10 +70,10 @@ def add_arguments(parser) -> None:
     parser.add_argument("--takeover", metavar="SCENE",
                         help="the frame a visitor sees --after seconds after taking over from "
                              "attract mode in SCENE; --out FILE.png")
-    parser.add_argument("--after", default="2.0", metavar="S",
+    parser.add_argument("--after", default=2.0, metavar="S", type=_args.number(0.0, MAX_AFTER_S),
                         help="with --takeover: seconds after the takeover (default: "
                              "%(default)s)")
-    parser.add_argument("--fps", metavar="N",
+    parser.add_argument("--fps", metavar="N", type=_args.number(1, MAX_FPS),
                         help="with --timeline or --takeover: kiosk frames per second (default: "
                              "25 for frames and MP4, 10 for a contact sheet or a takeover)")
     parser.add_argument("--language", metavar="CODE",

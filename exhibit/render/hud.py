@@ -30,6 +30,7 @@ from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles,
                                    status_lines)
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 from exhibit.scenes import palette
+from exhibit.scenes.colours import luminance
 
 #: The HUD's panels: nearly opaque, so text stays legible over a bright surface brought close
 #: (a visitor may drive the sensor in until the picture fills the screen).
@@ -43,12 +44,6 @@ AXIS_COLORS = (palette.RED, palette.AMBER, palette.MINT, palette.BLUE)
 #: The relative luminance (WCAG) every coloured word is lifted to: 7:1 (AAA) against the panel
 #: over white (0.12 grey, luminance 0.014) needs 0.40; this leaves a margin.
 LEGIBLE = 0.45
-
-
-def luminance(rgb) -> float:
-    """Relative luminance of an sRGB colour (0..1 channels), as WCAG 2.x defines it."""
-    lin = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb[:3]]
-    return 0.2126 * lin[0] + 0.7152 * lin[1] + 0.0722 * lin[2]
 
 
 def legible(rgb, minimum: float = LEGIBLE) -> tuple[float, float, float]:

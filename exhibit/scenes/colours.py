@@ -12,7 +12,8 @@ purpose (a marker and the circle it sits on, both "yellow"), not a pair.
 
 The simulation and the colour difference are colorspacious', not written here. Pure: the kiosk's
 check-config and `exhibit scenes --check-colours` call it on a scene's mesh, and the tests on every
-shipped scene and on the HUD's axis colours.
+shipped scene and on the HUD's axis colours. Text contrast (WCAG's luminance and ratio) is read
+with the same library here, for the HUD and its checks.
 """
 
 from __future__ import annotations
@@ -65,6 +66,20 @@ class Clash:
             return f"{p.name!r} {[round(c, 3) for c in p.color]}"
         return (f"{show(self.a)} and {show(self.b)} are ΔE {self.delta_e:.1f} apart under "
                 f"{self.vision} (at least {LIMIT:g} is needed to tell them apart)")
+
+
+def luminance(rgb):
+    """Relative luminance (WCAG 2.x) of sRGB colours (..., 3) in 0..1: CIE Y, as colorspacious
+    computes it; a float for one colour."""
+    rgb = np.clip(np.asarray(rgb, dtype=float)[..., :3], 0.0, 1.0)
+    y = cspace_convert(rgb, "sRGB1", "XYZ1")[..., 1]
+    return float(y) if np.ndim(y) == 0 else y
+
+
+def contrast_ratio(a, b):
+    """WCAG contrast ratio between sRGB colours (either order, broadcast), 1..21."""
+    la, lb = luminance(a), luminance(b)
+    return (np.maximum(la, lb) + 0.05) / (np.minimum(la, lb) + 0.05)
 
 
 def parts_of(mesh) -> list[Part]:

@@ -11,7 +11,7 @@ the strokes against), is the background measured: the worst pixel there (the lig
 text) against the glyph colour, composited over it with the alpha it is drawn with, gives the
 element's ratio. A piece whose ink cannot be found at all is measured against its whole box.
 
-Pure numpy on the frames; relative luminance as WCAG defines it for sRGB.
+Pure numpy on the frames; the WCAG ratio is exhibit.scenes.colours.contrast_ratio.
 """
 
 from __future__ import annotations
@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from exhibit.scenes.colours import contrast_ratio
+
 #: The rule: WCAG 2.x AAA for text.
 MINIMUM = 7.0
 #: A pixel is ink where the two frames differ by more than this in any channel (0..1) and the
@@ -27,24 +29,6 @@ MINIMUM = 7.0
 #: the pixels beside every covered one are).
 INK_DIFFERENCE = 6.0 / 255.0
 COVERED = 0.25
-
-
-def linear(srgb: np.ndarray) -> np.ndarray:
-    """sRGB channel values in 0..1 to linear light (the WCAG 2.x formula)."""
-    c = np.asarray(srgb, dtype=np.float64)
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def luminance(rgb: np.ndarray) -> np.ndarray:
-    """Relative luminance of sRGB colours (..., 3) in 0..1."""
-    lin = linear(rgb)
-    return lin[..., 0] * 0.2126 + lin[..., 1] * 0.7152 + lin[..., 2] * 0.0722
-
-
-def ratio(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """WCAG contrast ratio between sRGB colours (either order), 1..21."""
-    la, lb = luminance(a), luminance(b)
-    return (np.maximum(la, lb) + 0.05) / (np.minimum(la, lb) + 0.05)
 
 
 @dataclass(frozen=True)
@@ -92,7 +76,7 @@ def measure(image: np.ndarray, background: np.ndarray, texts) -> list[Measured]:
         ink = (moved > INK_DIFFERENCE) & (moved >= COVERED * np.maximum(full, 1e-6))
         behind = b[_grow(ink)] if ink.any() else b.reshape(-1, 3)
         shown = alpha * rgb + (1.0 - alpha) * behind
-        ratios = ratio(shown, behind)
+        ratios = contrast_ratio(shown, behind)
         worst = int(np.argmin(ratios))
         out.append(Measured(mark.kind, mark.text, (x0, y0, x1, y1), float(ratios[worst]),
                             tuple(float(c) for c in behind[worst]), len(behind)))

@@ -12,8 +12,8 @@ import pytest
 from exhibit import scenes
 from exhibit.render.hud import AXIS_COLORS
 from exhibit.scenes import palette
-from exhibit.scenes.colours import LIMIT, VISIONS, Part, clashes, delta_e, least_delta_e, \
-    parts_of, scene_clashes
+from exhibit.scenes.colours import LIMIT, VISIONS, Part, clashes, contrast_ratio, delta_e, \
+    least_delta_e, luminance, parts_of, scene_clashes
 
 
 @pytest.mark.parametrize("name", scenes.names())
@@ -115,3 +115,11 @@ box = [[-1, 1], [-1, 1], [-1, 1], [-1, 1]]
     scene.write_text(body.format(green=list(palette.GREEN), red=list(palette.RED)))
     accepted = check()
     assert accepted.returncode == 0, accepted.stdout + accepted.stderr
+
+
+def test_luminance_and_contrast_are_wcags():
+    """WCAG 2.x: white on black 21:1; sRGB mid-grey 0.5 has relative luminance 0.2140."""
+    assert contrast_ratio((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)) == pytest.approx(21.0, rel=1e-3)
+    assert luminance((0.5, 0.5, 0.5)) == pytest.approx(0.2140, abs=2e-4)
+    assert contrast_ratio((0.2, 0.2, 0.2), (0.9, 0.9, 0.9)) == \
+        pytest.approx(contrast_ratio((0.9, 0.9, 0.9), (0.2, 0.2, 0.2)))
