@@ -701,10 +701,9 @@ class Kiosk:
             if hasattr(gpu, "release"):
                 gpu.release()
         self.gpu, self._inset_mesh, self._shown = {}, None, None
-        # the crossfade's snapshot keeps the outgoing frame's mesh for its words
-        headless = getattr(self.window, "headless", None)
-        pipeline = getattr(headless, "pipeline", None) or getattr(self.window, "_pipeline", None)
-        if pipeline is not None and hasattr(pipeline, "release_snapshot"):
+        # a shared headless pipeline's crossfade snapshot keeps the outgoing frame's mesh
+        pipeline = getattr(getattr(self.window, "headless", None), "pipeline", None)
+        if pipeline is not None:
             pipeline.release_snapshot()
 
     def _screenshot(self, path: Path) -> None:

@@ -17,6 +17,7 @@ import numpy as np
 
 from exhibit.kiosk import app
 from exhibit.kiosk.config import load_kiosk_config
+from exhibit.kiosk.review import keyboard_only
 from exhibit.render.layout import HudLayout
 from exhibit.render.target import HeadlessTarget
 
@@ -32,31 +33,10 @@ class FakeClock:
         return self.t
 
 
-def _toml_value(value) -> str:
-    if isinstance(value, bool):
-        return "true" if value else "false"
-    if isinstance(value, float) and value == float("inf"):
-        return "inf"
-    if isinstance(value, (list, tuple)):
-        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    return repr(value)
-
-
 def keyboard_devices(path: Path) -> Path:
     """The shipped device config with its keyboard only (no serial port or HID device is
-    opened), the keyboard's bindings as shipped."""
-    doc = tomllib.loads((SHIPPED / "devices" / "default.toml").read_text())
-    lines = ['[devices.keyboard]', 'url = "keyboard://"', "[mapping]"]
-    lines += [f"{k} = {_toml_value(v)}" for k, v in doc["mapping"].items()
-              if not isinstance(v, (dict, list)) or k == "home_angles"]
-    for bind in doc["mapping"]["bind"]:
-        if bind["device"] == "keyboard":
-            lines.append("[[mapping.bind]]")
-            lines += [f"{k} = {_toml_value(v)}" for k, v in bind.items()]
-    path.write_text("\n".join(lines) + "\n")
-    return path
+    opened), the keyboard's bindings as shipped: the review player's own."""
+    return keyboard_only(None, path)
 
 
 @dataclass
