@@ -9,7 +9,7 @@ by events and a clock, so it is tested without a window or devices.
 * After ``idle_timeout_s`` without real input, attract mode returns, gliding from the visitor's
   view into the timeline over ``blend_s`` when the scene is the same.
 * Reduced motion (``[accessibility] reduced_motion``): the camera never glides by itself. Attract
-  mode holds each keyframe's pose (Timeline.at's ``stepped``) and every change of it is a cut
+  mode moves in slow, held steps (Timeline.at's ``stepped``) and every change of pose is a cut
   (crossfaded by the kiosk); so is the return from a visitor, and the takeover's reframing
   jumps to its end. What a visitor turns still turns smoothly.
 

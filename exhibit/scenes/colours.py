@@ -140,19 +140,24 @@ def least_delta_e(parts: Iterable[Part]) -> tuple[float, str]:
     return best
 
 
-def scene_clashes(scene) -> list[Clash]:
-    """The clashes of a scene's colours, read from its mesh at PROBE_RESOLUTION at its default
+def scene_parts(scene) -> list[Part]:
+    """A scene's coloured parts, read from its mesh at PROBE_RESOLUTION at its default
     parameters."""
-    mesh = scene.build(scene.resolve(), PROBE_RESOLUTION)
-    return clashes(parts_of(mesh))
+    return parts_of(scene.build(scene.resolve(), PROBE_RESOLUTION))
 
 
-def colour_problems(scene) -> list[str]:
-    """The clashes of a scene as ``where: colours: ...`` lines, where is the scene's file (a
-    curator's TOML scene) or its name; a scene that cannot be built says so once."""
+def scene_clashes(scene) -> list[Clash]:
+    """The clashes of a scene's colours."""
+    return clashes(scene_parts(scene))
+
+
+def colour_problems(scene, parts: Sequence[Part] | None = None) -> list[str]:
+    """The clashes of a scene (of ``parts``, when the caller has them) as ``where: colours:
+    ...`` lines, where is the scene's file (a curator's TOML scene) or its name; a scene that
+    cannot be built says so once."""
     where = str(scene.source) if scene.source is not None else f"scene {scene.name}"
     try:
-        found = scene_clashes(scene)
+        found = clashes(scene_parts(scene) if parts is None else parts)
     except Exception as exc:  # noqa: BLE001 - its build is reported where it is built
         return [f"{where}: colours: not checked, the scene cannot be built ({exc})"]
     return [f"{where}: colours: {c.describe()}" for c in found]

@@ -101,8 +101,9 @@ box = [[-1, 1], [-1, 1], [-1, 1], [-1, 1]]
                     '[languages]\nshown = ["en"]\n')
     env = {**os.environ, "EXHIBIT_SCENE_PATH": str(folder)}
 
-    def check():
-        return subprocess.run([sys.executable, "-m", "exhibit", "check-config", str(site)],
+    def check(*command):
+        command = command or ("check-config", str(site))
+        return subprocess.run([sys.executable, "-m", "exhibit", *command],
                               capture_output=True, text=True, env=env, timeout=120)
 
     scene.write_text(body.format(green=[0.25, 0.75, 0.3], red=[0.85, 0.2, 0.18]))
@@ -112,9 +113,13 @@ box = [[-1, 1], [-1, 1], [-1, 1], [-1, 1]]
     assert line.startswith(f"{scene}: colours: 'green one' [0.25, 0.75, 0.3] and 'red one' ")
     assert "under deuteranopia" in line or "under protanopia" in line
     assert "Traceback" not in refused.stdout + refused.stderr
+    listed = check("scenes", "--check-colours")   # every scene, the shipped ones too
+    assert listed.returncode == 2 and f"{scene}: colours: 'green one'" in listed.stdout
+    assert "hopf                 OK: " in listed.stdout
     scene.write_text(body.format(green=list(palette.GREEN), red=list(palette.RED)))
     accepted = check()
     assert accepted.returncode == 0, accepted.stdout + accepted.stderr
+    assert check("scenes", "--check-colours").returncode == 0
 
 
 def test_luminance_and_contrast_are_wcags():
