@@ -229,9 +229,9 @@ class KioskConfig:
     languages: tuple[str, ...] = (SOURCE,)
     catalogues_dir: Path | None = None
     language_switch_s: float = 0.0
-    #: [accessibility]: no continuous camera glides (attract mode holds each keyframe's pose and
-    #: cuts, crossfaded, to the next; the glide back from a visitor and the takeover reframe are
-    #: cuts too) and no drift of the text panels
+    #: [accessibility]: no continuous camera glides (attract mode moves in slow held steps, each
+    #: a crossfaded cut; the glide back from a visitor and the takeover reframe are cuts too) and
+    #: no drift of the text panels
     reduced_motion: bool = False
     #: the site file layered over the shipped defaults (None: the defaults alone)
     site: Path | None = None
