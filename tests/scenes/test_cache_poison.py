@@ -402,7 +402,14 @@ def test_file_over_the_size_cap_is_refused_unread(entry, caplog, monkeypatch):
     monkeypatch.setattr(meshmod.Mesh4D, "to_bytes", lambda self: b"x")  # fits the lowered cap
     reads = []
     real_read = os.read
-    monkeypatch.setattr(cache.os, "read", lambda fd, n: reads.append(n) or real_read(fd, n))
+    me = threading.get_ident()   # os.read is global: another test's threads may still read
+
+    def read(fd, n):
+        if threading.get_ident() == me:
+            reads.append(n)
+        return real_read(fd, n)
+
+    monkeypatch.setattr(cache.os, "read", read)
     caplog.set_level(logging.WARNING)
     mesh, hit = build_cached(SCENE, None, RES, entry.parent)
     assert not hit and not reads and entry.read_bytes() == b"x"
