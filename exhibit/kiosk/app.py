@@ -432,12 +432,16 @@ class Kiosk:
 
     def _collect(self, now: float) -> None:
         """Whatever the preparer has finished, taken in (a frame's work: uploads only)."""
+        begin = time.perf_counter()
         for prepared in self.preparer.results():
             self._receive(prepared, now)
+            if prepared.error is None:
+                log.info("scene %s prepared (mesh levels %s, %d timelines; %.0f ms to take in)",
+                         prepared.job.scene, ",".join(map(str, sorted(prepared.meshes))),
+                         len(prepared.timelines), (time.perf_counter() - begin) * 1000)
         if not self.preparer.busy and self._prepared_at is None:
             self._prepared_at = now
             log.info("every scene is prepared (%.1f s after start)", now - self.started)
-            self.preparer.close()
 
     # ------------------------------------------------------------------ framing
 
@@ -662,7 +666,7 @@ class Kiosk:
         """step(), the watchdog and, about once a second, the reports; whether a frame was drawn.
         Exceptions go to FrameErrors: a frame's bug must not end the exhibit."""
         try:
-            if self._prepared_at is None:
+            if self._prepared_at is None and self.frames:  # after the first picture
                 self._collect(start)
             self.step()
             self.frames += 1

@@ -232,6 +232,8 @@ class ProcessPreparer:
         self._in_flight: Job | None = None
         self._queue: list[Job] = []
         self._restarts = 0
+        #: A worker told to leave (nothing left to do), reaped once it has exited.
+        self._leaving = None
 
     def _start(self) -> None:
         parent, child = self._context.Pipe()
@@ -242,12 +244,13 @@ class ProcessPreparer:
         self._connection = parent
 
     def submit(self, job: Job) -> None:
+        """Queued; the worker starts at the first results() (after the kiosk's first frame:
+        its start-up would compete with the first picture for the CPU)."""
         self._queue.append(job)
-        self._send()
 
     @property
     def busy(self) -> bool:
-        return self._in_flight is not None or bool(self._queue)
+        return self._in_flight is not None or bool(self._queue) or self._leaving is not None
 
     def first(self, key) -> None:
         """The job for ``key`` (scene, params), if waiting, runs next."""
@@ -263,6 +266,10 @@ class ProcessPreparer:
 
     def results(self) -> list[Prepared]:
         out: list[Prepared] = []
+        if self._leaving is not None and not self._leaving.is_alive():
+            self._leaving.join()  # exited: reaped at once, never waited for in a frame
+            self._leaving = None
+        self._send()
         if self._in_flight is None:
             return out
         try:
@@ -277,8 +284,9 @@ class ProcessPreparer:
         if self._in_flight is None:
             if self._queue:
                 self._send()
-            else:
-                self.close()  # nothing left to prepare: the worker's memory back
+            elif self._process is not None:  # nothing left: the worker's memory back
+                self._connection.close()     # it exits when it reads the end of the pipe
+                self._leaving, self._process, self._connection = self._process, None, None
         return out
 
     def _died(self) -> list[Prepared]:
@@ -304,11 +312,13 @@ class ProcessPreparer:
         self._queue.clear()
         if self._connection is not None:
             self._connection.close()
-        if self._process is not None:
-            if self._in_flight is not None:
-                self._process.terminate()
-            self._process.join(timeout=2)
-            if self._process.is_alive():
-                self._process.kill()
-                self._process.join(timeout=2)
-        self._process = self._connection = self._in_flight = None
+        for process in (self._process, self._leaving):
+            if process is None:
+                continue
+            if process is self._process and self._in_flight is not None:
+                process.terminate()
+            process.join(timeout=2)
+            if process.is_alive():
+                process.kill()
+                process.join(timeout=2)
+        self._process = self._connection = self._in_flight = self._leaving = None

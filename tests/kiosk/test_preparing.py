@@ -4,6 +4,7 @@ and what it cannot do comes back as a named failure."""
 
 from __future__ import annotations
 
+import json
 import re
 import shutil
 import time
@@ -78,6 +79,7 @@ def _kiosk(tmp_path, window=None):
 
 
 def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built):
+    """...and nothing else is prepared until it is drawn."""
     k = _kiosk(tmp_path)
     level = k.governor.quality.mesh
     assert list(k.gpu) == [("hopf", k.state.frame.params)]
@@ -85,6 +87,8 @@ def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built
     assert len(built.calls) == 1 and built.calls[0][0] == "hopf"
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
     assert k.window.drawn == [] and k.window.captured == [], "no warm-up before the first frame"
+    k.run(max_frames=1)
+    assert len(k.gpu) == 1 and len(built.calls) == 1
 
 
 def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
@@ -202,9 +206,14 @@ def test_the_worker_process_prepares_and_frames_and_names_what_fails(tmp_path, m
         assert isinstance(mesh, Mesh4D) and mesh.triangle_count > 0
         assert results[0].timelines[0].keyframes != jobs[0].timelines[0].keyframes, "framed"
         assert "no scene named 'no-such-scene'" in results[1].error
-        assert not worker.busy and worker._process is None, "the worker leaves when done"
+        leaving = worker._leaving
+        assert worker._process is None and leaving is not None, "the worker leaves when done"
+        leaving.join(timeout=30)
+        assert worker.results() == [] and not worker.busy and worker._leaving is None
         # a worker that dies under a job: that job fails with the exit code
         worker.submit(jobs[1])
+        assert worker._process is None, "started by results(), not by submit()"
+        assert worker.results() == [] and worker._in_flight is jobs[1]
         worker._process.kill()
         worker._process.join()
         died = worker.results()
@@ -223,3 +232,41 @@ def test_run_job_in_process_matches_the_cache(tmp_path, monkeypatch):
     assert np.array_equal(first.meshes[2].surfaces[0].positions,
                           again.meshes[2].surfaces[0].positions)
     assert len(list(Path(tmp_path / "cache").glob("hopf-*.npz"))) == 1
+
+
+def test_exhibit_prepare_fills_the_cache_the_kiosk_then_reads(tmp_path, monkeypatch, capsys):
+    """`exhibit prepare` builds every mesh level of every scene the config shows; a kiosk
+    started afterwards builds nothing. A scene that fails is named, exit 1."""
+    from exhibit.cli import main
+    from exhibit.scenes import cache
+
+    monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(tmp_path / "cache"))
+    path = make_config(tmp_path, "")
+    assert main(["prepare", "--config", str(path), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [s["scene"] for s in report["scenes"]] == ["hopf", "clifford-torus"]
+    assert report["scenes"][0]["resolutions"] == [8, 12, 16]  # hopf = 16 at x0.5, x0.75, x1
+    assert all(s["error"] is None for s in report["scenes"])
+    hits = []
+    real = cache.build_cached
+
+    def counting(scene, params, resolution):
+        mesh, hit = real(scene, params, resolution)
+        hits.append(hit)
+        return mesh, hit
+
+    monkeypatch.setattr(preparing, "build_cached", counting)
+    config = load_kiosk_config(path)
+    app.Kiosk(config, Window(), notifier=Notifier(), health_path=tmp_path / "health.json")
+    assert hits and all(hits), "every mesh the kiosk loads was in the cache"
+
+    def broken(scene, params, resolution):
+        if scene.name == "clifford-torus":
+            raise RuntimeError("out of memory")
+        return real(scene, params, resolution)
+
+    monkeypatch.setattr(preparing, "build_cached", broken)
+    assert main(["prepare", "--config", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "clifford-torus" in out and "failed: RuntimeError: out of memory" in out
+    assert "1 of 2 scenes ready" in out
