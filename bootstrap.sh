@@ -155,7 +155,7 @@ setup_venv() {
   if [ -n "$bundle" ]; then
     local has; has="$("$py" -c 'import platform, sys; print("%d.%d %s" % (*sys.version_info[:2], platform.machine()))')"
     [ "$has" = "$(bundle_field python) $(bundle_field machine)" ] \
-      || die "this bundle is for Python $(bundle_field python) on $(bundle_field machine), but $py is Python ${has% *} on ${has#* }: make the bundle for this machine, or set PYTHON="
+      || die "this bundle is for Python $(bundle_field python) on $(bundle_field machine), but $py is Python ${has% *} on ${has#* }: make the bundle for this machine, or set PYTHON=/path/to/python$(bundle_field python)"
   fi
   if [ ! -x .venv/bin/python ]; then
     say "creating .venv with $py"

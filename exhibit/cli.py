@@ -36,6 +36,8 @@ COMMANDS = {
     "status": "status",
     "stats": "stats",
     "install": "install",
+    "update": "update",
+    "rollback": "rollback",
 }
 
 
