@@ -157,30 +157,29 @@ setup_venv() {
     [ "$has" = "$(bundle_field python) $(bundle_field machine)" ] \
       || die "this bundle is for Python $(bundle_field python) on $(bundle_field machine), but $py is Python ${has% *} on ${has#* }: make the bundle for this machine, or set PYTHON=/path/to/python$(bundle_field python)"
   fi
-  if [ ! -x .venv/bin/python ]; then
-    say "creating .venv with $py"
-    "$py" -m venv .venv
-  fi
   local file
   for file in requirements/build.lock "requirements/$lock.lock"; do
     [ -f "$file" ] || die "$file is missing (./bootstrap.sh lock writes it; a bundle carries it)"
   done
   local stamp=".venv/.exhibit-install-stamp"
   local want; want="$lock $(cat pyproject.toml requirements/build.lock "requirements/$lock.lock" | sha256sum | cut -d' ' -f1)"
-  if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ]; then
-    say "installing Python packages into .venv (requirements/$lock.lock${bundle:+, from the bundle})"
-    [ -n "$bundle" ] && check_bundle
-    pip_install --require-hashes -r requirements/build.lock   # pip, setuptools, wheel
-    pip_install --require-hashes -r "requirements/$lock.lock"
-    if [ -n "$bundle" ]; then
-      local wheel="$bundle/wheels/exhibit-$version-py3-none-any.whl"
-      [ -f "$wheel" ] || die "bundle $bundle has no $(basename "$wheel") for this source (exhibit $version)"
-      pip_install --no-deps --force-reinstall "$wheel"
-    else
-      pip_install --no-deps --no-build-isolation -e .
-    fi
-    echo "$want" > "$stamp"
+  [ -f "$stamp" ] && [ "$(cat "$stamp")" = "$want" ] && [ -x .venv/bin/python ] && return 0
+  [ -n "$bundle" ] && check_bundle
+  if [ ! -x .venv/bin/python ]; then
+    say "creating .venv with $py"
+    "$py" -m venv .venv
   fi
+  say "installing Python packages into .venv (requirements/$lock.lock${bundle:+, from the bundle})"
+  pip_install --require-hashes -r requirements/build.lock   # pip, setuptools, wheel
+  pip_install --require-hashes -r "requirements/$lock.lock"
+  if [ -n "$bundle" ]; then
+    local wheel="$bundle/wheels/exhibit-$version-py3-none-any.whl"
+    [ -f "$wheel" ] || die "bundle $bundle has no $(basename "$wheel") for this source (exhibit $version)"
+    pip_install --no-deps --force-reinstall "$wheel"
+  else
+    pip_install --no-deps --no-build-isolation -e .
+  fi
+  echo "$want" > "$stamp"
 }
 
 # This project's files (no .venv, .git, out/ or a bundle's wheels and .debs), NUL-separated,
@@ -203,15 +202,22 @@ copy_source() {  # copy_source DEST: the project's files into DEST (made)
   source_files | tar -C "$here" --null -T - -cf - | tar -C "$1" -xf -
 }
 
-# A flat apt repository index (Packages) for the .deb files in a folder: each package's control
-# fields (dpkg-deb, always there) with where the file is, its size and hash.
+# A flat apt repository for the .deb files in a folder: Packages, each package's control fields
+# (dpkg-deb, always there) with where the file is, its size and hash; Packages.gz; and a Release
+# file with their hashes (unsigned: the source list says [trusted=yes], SHA256SUMS vouches).
 write_packages() {
   ( cd "$1"
     for deb in *.deb; do
       dpkg-deb -f "$deb"
       printf 'Filename: ./%s\nSize: %s\nSHA256: %s\n\n' "$deb" "$(stat -c %s "$deb")" \
         "$(sha256sum "$deb" | cut -d' ' -f1)"
-    done ) > "$1/Packages"
+    done > Packages
+    gzip -9nk Packages
+    { echo "Date: $(LC_ALL=C date -u -R)"
+      echo "SHA256:"
+      for index in Packages Packages.gz; do
+        echo " $(sha256sum "$index" | cut -d' ' -f1) $(stat -c %s "$index") $index"
+      done; } > Release )
 }
 
 make_bundle() {
@@ -222,19 +228,24 @@ make_bundle() {
   local debian; debian="$(. /etc/os-release 2>/dev/null && echo "${VERSION_ID:-unknown}")"
   [ "$debian" = "$bundle_debian" ] || die "making a bundle for Debian $bundle_debian needs Debian $bundle_debian (this is $debian)"
   install_system_packages "${apt_run[@]}"
-  setup_venv run    # the project wheel is built with the locked setuptools
   local tmp="$dest.partial"
   rm -rf "$tmp"
   mkdir -p "$tmp/wheels" "$tmp/debs/partial" "$tmp/.apt"
   say "copying the source into $dest"
   copy_source "$tmp"
+  # The project's wheel, built from a copy of the source with the locked pip and setuptools in a
+  # venv of its own (./.venv is left alone).
   say "wheels: exhibit $version and requirements/run.lock, build.lock for CPython $bundle_python on $bundle_machine"
-  .venv/bin/python -m pip wheel -q --no-deps --no-build-isolation -w "$tmp/wheels" . >/dev/null
-  rm -rf build exhibit.egg-info
+  local py; py="$(pick_python)"
+  "$py" -m venv "$tmp/.build/venv"
+  local pip=("$tmp/.build/venv/bin/python" -m pip)
+  "${pip[@]}" install -q --require-hashes -r requirements/build.lock
+  copy_source "$tmp/.build/src"
+  "${pip[@]}" wheel -q --no-deps --no-build-isolation -w "$tmp/wheels" "$tmp/.build/src" >/dev/null
   local platforms=() minor
   for minor in $(seq 36 -1 17); do platforms+=(--platform "manylinux_2_${minor}_${bundle_machine}"); done
   platforms+=(--platform "manylinux2014_${bundle_machine}")
-  .venv/bin/python -m pip download -q --require-hashes --no-deps --only-binary=:all: \
+  "${pip[@]}" download -q --require-hashes --no-deps --only-binary=:all: \
     --implementation cp --python-version "$bundle_python" --abi "cp${bundle_python/./}" --abi abi3 \
     --abi none "${platforms[@]}" -r requirements/run.lock -r requirements/build.lock \
     -d "$tmp/wheels"
@@ -246,7 +257,7 @@ make_bundle() {
   apt-get install -qq --download-only --no-install-recommends \
     -o "Dir::State::status=$tmp/.apt/status" -o "Dir::Cache::Archives=$tmp/debs" \
     -o Debug::NoLocking=1 -o APT::Sandbox::User=root "${apt_run[@]}" "${apt_kiosk[@]}" >/dev/null
-  rm -rf "$tmp/.apt" "$tmp/debs/partial" "$tmp/debs/lock"
+  rm -rf "$tmp/.apt" "$tmp/.build" "$tmp/debs/partial" "$tmp/debs/lock"
   write_packages "$tmp/debs"
   cat > "$tmp/bundle.env" <<ENV
 version=$version
