@@ -37,6 +37,8 @@ HELP = ("switch a deployed kiosk to a release made by ./bootstrap.sh update: che
         "config, build the cache, switch, restart")
 
 PREVIOUS = "previous"
+#: releases kept by default, the current and the previous one included
+KEEP = 3
 RESTART = ["systemctl", "try-restart", "exhibit.service"]
 
 
@@ -45,9 +47,9 @@ def add_arguments(parser) -> None:
                         help="the new release's folder, in PREFIX-releases/, with its .venv "
                              "(./bootstrap.sh update makes it)")
     add_prefix(parser)
-    parser.add_argument("--keep", type=int, default=3, metavar="N",
+    parser.add_argument("--keep", type=int, default=KEEP, metavar="N",
                         help="releases to keep, the current and the previous one included "
-                             "(default 3, at least 2)")
+                             f"(default {KEEP}, at least 2)")
 
 
 def add_prefix(parser) -> None:
@@ -114,7 +116,7 @@ class Kiosk:
 
     # ------------------------------------------------------------------ commands
 
-    def update(self, release: str, keep: int = 3) -> int:
+    def update(self, release: str, keep: int = KEEP) -> int:
         parent, name = os.path.split(release)
         if parent != self.releases or name in ("", PREVIOUS) or name.startswith("."):
             raise ExhibitError(f"{release}: a release must be a folder in {self.releases}/ "
