@@ -6,8 +6,9 @@ The files come from systemd/ in this checkout with the install prefix (where the
 rest: creates the `exhibit` system user, loads the USB-serial modules, applies the kernel settings
 (SysRq off), reloads udev and systemd, enables the units, and builds the mesh cache as the
 service's user with the service's environment (`exhibit prepare`), so the first start draws at
-once; it does not start the units, since the kiosk takes over tty1. With --root (staging an image, or reviewing) or as another user it writes
-under DIR and prints the exact commands still to run on the target. --dry-run writes and runs
+once; it does not start the units, since the kiosk takes over tty1. With --root (staging an
+image, or reviewing) or as another user it writes under DIR and prints the exact commands still
+to run on the target. --dry-run writes and runs
 nothing and says what it would do.
 
 It never writes outside the root, nor over what is not a file: every target is checked before
