@@ -36,6 +36,7 @@ COMMANDS = {
     "status": "status",
     "stats": "stats",
     "install": "install",
+    "prepare": "prepare",
     "update": "update",
     "rollback": "rollback",
 }

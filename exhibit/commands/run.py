@@ -52,13 +52,14 @@ def run(args) -> int:
     from exhibit.kiosk.app import Kiosk, open_window
     from exhibit.kiosk.health import default_path
     from exhibit.kiosk.notify import Notifier
+    from exhibit.kiosk.preparing import ProcessPreparer
     from exhibit.kiosk.sessions import open_session_log
 
     window = open_window(config, args.windowed)
     try:
         kiosk = Kiosk(config, window, notifier=Notifier.from_env(),
                       health_path=default_path(),
-                      sessions=open_session_log(config.sessions))
+                      sessions=open_session_log(config.sessions), preparer=ProcessPreparer)
         return kiosk.run(duration=duration, screenshot=screenshot)
     finally:
         window.close()

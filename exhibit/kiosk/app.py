@@ -30,6 +30,8 @@ EXHIBIT_SCENE=hopf`); EXHIBIT_MODE is "notice" when no scene could be prepared.
 
 from __future__ import annotations
 
+import dataclasses
+import functools
 import gc
 import logging
 import math
@@ -51,9 +53,11 @@ from exhibit.errors import ConfigError, ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.framing import FILL_LIMIT, frame_timeline
-from exhibit.kiosk.governor import for_kiosk, level_resolution, mesh_levels
-from exhibit.kiosk.language import SOURCE, Catalogue, Translator, load_catalogues
+from exhibit.kiosk.framing import FILL_LIMIT
+from exhibit.kiosk.governor import for_kiosk, mesh_levels
+from exhibit.kiosk.language import (PREPARING, SOURCE, Catalogue, Translator,
+                                    in_every_language, load_catalogues)
+from exhibit.kiosk.preparing import Framers, Job, Prepared, run_job, scene_jobs
 from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
@@ -63,7 +67,6 @@ from exhibit.render.inset import inset_label, inset_rect, inset_view
 from exhibit.render.layout import TextSizes, hud_layout
 from exhibit.render.renderer import HudInfo
 from exhibit.render.target import CloseRequest, Focus, Key
-from exhibit.scenes.cache import build_cached
 from exhibit.surfaces import progress
 from exhibit.surfaces.mesh import Mesh4D
 
@@ -153,10 +156,12 @@ class FrameErrors:
 class Kiosk:
     """The running exhibit. ``window`` is a render target (exhibit.render.target: the GLFW
     Window on a museum's screen, HeadlessTarget in tests and benchmarks). ``state`` is None when
-    no scene could be prepared: the window then shows NOTICE."""
+    no scene could be prepared: the window then shows NOTICE. ``preparer(framers)`` makes the
+    preparer (exhibit.kiosk.preparing) of every scene but the first, while the kiosk runs;
+    None: all of them here, before the first frame (reviews, most tests)."""
 
     def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
-                 health_path: Path | None = None, sessions=None):
+                 health_path: Path | None = None, sessions=None, preparer=None):
         journal.install()  # stderr is the journal (a service): structured fields from here on
         self.config = config
         self.window = window
@@ -182,36 +187,44 @@ class Kiosk:
         mapper = Mapper(device_config.mapping,
                         ActivityDetector(threshold=device_config.activity_threshold))
         self.governor = for_kiosk(config, window, clock())  # picture quality vs frame time
-        content, timelines = self._prepare(timelines)
         #: Text sizes for the HUD, and the framing that keeps the picture clear of it.
         self.text = TextSizes(config.text.caption_cap, config.text.title_cap,
                               config.text.infinity_beyond)
         #: The language on screen and its words (exhibit.kiosk.language).
         self.translate = self._translator(config)
         self._language_since = clock()
+        versions = functools.partial(in_every_language, self.translate)
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
-                             hud=config.hud, versions=self._versions, words=self._words())
+                             hud=config.hud, versions=versions, words=self._words())
         #: The time-slice inset's corner (a panel for timelines that slice) and its scene.
         size = tuple(getattr(window, "size", config.size))
         self._inset_rect = inset_rect(size, hud_layout(size, sizes=self.text).margin)
         self._inset_mesh = None
         self._inset_view_cache = None
-        self._inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
-                                    extra=(self._inset_rect,), versions=self._versions,
-                                    words=self._words())
+        inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
+                              extra=(self._inset_rect,), versions=versions, words=self._words())
         if sessions is not None:
             sessions.language = self.translate.language
         self._framed: OrderedDict[tuple, object] = OrderedDict()
         self._samples: dict[tuple, tuple] = {}   # (scene, params) -> its mesh_sample
-        timelines = [self._frame_timeline(t) for t in timelines]
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
         self._fade_start: float | None = None
         now = clock()
         self.started = now
         self.state = None
-        if content or timelines:
-            self.state = KioskState(Playlist(timelines), mapper, content,
+        #: Uploaded meshes: (scene, params) -> {mesh level: GpuMesh}; more arrive as the
+        #: preparer delivers them (exhibit.kiosk.preparing).
+        self.gpu: dict[tuple, dict] = {}
+        self._failed: set[tuple] = set()
+        framers = Framers(self.framer, inset_framer)
+        jobs = scene_jobs(config, timelines, mesh_levels(self.governor))
+        first = self._prepare_first(jobs, framers)
+        content = tuple(name for name in config.scenes
+                        if not any(key[0] == name for key in self._failed)
+                        or any(key[0] == name for key in self.gpu))
+        if self.gpu:
+            self.state = KioskState(Playlist(first), mapper, content,
                                     config.idle_timeout_s, config.blend_s, now,
                                     framer=self._frame_view,
                                     reduced_motion=config.reduced_motion)
@@ -219,6 +232,16 @@ class Kiosk:
             log.critical("no scene could be prepared: the kiosk shows a notice until it is "
                          "fixed and restarted")
             self.problems.append("no scene could be prepared: the screen shows a notice")
+        #: Where the rest are prepared; None: here and now, before the first frame.
+        self.preparer = preparer(framers) if preparer is not None and self.gpu else None
+        if self.preparer is None:
+            for job in jobs:
+                self._receive(run_job(job, framers), now)
+            self._prepared_at = now
+        else:
+            for job in jobs:
+                self.preparer.submit(job)
+            self._prepared_at = None
         self._log_fields: dict[str, str | None] = {}
         self._update_log_fields()
         self.stats = FrameStats()
@@ -227,7 +250,10 @@ class Kiosk:
         self._last_report = now
         self._quit = False
         self._install_input()
-        self._warm_up()
+        #: Start-up work left for after the first frame, one piece per frame (_chores).
+        self._chores: list = self._warm_up_chores()
+        if self.preparer is None:
+            self.warm_up()
 
     def _translator(self, config: KioskConfig) -> Translator:
         """The languages of [languages]; a catalogue that cannot be read is left out (its
@@ -242,11 +268,6 @@ class Kiosk:
                 log.error("language %s left out: %s", code, "; ".join(exc.problems))
                 self.problems.append(f"language {code} left out (see the journal)")
         return Translator(catalogues, config.languages)
-
-    def _versions(self, text: str) -> tuple[str, ...]:
-        """``text`` in every language shown, in their order (a title and its caption in the same
-        language are laid out together): the framing keeps the picture clear of them all."""
-        return tuple(self.translate(text, code) for code in self.translate.order)
 
     def _walked_away(self, now: float) -> None:
         """Attract mode is back: the next visitor finds the museum's own language, not the one
@@ -274,120 +295,157 @@ class Kiosk:
             if self.sessions is not None:
                 self.sessions.language = language
 
-    def _warm_up(self) -> None:
-        """Draw the first frame once at every quality level the governor may choose, through a
-        crossfade, into the back buffer before the loop starts (the first real frame draws over
-        it). Software GL compiles each shader variant at its first draw and the crossfade's
-        snapshot is allocated at the first cut: tens of ms each, which came as a 109 ms frame
-        at the first scene change of a 1080p kiosk on llvmpipe. Every title and caption panel
-        is laid out and rasterised too (15 ms at each change otherwise). Here they are
-        start-up."""
+    def _warm_up_chores(self) -> list:
+        """What the first frames would otherwise pay for, done one piece per frame after the
+        first (Kiosk._frame): every title and caption panel laid out and rasterised (15 ms at
+        each change otherwise), and a frame drawn through a crossfade at every quality level
+        the governor may choose (software GL compiles each shader variant at its first draw,
+        and the crossfade's snapshot is allocated at the first cut: a 109 ms frame at the first
+        scene change of a 1080p kiosk on llvmpipe otherwise)."""
         if self.state is None:
-            return
-        frame = self.state.frame
-        hud = self._hud(frame.title, frame.caption, frame.scene)
-        levels = self.gpu.get((frame.scene, frame.params))
-        if levels is None:
-            return
+            return []
+        names = set(self.state.content) | {t.scene for t in self._all_timelines}
         words = {(scenes.get(name).title, scenes.get(name).caption, name)
-                 for name in self.state.content}
+                 for name in names if name in scenes.names()}
         words |= {(scenes.get(t.scene).title, k.caption, t.scene)
-                  for t in self.state.playlist.timelines for k in t.keyframes}
-        huds = [self._hud(title, caption, scene, language)
-                for language in self.translate.order for title, caption, scene in words]
-        try:
-            if self.config.hud:  # every title and caption panel laid out and rasterised
-                self.window.renderer.hud.warm(self.window.size, huds, self.text)
-        except Exception as exc:  # noqa: BLE001 - the first frames rasterise them instead
-            log.warning("preparing the text panels failed: %s", exc)
-        try:
-            for quality in self.governor.levels:
-                options = RenderOptions(hud=self.config.hud, quality=quality, text=self.text)
-                gpu = levels[quality.mesh]
-                self.window.capture(gpu, frame.view, options, hud)
-                self.window.draw(gpu, frame.view, options, hud, fade=0.5)
-        except Exception as exc:  # noqa: BLE001 - the loop draws (and reports) for itself
-            log.warning("warming up the quality levels failed: %s", exc)
+                  for t in self._all_timelines for k in t.keyframes
+                  if t.scene in scenes.names()}
+        chores: list = []
+        if self.config.hud:
+            chores += [functools.partial(self._warm_hud, self._hud(title, caption, scene,
+                                                                   language))
+                       for language in self.translate.order
+                       for title, caption, scene in sorted(words)]
+        chores += [functools.partial(self._warm_quality, quality)
+                   for quality in self.governor.levels]
+        return chores
 
-    def _prepare(self, timelines: list) -> tuple[tuple[str, ...], list]:
-        """Upload a mesh for every (scene, parameters) of the content list and the timelines,
-        building it once if the cache has none. A scene that fails (a bad scene file, a build
-        that raises, no GPU memory) is skipped and noted; returns the content list and the
-        timelines that are left."""
-        jobs = list(dict.fromkeys([(name, None) for name in self.config.scenes]
-                                  + [(t.scene, tuple(sorted(t.params.items())))
-                                     for t in timelines]))
-        self.gpu, ready, failed = {}, set(), set()
+    def _warm_hud(self, hud: HudInfo) -> bool:
+        self.window.renderer.hud.warm(self.window.size, [hud], self.text)
+        return True
+
+    def _warm_quality(self, quality) -> bool:
+        """A frame at ``quality`` through a crossfade into the back buffer (the next frame
+        draws over it); waits while a crossfade is under way (its snapshot is in use)."""
+        if self._fade_start is not None or self.state is None:
+            return False
+        frame = self.state.frame
+        levels = self.gpu.get((frame.scene, frame.params))
+        if not levels:
+            return False
+        options = RenderOptions(hud=self.config.hud, quality=quality, text=self.text)
+        gpu = _level(levels, quality.mesh)
+        hud = self._hud(frame.title, frame.caption, frame.scene)
+        self.window.capture(gpu, frame.view, options, hud)
+        self.window.draw(gpu, frame.view, options, hud, fade=0.5)
+        return True
+
+    def warm_up(self) -> None:
+        """All the start-up work left, now (a kiosk that prepares everything before its first
+        frame: reviews, tests)."""
+        while self._chores:
+            self._chores[0]()
+            self._chores.pop(0)
+
+    def _chore(self) -> None:
+        """One piece of start-up work left for after the first frame (never fatal)."""
+        chore = self._chores[0]
+        try:
+            if not chore():
+                return
+        except Exception as exc:  # noqa: BLE001 - the frames do it themselves when needed
+            log.warning("start-up warm-up step failed: %s", exc)
+        self._chores.pop(0)
+
+    # ------------------------------------------------------------------ preparing scenes
+
+    def _prepare_first(self, jobs: list[Job], framers: Framers) -> list:
+        """The first frame's scene, here and now: jobs in order until one can be shown, at the
+        governor's starting mesh level only (the other levels go back at the head of
+        ``jobs``). Returns the playlist to start with: the framed timelines of that scene."""
+        self._all_timelines = [t for job in jobs for t in job.timelines]
+        level = self.governor.quality.mesh
         with progress.on_terminal():
-            for i, (name, params) in enumerate(jobs, 1):
-                progress.report(f"preparing scene {i}/{len(jobs)}: {name}")
+            while jobs:
+                job = jobs.pop(0)
+                now_levels = tuple(lv for lv in job.levels if lv[0] == level) or job.levels[:1]
+                rest = tuple(lv for lv in job.levels if lv not in now_levels)
+                progress.report(f"preparing scene {job.scene}")
                 if self.notifier is not None:
                     self.notifier.extend_timeout(60)  # a cold mesh build may take a while
-                try:
-                    if params is None:  # a content scene: its default parameters
-                        params = tuple(sorted(scenes.get(name).resolve().items()))
-                    if (name, params) not in self.gpu and (name, params) not in failed:
-                        self.gpu[(name, params)] = self._upload_levels(name, params)
-                except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
-                    failed.add((name, params))
-                    reason = f"{type(exc).__name__}: {exc}"
-                    log.error("scene %s skipped: %s", name, reason, exc_info=exc)
-                    if {"scene": name, "reason": reason} not in self.scenes_failed:
-                        self.scenes_failed.append({"scene": name, "reason": reason})
-                        self.problems.append(f"scene {name} skipped: {reason}")
-                if (name, params) in self.gpu:
-                    ready.add(jobs[i - 1])
-        content = tuple(name for name in self.config.scenes if (name, None) in ready)
-        kept = [t for t in timelines if (t.scene, tuple(sorted(t.params.items()))) in ready]
-        for t in timelines:
-            if t not in kept:
-                log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
-                self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
-        return content, kept
+                prepared = run_job(dataclasses.replace(job, levels=now_levels), framers)
+                timelines = self._receive(prepared, self.clock())
+                if job.key in self.gpu:
+                    if rest:
+                        jobs.insert(0, dataclasses.replace(job, levels=rest, timelines=()))
+                    return timelines
+        return []
 
-    def _upload_levels(self, name: str, params) -> dict:
-        """The scene's mesh at every mesh level the governor may use, built or loaded now, at
-        start-up, never during a visitor's session (exhibit.kiosk.governor). A coarser level
-        that fails uses the finer one; the finest failing fails the scene."""
-        scene, meshes, by_resolution = scenes.get(name), {}, {}
-        for level in mesh_levels(self.governor):
-            resolution = level_resolution(scene, self.config.resolution.get(name), level)
+    def _receive(self, prepared: Prepared, now: float) -> list:
+        """A job's result: its meshes uploaded, its timelines into the playlist (in the
+        playlist's order), or the scene noted as failed and taken out. Returns the timelines
+        received."""
+        job = prepared.job
+        uploaded: dict[int, object] = {}
+        if prepared.error is None:
             try:
-                if resolution not in by_resolution:
-                    mesh, _ = build_cached(scene, dict(params), resolution)
-                    by_resolution[resolution] = self.window.renderer.upload(mesh)
-                meshes[level] = by_resolution[resolution]
-            except Exception as exc:  # noqa: BLE001 - a coarser mesh is only an economy
-                if not meshes:
-                    raise
-                log.warning("scene %s: no mesh at resolution %d (%s); using a finer one", name,
-                            resolution, exc)
-                meshes[level] = meshes[max(meshes)]
-        return meshes
+                by_mesh: dict[int, object] = {}
+                for level, mesh in prepared.meshes.items():
+                    if id(mesh) not in by_mesh:
+                        by_mesh[id(mesh)] = self.window.renderer.upload(mesh)
+                    uploaded[level] = by_mesh[id(mesh)]
+            except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
+                for gpu in {id(g): g for g in uploaded.values()}.values():
+                    if hasattr(gpu, "release"):
+                        gpu.release()
+                uploaded = {}
+                prepared = dataclasses.replace(prepared, error=f"{type(exc).__name__}: {exc}")
+        if prepared.error is not None:
+            self._scene_failed(job, prepared.error, now)
+            return []
+        self.gpu.setdefault(job.key, {}).update(uploaded)
+        if self.state is not None:
+            for timeline in prepared.timelines:
+                self.state.playlist.insert(self._position(timeline), timeline, now)
+            if self.state.frame.scene == job.scene and self.state.frame.params == job.params:
+                self.state.reframe()  # a visitor waited for it: its start view, framed now
+        return prepared.timelines
+
+    def _position(self, timeline) -> int:
+        """Where ``timeline`` goes among those playing: after every one before it in the
+        attract folder's order."""
+        order = {t.name: i for i, t in enumerate(self._all_timelines)}
+        mine = order.get(timeline.name, len(order))
+        return sum(1 for t in self.state.playlist.timelines if order.get(t.name, 0) < mine)
+
+    def _scene_failed(self, job: Job, reason: str, now: float) -> None:
+        self._failed.add(job.key)
+        log.error("scene %s skipped: %s", job.scene, reason)
+        if {"scene": job.scene, "reason": reason} not in self.scenes_failed:
+            self.scenes_failed.append({"scene": job.scene, "reason": reason})
+            self.problems.append(f"scene {job.scene} skipped: {reason}")
+        for t in job.timelines:
+            log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
+            self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
+        if self.state is not None and job.key not in self.gpu:
+            self.state.drop(job.scene, now)
+
+    def _collect(self, now: float) -> None:
+        """Whatever the preparer has finished, taken in (a frame's work: uploads only)."""
+        for prepared in self.preparer.results():
+            self._receive(prepared, now)
+        if not self.preparer.busy and self._prepared_at is None:
+            self._prepared_at = now
+            log.info("every scene is prepared (%.1f s after start)", now - self.started)
+            self.preparer.close()
 
     # ------------------------------------------------------------------ framing
 
     def _mesh(self, name: str, params) -> Mesh4D | None:
-        """The scene's mesh (any level: framing needs its bounds only), None without one."""
+        """The scene's finest mesh (framing needs its bounds only), None without one."""
         levels = self.gpu.get((name, tuple(params)))
-        mesh = getattr(next(iter(levels.values())), "mesh", None) if levels else None
+        mesh = getattr(levels[min(levels)], "mesh", None) if levels else None
         return mesh if isinstance(mesh, Mesh4D) else None
-
-    def _frame_timeline(self, timeline):
-        """The timeline framed clear of the text (exhibit.kiosk.framing);
-        unchanged if the scene's mesh is not here or framing fails (never fatal)."""
-        mesh = self._mesh(timeline.scene, tuple(sorted(timeline.params.items())))
-        if mesh is None:
-            return timeline
-        scene = scenes.get(timeline.scene)
-        slices = (scene.world_at is not None and timeline.slice_axis == scene.slice_axis
-                  and any(k.slice_at is not None for k in timeline.keyframes))
-        try:
-            return frame_timeline(self._inset_framer if slices else self.framer, timeline,
-                                  scene, mesh)
-        except Exception as exc:  # noqa: BLE001 - an unframed timeline still plays
-            log.warning("timeline %s not framed: %s", timeline.name, exc)
-            return timeline
 
     def _frame_view(self, name: str, params, view):
         """KioskState's framer: ``view`` (a scene's start view, or the pose a visitor takes
@@ -400,6 +458,8 @@ class Kiosk:
         if framed is None:
             framed = view
             mesh = self._mesh(name, params)
+            if mesh is None:  # not prepared yet: framed when it is (KioskState.reframe)
+                return view
             if mesh is not None:
                 try:
                     points = self._samples.get(key[:2])
@@ -591,6 +651,8 @@ class Kiosk:
         finally:
             if self.notifier is not None:
                 self.notifier.stopping()
+            if self.preparer is not None:
+                self.preparer.close()
             self.devices.close()
             if self.sessions is not None:  # a visitor still there: their session ends now
                 self.sessions.close(self.clock())
@@ -600,10 +662,14 @@ class Kiosk:
         """step(), the watchdog and, about once a second, the reports; whether a frame was drawn.
         Exceptions go to FrameErrors: a frame's bug must not end the exhibit."""
         try:
+            if self._prepared_at is None:
+                self._collect(start)
             self.step()
             self.frames += 1
             self.errors.drawn(start)
             drawn = True
+            if self._chores and self.frames > 1:
+                self._chore()
         except Exception as exc:  # noqa: BLE001
             self.errors.failed(exc, start)
             drawn = False
@@ -629,7 +695,15 @@ class Kiosk:
         options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality,
                                 text=self.text)
         self.governor.observe(frame.mode, frame.scene, frame.view, now)
-        gpu = self.gpu[(frame.scene, frame.params)][quality.mesh]
+        levels = self.gpu.get((frame.scene, frame.params))
+        if not levels:  # a visitor chose a scene still being prepared: it comes next
+            if self.preparer is not None:
+                self.preparer.first((frame.scene, frame.params))
+            self.window.notice([self.translate(PREPARING).replace("{title}", hud.title)],
+                               self.drift(now))
+            self._shown = self._fade_start = None
+            return
+        gpu = _level(levels, quality.mesh)
         if frame.cut and self._shown is not None:
             # Crossfade: the outgoing picture, drawn once more offscreen, fades out over the
             # new one (never a black frame, never a hard cut).
@@ -714,6 +788,13 @@ class Kiosk:
         else:
             self._draw(self.state.frame, self.clock())
         Image.fromarray(self.window.read()).save(path)
+
+
+def _level(levels: dict, wanted: int):
+    """The mesh at level ``wanted``, else the nearest prepared (a finer one first)."""
+    if wanted in levels:
+        return levels[wanted]
+    return levels[min(levels, key=lambda level: (abs(level - wanted), level > wanted))]
 
 
 def open_window(config: KioskConfig, windowed: bool):

@@ -338,6 +338,27 @@ class Playlist:
     def restart(self, now: float, index: int = 0) -> None:
         self.started = now - sum(t.duration for t in self.timelines[:index])
 
+    def insert(self, index: int, timeline: Timeline, now: float) -> None:
+        """``timeline`` added at ``index`` (the kiosk's, as its scene becomes ready), the one
+        playing at ``now`` going on where it is."""
+        current, offset = None, 0.0
+        if self.timelines and self._total > 0:
+            t = (now - self.started) % self._total
+            for i, playing in enumerate(self.timelines):
+                if t <= playing.duration:
+                    current, offset = i, t
+                    break
+                t -= playing.duration
+        self.timelines.insert(index, timeline)
+        self._total += timeline.duration
+        if current is None:
+            self.started = now
+        else:
+            current += index <= current
+            if current > 0:  # at() gives a boundary to the timeline before it: a µs past it
+                offset = max(offset, 1e-6)
+            self.started = now - sum(t.duration for t in self.timelines[:current]) - offset
+
     def at(self, now: float, stepped: bool = False) -> tuple[Timeline, ViewState, str]:
         """The timeline playing at ``now``, its view and caption (``stepped``: Timeline.at's,
         for reduced motion)."""

@@ -39,6 +39,9 @@ SOURCE = "en"
 #: the numbers panel's labels, and the words of marker labels (exhibit.scenes.collision's
 #: "first contact, t = ..."; the formula after the comma is not translated).
 HUD_WORDS = ("4D axes", "sensor", "eye", "fov", "first contact")
+#: What the screen says while the scene a visitor chose is still being prepared (the kiosk's
+#: first seconds after a cold start); {title} is the scene's title, in the same language.
+PREPARING = "Preparing {title}…"
 LanguageCode = Annotated[str, Field(pattern=r"^[a-z]{2,3}(-[A-Z]{2})?$")]
 #: The shortest time between two changes of language by attract mode's timer.
 MIN_SWITCH_S = 10.0
@@ -156,6 +159,13 @@ class Translator:
         return catalogue.text.get(text, text) if catalogue is not None else text
 
 
+def in_every_language(translator: Translator, text: str) -> tuple[str, ...]:
+    """``text`` in every language shown, in their order: what the framing keeps the picture
+    clear of (exhibit.render.framer's ``versions``; a module function, so a worker process can
+    be handed it with its translator)."""
+    return tuple(translator(text, code) for code in translator.order)
+
+
 # ---------------------------------------------------------------------- for check-config
 
 def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
@@ -174,6 +184,7 @@ def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
             texts.setdefault(keyframe.caption, f"{timeline.path}: keyframe[{i}].caption")
     for word in HUD_WORDS:
         texts.setdefault(word, "the HUD")
+    texts.setdefault(PREPARING, "the screen while a scene is prepared")
     return texts
 
 

@@ -167,6 +167,26 @@ class KioskState:
         return view.replace(half_height=half, center=(c0[0] + (c1[0] - c0[0]) * u,
                                                       c0[1] + (c1[1] - c0[1]) * u))
 
+    def reframe(self) -> None:
+        """The scene on screen has just been prepared (a visitor chose it before its mesh
+        was there): its view, unframed until now, framed for the screen at once."""
+        self.frame = dataclasses.replace(
+            self.frame, view=self.framer(self.frame.scene, self.frame.params, self.frame.view))
+
+    def drop(self, name: str, now: float) -> None:
+        """Scene ``name`` cannot be shown (its preparation failed): out of the content list;
+        a visitor on it goes to the next scene, or attract mode when none is left."""
+        self.content = tuple(c for c in self.content if c != name)
+        if self.frame.scene != name or self.mode == ATTRACT:
+            return
+        if self.content:
+            self.frame = self._next_scene()
+        else:
+            self.mode = ATTRACT
+            self._reframe = None
+            self.playlist.restart(now)
+            self.frame = self._attract_frame(now)
+
     def _scene_switches(self, events: list[Event]) -> int:
         return sum(1 for e in events if self.mapper.switches_scene(e))
 

@@ -12,7 +12,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from exhibit.kiosk import app
+from exhibit.kiosk import app, preparing
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.sessions import Session
 from exhibit.render.target import HeadlessTarget
@@ -105,7 +105,7 @@ def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_mot
             raise RuntimeError(f"cannot build {scene.name}")
         return f"mesh {scene.name}", None
 
-    monkeypatch.setattr(app, "build_cached", build)
+    monkeypatch.setattr(preparing, "build_cached", build)
     if clock is None:
         ticks = iter(np.arange(1e6) * 0.1)
 

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 from PIL import Image
 
-from exhibit.kiosk import app
+from exhibit.kiosk import app, preparing
 from exhibit.render.window import GlfwErrors
 from tests.kiosk.support import ROOT, FakeWindow, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
@@ -104,10 +104,10 @@ def test_glfw_errors_are_logged_once_then_counted(caplog):
 
 NOTICE_RUN = r"""
 import sys
-from exhibit.kiosk import app
+from exhibit.kiosk import preparing
 def build(scene, params, resolution):
     raise RuntimeError("no mesh today")
-app.build_cached = build
+preparing.build_cached = build
 from exhibit.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -188,7 +188,7 @@ def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monk
             pass
         assert opened and opened[0].scene_problems == config.scene_problems
 
-        monkeypatch.setattr(app, "build_cached",
+        monkeypatch.setattr(preparing, "build_cached",
                             lambda scene, params, res: (f"mesh {scene.name}", None))
         ticks = iter(np.arange(1e6) * 0.1)
         k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)),

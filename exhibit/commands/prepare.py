@@ -1,0 +1,59 @@
+"""`exhibit prepare`: fill the mesh cache with every mesh the kiosk will load, so its next start
+is a warm one. `exhibit install` and the update run it as the service's user before the service
+(re)starts; after a change to a scene or the code, the first boot would otherwise build meshes
+while the visitors wait for the scenes beyond the first."""
+
+from __future__ import annotations
+
+import json
+import time
+
+from exhibit.kiosk.attract import load_playlist
+from exhibit.kiosk.config import load_kiosk_config
+from exhibit.kiosk.governor import kiosk_levels
+from exhibit.kiosk.preparing import run_job, scene_jobs
+from exhibit.scenes.cache import cache_dir
+from exhibit.surfaces import progress
+
+HELP = "build the mesh cache the kiosk loads at start (run before the service starts)"
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("--config", help="site config over the shipped defaults (default: "
+                                         "$EXHIBIT_CONFIG, else the shipped one)")
+    parser.add_argument("--json", action="store_true", help="print JSON")
+
+
+def mesh_levels_for(config) -> list[int]:
+    """Every mesh level the kiosk may use on any machine: its ladder on a GPU and on software
+    GL (the renderer is only known once the kiosk's window is open)."""
+    quality = getattr(config, "quality", None)
+    return sorted({level.mesh for renderer in ("", "llvmpipe")
+                   for level in kiosk_levels(quality, renderer)[0]})
+
+
+def run(args) -> int:
+    config = load_kiosk_config(args.config)
+    timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
+    jobs = scene_jobs(config, timelines, mesh_levels_for(config))
+    report = []
+    with progress.on_terminal():
+        for i, job in enumerate(jobs, 1):
+            progress.report(f"preparing scene {i}/{len(jobs)}: {job.scene}")
+            start = time.perf_counter()
+            prepared = run_job(job)
+            report.append({"scene": job.scene, "params": dict(job.params),
+                           "resolutions": sorted({r for _, r in job.levels}),
+                           "seconds": round(time.perf_counter() - start, 2),
+                           "error": prepared.error})
+    failed = [r for r in report if r["error"]]
+    if args.json:
+        print(json.dumps({"cache": str(cache_dir()), "scenes": report}, indent=2))
+    else:
+        print(f"mesh cache: {cache_dir()}")
+        for r in report:
+            what = f"failed: {r['error']}" if r["error"] else f"{r['seconds']:.2f} s"
+            print(f"  {r['scene']:<20} resolutions {', '.join(map(str, r['resolutions']))}: "
+                  f"{what}")
+        print(f"{len(report) - len(failed)} of {len(report)} scenes ready")
+    return 1 if failed else 0

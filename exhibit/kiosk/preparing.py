@@ -1,0 +1,314 @@
+"""Meshes and framed timelines made ready off the frame path, so the first picture comes within
+a second of start and the rest arrive while it plays.
+
+The kiosk needs one scene for its first frame; everything else (the other scenes, the other
+mesh levels, framing the other timelines) is a Job. Jobs run in a Preparer: ProcessPreparer in a
+worker process at a lower priority (building the cusp's pipe takes seconds of pure Python: a
+thread would hold the interpreter lock against the frame loop), InlinePreparer in this process
+(tests, reviews, `exhibit prepare`). Either way a job's result comes back as plain data (Mesh4D,
+Timeline); uploading it to the GPU is the kiosk's, on its own thread.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import multiprocessing
+import os
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+
+from exhibit import scenes
+from exhibit.kiosk.attract import Timeline
+from exhibit.kiosk.framing import frame_timeline
+from exhibit.kiosk.governor import level_resolution
+from exhibit.render.framer import Framer
+from exhibit.scenes.cache import build_cached
+from exhibit.surfaces.mesh import Mesh4D
+
+log = logging.getLogger("exhibit.kiosk")
+
+#: How much the worker process yields to the frame loop (os.nice increment).
+WORKER_NICE = 10
+#: A worker process that dies (killed for memory, a crash in a native library) is started again
+#: this many times; then the jobs left fail with the reason.
+WORKER_RESTARTS = 2
+
+Params = tuple[tuple[str, float], ...]
+
+
+def params_of(timeline: Timeline) -> Params:
+    return tuple(sorted(timeline.params.items()))
+
+
+@dataclass(frozen=True)
+class Job:
+    """One scene with one set of parameters: its meshes at ``levels`` (mesh level ->
+    resolution), and the attract ``timelines`` that show it, to frame with its finest mesh."""
+
+    scene: str
+    params: Params
+    levels: tuple[tuple[int, int], ...]
+    timelines: tuple[Timeline, ...] = ()
+
+    @property
+    def key(self) -> tuple[str, Params]:
+        return (self.scene, self.params)
+
+
+@dataclass
+class Prepared:
+    """A job's result: meshes by level, the timelines framed (in the job's order), and
+    ``error`` (one line, for people) when the scene cannot be shown at all."""
+
+    job: Job
+    meshes: dict[int, Mesh4D] = field(default_factory=dict)
+    timelines: list[Timeline] = field(default_factory=list)
+    error: str | None = None
+
+
+@dataclass(frozen=True)
+class Framers:
+    """How timelines are framed: ``main`` for the screen, ``inset`` clear of the time-slice
+    inset's corner too (timelines that slice a scene with a 3D world at each moment)."""
+
+    main: Framer | None = None
+    inset: Framer | None = None
+
+
+def scene_jobs(config, timelines: Sequence[Timeline], levels: Iterable[int]) -> list[Job]:
+    """Every (scene, parameters) the kiosk shows, in the order it needs them: the playlist's
+    (the first timeline first), then the content list's; each at every mesh level in
+    ``levels``, with its timelines. Scenes that do not load raise (the caller skips them)."""
+    levels = sorted(set(levels))
+    keys: dict[tuple[str, Params | None], list[Timeline]] = {}
+    for timeline in timelines:
+        keys.setdefault((timeline.scene, params_of(timeline)), []).append(timeline)
+    for name in config.scenes:
+        keys.setdefault((name, None), [])
+    jobs: dict[tuple[str, Params], Job] = {}
+    for (name, params), shown in keys.items():
+        try:
+            scene = scenes.get(name)
+            params = params if params is not None else tuple(sorted(scene.resolve().items()))
+            resolutions = tuple((level, level_resolution(scene, config.resolution.get(name),
+                                                         level)) for level in levels)
+        except Exception as exc:  # noqa: BLE001 - reported by the caller as this scene's
+            jobs[(name, ())] = Job(name, (), (), tuple(shown))
+            log.debug("scene %s: %s", name, exc)
+            continue
+        old = jobs.get((name, params))
+        jobs[(name, params)] = Job(name, params, resolutions,
+                                   (old.timelines if old else ()) + tuple(shown))
+    return list(jobs.values())
+
+
+def run_job(job: Job, framers: Framers = Framers()) -> Prepared:
+    """Build or load the job's meshes (from the mesh cache) and frame its timelines. Never
+    raises: a scene that cannot be built comes back with ``error``."""
+    try:
+        scene = scenes.get(job.scene)
+        meshes = build_levels(scene, job)
+        if not meshes:
+            raise ValueError("no mesh level to build")
+    except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
+        log.error("scene %s cannot be prepared: %s: %s", job.scene, type(exc).__name__, exc,
+                  exc_info=exc)
+        return Prepared(job, error=f"{type(exc).__name__}: {exc}")
+    finest = meshes[min(meshes)]
+    framed = [frame(t, scene, finest, framers) for t in job.timelines]
+    return Prepared(job, meshes, framed)
+
+
+def build_levels(scene, job: Job) -> dict[int, Mesh4D]:
+    """The scene's mesh at every level of the job. A coarser level that fails uses the finer
+    one (it is only an economy); the finest failing fails the scene."""
+    meshes: dict[int, Mesh4D] = {}
+    by_resolution: dict[int, Mesh4D] = {}
+    for level, resolution in sorted(job.levels):
+        try:
+            if resolution not in by_resolution:
+                by_resolution[resolution] = build_cached(scene, dict(job.params), resolution)[0]
+            meshes[level] = by_resolution[resolution]
+        except Exception as exc:  # noqa: BLE001
+            if not meshes:
+                raise
+            log.warning("scene %s: no mesh at resolution %d (%s); using a finer one",
+                        job.scene, resolution, exc)
+            meshes[level] = meshes[max(meshes)]
+    return meshes
+
+
+def slices(scene, timeline: Timeline) -> bool:
+    """Whether the timeline slices a scene that has a 3D world at each moment (the inset)."""
+    return (scene.world_at is not None and timeline.slice_axis == scene.slice_axis
+            and any(k.slice_at is not None for k in timeline.keyframes))
+
+
+def frame(timeline: Timeline, scene, mesh: Mesh4D, framers: Framers) -> Timeline:
+    """The timeline framed clear of the text (exhibit.kiosk.framing); unchanged without a
+    framer or when framing fails (never fatal: an unframed timeline still plays)."""
+    framer = framers.inset if slices(scene, timeline) else framers.main
+    if framer is None:
+        return timeline
+    try:
+        return frame_timeline(framer, timeline, scene, mesh)
+    except Exception as exc:  # noqa: BLE001
+        log.warning("timeline %s not framed: %s", timeline.name, exc)
+        return timeline
+
+
+# ---------------------------------------------------------------------- where jobs run
+
+
+class InlinePreparer:
+    """Runs each job in this process when its result is asked for: one job per results() call,
+    so a test steps through the kiosk's start frame by frame."""
+
+    def __init__(self, framers: Framers = Framers()):
+        self.framers = framers
+        self._queue: list[Job] = []
+
+    def submit(self, job: Job) -> None:
+        self._queue.append(job)
+
+    @property
+    def busy(self) -> bool:
+        return bool(self._queue)
+
+    def first(self, key) -> None:
+        """The job for ``key`` (scene, params), if waiting, runs next."""
+        self._queue.sort(key=lambda job: job.key != key)
+
+    def results(self) -> list[Prepared]:
+        return [run_job(self._queue.pop(0), self.framers)] if self._queue else []
+
+    def close(self) -> None:
+        self._queue.clear()
+
+
+def _portable(prepared: Prepared) -> Prepared:
+    """``prepared`` as the kiosk gets it from the cache: without a fresh build's exact
+    surfaces (sympy functions, which do not pickle; the kiosk's frames never use them)."""
+    plain: dict[int, Mesh4D] = {}
+    for level, mesh in prepared.meshes.items():
+        same = next((plain[other] for other in plain if prepared.meshes[other] is mesh), None)
+        plain[level] = same or dataclasses.replace(
+            mesh, surfaces=[dataclasses.replace(s, exact=None) for s in mesh.surfaces])
+    return dataclasses.replace(prepared, meshes=plain)
+
+
+def _worker(connection, framers: Framers) -> None:
+    """The worker process: jobs in, Prepared out, until the kiosk closes the pipe."""
+    try:
+        os.nice(WORKER_NICE)
+    except OSError:  # a system call filter without setpriority: the same priority, then
+        pass
+    from exhibit.kiosk import journal
+    journal.install()
+    scenes.load()
+    while True:
+        try:
+            job = connection.recv()
+        except (EOFError, OSError):
+            return
+        try:
+            connection.send(_portable(run_job(job, framers)))
+        except (BrokenPipeError, OSError):  # the kiosk is gone or stopping
+            return
+
+
+class ProcessPreparer:
+    """Runs jobs in a worker process (multiprocessing "spawn": the kiosk has GL and X or
+    Wayland connections open, which a forked child must not share). One job at a time, so
+    the kiosk can reorder what waits (a visitor who asks for a scene first). results() never
+    blocks. The worker exits when closed, or by itself when the kiosk dies."""
+
+    def __init__(self, framers: Framers = Framers()):
+        self.framers = framers
+        self._context = multiprocessing.get_context("spawn")
+        self._process = None
+        self._connection = None
+        self._in_flight: Job | None = None
+        self._queue: list[Job] = []
+        self._restarts = 0
+
+    def _start(self) -> None:
+        parent, child = self._context.Pipe()
+        self._process = self._context.Process(target=_worker, args=(child, self.framers),
+                                              name="exhibit-prepare", daemon=True)
+        self._process.start()
+        child.close()
+        self._connection = parent
+
+    def submit(self, job: Job) -> None:
+        self._queue.append(job)
+        self._send()
+
+    @property
+    def busy(self) -> bool:
+        return self._in_flight is not None or bool(self._queue)
+
+    def first(self, key) -> None:
+        """The job for ``key`` (scene, params), if waiting, runs next."""
+        self._queue.sort(key=lambda job: job.key != key)
+
+    def _send(self) -> None:
+        if self._in_flight is not None or not self._queue:
+            return
+        if self._process is None:
+            self._start()
+        self._in_flight = self._queue.pop(0)
+        self._connection.send(self._in_flight)
+
+    def results(self) -> list[Prepared]:
+        out: list[Prepared] = []
+        if self._in_flight is None:
+            return out
+        try:
+            ready = self._connection.poll(0)
+            if ready:
+                out.append(self._connection.recv())
+                self._in_flight = None
+        except (EOFError, OSError):
+            ready = False
+        if self._in_flight is not None and not ready and not self._process.is_alive():
+            out += self._died()
+        if self._in_flight is None:
+            if self._queue:
+                self._send()
+            else:
+                self.close()  # nothing left to prepare: the worker's memory back
+        return out
+
+    def _died(self) -> list[Prepared]:
+        """The worker died under a job: that job fails, the worker starts again for the rest
+        (up to WORKER_RESTARTS times; then they fail too)."""
+        job, self._in_flight = self._in_flight, None
+        code = self._process.exitcode
+        log.error("the preparing process died (exit code %s) while preparing %s", code,
+                  job.scene)
+        self._connection.close()
+        self._process, self._connection = None, None
+        self._restarts += 1
+        failed = [job]
+        if self._restarts > WORKER_RESTARTS:
+            failed += self._queue
+            self._queue = []
+        return [Prepared(j, error=f"the preparing process died (exit code {code})")
+                for j in failed]
+
+    def close(self) -> None:
+        """Stop the worker: at once when it is busy (a half-built mesh is not worth waiting
+        for; the cache never keeps half a file), else it exits when the pipe closes."""
+        self._queue.clear()
+        if self._connection is not None:
+            self._connection.close()
+        if self._process is not None:
+            if self._in_flight is not None:
+                self._process.terminate()
+            self._process.join(timeout=2)
+            if self._process.is_alive():
+                self._process.kill()
+                self._process.join(timeout=2)
+        self._process = self._connection = self._in_flight = None

@@ -1,0 +1,225 @@
+"""The first picture needs the first scene only (exhibit.kiosk.preparing): the rest arrive while
+it plays, in the playlist's order, a visitor's choice first; the worker process does real work,
+and what it cannot do comes back as a named failure."""
+
+from __future__ import annotations
+
+import re
+import shutil
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from exhibit import scenes
+from exhibit.kiosk import app, preparing
+from exhibit.kiosk.attract import Playlist, load_playlist
+from exhibit.kiosk.config import load_kiosk_config
+from exhibit.kiosk.language import PREPARING
+from exhibit.kiosk.preparing import (InlinePreparer, Job, ProcessPreparer, run_job,
+                                     scene_jobs)
+from exhibit.render.framer import Framer
+from exhibit.surfaces.mesh import Mesh4D
+from tests.kiosk.support import ROOT, FakeWindow, Notifier, make_config
+
+
+class Window(FakeWindow):
+    """FakeWindow that keeps the notice screens' words."""
+
+    def __init__(self):
+        super().__init__()
+        self.notice_lines = []
+
+    def notice(self, lines, drift=(0.0, 0.0)):
+        super().notice(lines, drift)
+        self.notice_lines.append(lines)
+
+
+def _config(tmp_path):
+    """The small test config with two timelines (hopf, then the Clifford torus) and three
+    content scenes, on keyboards only."""
+    path = make_config(tmp_path, "")
+    shutil.copy(ROOT / "configs" / "attract" / "07-gallery.toml", path.parent / "attract")
+    devices = path.parent / "devices" / "default.toml"
+    devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"',
+                              devices.read_text()))
+    text = path.read_text().replace('scenes = ["hopf", "clifford-torus"]',
+                                    'scenes = ["hopf", "clifford-torus", "veronese"]')
+    path.write_text(text)
+    return load_kiosk_config(path)
+
+
+@pytest.fixture
+def built(monkeypatch):
+    """Meshes are strings naming scene and resolution; ``built.calls`` records each build,
+    ``built.broken`` the scenes whose build raises."""
+    calls, broken = [], set()
+
+    def build(scene, params, resolution):
+        calls.append((scene.name, resolution))
+        if scene.name in broken:
+            raise RuntimeError(f"cannot build {scene.name}")
+        return f"mesh {scene.name} {resolution}", None
+
+    monkeypatch.setattr(preparing, "build_cached", build)
+    monkeypatch.setattr(preparing, "frame", lambda timeline, *rest: timeline)
+    built.calls, built.broken = calls, broken
+    return built
+
+
+def _kiosk(tmp_path, window=None):
+    ticks = iter(np.arange(1e6) * 0.1)
+    return app.Kiosk(_config(tmp_path), window or Window(), clock=lambda: float(next(ticks)),
+                     notifier=Notifier(), health_path=tmp_path / "health.json",
+                     preparer=InlinePreparer)
+
+
+def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built):
+    k = _kiosk(tmp_path)
+    level = k.governor.quality.mesh
+    assert list(k.gpu) == [("hopf", k.state.frame.params)]
+    assert list(k.gpu[("hopf", k.state.frame.params)]) == [level]
+    assert len(built.calls) == 1 and built.calls[0][0] == "hopf"
+    assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
+    assert k.window.drawn == [] and k.window.captured == [], "no warm-up before the first frame"
+
+
+def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
+    k = _kiosk(tmp_path)
+    k.run(max_frames=8)
+    # the first scene's other levels, then the next timeline's scene, then the content list
+    order = list(dict.fromkeys(name for name, _ in built.calls))
+    assert order == ["hopf", "clifford-torus", "veronese"]
+    assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
+    assert all(set(levels) == set(app.mesh_levels(k.governor)) for levels in k.gpu.values())
+    assert k._prepared_at is not None and k.problems == []
+
+
+def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
+    k = _kiosk(tmp_path)
+    k.step()
+    before = k.state.frame
+    k._collect(k.clock())  # the rest of hopf
+    k._collect(k.clock())  # the Clifford torus and its timeline
+    assert len(k.state.playlist.timelines) == 2
+    k.step()
+    after = k.state.frame
+    assert after.timeline == before.timeline and not after.cut
+
+
+def test_warm_up_runs_one_piece_per_frame_after_the_first(tmp_path, built):
+    k = _kiosk(tmp_path)
+    pieces = len(k._chores)
+    assert pieces > len(k.governor.levels)  # text panels, then the quality levels
+    k.run(max_frames=1)
+    assert len(k._chores) == pieces
+    k.run(max_frames=3)
+    assert len(k._chores) == pieces - 3
+
+
+def test_a_visitor_who_asks_for_a_scene_not_ready_sees_preparing_then_it(tmp_path, built):
+    window = Window()
+    k = _kiosk(tmp_path, window)
+    k.step()
+    keyboard = k.devices.keyboard
+    keyboard.key("n", True)  # the next scene: the Clifford torus, not prepared yet
+    keyboard.key("n", False)
+    k.preparer._queue.reverse()  # it waits behind others...
+    k.step()
+    assert k.state.frame.scene == "clifford-torus"
+    title = scenes.get("clifford-torus").title
+    assert window.notice_lines[-1] == [PREPARING.replace("{title}", title)]
+    assert k.preparer._queue[0].scene == "clifford-torus", "...and goes first"
+    drawn = len(window.drawn)
+    k._collect(k.clock())
+    k.step()
+    assert len(window.drawn) == drawn + 1 and window.notices == 1
+
+
+def test_a_scene_that_fails_later_is_left_out_and_the_visitor_moves_on(tmp_path, built):
+    built.broken.add("clifford-torus")
+    window = Window()
+    k = _kiosk(tmp_path, window)
+    k.step()
+    k.devices.keyboard.key("n", True)
+    k.devices.keyboard.key("n", False)
+    k.step()
+    assert k.state.frame.scene == "clifford-torus"
+    k.run(max_frames=6)
+    assert "clifford-torus" not in k.state.content
+    assert k.state.frame.scene != "clifford-torus"
+    assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
+    assert any("scene clifford-torus skipped" in p for p in k.problems)
+    assert any("timeline" in p and "skipped" in p for p in k.problems)
+
+
+def test_a_first_scene_that_fails_hands_the_first_frame_to_the_next(tmp_path, built):
+    built.broken.add("hopf")
+    k = _kiosk(tmp_path)
+    assert [t.scene for t in k.state.playlist.timelines] == ["clifford-torus"]
+    assert "hopf" not in k.state.content and k.state.frame.scene == "clifford-torus"
+
+
+@given(durations=st.lists(st.floats(1, 50), min_size=1, max_size=5),
+       at=st.floats(0, 500), new=st.floats(1, 50), index=st.integers(0, 5))
+def test_playlist_insert_keeps_the_timeline_playing_where_it_is(durations, at, new, index):
+    from types import SimpleNamespace
+
+    def timeline(name, duration):
+        return SimpleNamespace(name=name, duration=duration,
+                               at=lambda t, stepped=False: (t, name))
+
+    playlist = Playlist([timeline(f"t{i}", d) for i, d in enumerate(durations)], started=0.0)
+    before, offset, _ = playlist.at(at)
+    playlist.insert(min(index, len(durations)), timeline("new", new), at)
+    after, offset_after, _ = playlist.at(at)
+    assert after is before and offset_after == pytest.approx(offset, abs=2e-6)
+
+
+def test_the_worker_process_prepares_and_frames_and_names_what_fails(tmp_path, monkeypatch):
+    """A real worker process (spawn): a real mesh and a framed timeline come back through the
+    pipe; a scene that does not exist comes back as an error; a worker that dies is named."""
+    monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(tmp_path / "cache"))
+    config = _config(tmp_path)
+    timelines = load_playlist(config.attract_dir)
+    jobs = scene_jobs(config, timelines, [2])
+    framer = Framer((640, 360))
+    worker = ProcessPreparer(preparing.Framers(framer, framer))
+    try:
+        worker.submit(jobs[0])
+        worker.submit(Job("no-such-scene", (), ((2, 8),)))
+        results = []
+        for _ in range(600):
+            results += worker.results()
+            if len(results) == 2:
+                break
+            time.sleep(0.1)
+        assert [r.job.scene for r in results] == ["hopf", "no-such-scene"]
+        mesh = results[0].meshes[2]
+        assert isinstance(mesh, Mesh4D) and mesh.triangle_count > 0
+        assert results[0].timelines[0].keyframes != jobs[0].timelines[0].keyframes, "framed"
+        assert "no scene named 'no-such-scene'" in results[1].error
+        assert not worker.busy and worker._process is None, "the worker leaves when done"
+        # a worker that dies under a job: that job fails with the exit code
+        worker.submit(jobs[1])
+        worker._process.kill()
+        worker._process.join()
+        died = worker.results()
+        assert died[0].job is jobs[1] and "died (exit code -9)" in died[0].error
+    finally:
+        worker.close()
+
+
+def test_run_job_in_process_matches_the_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(tmp_path / "cache"))
+    config = _config(tmp_path)
+    job = scene_jobs(config, [], [2])[0]
+    first = run_job(job)
+    again = run_job(job)
+    assert first.error is None and again.error is None
+    assert np.array_equal(first.meshes[2].surfaces[0].positions,
+                          again.meshes[2].surfaces[0].positions)
+    assert len(list(Path(tmp_path / "cache").glob("hopf-*.npz"))) == 1
