@@ -37,6 +37,8 @@ COMMANDS = {
     "stats": "stats",
     "install": "install",
     "prepare": "prepare",
+    "update": "update",
+    "rollback": "rollback",
 }
 
 

@@ -4,9 +4,11 @@ rules, module list and kernel settings in place (docs/DEPLOYMENT.md).
 The files come from systemd/ in this checkout with the install prefix (where the checkout and its
 .venv live; /opt/exhibit by default) substituted. Run as root without --root it also does the
 rest: creates the `exhibit` system user, loads the USB-serial modules, applies the kernel settings
-(SysRq off), reloads udev and systemd, and enables the units; it does not start them, since the
-kiosk takes over tty1. With --root (staging an image, or reviewing) or as another user it writes
-under DIR and prints the exact commands still to run on the target. --dry-run writes and runs
+(SysRq off), reloads udev and systemd, enables the units, and builds the mesh cache as the
+service's user with the service's environment (`exhibit prepare`), so the first start draws at
+once; it does not start the units, since the kiosk takes over tty1. With --root (staging an
+image, or reviewing) or as another user it writes under DIR and prints the exact commands still
+to run on the target. --dry-run writes and runs
 nothing and says what it would do.
 
 It never writes outside the root, nor over what is not a file: every target is checked before
@@ -37,6 +39,12 @@ HELP = "install the kiosk's systemd units and udev rules (--root DIR to stage, -
 DEFAULT_PREFIX = "/opt/exhibit"
 USER = "exhibit"
 HOME = "/var/lib/exhibit"
+#: exhibit.service's CacheDirectory=, made for USER before `exhibit prepare` fills it
+CACHE_ROOT = "/var/cache/exhibit"
+#: exhibit.service's EnvironmentFile=, relative to the root
+SITE_ENVIRONMENT = "etc/exhibit/environment"
+#: the PATH systemd gives a service
+SERVICE_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
 #: groups exhibit.service's SupplementaryGroups= names; a missing one stops the service (216/GROUP)
 GROUPS = ("render", "video", "dialout")
 SOURCE_DIR = shipped("systemd")
@@ -197,8 +205,65 @@ def write(planned: list[Planned], root: Path = Path("/"),
             out(f"wrote {item.path} ({item.state})")
 
 
-def steps(need_user: bool = True) -> list[list[str]]:
-    """The commands that finish an installation on the target, in order."""
+def unit_environment(text: str) -> list[str]:
+    """The KEY=VALUE words of a unit's Environment= lines, in order."""
+    words = []
+    for line in text.splitlines():
+        if line.startswith("Environment="):
+            words += [w for w in shlex.split(line.split("=", 1)[1]) if "=" in w]
+    return words
+
+
+def environment_file(path: Path) -> list[str]:
+    """The KEY=VALUE lines of a systemd EnvironmentFile (none when it does not exist, as the unit's
+    ``-`` prefix allows); ExhibitError when it cannot be read."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        return []
+    except (OSError, UnicodeDecodeError) as exc:
+        raise ExhibitError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
+    words = []
+    for line in text.splitlines():
+        line = line.strip()
+        if not line or line[0] in "#;":
+            continue
+        try:
+            word = " ".join(shlex.split(line))
+        except ValueError:
+            raise ExhibitError(f"{path}: cannot parse {line!r}") from None
+        if "=" in word:
+            words.append(word)
+    return words
+
+
+def service_environment(unit_text: str, site: list[str] | tuple = ()) -> list[str]:
+    """The environment exhibit.service runs with: systemd's PATH, the user's HOME, the unit's
+    Environment= and then the site's EnvironmentFile (later keys win, as in systemd)."""
+    env = {"PATH": SERVICE_PATH, "HOME": HOME}
+    for word in [*unit_environment(unit_text), *site]:
+        key, _, value = word.partition("=")
+        env[key] = value
+    return [f"{key}={value}" for key, value in env.items()]
+
+
+def as_service(exe: str, args: list[str], env: list[str]) -> list[str]:
+    """``exe args`` as the service's user with exactly ``env`` (no trace of root's environment)."""
+    return ["runuser", "-u", USER, "--", "env", "-i", *env, exe, *args]
+
+
+def prepare_steps(exe: str, env: list[str]) -> list[list[str]]:
+    """Build the mesh cache before a start: the cache folder for the user (systemd makes it only
+    at the first start), then `exhibit prepare` as the user, with the service's environment."""
+    return [["install", "-d", "-o", USER, "-g", USER, "-m", "0755", CACHE_ROOT],
+            as_service(exe, ["prepare"], env)]
+
+
+def steps(need_user: bool = True, prefix: str = DEFAULT_PREFIX, site_env: list[str] | tuple = (),
+          source: Path = SOURCE_DIR) -> list[list[str]]:
+    """The commands that finish an installation on the target, in order; the last ones build
+    the mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's."""
+    unit = render((source / "exhibit.service").read_text(encoding="utf-8"), prefix)
     commands = []
     if need_user:
         commands.append(["useradd", "--system", "--user-group", "--home-dir", HOME,
@@ -212,6 +277,7 @@ def steps(need_user: bool = True) -> list[list[str]]:
          "--subsystem-match=hidraw", "--subsystem-match=usb"],
         ["systemctl", "daemon-reload"],
         ["systemctl", "enable", *ENABLE],
+        *prepare_steps(f"{prefix}/.venv/bin/exhibit", service_environment(unit, site_env)),
     ]
     return commands
 
@@ -266,7 +332,8 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
 
     on_target = perform or root == Path("/")
     # Staging for another machine: whether its user exists cannot be known from here.
-    todo = steps(need_user=not user_exists(USER) if on_target else True)
+    todo = steps(need_user=not user_exists(USER) if on_target else True, prefix=prefix,
+                 site_env=environment_file(root / SITE_ENVIRONMENT), source=source)
     if not perform:
         where = "as root" if on_target else "on the kiosk, as root"
         out(f"\n{'steps it would run' if dry_run and on_target else 'remaining steps'} ({where}):")

@@ -54,11 +54,14 @@ def section(title: str) -> str:
 
 
 def bootstrap_packages(array: str) -> set[str]:
+    """The packages of one of bootstrap.sh's apt arrays, with the arrays it includes."""
     text = (REPO / "bootstrap.sh").read_text()
     body = re.search(rf"^{array}=\(\n(.*?)^\)", text, flags=re.S | re.M).group(1)
     words = set()
     for line in body.splitlines():
-        words |= {w for w in line.split("#")[0].split() if not w.startswith('"$')}
+        for word in line.split("#")[0].split():
+            included = re.fullmatch(r'"\$\{(\w+)\[@\]\}"', word)
+            words |= bootstrap_packages(included.group(1)) if included else {word}
     return words
 
 
@@ -70,6 +73,9 @@ def test_step_1_installs_what_ci_installs_for_the_cage_test():
     assert {"cage", "xwayland", "libwayland-cursor0", "libgl1-mesa-dri"} <= doc
     ci = bootstrap_packages("apt_run") | bootstrap_packages("apt_test")
     assert doc - NOT_FOR_THE_TEST <= ci, doc - NOT_FOR_THE_TEST - ci
+    # and exactly what an offline bundle carries (less git and its certificates, for cloning)
+    bundled = bootstrap_packages("apt_run") | bootstrap_packages("apt_kiosk")
+    assert doc - {"git", "ca-certificates"} == bundled, doc ^ bundled
 
 
 def test_the_commands_install_runs_are_the_ones_shown():
@@ -133,3 +139,42 @@ def test_the_tried_on_line_names_what_ci_runs():
     for what in ("Debian 12", "cage 0.1.4", "xwayland", "llvmpipe", "GLFW 3.4",
                  "tests/deploy/test_cage_kiosk.py"):
         assert what in tried, what
+
+
+def test_every_bootstrap_command_shown_is_a_job_it_has():
+    script = (REPO / "bootstrap.sh").read_text()
+    jobs = set(re.search(r"^  ([a-z|]+)\) shift ;;$", script, flags=re.M).group(1).split("|"))
+    assert jobs == {"run", "test", "lock", "bundle", "update"}
+    shown = [words for block in blocks("sh") for words in shell_lines(block)
+             if words[0].endswith("bootstrap.sh") or words[0].startswith("EXHIBIT_BUNDLE=")]
+    shown = [words[1:] if "=" in words[0] else words for words in shown]
+    assert {words[1] for words in shown} == jobs - {"test"}  # test is the README's
+    for words in shown:
+        if words[1] == "update":
+            assert words[2:] in ([], ["--prefix", "DIR"]) or words[2] == "--prefix", words
+    assert "EXHIBIT_BUNDLE=/media/usb/exhibit-bundle ./bootstrap.sh run" in DOC
+
+
+def test_the_update_and_rollback_shown_are_what_the_code_does():
+    from exhibit.commands import update
+
+    updating = section("8. Updating")
+    assert "/opt/exhibit/.venv/bin/exhibit rollback" in updating
+    assert f"/opt/exhibit{update.Kiosk().releases[len('/opt/exhibit'):]}/" in updating
+    assert f"`{update.PREVIOUS}`" in updating
+    assert f"`{' '.join(update.RESTART)}`" in updating
+    assert "beyond three" in updating and update.KEEP == 3
+
+
+def test_the_offline_numbers_match_the_locks():
+    offline = section("Offline install")
+    locked = set()
+    for name in ("run", "build"):
+        text = (REPO / f"requirements/{name}.lock").read_text()
+        locked |= set(re.findall(r"^([A-Za-z0-9._-]+)==", text, flags=re.M))
+    # every number comes from a command the section names
+    wheels = re.search(r"`ls wheels \| wc -l` (\d+)", offline)
+    assert wheels and int(wheels.group(1)) == len(locked) + 1  # and the project's own wheel
+    for command in ("`du -sh` of the bundle", "`ls debs/*.deb | wc -l`",
+                    "`time ./bootstrap.sh run --version`"):
+        assert command in offline, command

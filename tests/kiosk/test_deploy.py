@@ -506,8 +506,10 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
     assert [c[:2] for c in runner.commands] == [
         ["useradd", "--system"], ["modprobe", "-a"], ["sysctl", "--system"],
         ["udevadm", "control"], ["udevadm", "trigger"], ["systemctl", "daemon-reload"],
-        ["systemctl", "enable"]]
+        ["systemctl", "enable"], ["install", "-d"], ["runuser", "-u"]]
     assert runner.commands[0][-1] == "exhibit"
+    # last: the mesh cache, built by the installed exhibit as the service's user
+    assert runner.commands[-1][-2:] == [f"{prefix}/.venv/bin/exhibit", "prepare"]
     assert all((root / dest).is_file() for dest in inst.FILES.values())
     # The user exists the second time: no useradd.
     runner = Runner()

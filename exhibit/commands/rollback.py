@@ -1,0 +1,23 @@
+"""`exhibit rollback [--prefix DIR]`: switch a deployed kiosk back to the release before the
+current one (docs/DEPLOYMENT.md, "8. Updating"): the site config checked with it, its mesh cache
+built as the service's user, PREFIX switched in one rename, its `exhibit install` run and
+exhibit.service restarted. The release rolled back from becomes the previous one, so a second
+rollback undoes the first. The releases are made by `./bootstrap.sh update`
+(exhibit/commands/update.py)."""
+
+from __future__ import annotations
+
+from exhibit.commands import install as inst
+from exhibit.commands.update import Kiosk, add_prefix, need_root
+
+HELP = "switch a deployed kiosk back to its previous release (made by ./bootstrap.sh update)"
+
+
+def add_arguments(parser) -> None:
+    add_prefix(parser)
+
+
+def run(args) -> int:
+    prefix = inst.check_prefix(args.prefix)
+    need_root("rollback", prefix)
+    return Kiosk(prefix).rollback()
