@@ -58,7 +58,7 @@ from exhibit.kiosk.governor import for_kiosk, mesh_levels
 from exhibit.kiosk.language import (PREPARING, SOURCE, Catalogue, Translator,
                                     in_every_language, load_catalogues)
 from exhibit.kiosk.preparing import Framers, Job, Prepared, run_job, scene_jobs
-from exhibit.kiosk.state import ATTRACT, KioskState
+from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
 from exhibit.render.frame import Inset
@@ -304,12 +304,11 @@ class Kiosk:
         scene change of a 1080p kiosk on llvmpipe otherwise)."""
         if self.state is None:
             return []
-        names = set(self.state.content) | {t.scene for t in self._all_timelines}
-        words = {(scenes.get(name).title, scenes.get(name).caption, name)
-                 for name in names if name in scenes.names()}
+        known = set(scenes.names())
+        names = (set(self.state.content) | {t.scene for t in self._all_timelines}) & known
+        words = {(scenes.get(name).title, scenes.get(name).caption, name) for name in names}
         words |= {(scenes.get(t.scene).title, k.caption, t.scene)
-                  for t in self._all_timelines for k in t.keyframes
-                  if t.scene in scenes.names()}
+                  for t in self._all_timelines for k in t.keyframes if t.scene in known}
         chores: list = []
         if self.config.hud:
             chores += [functools.partial(self._warm_hud, self._hud(title, caption, scene,
@@ -403,22 +402,30 @@ class Kiosk:
         if prepared.error is not None:
             self._scene_failed(job, prepared.error, now)
             return []
+        waited = job.key not in self.gpu
         self.gpu.setdefault(job.key, {}).update(uploaded)
         if self.state is not None:
             for timeline in prepared.timelines:
                 self.state.playlist.insert(self._position(timeline), timeline, now)
-            if self.state.frame.scene == job.scene and self.state.frame.params == job.params:
+            frame = self.state.frame
+            if (waited and self.state.mode == VISITOR and frame.scene == job.scene
+                    and frame.params == job.params):
                 self.state.reframe()  # a visitor waited for it: its start view, framed now
         return prepared.timelines
 
     def _position(self, timeline) -> int:
         """Where ``timeline`` goes among those playing: after every one before it in the
         attract folder's order."""
-        order = {t.name: i for i, t in enumerate(self._all_timelines)}
-        mine = order.get(timeline.name, len(order))
-        return sum(1 for t in self.state.playlist.timelines if order.get(t.name, 0) < mine)
+        order = {(t.path, t.name): i for i, t in enumerate(self._all_timelines)}
+        mine = order.get((timeline.path, timeline.name), len(order))
+        return sum(1 for t in self.state.playlist.timelines
+                   if order.get((t.path, t.name), 0) < mine)
 
     def _scene_failed(self, job: Job, reason: str, now: float) -> None:
+        if job.key in self.gpu:  # more mesh levels of a scene on screen: it has one already
+            log.warning("scene %s: mesh levels %s not prepared (%s); using the level it has",
+                        job.scene, ",".join(str(level) for level, _ in job.levels), reason)
+            return
         self._failed.add(job.key)
         log.error("scene %s skipped: %s", job.scene, reason)
         if {"scene": job.scene, "reason": reason} not in self.scenes_failed:
@@ -427,7 +434,7 @@ class Kiosk:
         for t in job.timelines:
             log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
             self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
-        if self.state is not None and job.key not in self.gpu:
+        if self.state is not None:
             self.state.drop(job.scene, now)
 
     def _collect(self, now: float) -> None:

@@ -270,3 +270,31 @@ def test_exhibit_prepare_fills_the_cache_the_kiosk_then_reads(tmp_path, monkeypa
     out = capsys.readouterr().out
     assert "clifford-torus" in out and "failed: RuntimeError: out of memory" in out
     assert "1 of 2 scenes ready" in out
+
+
+def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(tmp_path, built,
+                                                                        monkeypatch):
+    """The first scene's other mesh levels arrive while a visitor turns it: their zoom stays;
+    if those levels cannot be built, the scene keeps the one it has (not "skipped")."""
+    built.broken.add("hopf")
+    real = preparing.build_cached
+    k_calls = []
+
+    def first_only(scene, params, resolution):
+        k_calls.append(resolution)
+        if len(k_calls) == 1:  # the first frame's level builds; the others fail
+            return f"mesh {scene.name} {resolution}", None
+        return real(scene, params, resolution)
+
+    monkeypatch.setattr(preparing, "build_cached", first_only)
+    k = _kiosk(tmp_path)
+    k.step()
+    k.devices.keyboard.key("q", True)  # a visitor turns θ1...
+    for _ in range(3):
+        k.step()
+    k.devices.keyboard.key("q", False)
+    view = k.state.frame.view
+    assert k.state.mode == "visitor"
+    k._collect(k.clock())  # hopf's other levels: they fail
+    assert k.state.frame.view == view
+    assert k.problems == [] and k.scenes_failed == [] and "hopf" in k.state.content
