@@ -15,6 +15,8 @@ import dataclasses
 import logging
 import multiprocessing
 import os
+import queue
+import threading
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
@@ -199,7 +201,7 @@ def _portable(prepared: Prepared) -> Prepared:
 
 
 def _worker(connection, framers: Framers) -> None:
-    """The worker process: jobs in, Prepared out, until the kiosk closes the pipe."""
+    """The worker process: jobs in, Prepared out, until a None job or the end of the pipe."""
     try:
         os.nice(WORKER_NICE)
     except OSError:  # a system call filter without setpriority: the same priority, then
@@ -212,9 +214,26 @@ def _worker(connection, framers: Framers) -> None:
             job = connection.recv()
         except (EOFError, OSError):
             return
+        if job is None:
+            return
         try:
             connection.send(_portable(run_job(job, framers)))
-        except (BrokenPipeError, OSError):  # the kiosk is gone or stopping
+        except OSError:  # the kiosk is gone or stopping
+            return
+
+
+#: What the reader thread puts in the inbox when the worker's end of the pipe has closed.
+_ENDED = object()
+
+
+def _read(connection, inbox: queue.SimpleQueue) -> None:
+    """The kiosk's reader thread: a result is read whole here, off the frame loop (a worker
+    at a lower priority may take its time writing megabytes), and handed over whole."""
+    while True:
+        try:
+            inbox.put(connection.recv())
+        except (EOFError, OSError):
+            inbox.put(_ENDED)
             return
 
 
@@ -222,18 +241,19 @@ class ProcessPreparer:
     """Runs jobs in a worker process (multiprocessing "spawn": the kiosk has GL and X or
     Wayland connections open, which a forked child must not share). One job at a time, so
     the kiosk can reorder what waits (a visitor who asks for a scene first). results() never
-    blocks. The worker exits when closed, or by itself when the kiosk dies."""
+    blocks: a reader thread receives. The worker leaves when nothing is left to do, or by
+    itself when the kiosk dies (the end of its pipe)."""
 
     def __init__(self, framers: Framers = Framers()):
         self.framers = framers
         self._context = multiprocessing.get_context("spawn")
         self._process = None
         self._connection = None
+        self._inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._in_flight: Job | None = None
         self._queue: list[Job] = []
         self._restarts = 0
-        #: A worker told to leave (nothing left to do), reaped once it has exited.
-        self._leaving = None
+        self._leaving = False
 
     def _start(self) -> None:
         parent, child = self._context.Pipe()
@@ -242,6 +262,9 @@ class ProcessPreparer:
         self._process.start()
         child.close()
         self._connection = parent
+        self._inbox = queue.SimpleQueue()
+        threading.Thread(target=_read, args=(parent, self._inbox), daemon=True,
+                         name="exhibit-prepare-reader").start()
 
     def submit(self, job: Job) -> None:
         """Queued; the worker starts at the first results() (after the kiosk's first frame:
@@ -250,56 +273,64 @@ class ProcessPreparer:
 
     @property
     def busy(self) -> bool:
-        return self._in_flight is not None or bool(self._queue) or self._leaving is not None
+        """Jobs waiting or under way, or a worker not yet gone."""
+        return self._in_flight is not None or bool(self._queue) or self._process is not None
 
     def first(self, key) -> None:
         """The job for ``key`` (scene, params), if waiting, runs next."""
         self._queue.sort(key=lambda job: job.key != key)
 
     def _send(self) -> None:
-        if self._in_flight is not None or not self._queue:
+        if self._in_flight is not None or not self._queue or self._leaving:
             return
         if self._process is None:
             self._start()
         self._in_flight = self._queue.pop(0)
-        self._connection.send(self._in_flight)
+        try:
+            self._connection.send(self._in_flight)  # a Job is small: the pipe takes it at once
+        except OSError:
+            pass  # the worker is gone: the reader says so
 
     def results(self) -> list[Prepared]:
         out: list[Prepared] = []
-        if self._leaving is not None and not self._leaving.is_alive():
-            self._leaving.join()  # exited: reaped at once, never waited for in a frame
-            self._leaving = None
         self._send()
-        if self._in_flight is None:
-            return out
-        try:
-            ready = self._connection.poll(0)
-            if ready:
-                out.append(self._connection.recv())
+        while True:
+            try:
+                item = self._inbox.get_nowait()
+            except queue.Empty:
+                break
+            if item is _ENDED:
+                out += self._ended()
+            else:
                 self._in_flight = None
-        except (EOFError, OSError):
-            ready = False
-        if self._in_flight is not None and not ready and not self._process.is_alive():
-            out += self._died()
-        if self._in_flight is None:
-            if self._queue:
+                out.append(item)
                 self._send()
-            elif self._process is not None:  # nothing left: the worker's memory back
-                self._connection.close()     # it exits when it reads the end of the pipe
-                self._leaving, self._process, self._connection = self._process, None, None
+        if self._in_flight is None and not self._queue and self._process is not None \
+                and not self._leaving:
+            self._leaving = True  # nothing left: the worker's memory back
+            try:
+                self._connection.send(None)
+            except OSError:
+                pass
         return out
 
-    def _died(self) -> list[Prepared]:
-        """The worker died under a job: that job fails, the worker starts again for the rest
-        (up to WORKER_RESTARTS times; then they fail too)."""
-        job, self._in_flight = self._in_flight, None
-        code = self._process.exitcode
-        log.error("the preparing process died (exit code %s) while preparing %s", code,
-                  job.scene)
+    def _ended(self) -> list[Prepared]:
+        """The worker's end of the pipe closed: it left as asked, or it died under a job,
+        which then fails; the worker starts again for the rest (up to WORKER_RESTARTS times;
+        then they fail too)."""
+        process, job = self._process, self._in_flight
         self._connection.close()
-        self._process, self._connection = None, None
+        process.join(timeout=1.0)  # it has closed its end: it is exiting, if not gone
+        self._process, self._connection, self._in_flight = None, None, None
+        if self._leaving and job is None:
+            self._leaving = False
+            return []
+        self._leaving = False
+        code = process.exitcode
+        log.error("the preparing process died (exit code %s) while preparing %s", code,
+                  job.scene if job else "nothing")
         self._restarts += 1
-        failed = [job]
+        failed = [job] if job is not None else []
         if self._restarts > WORKER_RESTARTS:
             failed += self._queue
             self._queue = []
@@ -310,15 +341,15 @@ class ProcessPreparer:
         """Stop the worker: at once when it is busy (a half-built mesh is not worth waiting
         for; the cache never keeps half a file), else it exits when the pipe closes."""
         self._queue.clear()
+        process = self._process
         if self._connection is not None:
             self._connection.close()
-        for process in (self._process, self._leaving):
-            if process is None:
-                continue
-            if process is self._process and self._in_flight is not None:
+        if process is not None:
+            if self._in_flight is not None:
                 process.terminate()
             process.join(timeout=2)
             if process.is_alive():
                 process.kill()
                 process.join(timeout=2)
-        self._process = self._connection = self._in_flight = self._leaving = None
+        self._process = self._connection = self._in_flight = None
+        self._leaving = False

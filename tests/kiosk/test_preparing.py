@@ -206,17 +206,26 @@ def test_the_worker_process_prepares_and_frames_and_names_what_fails(tmp_path, m
         assert isinstance(mesh, Mesh4D) and mesh.triangle_count > 0
         assert results[0].timelines[0].keyframes != jobs[0].timelines[0].keyframes, "framed"
         assert "no scene named 'no-such-scene'" in results[1].error
-        leaving = worker._leaving
-        assert worker._process is None and leaving is not None, "the worker leaves when done"
-        leaving.join(timeout=30)
-        assert worker.results() == [] and not worker.busy and worker._leaving is None
+        process = worker._process
+        assert worker.busy and worker._leaving, "nothing left: the worker is told to leave"
+        process.join(timeout=30)
+        for _ in range(50):
+            if worker.results() == [] and not worker.busy:
+                break
+            time.sleep(0.1)
+        assert not worker.busy and process.exitcode == 0, "it left, and the kiosk knows"
         # a worker that dies under a job: that job fails with the exit code
         worker.submit(jobs[1])
         assert worker._process is None, "started by results(), not by submit()"
         assert worker.results() == [] and worker._in_flight is jobs[1]
         worker._process.kill()
         worker._process.join()
-        died = worker.results()
+        died = []
+        for _ in range(50):
+            died += worker.results()
+            if died:
+                break
+            time.sleep(0.1)
         assert died[0].job is jobs[1] and "died (exit code -9)" in died[0].error
     finally:
         worker.close()
