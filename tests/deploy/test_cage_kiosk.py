@@ -603,3 +603,12 @@ def test_it_ran_under_the_units_sandbox(kiosk_on_cage, staged):
     assert "--syscalls" in app and "--families" in app and "--syscalls" in cage
     assert app[app.index("--errno") + 1] == "EPERM"
     assert "/usr/bin/cage" in cage
+
+
+def test_the_worker_prepared_the_other_scenes_under_the_sandbox(kiosk_on_cage):
+    """The scenes after the first came from the worker process (exhibit.kiosk.preparing),
+    spawned by the app as the unprivileged user under the unit's system call filter."""
+    log = kiosk_on_cage["log"]
+    assert "scene clifford-torus prepared" in log, log[-3000:]
+    assert "every scene is prepared" in log, log[-3000:]
+    assert "preparing process died" not in log and "Traceback" not in log, log[-3000:]
