@@ -30,6 +30,7 @@ EXHIBIT_SCENE=hopf`); EXHIBIT_MODE is "notice" when no scene could be prepared.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import functools
 import gc
@@ -57,7 +58,8 @@ from exhibit.kiosk.framing import FILL_LIMIT
 from exhibit.kiosk.governor import for_kiosk, mesh_levels
 from exhibit.kiosk.language import (PREPARING, SOURCE, Catalogue, Translator,
                                     in_every_language, load_catalogues)
-from exhibit.kiosk.preparing import Framers, Job, Prepared, run_job, scene_jobs
+from exhibit.kiosk.preparing import (Framers, InlinePreparer, Job, Prepared, run_job,
+                                     scene_jobs)
 from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
 from exhibit.render.options import RenderOptions
 from exhibit.render.framer import Framer
@@ -440,7 +442,19 @@ class Kiosk:
     def _collect(self, now: float) -> None:
         """Whatever the preparer has finished, taken in (a frame's work: uploads only)."""
         begin = time.perf_counter()
-        for prepared in self.preparer.results():
+        try:
+            results = self.preparer.results()
+        except Exception as exc:  # noqa: BLE001 - no worker process: here, one per frame
+            log.error("the preparing process cannot run (%s: %s): the scenes left are prepared "
+                      "here, one per frame", type(exc).__name__, exc)
+            pending = self.preparer.pending()
+            with contextlib.suppress(Exception):
+                self.preparer.close()
+            self.preparer = InlinePreparer(self.preparer.framers)
+            for job in pending:
+                self.preparer.submit(job)
+            return
+        for prepared in results:
             self._receive(prepared, now)
             if prepared.error is None:
                 log.info("scene %s prepared (mesh levels %s, %d timelines; %.0f ms to take in)",

@@ -182,6 +182,9 @@ class InlinePreparer:
         """The job for ``key`` (scene, params), if waiting, runs next."""
         self._queue.sort(key=lambda job: job.key != key)
 
+    def pending(self) -> list[Job]:
+        return list(self._queue)
+
     def results(self) -> list[Prepared]:
         return [run_job(self._queue.pop(0), self.framers)] if self._queue else []
 
@@ -279,6 +282,10 @@ class ProcessPreparer:
     def first(self, key) -> None:
         """The job for ``key`` (scene, params), if waiting, runs next."""
         self._queue.sort(key=lambda job: job.key != key)
+
+    def pending(self) -> list[Job]:
+        """The jobs not done: the one under way first."""
+        return ([self._in_flight] if self._in_flight is not None else []) + self._queue
 
     def _send(self) -> None:
         if self._in_flight is not None or not self._queue or self._leaving:

@@ -307,3 +307,22 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(tmp_path
     k._collect(k.clock())  # hopf's other levels: they fail
     assert k.state.frame.view == view
     assert k.problems == [] and k.scenes_failed == [] and "hopf" in k.state.content
+
+
+def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monkeypatch,
+                                                           caplog):
+    """A worker process that cannot start (no processes left, a sandbox that forbids it): the
+    kiosk says so once and prepares the rest itself, one scene per frame, with no failed frame."""
+    def refuse(self):
+        raise OSError(11, "Resource temporarily unavailable")
+
+    monkeypatch.setattr(ProcessPreparer, "_start", refuse)
+    ticks = iter(np.arange(1e6) * 0.1)
+    k = app.Kiosk(_config(tmp_path), Window(), clock=lambda: float(next(ticks)),
+                  notifier=Notifier(), health_path=tmp_path / "health.json",
+                  preparer=ProcessPreparer)
+    k.run(max_frames=8)
+    assert caplog.text.count("the preparing process cannot run") == 1
+    assert isinstance(k.preparer, InlinePreparer) and k._prepared_at is not None
+    assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
+    assert k.errors.total == 0
