@@ -5,8 +5,11 @@ and what it cannot do comes back as a named failure."""
 from __future__ import annotations
 
 import json
+import os
 import re
 import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -25,6 +28,7 @@ from exhibit.kiosk.preparing import (InlinePreparer, Job, ProcessPreparer, run_j
 from exhibit.render.framer import Framer
 from exhibit.surfaces.mesh import Mesh4D
 from tests.kiosk.support import ROOT, FakeWindow, Notifier, make_config
+from tests.xvfb import xvfb
 
 
 class Window(FakeWindow):
@@ -326,3 +330,26 @@ def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monk
     assert isinstance(k.preparer, InlinePreparer) and k._prepared_at is not None
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
     assert k.errors.total == 0
+
+
+@pytest.mark.slow
+def test_bench_startup_reports_rounds_ratios_and_the_prepared_time(tmp_path):
+    """`exhibit bench startup --repeat 1 --json` on a real window (Xvfb) with a small site
+    config: a first frame cold and warm, every scene prepared in both, and the ratios computed
+    from the medians it reports (no time is asserted: that is the benchmark's job)."""
+    path = make_config(tmp_path, "")
+    with xvfb("1280x720x24") as display:
+        result = subprocess.run(
+            [sys.executable, "-m", "exhibit", "bench", "startup", "--repeat", "1", "--json",
+             "--config", str(path)],
+            env={**os.environ, "DISPLAY": display, "OPENBLAS_NUM_THREADS": "1"},
+            capture_output=True, text=True, timeout=600, cwd=tmp_path)
+    assert result.returncode == 0, result.stderr[-2000:]
+    report = json.loads(result.stdout)
+    assert len(report["cold_runs_s"]) == len(report["warm_runs_s"]) == 1
+    assert report["prepared_s"]["cold"] >= report["cold_s"] > 0
+    assert report["prepared_s"]["warm"] >= report["warm_s"] > 0
+    imports = report["baseline"]["imports_s"]
+    assert report["ratios"]["warm_to_imports"] == round(report["warm_s"] / imports, 2)
+    assert report["ratios"]["cold_to_warm"] == round(report["cold_s"] / report["warm_s"], 2)
+    assert isinstance(report["goals_met"], bool)

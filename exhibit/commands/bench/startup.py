@@ -97,11 +97,12 @@ def _time_to_ready(config: str | None, env: dict, folder: Path, timeout: float =
 
 
 def run(args) -> int:
+    if not 1 <= args.repeat <= 100:
+        raise ExhibitError(f"--repeat {args.repeat}: give 1 to 100 rounds (each is a cold and "
+                           "a warm start, seconds to a minute)")
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
         raise ExhibitError("the kiosk needs a display; on a headless machine run "
                            "`xvfb-run -a exhibit bench startup`")
-    if args.repeat < 1:
-        raise ExhibitError("--repeat must be at least 1")
     imports_command = [sys.executable, "-c", "import exhibit.kiosk.app, exhibit.render.window, "
                        "exhibit.commands.run"]
     interpreter, imports, cold, cold_prepared, warm, warm_prepared = [], [], [], [], [], []
