@@ -30,8 +30,6 @@ EXHIBIT_SCENE=hopf`); EXHIBIT_MODE is "notice" when no scene could be prepared.
 
 from __future__ import annotations
 
-import contextlib
-import dataclasses
 import functools
 import gc
 import logging
@@ -40,7 +38,6 @@ import os
 import resource
 import time
 import traceback
-from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -54,23 +51,20 @@ from exhibit.errors import ConfigError, ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.framing import FILL_LIMIT
+from exhibit.kiosk.content import Content, nearest_level
 from exhibit.kiosk.governor import for_kiosk, mesh_levels
 from exhibit.kiosk.language import (PREPARING, SOURCE, Catalogue, Translator,
                                     in_every_language, load_catalogues)
-from exhibit.kiosk.preparing import (Framers, InlinePreparer, Job, Prepared, run_job,
-                                     scene_jobs)
-from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
-from exhibit.render.options import RenderOptions
+from exhibit.kiosk.preparing import Framers, scene_jobs
+from exhibit.kiosk.slice_inset import SliceInset
+from exhibit.kiosk.start_views import StartViews
+from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.render.framer import Framer
-from exhibit.render.frame import Inset
-from exhibit.geometry.framing import mesh_points, mesh_sample
-from exhibit.render.inset import inset_label, inset_rect, inset_view
+from exhibit.render.inset import inset_rect
 from exhibit.render.layout import TextSizes, hud_layout
+from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo
 from exhibit.render.target import CloseRequest, Focus, Key
-from exhibit.surfaces import progress
-from exhibit.surfaces.mesh import Mesh4D
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -81,8 +75,6 @@ FAILING_EXIT = 70  # EX_SOFTWARE
 ERROR_REPORT_S = 10.0
 #: A whole frame longer than this after start-up is logged (the 1st, 2nd, 4th, 8th... of them).
 SLOW_FRAME_MS = 100.0
-#: Framed views kept: every scene's start view and the poses visitors took over at lately.
-FRAMED_CACHE = 64
 #: Seconds of a crossfade between timelines and between scenes.
 CROSSFADE_S = 1.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
@@ -198,52 +190,38 @@ class Kiosk:
         versions = functools.partial(in_every_language, self.translate)
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
                              hud=config.hud, versions=versions, words=self._words())
-        #: The time-slice inset's corner (a panel for timelines that slice) and its scene.
+        #: The time-slice inset, in a corner (a panel for timelines that slice).
         size = tuple(getattr(window, "size", config.size))
-        self._inset_rect = inset_rect(size, hud_layout(size, sizes=self.text).margin)
-        self._inset_mesh = None
-        self._inset_view_cache = None
+        self.inset = SliceInset(inset_rect(size, hud_layout(size, sizes=self.text).margin),
+                                window.renderer.upload)
         inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
-                              extra=(self._inset_rect,), versions=versions, words=self._words())
+                              extra=(self.inset.rect,), versions=versions, words=self._words())
         if sessions is not None:
             sessions.language = self.translate.language
-        self._framed: OrderedDict[tuple, object] = OrderedDict()
-        self._samples: dict[tuple, tuple] = {}   # (scene, params) -> its mesh_sample
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
         self._fade_start: float | None = None
         now = clock()
         self.started = now
         self.state = None
-        #: Uploaded meshes: (scene, params) -> {mesh level: GpuMesh}; more arrive as the
-        #: preparer delivers them (exhibit.kiosk.preparing).
-        self.gpu: dict[tuple, dict] = {}
-        self._failed: set[tuple] = set()
+        #: The scenes on the GPU: the first one now, the rest from the preparer.
         framers = Framers(self.framer, inset_framer)
         jobs = scene_jobs(config, timelines, mesh_levels(self.governor))
-        first = self._prepare_first(jobs, framers)
-        content = tuple(name for name in config.scenes
-                        if not any(key[0] == name for key in self._failed)
-                        or any(key[0] == name for key in self.gpu))
-        if self.gpu:
-            self.state = KioskState(Playlist(first), mapper, content,
+        self.content = Content(window.renderer.upload, jobs, self.problems, self.scenes_failed)
+        first = self.content.prepare_first(jobs, framers, self.governor.quality.mesh, clock,
+                                           notifier)
+        if self.content.gpu:
+            self.state = KioskState(Playlist(first), mapper, self.content.shown(config.scenes),
                                     config.idle_timeout_s, config.blend_s, now,
-                                    framer=self._frame_view,
+                                    framer=StartViews(self.framer, self.content),
                                     reduced_motion=config.reduced_motion)
+            self.content.state = self.state
+            self.content.prepare_rest(jobs, framers, preparer, now)
         else:
             log.critical("no scene could be prepared: the kiosk shows a notice until it is "
                          "fixed and restarted")
             self.problems.append("no scene could be prepared: the screen shows a notice")
-        #: Where the rest are prepared; None: here and now, before the first frame.
-        self.preparer = preparer(framers) if preparer is not None and self.gpu else None
-        if self.preparer is None:
-            for job in jobs:
-                self._receive(run_job(job, framers), now)
-            self._prepared_at = now
-        else:
-            for job in jobs:
-                self.preparer.submit(job)
-            self._prepared_at = None
+            self.content.prepare_rest(jobs, framers, None, now)
         self._log_fields: dict[str, str | None] = {}
         self._update_log_fields()
         self.stats = FrameStats()
@@ -254,7 +232,7 @@ class Kiosk:
         self._install_input()
         #: Start-up work left for after the first frame, one piece per frame (_chores).
         self._chores: list = self._warm_up_chores()
-        if self.preparer is None:
+        if self.content.preparer is None:
             self.warm_up()
 
     def _translator(self, config: KioskConfig) -> Translator:
@@ -307,10 +285,11 @@ class Kiosk:
         if self.state is None:
             return []
         known = set(scenes.names())
-        names = (set(self.state.content) | {t.scene for t in self._all_timelines}) & known
+        timelines = self.content.timelines
+        names = (set(self.state.content) | {t.scene for t in timelines}) & known
         words = {(scenes.get(name).title, scenes.get(name).caption, name) for name in names}
         words |= {(scenes.get(t.scene).title, k.caption, t.scene)
-                  for t in self._all_timelines for k in t.keyframes if t.scene in known}
+                  for t in timelines for k in t.keyframes if t.scene in known}
         chores: list = []
         if self.config.hud:
             chores += [functools.partial(self._warm_hud, self._hud(title, caption, scene,
@@ -331,11 +310,11 @@ class Kiosk:
         if self._fade_start is not None or self.state is None:
             return False
         frame = self.state.frame
-        levels = self.gpu.get((frame.scene, frame.params))
+        levels = self.content.levels((frame.scene, frame.params))
         if not levels:
             return False
         options = RenderOptions(hud=self.config.hud, quality=quality, text=self.text)
-        gpu = _level(levels, quality.mesh)
+        gpu = nearest_level(levels, quality.mesh)
         hud = self._hud(frame.title, frame.caption, frame.scene)
         self.window.capture(gpu, frame.view, options, hud)
         self.window.draw(gpu, frame.view, options, hud, fade=0.5)
@@ -357,149 +336,6 @@ class Kiosk:
         except Exception as exc:  # noqa: BLE001 - the frames do it themselves when needed
             log.warning("start-up warm-up step failed: %s", exc)
         self._chores.pop(0)
-
-    # ------------------------------------------------------------------ preparing scenes
-
-    def _prepare_first(self, jobs: list[Job], framers: Framers) -> list:
-        """The first frame's scene, here and now: jobs in order until one can be shown, at the
-        governor's starting mesh level only (the other levels go back at the head of
-        ``jobs``). Returns the playlist to start with: the framed timelines of that scene."""
-        self._all_timelines = [t for job in jobs for t in job.timelines]
-        level = self.governor.quality.mesh
-        with progress.on_terminal():
-            while jobs:
-                job = jobs.pop(0)
-                now_levels = tuple(lv for lv in job.levels if lv[0] == level) or job.levels[:1]
-                rest = tuple(lv for lv in job.levels if lv not in now_levels)
-                progress.report(f"preparing scene {job.scene}")
-                if self.notifier is not None:
-                    self.notifier.extend_timeout(60)  # a cold mesh build may take a while
-                prepared = run_job(dataclasses.replace(job, levels=now_levels), framers)
-                timelines = self._receive(prepared, self.clock())
-                if job.key in self.gpu:
-                    if rest:
-                        jobs.insert(0, dataclasses.replace(job, levels=rest, timelines=()))
-                    return timelines
-        return []
-
-    def _receive(self, prepared: Prepared, now: float) -> list:
-        """A job's result: its meshes uploaded, its timelines into the playlist (in the
-        playlist's order), or the scene noted as failed and taken out. Returns the timelines
-        received."""
-        job = prepared.job
-        uploaded: dict[int, object] = {}
-        if prepared.error is None:
-            try:
-                by_mesh: dict[int, object] = {}
-                for level, mesh in prepared.meshes.items():
-                    if id(mesh) not in by_mesh:
-                        by_mesh[id(mesh)] = self.window.renderer.upload(mesh)
-                    uploaded[level] = by_mesh[id(mesh)]
-            except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
-                for gpu in {id(g): g for g in uploaded.values()}.values():
-                    if hasattr(gpu, "release"):
-                        gpu.release()
-                uploaded = {}
-                prepared = dataclasses.replace(prepared, error=f"{type(exc).__name__}: {exc}")
-        if prepared.error is not None:
-            self._scene_failed(job, prepared.error, now)
-            return []
-        waited = job.key not in self.gpu
-        self.gpu.setdefault(job.key, {}).update(uploaded)
-        if self.state is not None:
-            for timeline in prepared.timelines:
-                self.state.playlist.insert(self._position(timeline), timeline, now)
-            frame = self.state.frame
-            if (waited and self.state.mode == VISITOR and frame.scene == job.scene
-                    and frame.params == job.params):
-                self.state.reframe()  # a visitor waited for it: its start view, framed now
-        return prepared.timelines
-
-    def _position(self, timeline) -> int:
-        """Where ``timeline`` goes among those playing: after every one before it in the
-        attract folder's order."""
-        order = {(t.path, t.name): i for i, t in enumerate(self._all_timelines)}
-        mine = order.get((timeline.path, timeline.name), len(order))
-        return sum(1 for t in self.state.playlist.timelines
-                   if order.get((t.path, t.name), 0) < mine)
-
-    def _scene_failed(self, job: Job, reason: str, now: float) -> None:
-        if job.key in self.gpu:  # more mesh levels of a scene on screen: it has one already
-            log.warning("scene %s: mesh levels %s not prepared (%s); using the level it has",
-                        job.scene, ",".join(str(level) for level, _ in job.levels), reason)
-            return
-        self._failed.add(job.key)
-        log.error("scene %s skipped: %s", job.scene, reason)
-        if {"scene": job.scene, "reason": reason} not in self.scenes_failed:
-            self.scenes_failed.append({"scene": job.scene, "reason": reason})
-            self.problems.append(f"scene {job.scene} skipped: {reason}")
-        for t in job.timelines:
-            log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
-            self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
-        if self.state is not None:
-            self.state.drop(job.scene, now)
-
-    def _collect(self, now: float) -> None:
-        """Whatever the preparer has finished, taken in (a frame's work: uploads only)."""
-        begin = time.perf_counter()
-        try:
-            results = self.preparer.results()
-        except Exception as exc:  # noqa: BLE001 - no worker process: here, one per frame
-            log.error("the preparing process cannot run (%s: %s): the scenes left are prepared "
-                      "here, one per frame", type(exc).__name__, exc)
-            pending = self.preparer.pending()
-            with contextlib.suppress(Exception):
-                self.preparer.close()
-            self.preparer = InlinePreparer(self.preparer.framers)
-            for job in pending:
-                self.preparer.submit(job)
-            return
-        for prepared in results:
-            self._receive(prepared, now)
-            if prepared.error is None:
-                log.info("scene %s prepared (mesh levels %s, %d timelines; %.0f ms to take in)",
-                         prepared.job.scene, ",".join(map(str, sorted(prepared.meshes))),
-                         len(prepared.timelines), (time.perf_counter() - begin) * 1000)
-        if not self.preparer.busy and self._prepared_at is None:
-            self._prepared_at = now
-            log.info("every scene is prepared (%.1f s after start)", now - self.started)
-
-    # ------------------------------------------------------------------ framing
-
-    def _mesh(self, name: str, params) -> Mesh4D | None:
-        """The scene's finest mesh (framing needs its bounds only), None without one."""
-        levels = self.gpu.get((name, tuple(params)))
-        mesh = getattr(levels[min(levels)], "mesh", None) if levels else None
-        return mesh if isinstance(mesh, Mesh4D) else None
-
-    def _frame_view(self, name: str, params, view):
-        """KioskState's framer: ``view`` (a scene's start view, or the pose a visitor takes
-        over) fitted into the area the scene's own panels leave free. A pose whose picture
-        fills the world on purpose (the sensor inside the object: it would need FILL_LIMIT
-        times the zoom to fit) keeps its zoom, as a framed timeline does. Cached: the same few
-        start views come back at every "home" and scene change."""
-        key = (name, tuple(params), view)
-        framed = self._framed.get(key)
-        if framed is None:
-            framed = view
-            mesh = self._mesh(name, params)
-            if mesh is None:  # not prepared yet: framed when it is (KioskState.reframe)
-                return view
-            if mesh is not None:
-                try:
-                    points = self._samples.get(key[:2])
-                    if points is None:
-                        points = self._samples[key[:2]] = mesh_sample(mesh)
-                    fitted = self.framer.scene_view(scenes.get(name), mesh, view, points=points)
-                    if fitted.half_height <= FILL_LIMIT * view.half_height:
-                        framed = fitted
-                except Exception as exc:  # noqa: BLE001 - the scene's own view will do
-                    log.warning("scene %s not framed: %s", name, exc)
-            while len(self._framed) >= FRAMED_CACHE:
-                self._framed.popitem(last=False)
-            self._framed[key] = framed
-        self._framed.move_to_end(key)
-        return framed
 
     # ------------------------------------------------------------------ input from the window
 
@@ -676,8 +512,7 @@ class Kiosk:
         finally:
             if self.notifier is not None:
                 self.notifier.stopping()
-            if self.preparer is not None:
-                self.preparer.close()
+            self.content.close()
             self.devices.close()
             if self.sessions is not None:  # a visitor still there: their session ends now
                 self.sessions.close(self.clock())
@@ -687,8 +522,8 @@ class Kiosk:
         """step(), the watchdog and, about once a second, the reports; whether a frame was drawn.
         Exceptions go to FrameErrors: a frame's bug must not end the exhibit."""
         try:
-            if self._prepared_at is None and self.frames:  # after the first picture
-                self._collect(start)
+            if self.content.prepared_at is None and self.frames:  # after the first picture
+                self.content.collect(start, self.started)
             self.step()
             self.frames += 1
             self.errors.drawn(start)
@@ -720,15 +555,14 @@ class Kiosk:
         options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality,
                                 text=self.text)
         self.governor.observe(frame.mode, frame.scene, frame.view, now)
-        levels = self.gpu.get((frame.scene, frame.params))
+        levels = self.content.levels((frame.scene, frame.params))
         if not levels:  # a visitor chose a scene still being prepared: it comes next
-            if self.preparer is not None:
-                self.preparer.first((frame.scene, frame.params))
+            self.content.wanted((frame.scene, frame.params))
             self.window.notice([self.translate(PREPARING).replace("{title}", hud.title)],
                                self.drift(now))
             self._shown = self._fade_start = None
             return
-        gpu = _level(levels, quality.mesh)
+        gpu = nearest_level(levels, quality.mesh)
         if frame.cut and self._shown is not None:
             # Crossfade: the outgoing picture, drawn once more offscreen, fades out over the
             # new one (never a black frame, never a hard cut).
@@ -741,7 +575,8 @@ class Kiosk:
                 self._fade_start = None
             else:
                 fade = 1.0 - u * u * (3.0 - 2.0 * u)
-        inset = self._inset(frame) if self.config.hud else None
+        inset = (self.inset.for_frame(frame, self.content.mesh(frame.scene, frame.params))
+                 if self.config.hud else None)
         self.window.draw(gpu, frame.view, options, hud, fade=fade, inset=inset)
         self._shown = (gpu, frame.view, options, hud)
         if self.governor.update(getattr(self.window, "frame_ms", None), now):
@@ -749,57 +584,13 @@ class Kiosk:
                      self.governor.quality.describe(), self.governor.recent_ms or 0.0,
                      self.governor.settings.target_ms)
 
-    def _inset(self, frame):
-        """The time-slice inset while a timeline slices a scene that has a 3D world at each
-        moment (the collision's pipe and ball, with their touching curve in closed form):
-        rebuilt and uploaded when the moment changes (about 1 ms), drawn in the corner the
-        timeline's framing keeps free. None otherwise."""
-        view = frame.view
-        scene = scenes.get(frame.scene)
-        if (view.slice_axis is None or scene.world_at is None
-                or scene.slice_axis != view.slice_axis):
-            return None
-        key = (frame.scene, frame.params, round(view.slice_at, 4))
-        if self._inset_mesh is None or self._inset_mesh[0] != key:
-            world = scene.world_at(dict(frame.params), view.slice_at)
-            if self._inset_mesh is not None:
-                self._inset_mesh[1].release()
-            size = (int(self._inset_rect.width), int(self._inset_rect.height))
-            self._inset_mesh = (key, self.window.renderer.upload(world), size)
-        key, gpu, size = self._inset_mesh
-        r = self._inset_rect
-        label = inset_label(scene.axes[view.slice_axis], view.slice_at)
-        return Inset(gpu, self._inset_view(frame, scene, size), (r.x0, r.y0, r.width, r.height),
-                     label)
-
-    def _inset_view(self, frame, scene, size):
-        """The inset's view, framed once for the worlds of the moments at the ends and middle
-        of the scene's extent along its time axis, so the frame holds still as time moves."""
-        view = frame.view
-        key = (frame.scene, frame.params, view.eye_azimuth, view.eye_incidence, view.twist,
-               view.eye_r)
-        if self._inset_view_cache is None or self._inset_view_cache[0] != key:
-            mesh = self._mesh(frame.scene, frame.params)
-            low, high = (mesh.bounds() if mesh is not None else (np.full(4, -1.0),
-                                                                  np.full(4, 1.0)))
-            axis = view.slice_axis
-            moments = (low[axis], 0.5 * (low[axis] + high[axis]), high[axis])
-            points = np.concatenate([mesh_points(scene.world_at(dict(frame.params), c))
-                                     for c in moments])
-            self._inset_view_cache = (key, inset_view(view, points, size))
-        return self._inset_view_cache[1]
-
     def release(self) -> None:
         """Free the GPU meshes this kiosk uploaded (each level once) and the inset's. The
         museum's kiosk never needs it (its meshes live as long as the process); a review or a
         test that builds many kiosks on one GL context does, or the context fills up."""
-        uploaded = {id(g): g for levels in self.gpu.values() for g in levels.values()}
-        if self._inset_mesh is not None:
-            uploaded[id(self._inset_mesh[1])] = self._inset_mesh[1]
-        for gpu in uploaded.values():
-            if hasattr(gpu, "release"):
-                gpu.release()
-        self.gpu, self._inset_mesh, self._shown = {}, None, None
+        self.content.release()
+        self.inset.release()
+        self._shown = None
         # a shared headless pipeline's crossfade snapshot keeps the outgoing frame's mesh
         pipeline = getattr(getattr(self.window, "headless", None), "pipeline", None)
         if pipeline is not None:
@@ -813,13 +604,6 @@ class Kiosk:
         else:
             self._draw(self.state.frame, self.clock())
         Image.fromarray(self.window.read()).save(path)
-
-
-def _level(levels: dict, wanted: int):
-    """The mesh at level ``wanted``, else the nearest prepared (a finer one first)."""
-    if wanted in levels:
-        return levels[wanted]
-    return levels[min(levels, key=lambda level: (abs(level - wanted), level > wanted))]
 
 
 def open_window(config: KioskConfig, windowed: bool):

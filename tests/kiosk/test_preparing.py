@@ -86,13 +86,13 @@ def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built
     """...and nothing else is prepared until it is drawn."""
     k = _kiosk(tmp_path)
     level = k.governor.quality.mesh
-    assert list(k.gpu) == [("hopf", k.state.frame.params)]
-    assert list(k.gpu[("hopf", k.state.frame.params)]) == [level]
+    assert list(k.content.gpu) == [("hopf", k.state.frame.params)]
+    assert list(k.content.gpu[("hopf", k.state.frame.params)]) == [level]
     assert len(built.calls) == 1 and built.calls[0][0] == "hopf"
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
     assert k.window.drawn == [] and k.window.captured == [], "no warm-up before the first frame"
     k.run(max_frames=1)
-    assert len(k.gpu) == 1 and len(built.calls) == 1
+    assert len(k.content.gpu) == 1 and len(built.calls) == 1
 
 
 def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
@@ -102,16 +102,16 @@ def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
     order = list(dict.fromkeys(name for name, _ in built.calls))
     assert order == ["hopf", "clifford-torus", "veronese"]
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
-    assert all(set(levels) == set(app.mesh_levels(k.governor)) for levels in k.gpu.values())
-    assert k._prepared_at is not None and k.problems == []
+    assert all(set(levels) == set(app.mesh_levels(k.governor)) for levels in k.content.gpu.values())
+    assert k.content.prepared_at is not None and k.problems == []
 
 
 def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
     k = _kiosk(tmp_path)
     k.step()
     before = k.state.frame
-    k._collect(k.clock())  # the rest of hopf
-    k._collect(k.clock())  # the Clifford torus and its timeline
+    k.content.collect(k.clock(), k.started)  # the rest of hopf
+    k.content.collect(k.clock(), k.started)  # the Clifford torus and its timeline
     assert len(k.state.playlist.timelines) == 2
     k.step()
     after = k.state.frame
@@ -135,14 +135,14 @@ def test_a_visitor_who_asks_for_a_scene_not_ready_sees_preparing_then_it(tmp_pat
     keyboard = k.devices.keyboard
     keyboard.key("n", True)  # the next scene: the Clifford torus, not prepared yet
     keyboard.key("n", False)
-    k.preparer._queue.reverse()  # it waits behind others...
+    k.content.preparer._queue.reverse()  # it waits behind others...
     k.step()
     assert k.state.frame.scene == "clifford-torus"
     title = scenes.get("clifford-torus").title
     assert window.notice_lines[-1] == [PREPARING.replace("{title}", title)]
-    assert k.preparer._queue[0].scene == "clifford-torus", "...and goes first"
+    assert k.content.preparer._queue[0].scene == "clifford-torus", "...and goes first"
     drawn = len(window.drawn)
-    k._collect(k.clock())
+    k.content.collect(k.clock(), k.started)
     k.step()
     assert len(window.drawn) == drawn + 1 and window.notices == 1
 
@@ -308,7 +308,7 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(tmp_path
     k.devices.keyboard.key("q", False)
     view = k.state.frame.view
     assert k.state.mode == "visitor"
-    k._collect(k.clock())  # hopf's other levels: they fail
+    k.content.collect(k.clock(), k.started)  # hopf's other levels: they fail
     assert k.state.frame.view == view
     assert k.problems == [] and k.scenes_failed == [] and "hopf" in k.state.content
 
@@ -327,7 +327,7 @@ def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monk
                   preparer=ProcessPreparer)
     k.run(max_frames=8)
     assert caplog.text.count("the preparing process cannot run") == 1
-    assert isinstance(k.preparer, InlinePreparer) and k._prepared_at is not None
+    assert isinstance(k.content.preparer, InlinePreparer) and k.content.prepared_at is not None
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
     assert k.errors.total == 0
 

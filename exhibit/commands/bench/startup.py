@@ -22,7 +22,7 @@ from pathlib import Path
 from exhibit.errors import ExhibitError
 
 HELP = "time from process start to the kiosk's first frame (warm mesh cache), with baselines"
-#: The kiosk's log line when its last scene is prepared (exhibit.kiosk.app.Kiosk._collect).
+#: The kiosk's log line when its last scene is prepared (exhibit.kiosk.content.Content.collect).
 PREPARED = "every scene is prepared"
 #: Goals of issue 23: warm start / imports baseline, and cold start / warm start.
 WARM_GOAL, COLD_GOAL = 2.5, 2.5
