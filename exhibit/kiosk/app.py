@@ -37,8 +37,6 @@ import math
 import os
 import resource
 import time
-import traceback
-from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -47,18 +45,20 @@ from exhibit import scenes
 from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
-from exhibit.errors import ConfigError, ExhibitError
+from exhibit.errors import ExhibitError
 from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content, nearest_level
 from exhibit.kiosk.governor import for_kiosk, mesh_levels
-from exhibit.kiosk.language import (PREPARING, SOURCE, Catalogue, Translator,
-                                    in_every_language, load_catalogues)
+from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
+from exhibit.kiosk.language import (PREPARING, LanguageChoice, in_every_language,
+                                    translator_for)
 from exhibit.kiosk.preparing import Framers, scene_jobs
 from exhibit.kiosk.slice_inset import SliceInset
 from exhibit.kiosk.start_views import StartViews
 from exhibit.kiosk.state import ATTRACT, KioskState
+from exhibit.kiosk.warm_up import WarmUp
 from exhibit.render.framer import Framer
 from exhibit.render.inset import inset_rect
 from exhibit.render.layout import TextSizes, hud_layout
@@ -71,8 +71,6 @@ log = logging.getLogger("exhibit.kiosk")
 #: A run of failed frames this long, with none drawn, ends the process so systemd restarts it.
 FAILING_EXIT_S = 60.0
 FAILING_EXIT = 70  # EX_SOFTWARE
-#: Failed frames after the first of their kind are summed up in one line at most this often.
-ERROR_REPORT_S = 10.0
 #: A whole frame longer than this after start-up is logged (the 1st, 2nd, 4th, 8th... of them).
 SLOW_FRAME_MS = 100.0
 #: Seconds of a crossfade between timelines and between scenes.
@@ -80,15 +78,6 @@ CROSSFADE_S = 1.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
 NOTICE = ("This exhibit is resting for a moment.",
           "(no scene could be prepared: see `exhibit status` and the journal)")
-
-@dataclass
-class FrameStats:
-    """Frame times since the last report, for the STATUS line and the health file."""
-
-    times: list[float] = field(default_factory=list)
-    gl_errors: int = 0
-    slow_frames: int = 0
-
 
 def _rss_kb() -> int:
     try:
@@ -107,44 +96,6 @@ def _fd_count() -> int:
         return len(os.listdir("/proc/self/fd"))
     except OSError:
         return -1
-
-
-class FrameErrors:
-    """Frames that raised. The first of each kind (exception type and the line that raised it)
-    is logged with its traceback, again at most hourly; the others are counted and summed up in
-    one line at most every ``every`` seconds, so a frame failing 60 times a second does not
-    flood the journal. ``failing_since``: when the current run of failed frames began."""
-
-    def __init__(self, every: float = ERROR_REPORT_S):
-        self.every = every
-        self.total = 0
-        self.failing_since: float | None = None
-        self._kinds: dict[tuple, float] = {}  # kind -> when its traceback was last logged
-        self._count, self._latest, self._logged = 0, "", -math.inf
-
-    def failed(self, exc: BaseException, now: float) -> None:
-        self.total += 1
-        if self.failing_since is None:
-            self.failing_since = now
-        where = traceback.extract_tb(exc.__traceback__)[-1:]
-        kind = (type(exc).__name__, *[(w.filename, w.lineno) for w in where])
-        if now - self._kinds.get(kind, -math.inf) >= 3600 and len(self._kinds) < 100:
-            self._kinds[kind] = self._logged = now
-            log.error("a frame failed (the next one tries again)", exc_info=exc)
-        else:
-            self._count += 1
-            self._latest = f"{type(exc).__name__}: {exc}"
-        self.flush(now)
-
-    def drawn(self, now: float) -> None:
-        self.failing_since = None
-        self.flush(now)
-
-    def flush(self, now: float) -> None:
-        if self._count and now - self._logged >= self.every:
-            log.error("%d more failed frames in the last %.0f s (the last: %s)", self._count,
-                      now - self._logged, self._latest)
-            self._count, self._logged = 0, now
 
 
 class Kiosk:
@@ -185,8 +136,9 @@ class Kiosk:
         self.text = TextSizes(config.text.caption_cap, config.text.title_cap,
                               config.text.infinity_beyond)
         #: The language on screen and its words (exhibit.kiosk.language).
-        self.translate = self._translator(config)
-        self._language_since = clock()
+        self.translate = translator_for(config, self.problems)
+        self.language = LanguageChoice(self.translate, config.language_switch_s, clock(),
+                                       on_change=self._language_changed)
         versions = functools.partial(in_every_language, self.translate)
         self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
                              hud=config.hud, versions=versions, words=self._words())
@@ -230,58 +182,22 @@ class Kiosk:
         self._last_report = now
         self._quit = False
         self._install_input()
-        #: Start-up work left for after the first frame, one piece per frame (_chores).
-        self._chores: list = self._warm_up_chores()
+        #: Start-up work left for after the first frame, one piece per frame.
+        self.warm = WarmUp(self._warm_up_chores())
         if self.content.preparer is None:
-            self.warm_up()
+            self.warm.all()
 
-    def _translator(self, config: KioskConfig) -> Translator:
-        """The languages of [languages]; a catalogue that cannot be read is left out (its
-        visitors read English), said once in the log and the health file."""
-        catalogues = {SOURCE: Catalogue(SOURCE, "English")}
-        for code in config.languages:
-            if code == SOURCE or config.catalogues_dir is None:
-                continue
-            try:
-                catalogues.update(load_catalogues(config.catalogues_dir, [code]))
-            except ConfigError as exc:
-                log.error("language %s left out: %s", code, "; ".join(exc.problems))
-                self.problems.append(f"language {code} left out (see the journal)")
-        return Translator(catalogues, config.languages)
-
-    def _walked_away(self, now: float) -> None:
-        """Attract mode is back: the next visitor finds the museum's own language, not the one
-        the last visitor chose."""
-        if self.translate.index != 0:
-            language = self.translate.reset()
-            log.info("language %s (attract mode is back)", language)
-            if self.sessions is not None:
-                self.sessions.language = language
-        self._language_since = now
+    def _language_changed(self, language: str) -> None:
+        if self.sessions is not None:
+            self.sessions.language = language
 
     def _words(self) -> tuple:
         """The numbers panel's words in every language shown, as _versions orders them."""
         return tuple(self.translate.hud_words(code) for code in self.translate.order)
 
-    def _switch_language(self, events, now: float) -> None:
-        """The "language" button, or attract mode's timer, shows the next language."""
-        pressed = self.state.mapper.pressed(events, "language")
-        timed = (self.config.language_switch_s > 0 and self.state.mode == ATTRACT
-                 and now - self._language_since >= self.config.language_switch_s)
-        if (pressed or timed) and len(self.translate.order) > 1:
-            language = self.translate.next()
-            self._language_since = now
-            log.info("language %s", language)
-            if self.sessions is not None:
-                self.sessions.language = language
-
     def _warm_up_chores(self) -> list:
-        """What the first frames would otherwise pay for, done one piece per frame after the
-        first (Kiosk._frame): every title and caption panel laid out and rasterised (15 ms at
-        each change otherwise), and a frame drawn through a crossfade at every quality level
-        the governor may choose (software GL compiles each shader variant at its first draw,
-        and the crossfade's snapshot is allocated at the first cut: a 109 ms frame at the first
-        scene change of a 1080p kiosk on llvmpipe otherwise)."""
+        """exhibit.kiosk.warm_up's chores: every title and caption panel in every language,
+        then a frame at every quality level the governor may choose."""
         if self.state is None:
             return []
         known = set(scenes.names())
@@ -319,23 +235,6 @@ class Kiosk:
         self.window.capture(gpu, frame.view, options, hud)
         self.window.draw(gpu, frame.view, options, hud, fade=0.5)
         return True
-
-    def warm_up(self) -> None:
-        """All the start-up work left, now (a kiosk that prepares everything before its first
-        frame: reviews, tests)."""
-        while self._chores:
-            self._chores[0]()
-            self._chores.pop(0)
-
-    def _chore(self) -> None:
-        """One piece of start-up work left for after the first frame (never fatal)."""
-        chore = self._chores[0]
-        try:
-            if not chore():
-                return
-        except Exception as exc:  # noqa: BLE001 - the frames do it themselves when needed
-            log.warning("start-up warm-up step failed: %s", exc)
-        self._chores.pop(0)
 
     # ------------------------------------------------------------------ input from the window
 
@@ -375,11 +274,12 @@ class Kiosk:
         else:
             mode, scene = self.state.mode, self.state.frame.scene
             frame = self.state.update(events, start)
-            self._switch_language(events, start)
+            self.language.update(self.state.mapper.pressed(events, "language"),
+                                 self.state.mode == ATTRACT, start)
             if self.sessions is not None:  # never raises, never blocks
                 self.sessions.observe(frame.mode, frame.scene, events, start)
             if frame.mode == ATTRACT and mode != ATTRACT:  # after the session took its language
-                self._walked_away(start)
+                self.language.walked_away(start)
             if frame.mode != mode or frame.scene != scene:
                 fields = self._update_log_fields()
                 if frame.mode != mode:
@@ -528,8 +428,8 @@ class Kiosk:
             self.frames += 1
             self.errors.drawn(start)
             drawn = True
-            if self._chores and self.frames > 1:
-                self._chore()
+            if self.warm and self.frames > 1:
+                self.warm.step()
         except Exception as exc:  # noqa: BLE001
             self.errors.failed(exc, start)
             drawn = False

@@ -355,8 +355,11 @@ class Playlist:
             self.started = now
         else:
             current += index <= current
-            if current > 0:  # at() gives a boundary to the timeline before it: a µs past it
-                offset = max(offset, 1e-6)
+            # A µs inside the timeline: at a boundary, rounding in at()'s sums could hand the
+            # instant to a neighbour (at() gives a boundary to the timeline before it).
+            duration = self.timelines[current].duration
+            if duration > 2e-6:
+                offset = min(max(offset, 1e-6), duration - 1e-6)
             self.started = now - sum(t.duration for t in self.timelines[:current]) - offset
 
     def at(self, now: float, stepped: bool = False) -> tuple[Timeline, ViewState, str]:

@@ -159,6 +159,50 @@ class Translator:
         return catalogue.text.get(text, text) if catalogue is not None else text
 
 
+def translator_for(config, problems: list[str]) -> Translator:
+    """The languages of [languages]; a catalogue that cannot be read is left out (its visitors
+    read English), said once in the log and in ``problems`` (the health file's)."""
+    catalogues = {SOURCE: Catalogue(SOURCE, "English")}
+    for code in config.languages:
+        if code == SOURCE or config.catalogues_dir is None:
+            continue
+        try:
+            catalogues.update(load_catalogues(config.catalogues_dir, [code]))
+        except ConfigError as exc:
+            log.error("language %s left out: %s", code, "; ".join(exc.problems))
+            problems.append(f"language {code} left out (see the journal)")
+    return Translator(catalogues, config.languages)
+
+
+class LanguageChoice:
+    """When the language on screen changes: a visitor's "language" button, attract mode's
+    timer (every ``switch_s`` seconds, 0: never), and back to the first language shown (the
+    museum's own) when attract mode returns, so the next visitor does not find the last one's.
+    ``on_change(language)`` hears of each change (the session log)."""
+
+    def __init__(self, translator: Translator, switch_s: float, now: float, on_change=None):
+        self.translator = translator
+        self.switch_s = switch_s
+        self.on_change = on_change
+        self._since = now
+
+    def _changed(self, language: str, now: float, why: str = "") -> None:
+        self._since = now
+        log.info("language %s%s", language, why)
+        if self.on_change is not None:
+            self.on_change(language)
+
+    def walked_away(self, now: float) -> None:
+        if self.translator.index != 0:
+            self._changed(self.translator.reset(), now, " (attract mode is back)")
+        self._since = now
+
+    def update(self, pressed: bool, attract: bool, now: float) -> None:
+        timed = self.switch_s > 0 and attract and now - self._since >= self.switch_s
+        if (pressed or timed) and len(self.translator.order) > 1:
+            self._changed(self.translator.next(), now)
+
+
 def in_every_language(translator: Translator, text: str) -> tuple[str, ...]:
     """``text`` in every language shown, in their order: what the framing keeps the picture
     clear of (exhibit.render.framer's ``versions``; a module function, so a worker process can

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from exhibit import scenes
@@ -120,12 +120,12 @@ def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
 
 def test_warm_up_runs_one_piece_per_frame_after_the_first(tmp_path, built):
     k = _kiosk(tmp_path)
-    pieces = len(k._chores)
+    pieces = len(k.warm.chores)
     assert pieces > len(k.governor.levels)  # text panels, then the quality levels
     k.run(max_frames=1)
-    assert len(k._chores) == pieces
+    assert len(k.warm.chores) == pieces
     k.run(max_frames=3)
-    assert len(k._chores) == pieces - 3
+    assert len(k.warm.chores) == pieces - 3
 
 
 def test_a_visitor_who_asks_for_a_scene_not_ready_sees_preparing_then_it(tmp_path, built):
@@ -173,6 +173,7 @@ def test_a_first_scene_that_fails_hands_the_first_frame_to_the_next(tmp_path, bu
 
 @given(durations=st.lists(st.floats(1, 50), min_size=1, max_size=5),
        at=st.floats(0, 500), new=st.floats(1, 50), index=st.integers(0, 5))
+@example(durations=[19.0, 1.0], at=19.0, new=45.66, index=0)  # a boundary, rounded badly
 def test_playlist_insert_keeps_the_timeline_playing_where_it_is(durations, at, new, index):
     from types import SimpleNamespace
 
