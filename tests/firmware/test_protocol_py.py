@@ -11,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exhibit.devices import protocol as p
+from tests.hypothesis_profiles import examples
 
 from .test_vectors_c import rx_stream
 
@@ -182,7 +183,7 @@ def test_every_frame_around_garbage_is_recovered(parts):
     assert d.pending == 0
 
 
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(st.binary(max_size=400))
 def test_python_and_firmware_decoders_agree_on_any_bytes(fw, data):
     names, stats, d = decode_all(data)
@@ -317,7 +318,7 @@ def link(draw):
 LINK_EXAMPLES = []
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(link())
 def test_sequence_tracker_counts_exactly_the_frames_never_delivered(stream):
     """Whatever the order and repeats, lost = the numbers never delivered, and every late or
