@@ -11,8 +11,8 @@ import pytest
 
 ROOT = Path(__file__).resolve().parent.parent
 PROBE = ("from hypothesis import settings; import tests.hypothesis_profiles as h; "
-         "s = settings.default; print(h.PROFILE, s.max_examples, s.derandomize, s.database is None, h.examples(300), "
-         "h.examples(40), h.examples(6))")
+         "s = settings.default; print(h.PROFILE, s.max_examples, s.derandomize, "
+         "s.database is None, h.examples(300), h.examples(40), h.examples(6))")
 #: Variables by which Hypothesis recognises CI (hypothesis/_settings.py, _CI_VARS).
 CI_VARIABLES = ("CI", "TF_BUILD", "BUILDKITE", "CIRCLECI", "CIRRUS_CI", "CODEBUILD_BUILD_ID",
                 "GITHUB_ACTIONS", "GITLAB_CI", "HEROKU_TEST_RUN_ID", "TEAMCITY_VERSION",
