@@ -6,6 +6,10 @@ import sys
 
 import pytest
 
+# Chooses the hypothesis profile ("dev" by default, "ci" under CI=true) before any test module is
+# imported, so every @settings(max_examples=examples(N)) sees it.
+import tests.hypothesis_profiles  # noqa: F401
+
 # A uniform name no shader declares is an error in tests (and in the kiosk subprocesses they
 # start), where the kiosk itself only logs it (exhibit/render/shaders.py).
 os.environ.setdefault("EXHIBIT_STRICT_UNIFORMS", "1")

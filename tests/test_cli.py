@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 
 from exhibit import __version__
 from exhibit.cli import COMMANDS, main
+from tests.hypothesis_profiles import examples
 
 
 def test_help_lists_every_subcommand(cli):
@@ -84,7 +85,7 @@ HOSTILE = ["nan", "inf", "-inf", "1e-320", "1e308", "-1", "0", "1e999", "", "x",
            "9" * 400, "1_000", " 3 ", "+inf", "NaN", "-0", "3,", ",", "inf,nan"]
 
 
-@settings(max_examples=300, deadline=None, derandomize=True)
+@settings(max_examples=examples(300), deadline=None, derandomize=True)
 @given(option=st.sampled_from(NUMERIC_OPTIONS),
        text=st.one_of(st.sampled_from(HOSTILE), st.floats().map(repr), st.text(max_size=12)))
 def test_numeric_options_are_finite_or_refused(option, text):

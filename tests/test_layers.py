@@ -1,13 +1,17 @@
 """The package layers of ARCHITECTURE.md, kept by a test: no module imports from a higher layer
 (or a sibling package of its own layer), and no import cycle joins modules, counting imports
-inside functions too (a lazy import is still a dependency, and still closes a cycle).
+inside functions (a lazy import is still a dependency, and still closes a cycle) and under
+`if TYPE_CHECKING:` (a type-only import still couples the modules: options.py and quality.py once
+formed a cycle that way, invisible to this test).
 
-The graph is read from the source with ast, not by importing, so it covers every module.
+The graph is read from the source with ast, not by importing, so it covers every module; it is
+built once per run (the `edges` fixture).
 """
 
 from __future__ import annotations
 
 import ast
+import functools
 import pathlib
 
 import pytest
@@ -37,17 +41,13 @@ def module_name(path: pathlib.Path, root: pathlib.Path = ROOT) -> str:
 
 
 def imports(path: pathlib.Path, name: str, known: set[str]) -> set[str]:
-    """The exhibit modules a file imports, anywhere in it except `if TYPE_CHECKING:` blocks (a
-    package import names its __init__; `from pkg import mod` names mod when mod is a module)."""
+    """The exhibit modules a file imports, anywhere in it, `if TYPE_CHECKING:` blocks included
+    (a package import names its __init__; `from pkg import mod` names mod when mod is a
+    module)."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     package = name if path.name == "__init__.py" else name.rpartition(".")[0]
     found = set()
-    type_only = {id(n) for block in ast.walk(tree) if isinstance(block, ast.If)
-                 and ast.unparse(block.test) in ("TYPE_CHECKING", "typing.TYPE_CHECKING")
-                 for n in ast.walk(block)}  # annotations only: not a dependency at run time
     for node in ast.walk(tree):
-        if id(node) in type_only:
-            continue
         if isinstance(node, ast.Import):
             targets = [alias.name for alias in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -69,6 +69,17 @@ def graph(root: pathlib.Path = ROOT) -> dict[str, set[str]]:
     known = set(paths)
     return {name: {t for t in imports(path, name, known) if t != name}
             for name, path in paths.items()}
+
+
+@functools.cache
+def _package_graph() -> tuple[tuple[str, frozenset[str]], ...]:
+    return tuple((name, frozenset(targets)) for name, targets in graph().items())
+
+
+@pytest.fixture
+def edges() -> dict[str, set[str]]:
+    """The import graph of the exhibit package, parsed once per run (a fresh copy per test)."""
+    return {name: set(targets) for name, targets in _package_graph()}
 
 
 def layer_of(module: str) -> tuple[str, int]:
@@ -134,18 +145,18 @@ def cycles(edges: dict[str, set[str]]) -> list[list[str]]:
     return found
 
 
-def test_every_package_has_a_layer():
-    for module in graph():
+def test_every_package_has_a_layer(edges):
+    for module in edges:
         layer_of(module)
 
 
-def test_no_module_imports_from_a_higher_layer():
-    problems = upward_imports(graph())
+def test_no_module_imports_from_a_higher_layer(edges):
+    problems = upward_imports(edges)
     assert not problems, "upward imports:\n" + "\n".join(problems)
 
 
-def test_no_import_cycles():
-    found = cycles(graph())
+def test_no_import_cycles(edges):
+    found = cycles(edges)
     assert not found, "import cycles:\n" + "\n".join(" <-> ".join(c) for c in found)
 
 
@@ -183,12 +194,34 @@ def test_a_planted_cycle_is_found_through_relative_and_lazy_imports(tree):
                   "devices/url.py": "from . import hid\n",
                   "devices/hid.py": "def g():\n    from .fake import x\n",
                   "devices/fake.py": "from exhibit.devices.url import y\n",
-                  "devices/alone.py": "from exhibit.devices import url\n",
-                  "devices/typed.py": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
-                                      "    from exhibit.render import frame\n"})
+                  "devices/alone.py": "from exhibit.devices import url\n"})
     assert cycles(edges) == [["exhibit.devices.fake", "exhibit.devices.hid",
                               "exhibit.devices.url"]]
     assert upward_imports(edges) == []
+
+
+TYPE_ONLY = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    {}\n"
+
+
+@pytest.mark.parametrize("guard", ["TYPE_CHECKING", "typing.TYPE_CHECKING"])
+def test_a_planted_type_checking_cycle_is_found(tree, guard):
+    """The shape options.py and quality.py once had: one imports the other for annotations only,
+    the other imports it back at run time."""
+    edges = tree({"__init__.py": "", "render/__init__.py": "",
+                  "render/options.py": "import typing\n" + TYPE_ONLY.replace(
+                      "TYPE_CHECKING:", f"{guard}:").format(
+                      "from exhibit.render.quality import Quality"),
+                  "render/quality.py": "from exhibit.render.options import RenderOptions\n"})
+    assert edges["exhibit.render.options"] == {"exhibit.render.quality"}
+    assert cycles(edges) == [["exhibit.render.options", "exhibit.render.quality"]]
+
+
+def test_a_type_checking_import_counts_for_the_layers(tree):
+    edges = tree({"__init__.py": "", "devices/__init__.py": "",
+                  "devices/typed.py": TYPE_ONLY.format("from exhibit.render import frame"),
+                  "render/__init__.py": "", "render/frame.py": ""})
+    assert upward_imports(edges) == [
+        "exhibit.devices.typed (layer 3) imports exhibit.render.frame (layer 5)"]
 
 
 def test_no_test_module_imports_another():

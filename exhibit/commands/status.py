@@ -35,8 +35,9 @@ from pathlib import Path
 
 from exhibit.commands import _args
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.health import (MISSING_STATES, HealthError, candidate_paths, format_duration,
-                                  freshness, missing_devices, read_health)
+from exhibit.kiosk.health import (MISSING_STATES, DeviceHealth, Health, HealthError,
+                                  candidate_paths, format_duration, freshness, missing_devices,
+                                  read_health)
 from exhibit.schema.files import UnsafePath, check_target, split_target
 
 HELP = ("health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken, 3 a "
@@ -112,7 +113,7 @@ def run(args) -> int:
     fresh, age, reason = freshness(data, args.max_age, now=now)
     missing = missing_devices(data, args.max_lost, age) if fresh else []
     if args.json:
-        _print_json({**data, "path": str(path), "age_s": round(age, 3), "fresh": fresh,
+        _print_json({**data.as_dict(), "path": str(path), "age_s": round(age, 3), "fresh": fresh,
                      "reason": reason, "devices_missing": missing})
     elif not quiet:
         print(summary(data, path, age, fresh, missing))
@@ -136,11 +137,12 @@ def _missing_text(m: dict, max_lost: float) -> str:
             f"(more than {max_lost:g} s)")
 
 
-def _write_metrics(target: Path, data: dict | None, status: str, age: float | None = None) -> int:
-    from exhibit.kiosk.metrics import render, write_metrics
+def _write_metrics(target: Path, data: Health | None, status: str,
+                   age: float | None = None) -> int:
+    from exhibit.kiosk.metrics import write_metrics
 
     try:
-        write_metrics(target, render(data, status, age))
+        write_metrics(target, data, status, age)
     except UnsafePath as exc:  # swapped in since run() checked it
         print(f"exhibit status: cannot write the metrics file: {printable(exc)}", file=sys.stderr)
         return EXIT_METRICS_UNWRITTEN
@@ -154,17 +156,17 @@ def _write_metrics(target: Path, data: dict | None, status: str, age: float | No
     return 0
 
 
-def summary(data: dict, path: Path, age: float, fresh: bool,
+def summary(data: Health, path: Path, age: float, fresh: bool,
             missing: list[dict] | None = None) -> str:
     """The staff-facing text: one header line, then one aligned line per topic."""
     def get(key, fmt="{}"):
-        value = data.get(key)
+        value = getattr(data, key)
         return "?" if value is None else printable(fmt.format(value))
 
     head = "STALE" if not fresh else "DEVICE MISSING" if missing else "OK"
     updated = format_duration(max(age, 0.0))
     lines = [f"exhibit kiosk: {head} (updated {updated} ago, pid {get('pid')})"]
-    uptime = data.get("uptime_s")
+    uptime = data.uptime_s
     rows = [
         ("mode", get("mode")),
         ("scene", get("scene")),
@@ -172,27 +174,27 @@ def summary(data: dict, path: Path, age: float, fresh: bool,
                 f"(95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)"),
         ("uptime", "?" if uptime is None else format_duration(float(uptime))),
     ]
-    if data.get("quality") is not None:
+    if data.quality is not None:
         rows.append(("quality", quality_line(data)))
-    devices = data.get("devices") or []
+    devices = data.devices or []
     if devices:
-        urls = [printable(d["url"]) for d in devices]
+        urls = [printable(d.url) for d in devices]
         width = max(map(len, urls))
         for i, (url, device) in enumerate(zip(urls, devices)):
             rows.append(("devices" if i == 0 else "",
-                         f"{url:<{width}}  {printable(device['state'])}"
+                         f"{url:<{width}}  {printable(device.state)}"
                          f"{_how_long(device, age)}"))
     else:
         rows.append(("devices", "none"))
-    failed = [f for f in (data.get("scenes_failed") or []) if isinstance(f, dict)]
-    problems = [p for p in (data.get("problems") or []) if isinstance(p, str)]
+    failed = [f for f in (data.scenes_failed or []) if isinstance(f, dict)]
+    problems = [p for p in (data.problems or []) if isinstance(p, str)]
     for i, problem in enumerate(problems[:20]):
         rows.append(("problems" if i == 0 else "", printable(problem)[:300]))
     if failed and not problems:
         rows.append(("problems", f"{len(failed)} scene(s) failed: "
                                  + printable(", ".join(str(f.get("scene")) for f in failed))))
     rows.append(("frames", f"{get('frames')} drawn, {get('frame_errors')} failed"))
-    rss = data.get("rss_kb")
+    rss = data.rss_kb
     rows.append(("process", f"{get('gl_errors')} GL errors, "
                             f"{'?' if rss is None else f'{rss / 1024:.0f} MB'} resident, "
                             f"{get('fds')} open files"))
@@ -201,19 +203,19 @@ def summary(data: dict, path: Path, age: float, fresh: bool,
     return "\n".join(lines)
 
 
-def _how_long(device: dict, age: float) -> str:
+def _how_long(device: DeviceHealth, age: float) -> str:
     """" for 3 min 5 s (never connected)" for a missing device whose kiosk knows how long."""
-    missing = device.get("missing_s")
-    if device.get("state") not in MISSING_STATES or missing is None:
+    missing = device.missing_s
+    if device.state not in MISSING_STATES or missing is None:
         return ""
     text = f" for {format_duration(float(missing) + max(age, 0.0))}"
-    return text + " (never connected)" if device["state"] == "waiting" else text
+    return text + " (never connected)" if device.state == "waiting" else text
 
 
-def quality_line(data: dict) -> str:
+def quality_line(data: Health) -> str:
     """The frame governor's level, e.g. ``scale-50 (level 6 of 6, auto; fxaa, mesh x0.5, lean,
     scale 0.5), frames 19.1 ms for a 16.7 ms target``; whatever is missing or odd shows as ?."""
-    detail = data.get("quality_detail")
+    detail = data.quality_detail
     detail = detail if isinstance(detail, dict) else {}
 
     def num(value, fmt):
@@ -226,9 +228,9 @@ def quality_line(data: dict) -> str:
     parts = [printable(detail.get("antialiasing", "?")), f"mesh x{factor}",
              printable(detail.get("effects", "?")),
              f"scale {num(detail.get('render_scale'), '{:g}')}"]
-    return (f"{printable(data.get('quality'))} (level {num(detail.get('level'), '{}')} of "
+    return (f"{printable(data.quality)} (level {num(detail.get('level'), '{}')} of "
             f"{num(detail.get('levels'), '{}')}, {how}; {', '.join(parts)}), frames "
-            f"{num(data.get('frame_ms'), '{:.1f}')} ms for a {num(data.get('target_ms'), '{:.1f}')}"
+            f"{num(data.frame_ms, '{:.1f}')} ms for a {num(data.target_ms, '{:.1f}')}"
             " ms target")
 
 

@@ -354,19 +354,24 @@ class Kiosk:
             self.notifier.status(f"{fps:.0f} fps, {what}; {states}"
                                  + (f"; {len(problems)} problems" if problems else ""))
         if self.health_path is not None:
-            from exhibit.kiosk.health import write_health
+            from exhibit.kiosk.health import process_uptime, report, write_health
+
+            # Since the process started (imports, window, first meshes included), not since
+            # this object was built: that missed the whole start-up (issue 24).
+            uptime = process_uptime()
             try:
-                write_health(self.health_path, {
+                write_health(self.health_path, report(**{
                     "time": time.time(), "pid": os.getpid(), "fps": round(fps, 1),
                     "frame_ms_p95": round(p95, 2), "mode": mode, "scene": scene,
-                    "devices": devices, "uptime_s": round(now - self.started, 1),
+                    "devices": devices,
+                    "uptime_s": round(now - self.started if uptime is None else uptime, 1),
                     "gl_errors": self.stats.gl_errors, "rss_kb": _rss_kb(), "fds": _fd_count(),
                     "frames": self.frames, "frame_errors": self.errors.total,
                     "problems": problems, "scenes_failed": self.scenes_failed,
                     "language": self.translate.language,
                     **(self.sessions.health() if self.sessions is not None else {}),
-                    **self.governor.health()})  # quality level, frame_ms, target_ms
-            except OSError as exc:
+                    **self.governor.health()}))  # quality level, frame_ms, target_ms
+            except (OSError, TypeError) as exc:
                 log.warning("cannot write the health file %s: %s", self.health_path, exc)
 
     def run(self, duration: float | None = None, screenshot: Path | None = None,

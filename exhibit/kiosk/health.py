@@ -1,19 +1,20 @@
 """The kiosk's health file: what the running exhibit is doing, rewritten about once a second.
 
-The app writes ``{"time", "pid", "fps", "frame_ms_p95", "mode", "scene", "devices": [{"name",
-"url", "state", "state_s", "missing_s"}], "uptime_s", "gl_errors", "rss_kb", "fds", "frames",
-"frame_errors", "problems": [str], "scenes_failed": [{"scene", "reason"}]}``: "frames" drawn and
-"frame_errors" (frames that raised) since the start, "problems" one line each for people (scenes
-skipped, frames failing), and "mode" and "scene" null when no scene could be prepared (the screen
-shows a notice). Per device, "state" is one of exhibit.devices.base.State's values ("waiting":
-never connected since the start, "lost": connected once, then gone), "state_s" the seconds it
-has been in that state and "missing_s" the seconds since it was last connected (or since the
-start, if never), null while connected; all as of "time". Files from kiosks older than these
-three device keys have only "url" and "state", and are read as before (durations unknown).
-`exhibit status` (staff, monitoring scripts, the Prometheus metrics) reads it. Writes are
-atomic (exhibit.schema.files.write_atomic: a temporary file in the same folder, then a rename;
-never over a device, FIFO, folder or symlink), so a reader never sees half a file, and the file is world-readable (0644) so staff can read it without sudo: nothing in it is
-secret.
+Its schema is one pydantic model, Health (with DeviceHealth per device): the kiosk builds one
+(Kiosk._report, through report()) and writes it, and every reader gets one back from
+read_health (`exhibit status`, the Prometheus metrics in exhibit.kiosk.metrics). The fields'
+comments say what each holds. "frames" drawn and "frame_errors" (frames that raised) count since
+the start, "uptime_s" is the seconds since the kiosk process started (process_uptime),
+"problems" has one line each for people (scenes skipped, frames failing), and "mode" and "scene"
+are null when no scene could be prepared (the screen shows a notice). Per device, "state" is one
+of exhibit.devices.base.State's values ("waiting": never connected since the start, "lost":
+connected once, then gone), "state_s" the seconds it has been in that state and "missing_s" the
+seconds since it was last connected (or since the start, if never), null while connected; all
+as of "time". Files from kiosks older than these three device keys have only "url" and "state",
+and are read as before (durations unknown). Writes are atomic (exhibit.schema.files.write_atomic:
+a temporary file in the same folder, then a rename; never over a device, FIFO, folder or
+symlink), so a reader never sees half a file, and the file is world-readable (0644) so staff can
+read it without sudo: nothing in it is secret.
 
 Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
 ~/.local/state/exhibit/health.json. The systemd unit sets EXHIBIT_STATE_DIR=/var/lib/exhibit.
@@ -28,13 +29,19 @@ import stat
 import time
 from collections.abc import Mapping
 from pathlib import Path
+from typing import Annotated, Any
+
+from pydantic import (BaseModel, BeforeValidator, ConfigDict, PlainValidator, ValidationError,
+                      model_validator)
+from pydantic_core import PydanticCustomError
 
 from exhibit.errors import ExhibitError
 from exhibit.schema import files
 
-__all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "MAX_HEALTH_BYTES", "HealthError", "state_dir",
-           "default_path", "candidate_paths", "write_health", "write_atomic", "read_health",
-           "freshness", "missing_devices", "device_label", "format_duration"]
+__all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "MAX_HEALTH_BYTES", "Health", "DeviceHealth",
+           "HealthError", "state_dir", "default_path", "candidate_paths", "report",
+           "write_health", "write_atomic", "read_health", "freshness", "missing_devices",
+           "device_label", "format_duration", "process_uptime"]
 
 HEALTH_FILE = "health.json"
 #: Where the service's StateDirectory=exhibit puts the file (exhibit.service).
@@ -46,29 +53,168 @@ MAX_HEALTH_BYTES = 1 << 20
 #: and would overflow the float arithmetic of a reader (an int of 400 digits has no float).
 MAX_NUMBER = 2**53
 
-_NUMBER = (int, float)
-#: key -> (accepted types, what to call them in an error); "time" is the only required key.
-_FIELDS = {
-    "time": (_NUMBER, "a number (unix seconds)"),
-    "pid": (int, "a whole number"),
-    "fps": (_NUMBER, "a number"),
-    "frame_ms_p95": (_NUMBER, "a number"),
-    "mode": (str, "a string"),
-    "scene": (str, "a string"),
-    "devices": (list, "a list"),
-    "uptime_s": (_NUMBER, "a number"),
-    "gl_errors": (int, "a whole number"),
-    "rss_kb": (int, "a whole number"),
-    "fds": (int, "a whole number"),
-    "frames": (int, "a whole number"),
-    "frame_errors": (int, "a whole number"),
-}
-#: Optional keys of each "devices" entry (besides the required "url" and "state" strings).
-_DEVICE_FIELDS = {
-    "name": (str, "a string"),
-    "state_s": (_NUMBER, "a number"),
-    "missing_s": (_NUMBER, "a number"),
-}
+
+def _fail(message: str):
+    # The whole message in the context: a template would read the braces of a repr as fields.
+    return PydanticCustomError("health", "{message}", {"message": message})
+
+
+def _number(wanted: str, *, nullable: bool = True, seconds: bool = False):
+    """A JSON number (int or float, never a bool), finite and within ±2**53; seconds: in
+    [0, 2**53]. Kept as it was read (an int stays an int)."""
+    def check(value):
+        if value is None and nullable:
+            return None
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise _fail(f"expected {wanted}, got {value!r}")
+        if seconds and not 0 <= value <= MAX_NUMBER:
+            raise _fail(f"expected seconds in [0, 2**53], got {value!r}")
+        if isinstance(value, float) and not math.isfinite(value):
+            raise _fail(f"expected a finite number, got {value!r}")
+        if abs(value) > MAX_NUMBER:
+            raise _fail("out of range (beyond ±2**53)")
+        return value
+    return PlainValidator(check)
+
+
+def _whole(value):
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise _fail(f"expected a whole number, got {value!r}")
+    if abs(value) > MAX_NUMBER:
+        raise _fail("out of range (beyond ±2**53)")
+    return value
+
+
+def _text(value):
+    if value is not None and not isinstance(value, str):
+        raise _fail(f"expected a string, got {value!r}")
+    return value
+
+
+def _mode(value):
+    _text(value)
+    if value is not None and value not in MODES:
+        raise _fail(f"expected one of {', '.join(MODES)}, got {value!r}")
+    return value
+
+
+def _a_list(value):
+    if value is not None and not isinstance(value, list):
+        raise _fail(f"expected a list, got {value!r}")
+    return value
+
+
+def _as_read(value):
+    return value
+
+
+Number = Annotated[int | float | None, _number("a number")]
+Seconds = Annotated[int | float | None, _number("a number", seconds=True)]
+Whole = Annotated[int | None, PlainValidator(_whole)]
+Text = Annotated[str | None, PlainValidator(_text)]
+#: Written by the kiosk, not checked on read (as before the model): a reader shows an odd value
+#: as "?" (exhibit.commands.status) rather than calling the whole file broken.
+Unchecked = PlainValidator(_as_read)
+
+
+class DeviceHealth(BaseModel):
+    """One configured device: "state" is one of exhibit.devices.base.State's values, "state_s"
+    the seconds in it, "missing_s" the seconds since it was last connected (null while
+    connected). Files from kiosks older than the three optional keys have only url and state."""
+
+    model_config = ConfigDict(extra="allow")
+
+    url: str
+    state: str
+    name: Text = None
+    state_s: Seconds = None
+    missing_s: Seconds = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _an_entry(cls, value):
+        if not isinstance(value, (dict, DeviceHealth)) or isinstance(value, dict) and not all(
+                isinstance(value.get(k), str) for k in ("url", "state")):
+            raise _fail(f'expected {{"url": str, "state": str}}, got {value!r}')
+        return value
+
+
+class Health(BaseModel):
+    """The health file, as the kiosk writes it (Kiosk._report, through report()) and every
+    reader reads it (read_health: `exhibit status`, the metrics). "time" is the only required
+    key; null is "not known yet" (fps before the first second); unknown keys are kept (a newer
+    kiosk may add some) and so is which keys the file had (as_dict)."""
+
+    model_config = ConfigDict(extra="allow")
+
+    time: Annotated[int | float, _number("a number (unix seconds)", nullable=False)]
+    pid: Whole = None
+    fps: Number = None
+    frame_ms_p95: Number = None
+    mode: Annotated[str | None, PlainValidator(_mode)] = None
+    scene: Text = None
+    devices: Annotated[list[DeviceHealth] | None, BeforeValidator(_a_list)] = None
+    #: Seconds since the kiosk process started (process_uptime).
+    uptime_s: Number = None
+    gl_errors: Whole = None
+    rss_kb: Whole = None
+    fds: Whole = None
+    frames: Whole = None
+    frame_errors: Whole = None
+    #: One line each for people: scenes skipped, frames failing.
+    problems: Annotated[list[str] | None, Unchecked] = None
+    #: [{"scene", "reason"}]
+    scenes_failed: Annotated[list[dict[str, Any]] | None, Unchecked] = None
+    language: Annotated[str | None, Unchecked] = None
+    #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog.health).
+    sessions: Annotated[dict[str, Any] | None, Unchecked] = None
+    #: The frame governor (exhibit.kiosk.governor.Governor.health).
+    quality: Annotated[str | None, Unchecked] = None
+    quality_detail: Annotated[dict[str, Any] | None, Unchecked] = None
+    frame_ms: Annotated[float | None, Unchecked] = None
+    frame_ms_max: Annotated[float | None, Unchecked] = None
+    frame_ms_max_at_s: Annotated[float | None, Unchecked] = None
+    target_ms: Annotated[float | None, Unchecked] = None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The keys the file had (or the writer set), unknown ones included, as JSON values."""
+        return self.model_dump(mode="python", exclude_unset=True, warnings=False)
+
+    def get(self, key: str, default: Any = None) -> Any:
+        """A key of the file, known or not, None when absent (as dict.get)."""
+        return self.as_dict().get(key, default)
+
+    def has(self, key: str) -> bool:
+        return key in self.model_fields_set or key in (self.model_extra or {})
+
+
+def _validation_problems(exc: ValidationError) -> list[str]:
+    problems = []
+    for error in exc.errors():
+        key = ""
+        for part in error["loc"]:
+            key += f"[{part}]" if isinstance(part, int) else f".{part}" if key else str(part)
+        if error["type"] == "missing":
+            problems.append(f"key {key!r}: missing")
+        elif error["type"] == "health":
+            problems.append(f"key {key!r}: {error['msg']}")
+        else:
+            problems.append(f"key {key!r}: {error['msg']} (got {error.get('input')!r})")
+    return problems
+
+
+def as_health(data: Health | Mapping) -> Health:
+    """``data`` as a Health (a Mapping is checked: HealthError names what is wrong)."""
+    if isinstance(data, Health):
+        return data
+    try:
+        return Health.model_validate(dict(data))
+    except ValidationError as exc:
+        raise HealthError("; ".join(_validation_problems(exc))) from None
+
+
 #: States in which a device delivers nothing (exhibit.devices.base.MISSING, without importing
 #: the device layer into every reader); "lost" is counted in files written before "waiting".
 MISSING_STATES = ("waiting", "connecting", "lost", "reconnecting")
@@ -111,15 +257,25 @@ def candidate_paths(environ: Mapping[str, str] | None = None) -> list[Path]:
     return paths
 
 
-def write_health(path: str | os.PathLike, data: Mapping) -> None:
-    """Write ``data`` as the health file at ``path`` atomically, creating its folder if needed.
+def report(**fields) -> Health:
+    """The Health the kiosk writes, from its numbers: non-finite floats (an fps before the first
+    second) become null, as JSON has no NaN. Raises TypeError for a value of the wrong type."""
+    try:
+        return Health.model_validate(_finite(fields))
+    except ValidationError as exc:
+        raise TypeError("health file: " + "; ".join(_validation_problems(exc))) from None
 
-    Non-finite floats (an fps before the first second) become null, as JSON has no NaN. Raises
-    OSError when the disk refuses (the app logs it and carries on), TypeError for values JSON
-    cannot hold. No fsync: the file is rewritten every second, and losing the last one to a power
-    cut is harmless, while syncing 86,400 times a day wears the kiosk's flash for nothing.
+
+def write_health(path: str | os.PathLike, data: Health | Mapping) -> None:
+    """Write ``data`` (a Health, or a mapping checked as one by report()) as the health file at
+    ``path`` atomically, creating its folder if needed.
+
+    Raises OSError when the disk refuses (the app logs it and carries on), TypeError for values
+    of the wrong type. No fsync: the file is rewritten every second, and losing the last one to
+    a power cut is harmless, while syncing 86,400 times a day wears the kiosk's flash for nothing.
     """
-    text = json.dumps(_finite(dict(data)), allow_nan=False, separators=(",", ":")) + "\n"
+    health = data if isinstance(data, Health) else report(**dict(data))
+    text = json.dumps(_finite(health.as_dict()), allow_nan=False, separators=(",", ":")) + "\n"
     files.write_atomic(path, text, sync=False, make_folder=True)
 
 
@@ -131,8 +287,8 @@ def write_atomic(path: str | os.PathLike, text: str, mode: int = 0o644) -> None:
     files.write_atomic(path, text, mode=mode, sync=False)
 
 
-def read_health(path: str | os.PathLike) -> dict:
-    """The health file at ``path`` as a dict; HealthError names the file and what is wrong.
+def read_health(path: str | os.PathLike) -> Health:
+    """The health file at ``path``; HealthError names the file and what is wrong.
 
     "time" is required (a reader needs the age); the other known keys are checked for type and
     range when present, and unknown keys are kept (a newer kiosk may add some). Only a regular
@@ -164,10 +320,10 @@ def read_health(path: str | os.PathLike) -> dict:
         raise HealthError(f"{path}: not valid JSON (nested too deep)") from None
     if not isinstance(data, dict):
         raise HealthError(f"{path}: expected a JSON object, got {type(data).__name__}")
-    problems = _problems(data)
-    if problems:
-        raise HealthError(f"{path}: " + "; ".join(problems))
-    return data
+    try:
+        return Health.model_validate(data)
+    except ValidationError as exc:
+        raise HealthError(f"{path}: " + "; ".join(_validation_problems(exc))) from None
 
 
 def _read_regular(path: Path) -> bytes:
@@ -200,7 +356,7 @@ def _finite_float(text: str) -> float:
     return value
 
 
-def freshness(data: Mapping, max_age: float, now: float | None = None,
+def freshness(data: Health | Mapping, max_age: float, now: float | None = None,
               check_pid: bool = True) -> tuple[bool, float, str | None]:
     """(fresh, age in seconds, reason when not fresh) of health data read with read_health.
 
@@ -208,76 +364,57 @@ def freshness(data: Mapping, max_age: float, now: float | None = None,
     was set back, or the writer's clock is wrong), or when its pid no longer exists on this
     machine (a crashed kiosk is stale at once, not ``max_age`` later).
     """
+    data = as_health(data)
     now = time.time() if now is None else now
-    age = now - float(data["time"])
+    age = now - float(data.time)
     if age > max_age:
         return False, age, f"last update {format_duration(age)} ago (more than {max_age:g} s)"
     if age < -max_age:
         return False, age, (f"last update is stamped {format_duration(-age)} in the future "
                             "(clock changed?)")
-    pid = data.get("pid")
+    pid = data.pid
     if check_pid and isinstance(pid, int) and pid > 0 and not _pid_alive(pid):
         return False, age, (f"the kiosk process {pid} is not running (last update "
                             f"{format_duration(age)} ago)")
     return True, age, None
 
 
-def _problems(data: dict) -> list[str]:
-    problems = []
-    if "time" not in data:
-        problems.append("key 'time': missing")
-    for key, (types, wanted) in _FIELDS.items():
-        if key not in data or (data[key] is None and key != "time"):
-            continue  # null: not known yet (fps before the first second)
-        value = data[key]
-        if isinstance(value, bool) or not isinstance(value, types):
-            problems.append(f"key {key!r}: expected {wanted}, got {value!r}")
-        elif isinstance(value, float) and not math.isfinite(value):
-            problems.append(f"key {key!r}: expected a finite number, got {value!r}")
-        elif isinstance(value, (int, float)) and abs(value) > MAX_NUMBER:
-            problems.append(f"key {key!r}: out of range (beyond ±2**53)")
-    if isinstance(data.get("mode"), str) and data["mode"] not in MODES:
-        problems.append(f"key 'mode': expected one of {', '.join(MODES)}, got {data['mode']!r}")
-    if isinstance(data.get("devices"), list):
-        for i, device in enumerate(data["devices"]):
-            if not isinstance(device, dict) or not all(isinstance(device.get(k), str)
-                                                       for k in ("url", "state")):
-                problems.append(f"key 'devices[{i}]': expected {{\"url\": str, \"state\": str}}, "
-                                f"got {device!r}")
-                continue
-            for key, (types, wanted) in _DEVICE_FIELDS.items():
-                value = device.get(key)
-                if value is None:
-                    continue
-                if isinstance(value, bool) or not isinstance(value, types):
-                    problems.append(f"key 'devices[{i}].{key}': expected {wanted}, got {value!r}")
-                elif types is _NUMBER and not 0 <= value <= MAX_NUMBER:
-                    problems.append(f"key 'devices[{i}].{key}': expected seconds in "
-                                    f"[0, 2**53], got {value!r}")
-    return problems
-
-
-def device_label(device: Mapping) -> str:
+def device_label(device: DeviceHealth) -> str:
     """What to call a device from the health file: its config name, else its URL."""
-    name = device.get("name")
-    return name if isinstance(name, str) and name else str(device.get("url", "?"))
+    return device.name or device.url
 
 
-def missing_devices(data: Mapping, max_lost: float, age: float = 0.0) -> list[dict]:
+def missing_devices(data: Health | Mapping, max_lost: float, age: float = 0.0) -> list[dict]:
     """The devices of health data (read with read_health) missing for longer than ``max_lost``
     seconds by now, ``age`` seconds after the file's "time": [{"device", "url", "state",
     "missing_s"}]. A device in a missing state without "missing_s" (a file from an older kiosk)
     is not counted: how long it has been gone is unknown."""
     out = []
-    for device in data.get("devices") or []:
-        missing = device.get("missing_s")
-        if device.get("state") not in MISSING_STATES or missing is None:
+    for device in as_health(data).devices or []:
+        missing = device.missing_s
+        if device.state not in MISSING_STATES or missing is None:
             continue
         missing = float(missing) + max(0.0, age)
         if missing > max_lost:
-            out.append({"device": device_label(device), "url": device["url"],
-                        "state": device["state"], "missing_s": round(missing, 1)})
+            out.append({"device": device_label(device), "url": device.url,
+                        "state": device.state, "missing_s": round(missing, 1)})
     return out
+
+
+def process_uptime(pid: int | None = None) -> float | None:
+    """Seconds since the process ``pid`` (this one by default) started, from the kernel: its
+    start time in /proc/PID/stat (clock ticks after boot) against CLOCK_BOOTTIME. So start-up
+    counts too (imports, the window, the first meshes), which a clock started in the kiosk's
+    own code misses. None where /proc cannot tell (not Linux)."""
+    try:
+        with open(f"/proc/{pid or 'self'}/stat", "rb") as f:
+            stat_line = f.read().decode("ascii", "replace")
+        # After the command name, which is in parentheses and may hold spaces or ")".
+        fields = stat_line[stat_line.rindex(")") + 2:].split()
+        started = int(fields[19]) / os.sysconf("SC_CLK_TCK")  # field 22, starttime
+        return max(0.0, time.clock_gettime(time.CLOCK_BOOTTIME) - started)
+    except (OSError, ValueError, IndexError, AttributeError):
+        return None
 
 
 def _finite(value):

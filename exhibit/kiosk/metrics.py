@@ -1,9 +1,10 @@
 """The kiosk's health as Prometheus metrics, for node_exporter's textfile collector.
 
-`exhibit status --prometheus FILE` renders the health file (exhibit.kiosk.health) in the
-Prometheus text exposition format (version 0.0.4) and writes it atomically, so a museum that
-already runs node_exporter on its machines watches every kiosk with the Prometheus it has: no
-new server, no open port on the kiosk. Run every 15 s by exhibit-metrics.timer.
+`exhibit status --prometheus FILE` renders the health file (exhibit.kiosk.health.Health) in the
+Prometheus text exposition format (version 0.0.4) with prometheus_client, in a registry of its
+own, and writes it atomically (prometheus_client's write_to_textfile), so a museum that already
+runs node_exporter on its machines watches every kiosk with the Prometheus it has: no new
+server, no open port on the kiosk. Run every 15 s by exhibit-metrics.timer.
 
 The file is written whatever the health file says, because an alert needs a value to fire on:
 with no health file, a stale one or a broken one, ``exhibit_up`` is 0 and ``exhibit_health``
@@ -13,20 +14,28 @@ rate, mode, devices...) are only written from a fresh file: a dead kiosk's last 
 not a current one.
 
 Label values come from the health file (device names and URLs from the config, scene names) and
-are made safe: control and invisible characters are removed, the value is cut to
-MAX_LABEL_CHARS, and backslash, double quote and line feed are escaped as the format requires.
+are made safe: control and invisible characters are removed and the value is cut to
+MAX_LABEL_CHARS; prometheus_client escapes backslash, double quote and line feed as the format
+requires.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import shutil
+import tempfile
 from collections.abc import Mapping
+from pathlib import Path
+
+from prometheus_client import CollectorRegistry, generate_latest, write_to_textfile
+from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
 
 from exhibit.devices.base import State
-from exhibit.kiosk.health import MODES, device_label, write_atomic
+from exhibit.kiosk.health import MODES, Health, as_health, device_label
+from exhibit.schema.files import check_target
 
-__all__ = ["HEALTH_STATUSES", "FAMILIES", "render", "write_metrics", "escape_label"]
+__all__ = ["HEALTH_STATUSES", "FAMILIES", "registry", "render", "write_metrics", "escape_label"]
 
 #: exhibit_health's status label: fresh, too old (or its process gone), no file, unreadable.
 HEALTH_STATUSES = ("ok", "stale", "missing", "broken")
@@ -69,11 +78,14 @@ FAMILIES = {
 }
 
 
-def render(data: Mapping | None, status: str, age: float | None = None) -> str:
-    """The metrics text for health ``data`` (read with read_health; None when there is none),
-    its ``status`` (one of HEALTH_STATUSES) and ``age`` in seconds (None if unknown)."""
+def registry(data: Health | Mapping | None, status: str,
+             age: float | None = None) -> CollectorRegistry:
+    """A registry of its own holding the metrics for health ``data`` (read with read_health;
+    None when there is none), its ``status`` (one of HEALTH_STATUSES) and ``age`` in seconds
+    (None if unknown)."""
     if status not in HEALTH_STATUSES:
         raise ValueError(f"status must be one of {HEALTH_STATUSES}, got {status!r}")
+    health = None if data is None else as_health(data)
     samples: dict[str, list[tuple[dict, object]]] = {name: [] for name in FAMILIES}
 
     def add(name, value, **labels):
@@ -83,38 +95,55 @@ def render(data: Mapping | None, status: str, age: float | None = None) -> str:
     add("exhibit_up", int(status == "ok"))
     for s in HEALTH_STATUSES:
         add("exhibit_health", int(s == status), status=s)
-    if data is not None:
+    if health is not None:
         if age is not None:
             add("exhibit_health_age_seconds", round(max(age, 0.0), 3))
-        add("exhibit_last_update_timestamp_seconds", data.get("time"))
-    if data is not None and status == "ok":
-        _kiosk(data, add)
-    lines = []
-    for name, (kind, text) in FAMILIES.items():
-        if not samples[name]:
-            continue
-        lines.append(f"# HELP {name} {_escape_help(text)}")
-        lines.append(f"# TYPE {name} {kind}")
-        for labels, value in samples[name]:
-            body = ",".join(f'{k}="{escape_label(v)}"' for k, v in labels.items())
-            lines.append(f"{name}{{{body}}} {_number(value)}" if body
-                         else f"{name} {_number(value)}")
-    return "\n".join(lines) + "\n"
+        add("exhibit_last_update_timestamp_seconds", health.time)
+    if health is not None and status == "ok":
+        _kiosk(health, add)
+    out = CollectorRegistry(auto_describe=False)
+    out.register(_Samples(samples))
+    return out
 
 
-def _kiosk(data: Mapping, add) -> None:
-    add("exhibit_fps", data.get("fps"))
-    p95 = data.get("frame_ms_p95")
+class _Samples:
+    """A prometheus_client collector of fixed samples: the families that have any, in the order
+    of FAMILIES."""
+
+    def __init__(self, samples: dict[str, list[tuple[dict, object]]]):
+        self.samples = samples
+
+    def collect(self):
+        for name, (kind, text) in FAMILIES.items():
+            rows = self.samples[name]
+            if not rows:
+                continue
+            labels = list(rows[0][0])
+            family = (CounterMetricFamily if kind == "counter" else GaugeMetricFamily)(
+                name, text, labels=labels)
+            for row_labels, value in rows:
+                family.add_metric([_clean(row_labels[k]) for k in labels], value)
+            yield family
+
+
+def render(data: Health | Mapping | None, status: str, age: float | None = None) -> str:
+    """The metrics text (registry(), as prometheus_client writes it)."""
+    return generate_latest(registry(data, status, age)).decode("utf-8")
+
+
+def _kiosk(data: Health, add) -> None:
+    add("exhibit_fps", data.fps)
+    p95 = data.frame_ms_p95
     if _is_number(p95):
         add("exhibit_frame_time_p95_seconds", round(p95 / 1000.0, 6))
-    mode = data.get("mode") if data.get("mode") in MODES else "notice"
+    mode = data.mode if data.mode in MODES else "notice"
     for m in MODE_LABELS:
         add("exhibit_mode", int(m == mode), mode=m)
-    if isinstance(data.get("scene"), str):
-        add("exhibit_scene_info", 1, scene=data["scene"])
+    if isinstance(data.scene, str):
+        add("exhibit_scene_info", 1, scene=data.scene)
     seen: set[tuple[str, str]] = set()
-    for device in (data.get("devices") or [])[:MAX_DEVICES]:
-        labels = {"device": _clean(device_label(device)), "url": _clean(device["url"])}
+    for device in (data.devices or [])[:MAX_DEVICES]:
+        labels = {"device": _clean(device_label(device)), "url": _clean(device.url)}
         key = (labels["device"], labels["url"])
         n = 2
         while key in seen:  # two devices that clean up to one name: keep both series apart
@@ -122,35 +151,54 @@ def _kiosk(data: Mapping, add) -> None:
             n += 1
         seen.add(key)
         labels["device"] = key[0]
-        state = _clean(device["state"])
+        state = _clean(device.state)
         states = [s.value for s in State]
         for s in states + ([state] if state not in states else []):
             add("exhibit_device_state", int(s == state), **labels, state=s)
-        add("exhibit_device_state_seconds", device.get("state_s"), **labels)
-        missing = device.get("missing_s")
-        if state == State.CONNECTED.value and missing is None and "state_s" in device:
+        add("exhibit_device_state_seconds", device.state_s, **labels)
+        missing = device.missing_s
+        if (state == State.CONNECTED.value and missing is None
+                and "state_s" in device.model_fields_set):
             missing = 0  # a current kiosk writes null while connected; an old one knows nothing
         add("exhibit_device_missing_seconds", missing, **labels)
-    add("exhibit_uptime_seconds", data.get("uptime_s"))
-    add("exhibit_frames_total", data.get("frames"))
-    add("exhibit_frame_errors_total", data.get("frame_errors"))
-    add("exhibit_gl_errors_total", data.get("gl_errors"))
-    for name, key in (("exhibit_scenes_failed", "scenes_failed"), ("exhibit_problems", "problems")):
-        if isinstance(data.get(key), list):
-            add(name, len(data[key]))
-    rss = data.get("rss_kb")
+    add("exhibit_uptime_seconds", data.uptime_s)
+    add("exhibit_frames_total", data.frames)
+    add("exhibit_frame_errors_total", data.frame_errors)
+    add("exhibit_gl_errors_total", data.gl_errors)
+    for name, value in (("exhibit_scenes_failed", data.scenes_failed),
+                        ("exhibit_problems", data.problems)):
+        if isinstance(value, list):
+            add(name, len(value))
+    rss = data.rss_kb
     if _is_number(rss) and rss >= 0:
         add("exhibit_resident_memory_bytes", rss * 1024)
-    fds = data.get("fds")
+    fds = data.fds
     if _is_number(fds) and fds >= 0:  # -1: could not be counted
         add("exhibit_open_fds", fds)
 
 
-def write_metrics(path: str | os.PathLike, text: str) -> None:
-    """Replace the metrics file at ``path`` atomically (world-readable: node_exporter runs as
-    another user). Its folder must exist: node_exporter's package creates it, and a missing one
-    means the collector is not installed. Raises OSError."""
-    write_atomic(path, text, mode=0o644)
+def write_metrics(path: str | os.PathLike, data: Health | Mapping | None, status: str,
+                  age: float | None = None) -> None:
+    """Replace the metrics file at ``path`` atomically with the metrics of registry(), by
+    prometheus_client's write_to_textfile, world-readable (node_exporter runs as another user).
+
+    Its folder must exist: node_exporter's package creates it, and a missing one means the
+    collector is not installed. A folder, FIFO or device at ``path`` is refused (UnsafePath); a
+    symlink there is replaced, not followed. The temporary file is written in a fresh private
+    folder next to ``path`` (so no link planted under a predictable name can redirect it) with
+    the umask at 022. Raises OSError."""
+    path = Path(path)
+    check_target(path)
+    metrics = registry(data, status, age)
+    private = tempfile.mkdtemp(prefix=".exhibit-metrics-", dir=path.parent)
+    try:
+        umask = os.umask(0o022)
+        try:
+            write_to_textfile(str(path), metrics, tmpdir=private)
+        finally:
+            os.umask(umask)
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
 
 
 def _clean(value) -> str:
@@ -168,16 +216,7 @@ def escape_label(value) -> str:
     return (_clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n"))
 
 
-def _escape_help(text: str) -> str:
-    return text.replace("\\", "\\\\").replace("\n", "\\n")
-
-
 def _is_number(value) -> bool:
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value))
 
-
-def _number(value) -> str:
-    if isinstance(value, int):
-        return str(value)
-    return repr(float(value))

@@ -217,7 +217,7 @@ class FramePipeline:
     def _draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
               options: RenderOptions, hud: HudInfo | None, quality: Quality) -> None:
         ctx, renderer = self.ctx, self.renderer
-        options = quality.options(options)
+        options = options.at_quality(quality)
         size = (int(size[0]), int(size[1]))
         aa = quality.antialiasing
         if aa == "msaa" and not self.samples:

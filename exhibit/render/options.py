@@ -2,13 +2,10 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from dataclasses import dataclass, replace
 
 from exhibit.render.layout import TextSizes
-
-if TYPE_CHECKING:
-    from exhibit.render.quality import Quality
+from exhibit.render.quality import Quality
 
 #: Dark blue-grey gradient: the tori's greens and reds read well on it and it does not glare.
 BACKGROUND = ((0.16, 0.18, 0.23), (0.03, 0.035, 0.05))
@@ -52,6 +49,11 @@ class RenderOptions:
     #: Text sizes as fractions of the screen height, and when a distance reads ∞
     #: (exhibit.render.layout.TextSizes; the kiosk's [text] table).
     text: TextSizes = TextSizes()
+
+    def at_quality(self, quality: Quality) -> RenderOptions:
+        """These options at a quality level: a "lean" level drops the intersection curves (their
+        sheet buffer and passes are its whole saving); everything else stays."""
+        return self if quality.intersections else replace(self, intersections=False)
 
     def width_scale(self, height: int) -> float:
         if self.line_scale is not None:

@@ -28,8 +28,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from exhibit.render.options import RenderOptions
-
 ANTIALIASING = ("msaa", "fxaa", "none")
 EFFECTS = ("full", "lean")
 #: Mesh levels: factors on each scene's configured resolution (level 0 = as configured).
@@ -61,11 +59,10 @@ class Quality:
     def settings(self) -> tuple:
         return (self.antialiasing, self.mesh, self.effects, self.scale)
 
-    def options(self, base: RenderOptions = RenderOptions()) -> RenderOptions:
-        """The render options of this level over ``base`` (the kiosk's own toggles)."""
-        if self.effects == "full":
-            return base
-        return replace(base, intersections=False)
+    @property
+    def intersections(self) -> bool:
+        """Whether this level draws the intersection curves (RenderOptions.at_quality)."""
+        return self.effects == "full"
 
     def describe(self) -> str:
         return (f"{self.name}: {self.antialiasing}, mesh x{MESH_FACTORS[self.mesh]:g}, "

@@ -12,6 +12,7 @@ from exhibit.devices import protocol as p
 from exhibit.devices.base import Kind, State
 from exhibit.devices.controller import DeviceClock, SerialController
 from exhibit.devices.sim import SimController
+from tests.hypothesis_profiles import examples
 
 from .conftest import FakeClock, Loop
 
@@ -200,7 +201,7 @@ garbage = st.one_of(st.just(b""), st.binary(min_size=1, max_size=60),
                     st.binary(max_size=40).map(lambda b: b + b"\x00"))
 
 
-@settings(max_examples=40, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(max_examples=examples(40), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.lists(st.tuples(garbage, st.lists(st.integers(-32767, 32767), min_size=6, max_size=6)),
                 min_size=1, max_size=12))
 def test_every_frame_between_garbage_is_recovered_and_none_invented(tmp_path_factory, chunks):

@@ -17,6 +17,7 @@ from exhibit.devices import protocol as p
 from exhibit.devices.base import Kind, State
 from exhibit.devices.fakehid import FakeHidBus, FakeHidDevice
 from exhibit.devices.hid import HidBackend, load_layouts
+from tests.hypothesis_profiles import examples
 
 from .conftest import FakeClock, Loop
 
@@ -122,7 +123,7 @@ def sim_written(sim) -> int:
     return sim.bytes_written
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=examples(200), deadline=None)
 @given(st.lists(st.binary(max_size=70), max_size=20), st.sampled_from(sorted(LAYOUTS)))
 def test_random_hid_reports_never_crash(reports, name):
     clock = FakeClock()

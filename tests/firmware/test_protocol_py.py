@@ -2,7 +2,6 @@
 code, and against that C code directly on random streams (differential testing)."""
 
 import ast
-import binascii
 import json
 import random
 from pathlib import Path
@@ -12,6 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from exhibit.devices import protocol as p
+from tests.hypothesis_profiles import examples
 
 from .test_vectors_c import rx_stream
 
@@ -50,9 +50,31 @@ def test_crc16_vectors(vectors):
         assert p.crc16(bytes.fromhex(v["data"])) == v["crc"]
 
 
+def test_crc16_check_value():
+    # The catalogue's check value for CRC-16/CCITT-FALSE.
+    assert p.crc16(b"123456789") == 0x29B1
+
+
+def crc16_by_definition(data: bytes) -> int:
+    """CRC-16/CCITT-FALSE bit by bit, straight from its definition: poly 0x1021, init 0xFFFF,
+    MSB first, no reflection, no final xor. Independent of binascii, which the codec uses."""
+    crc = 0xFFFF
+    for byte in data:
+        crc ^= byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
+            crc &= 0xFFFF
+    return crc
+
+
 @given(st.binary(max_size=300))
-def test_crc16_matches_reference(data):
-    assert p.crc16(data) == binascii.crc_hqx(data, 0xFFFF)
+def test_crc16_matches_its_definition(data):
+    assert p.crc16(data) == crc16_by_definition(data)
+
+
+@given(st.binary(max_size=300))
+def test_crc16_matches_the_firmware(fw, data):
+    assert p.crc16(data) == fw.crc16_ccitt(data, len(data))
 
 
 def test_cobs_vectors(vectors):
@@ -161,7 +183,7 @@ def test_every_frame_around_garbage_is_recovered(parts):
     assert d.pending == 0
 
 
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(st.binary(max_size=400))
 def test_python_and_firmware_decoders_agree_on_any_bytes(fw, data):
     names, stats, d = decode_all(data)
@@ -296,7 +318,7 @@ def link(draw):
 LINK_EXAMPLES = []
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(link())
 def test_sequence_tracker_counts_exactly_the_frames_never_delivered(stream):
     """Whatever the order and repeats, lost = the numbers never delivered, and every late or
@@ -325,7 +347,8 @@ def test_codec_module_does_no_io():
     tree = ast.parse(Path(p.__file__).read_text())
     imported = {a.name.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.Import) for a in n.names}
     imported |= {n.module.split(".")[0] for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and n.module}
-    assert imported <= {"__future__", "enum", "struct", "dataclasses", "typing"}, imported
+    pure = {"__future__", "binascii", "enum", "struct", "dataclasses", "typing"}
+    assert imported <= pure, imported
 
 
 def test_protocol_md_examples_match_the_vectors(vectors):

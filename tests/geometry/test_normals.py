@@ -14,6 +14,7 @@ from exhibit.geometry import (
     sensor_ray,
     tangents_from_normals,
 )
+from tests.hypothesis_profiles import examples
 
 from .strategies import vectors
 from .surfaces import PolynomialSurface, finite_difference_tangents, parallel_error
@@ -28,7 +29,7 @@ def reference_normal(surface, s, t, r):
     return np.cross(ys, yt), ys, yt
 
 
-@settings(max_examples=150)
+@settings(max_examples=examples(150))
 @given(cases)
 def test_lemma1_normals_agree_with_finite_differences(case):
     seed, s, t, r = case

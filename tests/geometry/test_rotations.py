@@ -14,6 +14,7 @@ from exhibit.geometry import (
     matrix_to_euler,
     plane_rotation,
 )
+from tests.hypothesis_profiles import examples
 
 from .strategies import angles
 
@@ -95,7 +96,7 @@ def test_orthonormal_with_det_one(n, data):
 
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5])
-@settings(max_examples=300)
+@settings(max_examples=examples(300))
 @given(data=st.data())
 def test_round_trip_reproduces_the_matrix_even_at_gimbal_lock(n, data):
     a = euler_to_matrix(data.draw(angles(n)))
@@ -119,7 +120,7 @@ def _range_checks(n, t):
 
 
 @pytest.mark.parametrize("n", [2, 3, 4, 5])
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(data=st.data())
 def test_returned_angles_lie_in_the_documented_ranges(n, data):
     _range_checks(n, matrix_to_euler(euler_to_matrix(data.draw(angles(n)))))

@@ -23,6 +23,7 @@ from exhibit.geometry import (
     silhouette_function_normalized,
     zero_set_segments,
 )
+from tests.hypothesis_profiles import examples
 
 unit = st.floats(-1, 1)
 vec4 = st.lists(unit, min_size=4, max_size=4).map(np.array)
@@ -41,7 +42,7 @@ def projected_tangents_2d(p, t1, t2, r1, r2, h=1e-6):
     return np.column_stack([(v(p + h * t) - v(p - h * t)) / (2 * h) for t in (t1, t2)])
 
 
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(vec4, vec4, vec4, st.floats(0, 0.3), st.floats(-2, 2), st.sampled_from([0.0, 0.7, 1.5]))
 def test_lemma2_agrees_with_the_rank_of_the_projected_tangent_plane(p, u, w, r, lam, mu):
     """t2 = λρ + μu: a silhouette exactly when μ = 0 (the ray lies in the tangent plane)."""
@@ -76,7 +77,7 @@ def test_lemma2_measure_is_the_sine_of_the_ray_to_plane_angle(t1, t2, ray):
     assert lemma2_measure_normals(n1, n2, ray) == pytest.approx(expected, abs=1e-9)
 
 
-@settings(max_examples=200)
+@settings(max_examples=examples(200))
 @given(vec4, vec4, vec4, st.floats(0, 0.3), st.floats(0, 0.3),
        st.floats(-2, 2), st.floats(-2, 2), st.sampled_from([0.0, 0.8]))
 def test_lemma3_agrees_with_the_rank_of_the_2d_image(p, u, w, r1, r2, a, b, mu):

@@ -33,6 +33,7 @@ from exhibit.kiosk.attract import Playlist, load_playlist, load_timeline
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.state import KioskState
 from exhibit.scenes.toml_scene import load_scene_file
+from tests.hypothesis_profiles import examples
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
@@ -203,7 +204,7 @@ def check_agreement(tree: Path) -> bool:
     return True
 
 
-FUZZ = settings(max_examples=200, deadline=None, derandomize=True,
+FUZZ = settings(max_examples=examples(200), deadline=None, derandomize=True,
                 suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 

@@ -61,7 +61,8 @@ def test_round_trip_creates_the_folder_and_is_world_readable_despite_umask(tmp_p
         write_health(path, sample())
     finally:
         os.umask(old)
-    assert read_health(path) == json.loads(json.dumps(sample(time=read_health(path)["time"])))
+    written = read_health(path)
+    assert written.as_dict() == json.loads(json.dumps(sample(time=written.time)))
     assert stat.S_IMODE(path.stat().st_mode) == 0o644
     assert [p.name for p in path.parent.iterdir()] == ["health.json"]  # no temporary left
 
@@ -72,7 +73,7 @@ def test_non_finite_numbers_become_null(tmp_path):
     text = path.read_text()
     assert "NaN" not in text and "Infinity" not in text
     data = read_health(path)
-    assert data["fps"] is None and data["frame_ms_p95"] is None
+    assert data.fps is None and data.frame_ms_p95 is None
 
 
 def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
@@ -80,7 +81,7 @@ def test_a_failed_write_leaves_the_old_file_and_no_temporary(tmp_path):
     write_health(path, sample(scene="hopf"))
     with pytest.raises(TypeError):
         write_health(path, sample(scene=object()))
-    assert read_health(path)["scene"] == "hopf"
+    assert read_health(path).scene == "hopf"
     assert [p.name for p in tmp_path.iterdir()] == ["health.json"]
 
 
@@ -116,7 +117,7 @@ def test_readers_never_see_a_partial_file(tmp_path):
     finally:
         stop.set()
         thread.join()
-    assert len({r["fps"] for r in reads}) > 1  # the writer really was replacing it meanwhile
+    assert len({r.fps for r in reads}) > 1  # the writer really was replacing it meanwhile
 
 
 @pytest.mark.parametrize("content, message", [
@@ -161,7 +162,7 @@ def test_read_errors_name_the_file_and_the_problem(tmp_path, content, message):
 def test_unknown_keys_and_nulls_are_kept(tmp_path):
     path = tmp_path / "health.json"
     path.write_text('{"time": 5, "fps": null, "brightness": 0.7}')
-    assert read_health(path) == {"time": 5, "fps": None, "brightness": 0.7}
+    assert read_health(path).as_dict() == {"time": 5, "fps": None, "brightness": 0.7}
 
 
 # ---------------------------------------------------------------------- freshness
@@ -471,7 +472,7 @@ def test_the_health_file_is_not_written_through_a_planted_link(tmp_path):
     (tmp_path / f".health.json.{os.getpid()}.tmp").symlink_to(victim)
     write_health(path, sample())
     assert victim.read_text() == "keep" and (victim.stat().st_mode & 0o777) == 0o600
-    assert read_health(path)["scene"] == sample()["scene"]
+    assert read_health(path).scene == sample()["scene"]
 
 
 def test_status_shows_the_quality_level(tmp_path, capsys):
@@ -537,3 +538,49 @@ def test_write_health_never_replaces_a_fifo_folder_or_device(tmp_path):
             write_health(target, sample())
         assert kind(os.stat(target).st_mode), what
     assert not [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+
+
+# ---------------------------------------------------------------------- uptime
+
+def test_process_uptime_counts_from_the_process_start():
+    """exhibit_uptime_seconds is "seconds since the kiosk process started": the kernel's start
+    time of the process, so its start-up counts too."""
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1.5); "
+                              "from exhibit.kiosk.health import process_uptime; "
+                              "print(process_uptime())"],
+                             stdout=subprocess.PIPE, text=True)
+    time.sleep(0.5)
+    seen = health.process_uptime(child.pid)
+    out, _ = child.communicate(timeout=60)
+    assert seen is not None and 0.4 <= seen < 30
+    assert 1.5 <= float(out) < 60  # its own start-up (the sleep, the imports) included
+    assert health.process_uptime() > 0
+    assert health.process_uptime(2**22 + 12345) is None  # no such process
+
+
+def test_the_kiosk_reports_uptime_since_its_process_started(tmp_path, monkeypatch):
+    """The kiosk once measured uptime from a clock read in Kiosk.__init__, missing everything
+    before (imports, the window, the first meshes): 24 s after 45 s of running."""
+    from tests.kiosk.support import kiosk
+
+    k, _ = kiosk(tmp_path, monkeypatch)
+    before = health.process_uptime()
+    k.run(max_frames=30)
+    data = read_health(tmp_path / "health.json")
+    # This process (pytest) started long before the kiosk object and its fake clock.
+    assert data.uptime_s >= round(before, 1) - 0.1
+    monkeypatch.setattr(health, "process_uptime", lambda pid=None: 4321.04)
+    k.run(max_frames=30)
+    assert read_health(tmp_path / "health.json").uptime_s == 4321.0
+
+
+def test_the_kiosk_writes_what_the_model_reads(tmp_path, monkeypatch):
+    """One schema: every key the kiosk writes is a field of Health (none lands in the extras)."""
+    from tests.kiosk.support import kiosk
+
+    k, _ = kiosk(tmp_path, monkeypatch)
+    k.run(max_frames=30)
+    data = read_health(tmp_path / "health.json")
+    assert not data.model_extra, sorted(data.model_extra)
+    assert data.model_fields_set >= {"time", "pid", "fps", "devices", "uptime_s", "frames",
+                                     "quality", "target_ms", "language"}

@@ -28,6 +28,7 @@ from exhibit.cli import main
 from exhibit.devices.base import State
 from exhibit.kiosk import metrics
 from exhibit.kiosk.health import write_health
+from tests.hypothesis_profiles import examples
 
 REPO = Path(__file__).resolve().parents[2]
 SYSTEMD = REPO / "systemd"
@@ -207,7 +208,7 @@ def test_label_values_are_escaped_and_cleaned(text):
     assert states == {metrics._clean(text)}
 
 
-@settings(max_examples=200, deadline=None, derandomize=True,
+@settings(max_examples=examples(200), deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.too_slow])
 @given(names=st.lists(st.text(max_size=30), min_size=1, max_size=5),
        scene=st.text(max_size=40))

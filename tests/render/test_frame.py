@@ -136,11 +136,12 @@ def test_ladder_pins_and_mesh_resolution():
     assert len(pinned) == 1 and pinned[0].settings == ("fxaa", 0, "full", 1.0)
     assert mesh_resolution(48, 0) == 48 and mesh_resolution(48, 1) == 36
     assert mesh_resolution(48, 2) == 24 and mesh_resolution(6, 2) == 4
-    lean = LADDER[4].options(RenderOptions())
+    lean = RenderOptions().at_quality(LADDER[4])
     # lean gives up the intersection curves alone: thinner lines and a flat background saved
     # nothing measurable (docs/PERFORMANCE.md)
     assert lean == replace(RenderOptions(), intersections=False)
-    assert not lean.intersections and LADDER[3].options(RenderOptions()).intersections
+    assert not lean.intersections and RenderOptions().at_quality(LADDER[3]).intersections
+    assert RenderOptions().at_quality(LADDER[3]) == RenderOptions()
 
 
 def test_ssim():

@@ -13,6 +13,7 @@ from exhibit.geometry.view import ViewState
 from exhibit.render import HudInfo, RenderOptions
 from exhibit.render.layout import gizmo_caption_rect, gizmo_labels, gizmo_tips, hud_layout
 from exhibit.surfaces.mesh import Mesh4D
+from tests.hypothesis_profiles import examples
 
 angle = st.floats(min_value=-math.pi, max_value=math.pi, allow_nan=False)
 SIZES = [(1920, 1080), (1280, 720), (1024, 768), (480, 270), (320, 240)]
@@ -31,7 +32,7 @@ def assert_apart(rotation, size, axes, caption="4D axes"):
             assert not rect.overlaps(rects[j]), (axes[j], rects[j], axes[i], rect)
 
 
-@settings(max_examples=300, deadline=None)
+@settings(max_examples=examples(300), deadline=None)
 @given(st.lists(angle, min_size=6, max_size=6), st.sampled_from(SIZES), st.sampled_from(AXES))
 def test_no_two_gizmo_letters_overlap(angles, size, axes):
     assert_apart(ViewState(angles=tuple(angles)).rotation(), size, axes)

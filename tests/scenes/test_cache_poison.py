@@ -23,6 +23,7 @@ from exhibit.scenes import cache
 from exhibit.scenes.cache import build_cached
 from exhibit.surfaces import mesh as meshmod
 from exhibit.surfaces.mesh import Mesh4D
+from tests.hypothesis_profiles import examples
 
 SCENE = scenes.get("hopf")
 RES = 8
@@ -418,7 +419,7 @@ def test_file_over_the_size_cap_is_refused_unread(entry, caplog, monkeypatch):
 
 # ---------------------------------------------------------------------- random corruption
 
-@settings(max_examples=400, deadline=None)
+@settings(max_examples=examples(400), deadline=None)
 @given(st.lists(st.tuples(st.integers(0, len(VALID) - 1), st.integers(0, 255)),
                 min_size=1, max_size=8))
 def test_random_byte_corruption_is_refused_or_harmless(edits):
@@ -437,7 +438,7 @@ def test_random_byte_corruption_is_refused_or_harmless(edits):
     assert_same(mesh, REFERENCE)
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=examples(150), deadline=None)
 @given(st.integers(0, len(VALID) - 1))
 def test_every_truncation_is_refused(cut):
     COUNTS["truncations"] = COUNTS.get("truncations", 0) + 1
@@ -445,7 +446,7 @@ def test_every_truncation_is_refused(cut):
         Mesh4D.from_bytes(VALID[:cut])
 
 
-@settings(max_examples=60, deadline=None,
+@settings(max_examples=examples(60), deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(st.integers(0, len(VALID) - 1), st.binary(min_size=1, max_size=64))
 def test_corrupt_entries_through_build_cached(tmp_path, at, junk):

@@ -15,6 +15,7 @@ from exhibit.surfaces.expressions import (
     compile_field,
     parse_expression,
 )
+from tests.hypothesis_profiles import examples
 
 V = ("x", "y", "z", "w")
 BOX = [(-1.0, 1.0)] * 4
@@ -188,7 +189,7 @@ formulas = st.sampled_from([
 ])
 
 
-@settings(max_examples=150, deadline=None)
+@settings(max_examples=examples(150), deadline=None)
 @given(formulas, st.lists(st.floats(-3, 3), min_size=4, max_size=4),
        st.lists(st.floats(0, 2), min_size=4, max_size=4))
 def test_interval_bounds_enclose_sampled_values(text, corner, width):

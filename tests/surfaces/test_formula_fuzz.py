@@ -5,9 +5,10 @@ check says so, and meshes without NaN (implicitly and parametrically).
 Strings come from a small grammar of the formula language (including operators, names and
 numbers it refuses), from pathological shapes (deep nesting, towers, long sign chains, huge
 literals) and from random junk spliced into them. Example counts are fixed (CHECK_EXAMPLES,
-BUILD_EXAMPLES) and generation is derandomized, so a run is reproducible in cases and cost; the
-slow variants run many more. `pytest --hypothesis-show-statistics` prints the counts, and how
-many formulas were accepted or refused (events).
+BUILD_EXAMPLES; the default run's scaled by tests/hypothesis_profiles.py outside CI) and generation
+is derandomized, so a run is reproducible in cases and cost; the slow variants run many more.
+`pytest --hypothesis-show-statistics` prints the counts, and how many formulas were accepted or
+refused (events).
 """
 
 import re
@@ -28,12 +29,13 @@ from exhibit.surfaces.expressions import (
 )
 from exhibit.surfaces.implicit import polygonize
 from exhibit.surfaces.parametric import Interval, tessellate
+from tests.hypothesis_profiles import examples
 
 V = ("x", "y", "z", "w")
 PARAMS = {"a": 0.5, "b": -2.0}
 BOX = [(-1.2, 1.2)] * 4
 SPHERE = "x^2 + y^2 + z^2 + w^2 - 1"
-#: Examples per test: (default run, slow run).
+#: Examples per test: (default run under CI=true, slow run).
 CHECK_EXAMPLES = (1000, 10000)
 BUILD_EXAMPLES = (100, 1200)
 
@@ -160,13 +162,13 @@ def _check_parametric(text):
 _SETTINGS = dict(deadline=None, suppress_health_check=list(HealthCheck), derandomize=True)
 
 
-@settings(max_examples=CHECK_EXAMPLES[0], **_SETTINGS)
+@settings(max_examples=examples(CHECK_EXAMPLES[0]), **_SETTINGS)
 @given(FORMULAS)
 def test_checking_raises_only_expression_errors(text):
     _checked(text)
 
 
-@settings(max_examples=BUILD_EXAMPLES[0], **_SETTINGS)
+@settings(max_examples=examples(BUILD_EXAMPLES[0]), **_SETTINGS)
 @given(BUILDABLE)
 def test_accepted_formulas_compile_and_mesh_without_nan(text):
     _check_builds(text)

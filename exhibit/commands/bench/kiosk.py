@@ -120,7 +120,7 @@ def run(args) -> int:
             times = {q.name: [] for q in levels}
             floors = {level: [] for level in gpus}
             part_times = {part: [] for part, _, _ in PARTS} if args.breakdown else {}
-            lean = direct.options(options)
+            lean = options.at_quality(direct)
             part_options = {part: (replace(lean, **{k: False for k in off}), with_hud)
                             for part, off, with_hud in PARTS}
 
