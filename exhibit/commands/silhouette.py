@@ -16,6 +16,7 @@ from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette
 from exhibit.surfaces.exact_silhouette import (ParametricExact, RefineStats,
                                                parametric_silhouette)
 from exhibit.surfaces.mesh import Material
+from exhibit.surfaces.whole_silhouette import whole_silhouette_components
 
 HELP = "silhouette curves of a scene for the orthographic view along two axes"
 
@@ -44,17 +45,29 @@ def run(args) -> int:
     mesh = build_from_arguments(scene, args)
     stats = RefineStats()
     curves = []
+    components = []
     for surface in mesh.surfaces:
+        # A component on which s vanishes identically is silhouette as a whole: reported by
+        # name, since sign changes find nothing there (surfaces/whole_silhouette.py).
+        parts = whole_silhouette_components(surface, along)
+        components += parts
+        if parts and all(part["whole_component"] for part in parts):
+            continue
         # Every exported point is refined onto the exact silhouette of the surface's own
         # equations (or parametrisation); points that do not converge are dropped, points near
         # singular points excluded (surfaces/exact_silhouette.py).
         curves += [curve.polyline().tolist()
                    for curve in exact_silhouette_curves(surface, along, stats)]
+    names = f"{scene.axes[along[0]]}, {scene.axes[along[1]]}"
     if args.json:
-        print(json.dumps({"axes": list(scene.axes), "curves": curves, **stats.to_json()}))
+        print(json.dumps({"axes": list(scene.axes), "curves": curves, "components": components,
+                          **stats.to_json()}))
         return 0
-    print(f"{len(curves)} silhouette curve(s) of {scene.name} along "
-          f"{scene.axes[along[0]]}, {scene.axes[along[1]]}:")
+    for part in components:
+        if part["whole_component"]:
+            print(f"the whole of {part['name']} is silhouette along {names}: every tangent "
+                  "plane projects to a line (the silhouette function vanishes there)")
+    print(f"{len(curves)} silhouette curve(s) of {scene.name} along {names}:")
     for i, curve in enumerate(curves, 1):
         print(f"  curve {i}: {len(curve)} points")
     print(f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
