@@ -15,8 +15,9 @@ from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.scenes.implicit_scene import (ImplicitPart, cell_size, exclusion_radius,
                                            fixed_silhouette)
 from exhibit.surfaces.double_zeros import touching_silhouette
-from exhibit.surfaces.exact_silhouette import (ParametricExact, RefineStats,
-                                               parametric_silhouette)
+from exhibit.surfaces.exact_silhouette import (EXCLUSION_RATIO, ParametricExact, RefineStats,
+                                               SilhouetteSystem, parametric_silhouette)
+from exhibit.surfaces.singular import jacobian_ratio
 from exhibit.surfaces.mesh import Material
 from exhibit.surfaces.whole_silhouette import whole_silhouette_components
 
@@ -61,9 +62,10 @@ def run(args) -> int:
         curves += [curve.polyline().tolist()
                    for curve in exact_silhouette_curves(surface, along, stats)]
     names = f"{scene.axes[along[0]]}, {scene.axes[along[1]]}"
+    smallest = smallest_ratio(mesh.surfaces, curves)
     if args.json:
         print(json.dumps({"axes": list(scene.axes), "curves": curves, "components": components,
-                          **stats.to_json()}))
+                          "smallest_ratio": smallest, **stats.to_json()}))
         return 0
     for part in components:
         if part["whole_component"]:
@@ -75,7 +77,26 @@ def run(args) -> int:
     print(f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
           f"{stats.dropped} dropped (no convergence), {stats.excluded} excluded (near singular "
           "points)")
+    if smallest is not None:
+        print(f"  nearest to the singular set: σ_min/σ_max of the normals {smallest:.1e} "
+              f"(points below {EXCLUSION_RATIO:.0e} are excluded)")
     return 0
+
+
+def smallest_ratio(surfaces, curves) -> float | None:
+    """The smallest σ_min/σ_max of (∇f1, ∇f2) over the exported points (implicit surfaces):
+    how close to the singular set the curves reach (the exclusion is EXCLUSION_RATIO)."""
+    if not curves:
+        return None
+    points = np.concatenate([np.asarray(c, dtype=float) for c in curves])
+    best = np.full(len(points), np.nan)
+    for surface in surfaces:
+        exact = surface.exact
+        if isinstance(exact, ImplicitPart):
+            system = SilhouetteSystem(exact.f1, exact.f2, (0, 1))
+            on = system.f1_f2_residual(points) <= 1e-9
+            best = np.where(on, jacobian_ratio(exact.f1, exact.f2, points), best)
+    return float(np.nanmin(best)) if np.isfinite(best).any() else None
 
 
 def exact_silhouette_curves(surface, along, stats: RefineStats):

@@ -143,7 +143,7 @@ def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | No
             total.dropped += len(points)
             continue
         runs = split_runs(x, keep, closed)
-        s.refined = sum(len(run) for run, _ in runs)  # a lone kept point is no curve
+        s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported
         total.add(s)
         for run, run_closed in runs:
             label = name if not out else f"{name} {len(out) + 1}"
@@ -186,7 +186,7 @@ def tangency_curves(surface: Surface, exact, axis: int, at: float, max_move: flo
     for points, closed in chains:
         if len(points) < 2:
             continue
-        total.refined += len(points)
+        total.refined += len(points) + closed  # a closed curve repeats its first point
         total.max_residual = max(total.max_residual, float(system.residual(points).max()))
         label = name if not (already + len(out)) else f"{name} {already + len(out) + 1}"
         out.append(Curve(label, points, material, closed))
