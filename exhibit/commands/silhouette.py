@@ -12,10 +12,14 @@ from exhibit import scenes
 from exhibit.errors import ExhibitError
 from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
-from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette
-from exhibit.surfaces.exact_silhouette import (ParametricExact, RefineStats,
-                                               parametric_silhouette)
+from exhibit.scenes.implicit_scene import (ImplicitPart, cell_size, exclusion_radius,
+                                           fixed_silhouette)
+from exhibit.surfaces.double_zeros import touching_silhouette
+from exhibit.surfaces.exact_silhouette import (EXCLUSION_RATIO, ParametricExact, RefineStats,
+                                               SilhouetteSystem, parametric_silhouette)
+from exhibit.surfaces.singular import jacobian_ratio
 from exhibit.surfaces.mesh import Material
+from exhibit.surfaces.whole_silhouette import whole_silhouette_components
 
 HELP = "silhouette curves of a scene for the orthographic view along two axes"
 
@@ -44,29 +48,65 @@ def run(args) -> int:
     mesh = build_from_arguments(scene, args)
     stats = RefineStats()
     curves = []
+    components = []
     for surface in mesh.surfaces:
+        # A component on which s vanishes identically is silhouette as a whole: reported by
+        # name, since sign changes find nothing there (surfaces/whole_silhouette.py).
+        parts = whole_silhouette_components(surface, along)
+        components += parts
+        if parts and all(part["whole_component"] for part in parts):
+            continue
         # Every exported point is refined onto the exact silhouette of the surface's own
         # equations (or parametrisation); points that do not converge are dropped, points near
         # singular points excluded (surfaces/exact_silhouette.py).
         curves += [curve.polyline().tolist()
                    for curve in exact_silhouette_curves(surface, along, stats)]
+    names = f"{scene.axes[along[0]]}, {scene.axes[along[1]]}"
+    smallest = smallest_ratio(mesh.surfaces, curves)
     if args.json:
-        print(json.dumps({"axes": list(scene.axes), "curves": curves, **stats.to_json()}))
+        print(json.dumps({"axes": list(scene.axes), "curves": curves, "components": components,
+                          "smallest_ratio": smallest, **stats.to_json()}))
         return 0
-    print(f"{len(curves)} silhouette curve(s) of {scene.name} along "
-          f"{scene.axes[along[0]]}, {scene.axes[along[1]]}:")
+    for part in components:
+        if part["whole_component"]:
+            print(f"the whole of {part['name']} is silhouette along {names}: every tangent "
+                  "plane projects to a line (the silhouette function vanishes there)")
+    print(f"{len(curves)} silhouette curve(s) of {scene.name} along {names}:")
     for i, curve in enumerate(curves, 1):
         print(f"  curve {i}: {len(curve)} points")
     print(f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
           f"{stats.dropped} dropped (no convergence), {stats.excluded} excluded (near singular "
           "points)")
+    if smallest is not None:
+        print(f"  nearest to the singular set: σ_min/σ_max of the normals {smallest:.1e} "
+              f"(points below {EXCLUSION_RATIO:.0e} are excluded)")
     return 0
+
+
+def smallest_ratio(surfaces, curves) -> float | None:
+    """The smallest σ_min/σ_max of (∇f1, ∇f2) over the exported points (implicit surfaces):
+    how close to the singular set the curves reach (the exclusion is EXCLUSION_RATIO)."""
+    if not curves:
+        return None
+    points = np.concatenate([np.asarray(c, dtype=float) for c in curves])
+    best = np.full(len(points), np.nan)
+    for surface in surfaces:
+        exact = surface.exact
+        if isinstance(exact, ImplicitPart):
+            system = SilhouetteSystem(exact.f1, exact.f2, (0, 1))
+            on = system.f1_f2_residual(points) <= 1e-9
+            best = np.where(on, jacobian_ratio(exact.f1, exact.f2, points), best)
+    return float(np.nanmin(best)) if np.isfinite(best).any() else None
 
 
 def exact_silhouette_curves(surface, along, stats: RefineStats):
     exact = surface.exact
     if isinstance(exact, ImplicitPart):
-        return fixed_silhouette(exact, along, "silhouette", Material(), stats)
+        # Sign changes of s, then the branches where s only touches zero (double zeros).
+        return fixed_silhouette(exact, along, "silhouette", Material(), stats) + \
+            touching_silhouette(exact.f1, exact.f2, exact.surface, along, cell_size(exact),
+                                exact.result.singular_positions, exclusion_radius(exact),
+                                "silhouette (touching)", Material(), stats)
     if isinstance(exact, ParametricExact):
         return parametric_silhouette(surface, exact, along, "silhouette", Material(), stats)
     # Without the exact surface nothing can be refined: every traced point counts as dropped.

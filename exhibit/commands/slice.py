@@ -47,7 +47,7 @@ def run(args) -> int:
                    for curve in slice_curves(surface, axis, float(args.at), stats)]
     if args.json:
         print(json.dumps({"axis": scene.axes[axis], "at": float(args.at), "axes": list(scene.axes),
-                          "curves": curves, "refined": stats.refined, "dropped": stats.dropped,
+                          "curves": curves, "refined": int(stats.refined), "dropped": int(stats.dropped),
                           "max_residual": stats.max_residual}))
         return 0
     print(f"{len(curves)} curve(s) of {scene.name} at {scene.axes[axis]} = {args.at:g}:")

@@ -141,6 +141,12 @@ def world_at(params: dict, c: float) -> Mesh4D:
     return Mesh4D([sphere], pipe + touching_curves(params, c))
 
 
+#: |g| at most this (relative to the radii squared) at every angle: the ball touches the pipe
+#: along the whole circle. Round-off leaves about 1e-16; any motion away from c = 0 leaves
+#: 2·rc·|c|·√(vc² + vs²).
+TANGENCY_TOLERANCE = 1e-12
+
+
 def _zero(g, outside: float, inside: float) -> float:
     """Where g changes sign between two angles (bisection: g is smooth, one crossing)."""
     for _ in range(60):
@@ -171,6 +177,10 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
 
     phi = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
     values = g(phi)
+    if np.abs(values).max() <= TANGENCY_TOLERANCE * max(rs * rs, rc * rc):
+        # g vanishes identically (c = 0 with rs = rc): the ball touches the pipe along the whole
+        # circle x = 0, a tangency; round-off's signs would cut it into fragments.
+        return [Curve("slice", point(phi, 0.0), SLICE_MATERIAL, True)]
     inside = values > 0
     if not inside.any():
         return []

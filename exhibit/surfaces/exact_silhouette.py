@@ -33,8 +33,12 @@ RESIDUAL_TOLERANCE = 1e-9
 #: Newton iterates until the residual is below this (then one more step cannot hurt).
 NEWTON_TARGET = 1e-13
 ITERATIONS = 60
+#: Consecutive steps of a refined run with a cosine below this: the run folds back on itself.
+#: A fold lands both legs on the same curve (cosine -1); a kink where two traced points refine
+#: slightly out of order stays near -0.5 (the collision's curves) and is kept.
+HAIRPIN_COSINE = -0.9
 #: σ_min/σ_max of (∇f1, ∇f2) below this: the point is in the singular set's neighbourhood.
-EXCLUSION_RATIO = 1e-3
+EXCLUSION_RATIO = 1e-4
 
 
 @dataclass
@@ -51,8 +55,8 @@ class RefineStats:
         self.max_residual = max(self.max_residual, other.max_residual)
 
     def to_json(self) -> dict:
-        return {"refined": self.refined, "dropped": self.dropped, "excluded": self.excluded,
-                "max_residual": self.max_residual}
+        return {"refined": int(self.refined), "dropped": int(self.dropped),
+                "excluded": int(self.excluded), "max_residual": float(self.max_residual)}
 
 
 @np.errstate(all="ignore")
@@ -115,6 +119,14 @@ class SilhouetteSystem:
         r = np.where(np.isnan(r), np.inf, r)
         return r.max(axis=1)
 
+    @np.errstate(all="ignore")
+    def f1_f2_residual(self, points: np.ndarray) -> np.ndarray:
+        """max(|f1|/|∇f1|, |f2|/|∇f2|): how far a point is from the surface, scale-free."""
+        points = np.asarray(points, dtype=float).reshape(-1, 4)
+        r = np.stack([np.abs(f.value(points)) / np.linalg.norm(f.gradient(points), axis=1)
+                      for f in (self.f1, self.f2)], 1)
+        return np.where(np.isnan(r), np.inf, r).max(axis=1)
+
     def excluded(self, points: np.ndarray, singular_points: np.ndarray | None = None,
                  exclusion_radius: float = 0.0) -> np.ndarray:
         """True for points in the excluded neighbourhood of the singular set."""
@@ -154,10 +166,14 @@ class SilhouetteSystem:
 
 def split_runs(points: np.ndarray, keep: np.ndarray, closed: bool) -> list[tuple[np.ndarray, bool]]:
     """The runs of kept points of a polyline, [(points, closed)], so nothing joins across a gap."""
-    n = len(points)
+    return [(points[index], run_closed) for index, run_closed in index_runs(keep, closed)]
+
+
+def index_runs(keep: np.ndarray, closed: bool) -> list[tuple[np.ndarray, bool]]:
+    """The runs of kept indices of a polyline [(indices, closed)] (a lone index is no run)."""
+    n = len(keep)
     if keep.all():
-        return [(points, closed)] if n >= 2 else []
-    runs = []
+        return [(np.arange(n), closed)] if n >= 2 else []
     index = np.flatnonzero(keep)
     if len(index) == 0:
         return []
@@ -167,26 +183,155 @@ def split_runs(points: np.ndarray, keep: np.ndarray, closed: bool) -> list[tuple
     pieces = [index[s:e] for s, e in zip(starts, ends)]
     if closed and len(pieces) > 1 and pieces[0][0] == 0 and pieces[-1][-1] == n - 1:
         pieces = [np.concatenate([pieces[-1], pieces[0]])] + pieces[1:-1]
-    for piece in pieces:
-        if len(piece) >= 2:
-            runs.append((points[piece], False))
-    return runs
+    return [(piece, False) for piece in pieces if len(piece) >= 2]
 
 
 def refine_curves(system: SilhouetteSystem, curves: list[Curve], max_move: float,
                   singular_points: np.ndarray | None = None,
                   exclusion_radius: float = 0.0) -> tuple[list[Curve], RefineStats]:
-    """Each curve's points refined; curves split at dropped and excluded points."""
+    """Each curve's points refined; curves split at dropped and excluded points; open ends
+    continued along the exact curve up to the exclusion (``extend_end``); a run lying along
+    another (a fragment the mesh traced twice) or shorter than a cell dropped, so no duplicate
+    or zero-length curve is exported. ``max_move`` is two cells."""
     stats = RefineStats()
-    out: list[Curve] = []
+    runs = []
     for curve in curves:
         x, keep, s = system.refine(curve.points, max_move, singular_points, exclusion_radius)
-        runs = split_runs(x, keep, curve.closed)
-        s.refined = sum(len(points) for points, _ in runs)  # a lone kept point is no curve
+        s.refined = 0
         stats.add(s)
-        for points, closed in runs:
-            out.append(Curve(curve.name, points, curve.material, closed))
+        last = len(x) - 1
+        for index, closed in index_runs(keep, curve.closed):
+            # an end where the traced curve itself ends is on the mesh's boundary (the box):
+            # only ends cut by the judgement, or at a turn, are continued
+            ends = (curve.closed or index[0] != 0, curve.closed or index[-1] != last)
+            runs += split_at_reversals(curve, x[index], closed, ends)
+    cell = 0.5 * max_move
+    # continued ends stay within the traced curves' bounding box: the surface's box cuts them
+    traced = np.concatenate([c.points for c in curves]) if curves else np.zeros((0, 4))
+    bounds = (traced.min(axis=0), traced.max(axis=0)) if len(traced) else None
+    # longest first: a fragment is judged against the curves it duplicates
+    runs.sort(key=lambda run: -polyline_length(run[1], run[2]))
+    out: list[Curve] = []
+    for curve, points, closed, ends in runs:
+        kept = np.concatenate([c.points for c in out]) if out else np.zeros((0, 4))
+        if near(points, kept, cell).all():
+            continue
+        if not closed:
+            points = extend_run(system, points, cell, kept, ends, bounds)
+        if polyline_length(points, closed) < cell:
+            continue
+        out.append(Curve(curve.name, points, curve.material, closed))
+    stats.refined = sum(len(c.points) + c.closed for c in out)  # the points exported
+    stats.max_residual = max((float(system.residual(c.points).max()) for c in out), default=0.0)
     return out, stats
+
+
+def split_at_reversals(curve, points: np.ndarray, closed: bool, ends: tuple[bool, bool]):
+    """[(curve, points, closed, (continue head, continue tail))]: a run cut where it turns back
+    on itself. Where the mesh cannot separate two sheets its zero set can run out along a branch
+    on one and back on the other; refined, both legs land on the same curve, a hairpin. Cut at
+    the turn (an end to continue), the shorter leg duplicates the longer one."""
+    if len(points) < 3:
+        return [(curve, points, closed, ends)]
+    if not closed:
+        points = trim_end_zigzags(points)
+    step = np.diff(points, axis=0)
+    length = np.linalg.norm(step, axis=1)
+    with np.errstate(all="ignore"):
+        cosine = np.einsum("ij,ij->i", step[1:], step[:-1]) / (length[1:] * length[:-1])
+    turns = np.flatnonzero(cosine < HAIRPIN_COSINE) + 1
+    # a fold, not a zigzag of one point refined out of order: the legs run back together
+    turns = [i for i in turns if 2 <= i <= len(points) - 3 and np.linalg.norm(
+        points[i + 2] - points[i - 2]) < 0.5 * min(np.linalg.norm(points[i + 2] - points[i]),
+                                                   np.linalg.norm(points[i - 2] - points[i]))]
+    if len(turns) == 0:
+        return [(curve, points, closed, ends)]
+    bounds = [0, *turns, len(points) - 1]
+    return [(curve, points[a:b + 1], False, (ends[0] or a > 0, ends[1] or b < len(points) - 1))
+            for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+
+
+def trim_end_zigzags(points: np.ndarray, legs: int = 4) -> np.ndarray:
+    """An open run without a short leg that doubles back at either end (up to ``legs`` points
+    refined out of order, or a fold too short to cut): otherwise the end's outward direction
+    would point back along the run. The run then ends at the turn."""
+    def turn(p):
+        for i in range(1, min(legs, len(p) - 2) + 1):
+            u, v = p[i] - p[i - 1], p[i + 1] - p[i]
+            if u @ v < HAIRPIN_COSINE * np.linalg.norm(u) * np.linalg.norm(v):
+                return i
+        return 0
+
+    points = points[turn(points):]
+    tail = turn(points[::-1])
+    return points[:len(points) - tail] if tail else points
+
+
+def near(points: np.ndarray, others: np.ndarray, distance: float) -> np.ndarray:
+    """True for each point within ``distance`` of one of ``others``."""
+    out = np.zeros(len(points), dtype=bool)
+    if len(others) == 0:
+        return out
+    for start in range(0, len(points), 256):
+        d = np.linalg.norm(points[start:start + 256, None] - others[None], axis=-1)
+        out[start:start + 256] = d.min(axis=1) < distance
+    return out
+
+
+def polyline_length(points: np.ndarray, closed: bool) -> float:
+    p = np.vstack([points, points[:1]]) if closed else points
+    return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
+
+
+def extend_run(system: SilhouetteSystem, points: np.ndarray, cell: float,
+               others: np.ndarray, ends: tuple[bool, bool] = (True, True),
+               bounds=None) -> np.ndarray:
+    """An open run with its ends continued (``extend_end``) where ``ends`` says so."""
+    if len(points) < 2:
+        return points
+    none = np.zeros((0, 4))
+    tail = extend_end(system, points[-1], points[-1] - points[-2], cell, others,
+                      bounds=bounds) if ends[1] else none
+    head = extend_end(system, points[0], points[0] - points[1], cell, others,
+                      bounds=bounds) if ends[0] else none
+    return np.concatenate([head[::-1], points, tail])
+
+
+def extend_end(system: SilhouetteSystem, end: np.ndarray, outward: np.ndarray, cell: float,
+               others: np.ndarray, reach: float = 8.0, bounds=None) -> np.ndarray:
+    """Points continuing a silhouette curve beyond ``end`` (predictor along the curve's tangent,
+    the null vector of the Jacobian of (f1, f2, s), corrector by the same Newton), for up to
+    ``reach`` cells, until a point would be excluded (σ_min/σ_max of (∇f1, ∇f2) below
+    EXCLUSION_RATIO), runs onto ``others`` (another traced curve) or out of ``bounds``, or Newton fails even with a
+    step of 1/64 cell. The traced curve stops where the mesh cannot follow it (near a singular
+    point the mesh is torn, and points within half a cell of one are excluded); the exact curve
+    goes on to the exclusion the ratio states."""
+    fields = (system.f1, system.f2, system.s)
+    out, p, h, travelled = [], np.asarray(end, float), 0.25 * cell, 0.0
+    direction = np.asarray(outward, float)
+    with np.errstate(all="ignore"):
+        while travelled < reach * cell and h >= cell / 64:
+            jac = np.stack([f.gradient(p[None])[0] for f in fields])
+            if not np.isfinite(jac).all():
+                break
+            tangent = np.linalg.svd(jac)[2][-1]
+            tangent *= np.sign(tangent @ direction) or 1.0
+            guess = p + h * tangent
+            q = system.newton(guess[None])[0]
+            ok = (np.isfinite(q).all() and system.residual(q[None])[0] <= RESIDUAL_TOLERANCE
+                  and np.linalg.norm(q - guess) <= 0.5 * h and (q - p) @ tangent > 0.25 * h
+                  and jacobian_ratio(system.f1, system.f2, q[None])[0] >= EXCLUSION_RATIO)
+            if not ok:
+                h /= 2
+                continue
+            if near(q[None], others, 0.5 * cell)[0] or (
+                    bounds is not None and ((q < bounds[0]).any() or (q > bounds[1]).any())):
+                break
+            out.append(q)
+            travelled += float(np.linalg.norm(q - p))
+            direction, p = q - p, q
+            h = min(2 * h, 0.25 * cell)
+    return np.array(out).reshape(-1, 4)
 
 
 # ----------------------------------------------------------------------------- parametric X(s, t)
@@ -282,7 +427,7 @@ def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int
     for points, st, closed in chains:
         x, keep, s = exact.refine(st, along, 2.0 * edge)
         runs = split_runs(x, keep, closed)
-        s.refined = sum(len(run) for run, _ in runs)
+        s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported
         total.add(s)
         for run, run_closed in runs:
             out.append(Curve(name if not out else f"{name} {len(out) + 1}", run, material,

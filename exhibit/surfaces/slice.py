@@ -143,11 +143,51 @@ def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | No
             total.dropped += len(points)
             continue
         runs = split_runs(x, keep, closed)
-        s.refined = sum(len(run) for run, _ in runs)  # a lone kept point is no curve
+        s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported
         total.add(s)
         for run, run_closed in runs:
             label = name if not out else f"{name} {len(out) + 1}"
             out.append(Curve(label, run, material, run_closed))
+    if exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2") and st_free(chains):
+        # Where the hyperplane is tangent to the surface along a curve, x_a - c touches zero
+        # without changing sign and the mesh's zero set misses it (surfaces/double_zeros.py).
+        out += tangency_curves(surface, exact, axis, at, max_move, name, material, total,
+                               len(out))
     if stats is not None:
         stats.add(total)
+    return out
+
+
+def st_free(chains) -> bool:
+    return all(st is None for _, st, _ in chains)
+
+
+def tangency_curves(surface: Surface, exact, axis: int, at: float, max_move: float, name: str,
+                    material: Material, total: RefineStats, already: int) -> list[Curve]:
+    """The curves along which the hyperplane x_axis = at touches the surface, refined onto
+    f1 = f2 = 0 and the hyperplane."""
+    from exhibit.surfaces.double_zeros import double_zero_chains, join_ends
+
+    system = ImplicitSlice(exact.f1, exact.f2, axis, at)
+    e = np.zeros(4)
+    e[axis] = 1.0
+
+    def refine(seeds):
+        x, keep, _ = system.refine(seeds, max_move)
+        return x, keep
+
+    p = surface.positions
+    chains = double_zero_chains(surface, p[:, axis] - at, np.tile(e, (len(p), 1)), refine,
+                                lambda x: [exact.f1.gradient(x), exact.f2.gradient(x)],
+                                lambda x: np.tile(e, (len(x), 1)))
+    edge = max_move / MAX_MOVE_EDGES
+    chains = join_ends(chains, 4.0 * edge, refine, 0.5 * edge)
+    out = []
+    for points, closed in chains:
+        if len(points) < 2:
+            continue
+        total.refined += len(points) + closed  # a closed curve repeats its first point
+        total.max_residual = max(total.max_residual, float(system.residual(points).max()))
+        label = name if not (already + len(out)) else f"{name} {already + len(out) + 1}"
+        out.append(Curve(label, points, material, closed))
     return out

@@ -1,0 +1,184 @@
+"""Curves where a function on a surface touches zero without changing sign (double zeros).
+
+Tracing sign changes of h on the mesh cannot see a zero that h only touches: the silhouette of
+the collision along y, z (s = 4yt, and t ≤ 0 on the sheet z > 0, so s keeps its sign across
+the circle t = 0, x = 0), or the slice t = 0 where the hyperplane is tangent to the surface. Such
+a zero is where |h| has a minimum across the curve. So on every mesh edge whose ends have the same
+sign, the derivative of h along the surface in the edge's direction (h's own gradient projected
+onto the tangent plane at each end) is checked for a sign change
+that makes |h| dip; the dip, estimated from the derivatives, seeds Newton on the caller's exact
+system (surface and h = 0). A converged point is kept only if h's gradient along the surface
+vanishes there too (|P_T ∇h| at most TANGENTIAL_TOLERANCE times its largest value over the
+mesh's vertices): the zero is really a double one, so simple zeros, which the sign-change
+tracer already has, are not found twice. Kept points are
+joined like marching triangles: a triangle with two kept edges gives a segment between them.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from exhibit.surfaces.curves import chain_segments
+from exhibit.surfaces.mesh import Surface
+
+#: |∇h along the surface| at a kept point over its largest value at the mesh's vertices, at most.
+#: Newton on a double zero converges linearly to about √(residual) ≈ 1e-6 off the curve, where
+#: the ratio is of that order; at a simple zero it is of order 1.
+TANGENTIAL_TOLERANCE = 1e-4
+
+
+def surface_gradient(surface: Surface, gradients: np.ndarray) -> np.ndarray:
+    """∇h projected onto each vertex's tangent plane (the normals are orthonormal pairs)."""
+    n = surface.normals
+    return gradients - np.einsum("vk,vki->vi", np.einsum("vki,vi->vk", n, gradients), n)
+
+
+def dip_candidates(surface: Surface, values: np.ndarray, gradients: np.ndarray):
+    """Edges (E, 2) on which |h| dips between two ends of the same sign, and the seed points
+    (E, 4) where the linear interpolant of the edge derivative vanishes."""
+    tris = np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)
+    edges = np.unique(np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]],
+                                              tris[:, [2, 0]]]), axis=1), axis=0)
+    p = surface.positions
+    # h's derivative along the surface: a chord across a fold cuts below it, so the ambient
+    # derivative of a linear h (the slice's t) along the chord would show no dip at all.
+    tangential = surface_gradient(surface, gradients)
+    a, b = edges[:, 0], edges[:, 1]
+    d = p[b] - p[a]
+    ha, hb = values[a], values[b]
+    da = np.einsum("ij,ij->i", tangential[a], d)
+    db = np.einsum("ij,ij->i", tangential[b], d)
+    sign = np.sign(ha)
+    with np.errstate(all="ignore"):
+        dip = (ha * hb > 0) & (sign * da < 0) & (sign * db > 0)
+        lam = np.clip(da / (da - db), 0.0, 1.0)
+        # h along the edge with a linear derivative: h_a + da λ / 2 at its minimum
+        lowest = sign * (ha + 0.5 * da * lam)
+        dip &= lowest <= 0.5 * np.minimum(np.abs(ha), np.abs(hb))
+    dip &= np.isfinite(lam)
+    return edges[dip], p[a[dip]] + lam[dip, None] * d[dip]
+
+
+def tangential_part(normals_f: list, gradient_h: np.ndarray) -> np.ndarray:
+    """|P_T ∇h| with T the orthogonal complement of the two normals."""
+    n = np.stack(normals_f, 1)  # (N, 2, 4)
+    gram = n @ np.transpose(n, (0, 2, 1))
+    with np.errstate(all="ignore"):
+        coef = np.linalg.solve(gram + 1e-300 * np.eye(2), (n @ gradient_h[..., None]))[..., 0]
+    return np.linalg.norm(gradient_h - np.einsum("nk,nki->ni", coef, n), axis=1)
+
+
+def double_zero_chains(surface: Surface, values, gradients, refine, normals, h_gradient):
+    """Polylines [(points, closed)] of the double zeros of h on ``surface``.
+
+    ``refine(seeds) -> (points, keep)`` projects seeds onto the exact zero set (and judges them);
+    ``normals(points)`` gives the surface's two normals there, ``h_gradient(points)`` ∇h."""
+    if len(surface.triangles) == 0:
+        return []
+    values = np.asarray(values, dtype=float)
+    gradients = np.asarray(gradients, dtype=float)
+    ok = np.isfinite(values) & np.isfinite(gradients).all(axis=1)
+    values, gradients = np.where(ok, values, 0.0), np.where(ok[:, None], gradients, 0.0)
+    edges, seeds = dip_candidates(surface, values, gradients)
+    if len(edges) == 0:
+        return []
+    points, keep = refine(seeds)
+    scale = np.linalg.norm(surface_gradient(surface, gradients), axis=1).max()
+    with np.errstate(all="ignore"):
+        keep &= tangential_part(normals(points), h_gradient(points)) <= \
+            TANGENTIAL_TOLERANCE * scale
+    if not keep.any():
+        return []
+    index = {(int(a), int(b)): k for k, (a, b) in enumerate(edges) if keep[k]}
+    segments = []
+    for tri in np.asarray(surface.triangles, dtype=np.int64):
+        found = [index[key] for key in ((min(tri[i], tri[j]), max(tri[i], tri[j]))
+                                        for i, j in ((0, 1), (1, 2), (2, 0))) if key in index]
+        if len(found) >= 2:
+            segments.append(found[:2])
+    if not segments:
+        return []
+    # chained by edge number (the same edge gives the same point in both of its triangles)
+    ids = np.asarray(segments, dtype=float)[..., None]
+    return [(points[np.round(chain[:, 0]).astype(int)], closed)
+            for chain, closed in chain_segments(ids, 0.5)]
+
+
+def touching_silhouette(f1, f2, surface: Surface, along: tuple[int, int], cell: float,
+                        singular_points=None, exclusion_radius: float = 0.0, name: str = "",
+                        material=None, stats=None):
+    """The silhouette branches along ``along`` where s touches zero without changing sign,
+    refined onto f1 = f2 = s = 0 like the traced ones (surfaces/exact_silhouette.py)."""
+    from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
+    from exhibit.surfaces.mesh import Curve, Material
+
+    system = SilhouetteSystem(f1, f2, along)
+    p = surface.positions
+    total = RefineStats()
+
+    def refine(seeds):
+        x, keep, _ = system.refine(seeds, 2.0 * cell, singular_points, exclusion_radius)
+        return x, keep
+
+    with np.errstate(all="ignore"):
+        chains = double_zero_chains(surface, system.s.value(p), system.s.gradient(p), refine,
+                                    lambda x: [f1.gradient(x), f2.gradient(x)],
+                                    system.s.gradient)
+    out = []
+    for points, closed in chains:
+        if len(points) < 2:
+            continue
+        total.refined += len(points) + (1 if closed else 0)
+        total.max_residual = max(total.max_residual, float(system.residual(points).max()))
+        out.append(Curve(name, points, material or Material(), closed))
+    if stats is not None:
+        stats.add(total)
+    return out
+
+
+def join_ends(chains, reach: float, refine, step: float):
+    """Join open chains whose ends are within ``reach`` (and close a chain whose own ends are),
+    bridging the gap with points refined by ``refine(seeds) -> (points, keep)``. Double-zero
+    chains stop short of singular points, where the mesh is torn; a slice passes through them
+    (they are points of the surface), so its pieces are joined there. A bridge whose points do
+    not all converge is not made."""
+    chains = [(np.asarray(p), c) for p, c in chains]
+
+    def bridge(a, b):
+        count = max(int(np.ceil(np.linalg.norm(b - a) / step)), 2)
+        seeds = a + np.linspace(0, 1, count + 1)[1:-1, None] * (b - a)
+        points, keep = refine(seeds)
+        return points if keep.all() else None
+
+    changed = True
+    while changed:
+        changed = False
+        open_ = [i for i, (_, c) in enumerate(chains) if not c]
+        best = None
+        for i in open_:
+            for j in open_:
+                for ei in (0, -1):
+                    for ej in (0, -1):
+                        if i == j and ei == ej:
+                            continue
+                        d = np.linalg.norm(chains[i][0][ei] - chains[j][0][ej])
+                        if d <= reach and (best is None or d < best[0]):
+                            best = (d, i, ei, j, ej)
+        if best is None:
+            break
+        _, i, ei, j, ej = best
+        a = chains[i][0] if ei == -1 else chains[i][0][::-1]  # a ends at the joined end
+        if i == j:
+            middle = bridge(a[-1], a[0])
+            if middle is not None:
+                chains[i] = (np.concatenate([a, middle]), True)
+                changed = True
+            continue
+        b = chains[j][0] if ej == 0 else chains[j][0][::-1]  # b starts at the joined end
+        middle = bridge(a[-1], b[0])
+        if middle is None:
+            continue
+        joined = (np.concatenate([a, middle, b]), False)
+        chains = [c for k, c in enumerate(chains) if k not in (i, j)] + [joined]
+        changed = True
+    return chains
