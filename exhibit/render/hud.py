@@ -88,7 +88,7 @@ class Hud:
     #: language costs no wrapping or rasterising (15 ms at 1080p) once warm.
     CACHED = 128
 
-    def __init__(self, renderer):
+    def __init__(self, renderer) -> None:
         self.renderer = renderer
         #: key -> (texture, width, height) of title and caption panels, least recent first.
         self._blocks: OrderedDict[tuple, tuple] = OrderedDict()
