@@ -142,7 +142,8 @@ def _half_height(bounds: Bounds, size: tuple[int, int], area) -> float | None:
     return max(bw / (aspect * (nx1 - nx0)), bh / (ny1 - ny0))
 
 
-def best_area(bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[float]]):
+def best_area(bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[float]]
+              ) -> Sequence[float] | None:
     """The area of ``areas`` where ``bounds`` comes out largest (None if all are empty)."""
     best = None
     for area in areas:
@@ -160,8 +161,9 @@ def fit(view: ViewState, bounds: Bounds, size: tuple[int, int],
     area = best_area(bounds, size, areas)
     if area is None:
         return view
-    half = _half_height(bounds, size, area)
-    half = min(max(half, view.half_height / MAX_ZOOM), view.half_height * MAX_ZOOM)
+    fitted = _half_height(bounds, size, area)
+    assert fitted is not None   # best_area only returns an area that is not empty
+    half = min(max(fitted, view.half_height / MAX_ZOOM), view.half_height * MAX_ZOOM)
     return view.replace(half_height=half, center=_centered(bounds, size, area, half))
 
 

@@ -18,7 +18,10 @@ class RenderUnavailable(ExhibitError):
 def headless_context() -> moderngl.Context:
     """A standalone EGL context; on a machine without a GPU Mesa's llvmpipe renders in software."""
     try:
-        ctx = moderngl.create_context(standalone=True, backend="egl", require=REQUIRED_VERSION)
+        # moderngl's stubs type each **settings value as Dict[str, Any]; it is glcontext's
+        # keyword arguments, and backend is a str
+        ctx = moderngl.create_context(standalone=True, backend="egl",  # type: ignore[arg-type]
+                                      require=REQUIRED_VERSION)
     except Exception as exc:  # moderngl/glcontext raise plain Exception with the EGL reason
         raise RenderUnavailable(
             f"cannot create a headless OpenGL {REQUIRED_VERSION // 100}.{REQUIRED_VERSION % 100 // 10}"

@@ -23,8 +23,10 @@ from dataclasses import dataclass
 
 import moderngl
 
+from exhibit.geometry.view import ViewState
 from exhibit.render import inset as inset_look
 from exhibit.render import shaders
+from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud import TextMark
 from exhibit.render.layout import Rect
 from exhibit.render.options import RenderOptions
@@ -43,8 +45,8 @@ class Inset:
     """The time-slice inset for one frame: a small scene (exhibit.render.inset), its view, where
     it goes (x, y, width, height in pixels from the top-left) and its label."""
 
-    gpu: object
-    view: object
+    gpu: GpuMesh
+    view: ViewState
     rect: tuple[float, float, float, float]
     label: str = ""
 
@@ -64,16 +66,16 @@ class SceneTarget:
         self.texture = ctx.texture(size, 4)
         self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
         self.texture.repeat_x = self.texture.repeat_y = False
+        self._color: moderngl.Renderbuffer | None = None
+        self._resolved: moderngl.Framebuffer | None = None
         if samples:
             self._color = ctx.renderbuffer(size, 4, samples=samples)
             self._depth = ctx.depth_renderbuffer(size, samples=samples)
             self.framebuffer = ctx.framebuffer([self._color], self._depth)
             self._resolved = ctx.framebuffer([self.texture])
         else:
-            self._color = None
             self._depth = ctx.depth_renderbuffer(size)
             self.framebuffer = ctx.framebuffer([self.texture], self._depth)
-            self._resolved = None
         if sheets:
             self.sheet_texture = ctx.texture(size, 4, dtype="f4", samples=samples or 0)
             if not samples:   # a multisampled texture has no filter (read with texelFetch)
@@ -123,7 +125,8 @@ class FramePipeline:
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
         #: The outgoing frame of a crossfade: (texture, framebuffer, depth), kept at the screen
         #: size.
-        self._snapshot: tuple | None = None
+        self._snapshot: tuple[moderngl.Texture, moderngl.Framebuffer,
+                              moderngl.Renderbuffer] | None = None
         #: The outgoing frame's words (gpu, view, options, hud), faded out on their own.
         self._leaving: tuple | None = None
         #: The latest frame's inset label (exhibit.render.hud.TextMark), for the contrast checks;
@@ -132,12 +135,13 @@ class FramePipeline:
 
     def target(self, size: tuple[int, int], samples: int, kind: str = "scene") -> SceneTarget:
         """A cached target; kind "sheets" has the intersection curves' sheet buffer."""
-        key = (tuple(size), samples, kind)
+        width, height = size
+        key = ((width, height), samples, kind)
         found = self._targets.get(key)
         if found is not None:
             self._targets.move_to_end(key)
             return found
-        target = self._targets[key] = SceneTarget(self.ctx, tuple(size), samples,
+        target = self._targets[key] = SceneTarget(self.ctx, (width, height), samples,
                                                   sheets=kind == "sheets")
         while len(self._targets) > MAX_TARGETS:
             self._targets.popitem(last=False)[1].release()
@@ -193,10 +197,11 @@ class FramePipeline:
             ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
+            assert self._snapshot is not None   # fading needs it
             self._snapshot[0].use(0)
             prog = self.programs["fade"]
-            prog["u_snapshot"].value = 0
-            prog["u_alpha"].value = float(min(fade, 1.0))
+            prog["u_snapshot"] = 0
+            prog["u_alpha"] = float(min(fade, 1.0))
             self._vaos["fade"].render(moderngl.TRIANGLES, vertices=3)
             ctx.disable(moderngl.BLEND)
         words = (gpu, view, options, hud)
@@ -295,7 +300,7 @@ class FramePipeline:
         for name, value in (("u_scene", 0), ("u_size", (float(size[0]), float(size[1]))),
                             ("u_top", tuple(top)), ("u_bottom", tuple(bottom))):
             if name in prog:
-                prog[name].value = value
+                prog[name] = value
         self._vaos[key].render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
@@ -324,9 +329,9 @@ class FrameTimer:
         self.clock = clock
         if wall is None:
             wall = software_renderer(ctx.info.get("GL_RENDERER", ""))
-        self._queries: deque = deque()
-        self._free: list = []
-        self._current = None
+        self._queries: deque[moderngl.Query] = deque()
+        self._free: list[moderngl.Query] = []
+        self._current: moderngl.Query | None = None
         self.mode = "wall" if wall else "gpu"
         self._start = 0.0
         #: The latest measured frame time (ms), None before the first.

@@ -105,7 +105,8 @@ def _attribute_format(program: moderngl.Program, names: list[str]) -> tuple[str,
 
 def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Program]) -> GpuMesh:
     """Write the mesh to GPU buffers once and bind them to every program that draws them."""
-    surfaces, rows = [], []
+    surfaces: list[GpuSurface] = []
+    rows: list[np.ndarray] = []
     for surface in mesh.surfaces:
         if surface.material.style == "wire":
             edges = unique_edges(surface.triangles)

@@ -88,7 +88,7 @@ class Hud:
     #: language costs no wrapping or rasterising (15 ms at 1080p) once warm.
     CACHED = 128
 
-    def __init__(self, renderer):
+    def __init__(self, renderer) -> None:
         self.renderer = renderer
         #: key -> (texture, width, height) of title and caption panels, least recent first.
         self._blocks: OrderedDict[tuple, tuple] = OrderedDict()
@@ -180,7 +180,9 @@ class Hud:
 
         texture, block_w, block_h, block_lines = self._title_block(layout)
         if texture is not None:
-            x, y = round(layout.title_block.x0 + dx), round(layout.title_block.y0 + dy)
+            block = layout.title_block
+            assert block is not None   # a texture means lines, and lines a title block
+            x, y = round(block.x0 + dx), round(block.y0 + dy)
             if self.ink:
                 r._quads("image", texture, (block_w, block_h),
                          [(x, y, block_w, block_h, 0, 0, block_w, block_h,

@@ -200,7 +200,8 @@ def _clip(lines: list[tuple[str, str, int]], room_h: float, room_w: float
           ) -> list[tuple[str, str, int]]:
     """The first lines that fit ``room_h`` pixels, the last of them ending in "…" when some
     are left out (at least one line)."""
-    kept, used = [], 0
+    kept: list[tuple[str, str, int]] = []
+    used = 0
     for line in lines:
         used += line_height(line[1], line[2])
         if used > room_h and kept:

@@ -6,12 +6,17 @@ Tests, the `exhibit render` command and the benchmark all draw through this; the
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import moderngl
 import numpy as np
 from PIL import Image
 
 from exhibit.render.context import headless_context
 from exhibit.render.renderer import Renderer
+
+if TYPE_CHECKING:
+    from exhibit.render.frame import FramePipeline
 
 #: 4x MSAA: surfaces' edges antialiased; curves are antialiased by their own coverage.
 DEFAULT_SAMPLES = 4
@@ -30,11 +35,11 @@ class Offscreen:
         self._color = ctx.renderbuffer(self.size, 4, samples=samples)
         self._depth = ctx.depth_renderbuffer(self.size, samples=samples)
         self.framebuffer = ctx.framebuffer([self._color], self._depth)
+        self._resolved_color: moderngl.Renderbuffer | None = None
+        self._resolved = self.framebuffer
         if samples:
             self._resolved_color = ctx.renderbuffer(self.size, 4)
             self._resolved = ctx.framebuffer([self._resolved_color])
-        else:
-            self._resolved_color, self._resolved = None, self.framebuffer
 
     def read(self) -> np.ndarray:
         """(height, width, 3) uint8, top row first."""
@@ -59,14 +64,15 @@ class Headless:
         self.ctx = ctx or headless_context()
         self.renderer = Renderer(self.ctx)
         self._targets: dict[tuple[tuple[int, int], int], Offscreen] = {}
-        self._pipeline = None
+        self._pipeline: FramePipeline | None = None
 
     def activate(self) -> None:
         """Make this context current again (another context in the process may have taken it)."""
         self.ctx.__enter__()
 
     def target(self, size: tuple[int, int], samples: int = DEFAULT_SAMPLES) -> Offscreen:
-        key = (tuple(size), samples)
+        width, height = size
+        key = ((width, height), samples)
         if key not in self._targets:
             self._targets[key] = Offscreen(self.ctx, size, samples)
         return self._targets[key]
@@ -80,7 +86,7 @@ class Headless:
         return target.read()
 
     @property
-    def pipeline(self):
+    def pipeline(self) -> FramePipeline:
         """The kiosk's frame pipeline on this context (exhibit.render.frame.FramePipeline)."""
         if self._pipeline is None:
             from exhibit.render.frame import FramePipeline

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import moderngl
 import numpy as np
 
-from exhibit.geometry.pipeline import clip_transform
+from exhibit.geometry.pipeline import ClipTransform, clip_transform
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import GpuMesh, upload
@@ -81,8 +81,10 @@ def _mat(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, dtype=np.float32).T).tobytes()
 
 
-def darker(color, factor: float = 0.32) -> tuple[float, float, float]:
-    return tuple(float(c) * factor for c in color)
+def darker(color: tuple[float, float, float], factor: float = 0.32
+           ) -> tuple[float, float, float]:
+    r, g, b = color
+    return (float(r) * factor, float(g) * factor, float(b) * factor)
 
 
 def pipeline_uniforms(ct, view: ViewState, size: tuple[int, int]) -> dict:
@@ -148,7 +150,7 @@ class Renderer:
         self.hud = Hud(self)
         #: The last view's clip transform, so one frame computes it once for every pass.
         self._ct_key: tuple | None = None
-        self._ct = None
+        self._ct: ClipTransform | None = None
 
     # ------------------------------------------------------------------ meshes
 
@@ -158,16 +160,18 @@ class Renderer:
 
     # ------------------------------------------------------------------ a frame
 
-    def clip_transform(self, view: ViewState, size: tuple[int, int]):
+    def clip_transform(self, view: ViewState, size: tuple[int, int]) -> ClipTransform:
         """exhibit.geometry.clip_transform for this view and size, computed once per frame (the
         surfaces, silhouettes, curves and marker labels all use it)."""
         aspect = size[0] / size[1]
         if (self._ct_key is None or self._ct_key[1] != aspect
                 or not (self._ct_key[0] is view or self._ct_key[0] == view)):
             self._ct_key, self._ct = (view, aspect), clip_transform(view, aspect)
+        assert self._ct is not None   # set together with _ct_key
         return self._ct
 
-    def set_pipeline(self, program: moderngl.Program, view: ViewState, size: tuple[int, int]):
+    def set_pipeline(self, program: moderngl.Program, view: ViewState, size: tuple[int, int]
+                     ) -> ClipTransform:
         """Upload the view's 4x5 clip map, pose, clip planes and centres to one program (those
         of pipeline.glsl's uniforms that the program's own source declares)."""
         ct = self.clip_transform(view, size)
@@ -239,7 +243,7 @@ class Renderer:
             self.draw_intersections(gpu, sheets, size, options, view)
 
         ctx.enable(moderngl.BLEND)
-        ctx.blend_func = BLEND_OVER
+        ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
         ctx.depth_func = "<="
         # Curves and markers: opaque cores with depth writes, then antialiased rims blended.
         if options.curves:
@@ -250,7 +254,7 @@ class Renderer:
                 if not count:
                     continue
                 for pass_ in (0, 1):
-                    prog["u_pass"].value = pass_
+                    prog["u_pass"] = pass_
                     ctx.fbo.depth_mask = pass_ == 0
                     gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
             ctx.fbo.depth_mask = True
@@ -281,7 +285,7 @@ class Renderer:
                 self._set(prog, u_pinch=(1.0, 0.93, 0.2, pinch_size),
                           u_slice_style=(*SLICE_COLOR, slice_width))
                 for surface in gpu.surfaces:
-                    prog["u_ink"].value = (*darker(surface.color), ink_width)
+                    prog["u_ink"] = (*darker(surface.color), ink_width)
                     surface.vaos["silhouette"].render(moderngl.TRIANGLES)
             ctx.fbo.depth_mask = True
 
@@ -335,7 +339,7 @@ class Renderer:
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         if sheets.samples:
             ctx.enable(moderngl.BLEND)
-            ctx.blend_func = BLEND_OVER
+            ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
             ctx.scissor = box
             self._empty[key].render(moderngl.TRIANGLES, vertices=3)
         else:
@@ -354,7 +358,7 @@ class Renderer:
             sheets.gate_texture.use(1)
             self._set(prog, u_gate=1, u_tiles_x=sheets.gate_size[0])
             ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
-            ctx.blend_func = BLEND_OVER
+            ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
             ctx.scissor = box
             self._empty[key].render(moderngl.POINTS,
                                     vertices=sheets.gate_size[0] * sheets.gate_size[1])
@@ -378,7 +382,7 @@ class Renderer:
         if "u_lights" in prog:
             lights = np.zeros((2, 3), dtype=np.float32)   # key and fill light; more are ignored
             lights[:len(view.lights[:2])] = view.lights[:2]
-            prog["u_lights"].write(lights.tobytes())
+            shaders.uniform(prog, "u_lights").write(lights.tobytes())
         lit = key != "floor"   # the floor: one matrix and a flat colour, no clipping
         if lit:
             w0 = view.offset[3]
@@ -415,7 +419,7 @@ class Renderer:
         self.clip_distances(True)
         offset = 0
         for surface in gpu.surfaces:
-            prog["u_id_offset"].value = offset
+            prog["u_id_offset"] = offset
             surface.vaos["ids"].render(moderngl.TRIANGLES)
             offset += surface.triangle_count
         self.clip_distances(False)
@@ -452,10 +456,10 @@ class Renderer:
         x, y = round(x), round(y)
         prog = self.programs["text"]
         item.texture.use(0)
-        prog["u_texture"].value = 0
-        prog["u_viewport"].value = viewport
-        prog["u_rect"].value = (x, viewport[1] - y - item.height, item.width, item.height)
-        prog["u_color"].value = tuple(color)
+        prog["u_texture"] = 0
+        prog["u_viewport"] = viewport
+        prog["u_rect"] = (x, viewport[1] - y - item.height, item.width, item.height)
+        prog["u_color"] = tuple(color)
         self._empty["text"].render(moderngl.TRIANGLE_STRIP, vertices=4)
         return item.width, item.height
 
@@ -470,9 +474,9 @@ class Renderer:
             self._overlay_buffer.orphan(len(data))
         self._overlay_buffer.write(data)
         prog = self.programs["overlay"]
-        prog["u_viewport"].value = viewport
-        prog["u_pass"].value = 1
-        self.ctx.blend_func = BLEND_OVER
+        prog["u_viewport"] = viewport
+        prog["u_pass"] = 1
+        self.ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
         self._overlay_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
 
     def _quads(self, program: str, texture, texture_size, rows: list[tuple], viewport) -> None:
@@ -485,15 +489,15 @@ class Renderer:
         self._glyph_buffer.write(data)
         prog = self.programs[program]
         texture.use(0)
-        prog["u_texture"].value = 0
-        prog["u_viewport"].value = viewport
-        prog["u_texture_size"].value = tuple(float(v) for v in texture_size)
+        prog["u_texture"] = 0
+        prog["u_viewport"] = viewport
+        prog["u_texture_size"] = tuple(float(v) for v in texture_size)
         self.ctx.blend_func = BLEND_PREMULTIPLIED
         self._glyph_vaos[program].render(moderngl.TRIANGLE_STRIP, vertices=4,
                                          instances=len(rows))
 
     def _glyph_rows(self, text: str, style: str, px: int, x: float, y: float, color,
-                    rows: list) -> None:
+                    rows: list) -> tuple[int, int, int, int]:
         """Instances for one line of text whose top-left corner is at (x, y); returns the box
         its glyph images cover, (x0, y0, x1, y1) in pixels (empty at (x, y) for no glyphs)."""
         x, y = round(x), round(y)

@@ -12,6 +12,7 @@ import os
 import re
 from functools import lru_cache
 from importlib import resources
+from typing import Any
 
 import moderngl
 
@@ -61,11 +62,13 @@ def program(ctx: moderngl.Context, name: str, defines: tuple[str, ...] = ()) -> 
     ``extra`` records its file and declared uniforms for set_uniforms."""
     text = source(name)
     extra = "".join(f"#define {d}\n" for d in defines)
-    stages = {}
+    stages: dict[str, str] = {}
     for keyword, macro in STAGES.items():
         if macro in text:
             stages[keyword] = f"{VERSION}\n#define {macro}\n{extra}#line 1\n{text}"
-    prog = ctx.program(**stages)
+    prog = ctx.program(vertex_shader=stages.get("vertex_shader"),
+                       geometry_shader=stages.get("geometry_shader"),
+                       fragment_shader=stages.get("fragment_shader"))
     prog.extra = {"file": name, "uniforms": declared_uniforms(name)}
     return prog
 
@@ -73,7 +76,17 @@ def program(ctx: moderngl.Context, name: str, defines: tuple[str, ...] = ()) -> 
 _reported: set[tuple[str, str]] = set()
 
 
-def set_uniforms(prog: moderngl.Program, values: dict) -> None:
+def uniform(prog: moderngl.Program, name: str) -> moderngl.Uniform:
+    """``prog[name]`` as the Uniform it is (a program's members are also its attributes, and
+    could be uniform blocks; the renderer's programs declare none)."""
+    member = prog[name]
+    if not isinstance(member, moderngl.Uniform):
+        raise UniformError(f"shader {(prog.extra or {}).get('file', '?')}: {name!r} is a "
+                           f"{type(member).__name__}, not a uniform")
+    return member
+
+
+def set_uniforms(prog: moderngl.Program, values: dict[str, Any]) -> None:
     """Set uniforms by name. A name the source declares but the compiler dropped (unused in
     this variant) is skipped, as it must be; a name the source never declares is a typo: an
     UniformError under EXHIBIT_STRICT_UNIFORMS=1 (tests), else logged once (a kiosk keeps
@@ -81,9 +94,9 @@ def set_uniforms(prog: moderngl.Program, values: dict) -> None:
     for name, value in values.items():
         if name in prog:
             if isinstance(value, bytes):
-                prog[name].write(value)
+                uniform(prog, name).write(value)
             else:
-                prog[name].value = value
+                prog[name] = value   # Program.__setitem__: the member's .value
             continue
         info = prog.extra or {}
         if name in info.get("uniforms", ()):
@@ -92,6 +105,7 @@ def set_uniforms(prog: moderngl.Program, values: dict) -> None:
                    f"(it declares {', '.join(sorted(info.get('uniforms', ()))) or 'none'})")
         if os.environ.get(STRICT_ENV) == "1":
             raise UniformError(message)
-        if (info.get("file"), name) not in _reported:
-            _reported.add((info.get("file"), name))
+        key = (str(info.get("file")), name)
+        if key not in _reported:
+            _reported.add(key)
             log.error("%s", message)

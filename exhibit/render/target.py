@@ -18,11 +18,17 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
-from typing import Callable, Protocol, Union
+from typing import TYPE_CHECKING, Callable, Protocol, Union
 
+import moderngl
 import numpy as np
 
 from exhibit.render.options import RenderOptions
+from exhibit.render.renderer import Renderer
+
+if TYPE_CHECKING:
+    from exhibit.render.frame import FrameTimer
+    from exhibit.render.offscreen import Headless
 
 __all__ = ["Key", "Focus", "CloseRequest", "InputEvent", "RenderTarget", "HeadlessTarget",
            "MODIFIERS"]
@@ -59,8 +65,8 @@ InputHandler = Callable[[InputEvent], None]
 
 
 class RenderTarget(Protocol):
-    ctx: object
-    renderer: object
+    ctx: moderngl.Context
+    renderer: Renderer
     frame_ms: float | None
     close_allowed: bool
 
@@ -97,7 +103,8 @@ class HeadlessTarget:
     as a window system delivers what arrived between two frames. ``headless`` is an
     exhibit.render.Headless; ``image`` is the latest frame (top row first)."""
 
-    def __init__(self, headless, size: tuple[int, int], refresh_hz: float | None = 60.0):
+    def __init__(self, headless: Headless, size: tuple[int, int],
+                 refresh_hz: float | None = 60.0):
         self.headless = headless
         self.ctx, self.renderer = headless.ctx, headless.renderer
         # current from the start, as a window's context is: the kiosk uploads its meshes before
@@ -115,7 +122,7 @@ class HeadlessTarget:
         self._handler: InputHandler | None = None
         self._queue: deque[InputEvent] = deque()
         self._should_close = False
-        self._timer = None
+        self._timer: FrameTimer | None = None
 
     @property
     def size(self) -> tuple[int, int]:
@@ -166,6 +173,8 @@ class HeadlessTarget:
         return target.read()
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
+        if options.quality is None:
+            raise ValueError("capture() draws a kiosk frame: options.quality must be set")
         self.headless.activate()
         self.headless.pipeline.capture(gpu, view, self._size, options, hud, options.quality)
 
@@ -205,3 +214,7 @@ class HeadlessTarget:
         if self._timer is not None:
             self._timer.release()
             self._timer = None
+
+
+if TYPE_CHECKING:
+    _headless_is_a_target: type[RenderTarget] = HeadlessTarget

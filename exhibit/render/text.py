@@ -14,6 +14,8 @@ import moderngl
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
 
+from exhibit.render.context import RenderUnavailable
+
 #: Fonts with the Greek and math glyphs the HUD needs (θ, ∞); Debian: fonts-dejavu-core.
 FONT_DIRS = (Path("/usr/share/fonts/truetype/dejavu"), Path("/usr/share/fonts/dejavu"))
 FONT_FILES = {"sans": "DejaVuSans.ttf", "bold": "DejaVuSans-Bold.ttf", "mono": "DejaVuSansMono.ttf"}
@@ -26,7 +28,11 @@ def font(style: str, size: int) -> ImageFont.FreeTypeFont:
         path = folder / FONT_FILES[style]
         if path.exists():
             return ImageFont.truetype(str(path), size)
-    return ImageFont.load_default(size)
+    default = ImageFont.load_default(size)
+    if not isinstance(default, ImageFont.FreeTypeFont):   # a Pillow built without FreeType
+        raise RenderUnavailable("no scalable font: install fonts-dejavu-core, or a Pillow with "
+                                "FreeType")
+    return default
 
 
 @lru_cache(maxsize=1)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import logging
 import time
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
@@ -22,6 +23,12 @@ from exhibit.render.context import REQUIRED_VERSION, RenderUnavailable
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo, Renderer
 from exhibit.render.target import CloseRequest, Focus, InputHandler, Key
+
+if TYPE_CHECKING:
+    from glfw import _GLFWwindowPointerT
+
+    from exhibit.render.frame import FramePipeline, FrameTimer
+    from exhibit.render.target import RenderTarget
 
 log = logging.getLogger("exhibit.glfw")
 
@@ -86,27 +93,27 @@ class Window:
         # A fullscreen window that loses focus would be iconified: a black screen until
         # someone comes, and under X11 without an EWMH window manager a GLFW error instead.
         glfw.window_hint(glfw.AUTO_ICONIFY, False)
+        screen = None
         if fullscreen:
             # The configured monitor if it is connected, else the primary one (never no picture).
             monitors = glfw.get_monitors() or [glfw.get_primary_monitor()]
-            monitor = monitors[monitor] if monitor < len(monitors) else monitors[0]
-        else:
-            monitor = None
-        if monitor is not None:
-            mode = glfw.get_video_mode(monitor)
+            screen = monitors[monitor] if monitor < len(monitors) else monitors[0]
+        if screen is not None:
+            mode = glfw.get_video_mode(screen)
             size = (mode.size.width, mode.size.height)
-        self.handle = glfw.create_window(size[0], size[1], title, monitor, None)
-        if not self.handle:
+        handle = glfw.create_window(size[0], size[1], title, screen, None)
+        if not handle:
             glfw.terminate()
-            self.handle = None
             raise RenderUnavailable(f"cannot open an OpenGL 3.3 window ({self.errors.last})")
-        glfw.make_context_current(self.handle)
+        #: The GLFW window; None once closed.
+        self.handle: _GLFWwindowPointerT | None = handle
+        glfw.make_context_current(handle)
         glfw.swap_interval(1 if vsync else 0)
         self.ctx = moderngl.create_context(require=REQUIRED_VERSION)
         self.renderer = Renderer(self.ctx)
         self.msaa_samples = msaa_samples
-        self._pipeline = None
-        self._timer = None
+        self._pipeline: FramePipeline | None = None
+        self._timer: FrameTimer | None = None
         #: What drawing the latest kiosk frame cost (ms; exhibit.render.frame.FrameTimer).
         self.frame_ms: float | None = None
         #: False: a close request (Alt+F4, the compositor) is reported, not obeyed.
@@ -114,10 +121,17 @@ class Window:
         self._handler: InputHandler | None = None
         self._install_callbacks()
 
+    @property
+    def _window(self) -> _GLFWwindowPointerT:
+        """The GLFW window, for the calls that need one (none is made after close())."""
+        if self.handle is None:
+            raise RuntimeError("the window is closed")
+        return self.handle
+
     # ------------------------------------------------------------------ input
 
     def _install_callbacks(self) -> None:
-        glfw, handle = self._glfw, self.handle
+        glfw, handle = self._glfw, self._window
         modifiers = (("ctrl", glfw.MOD_CONTROL), ("alt", glfw.MOD_ALT),
                      ("shift", glfw.MOD_SHIFT), ("super", glfw.MOD_SUPER))
 
@@ -146,14 +160,14 @@ class Window:
         self._handler = handler
 
     def hide_cursor(self) -> None:
-        self._glfw.set_input_mode(self.handle, self._glfw.CURSOR, self._glfw.CURSOR_HIDDEN)
+        self._glfw.set_input_mode(self._window, self._glfw.CURSOR, self._glfw.CURSOR_HIDDEN)
 
     @property
     def refresh_hz(self) -> float | None:
         """The refresh rate of the monitor the window is on (the primary one when windowed)."""
         glfw = self._glfw
         try:
-            monitor = glfw.get_window_monitor(self.handle) or glfw.get_primary_monitor()
+            monitor = glfw.get_window_monitor(self._window) or glfw.get_primary_monitor()
             mode = glfw.get_video_mode(monitor) if monitor else None
             return float(mode.refresh_rate) if mode and mode.refresh_rate > 0 else None
         except Exception:  # noqa: BLE001 - the governor then assumes 60 Hz
@@ -161,9 +175,10 @@ class Window:
 
     @property
     def size(self) -> tuple[int, int]:
-        return tuple(self._glfw.get_framebuffer_size(self.handle))
+        width, height = self._glfw.get_framebuffer_size(self._window)
+        return (width, height)
 
-    def _kiosk_pipeline(self):
+    def _kiosk_pipeline(self) -> FramePipeline:
         from exhibit.render.frame import FramePipeline, FrameTimer
         if self._pipeline is None:
             self._pipeline = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
@@ -176,25 +191,29 @@ class Window:
         ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
         timed into ``frame_ms``, with the captured frame laid over it at opacity ``fade``
         (a crossfade: see capture()), and ``inset`` (exhibit.render.frame.Inset) over it."""
-        self._glfw.make_context_current(self.handle)
+        self._glfw.make_context_current(self._window)
         if options.quality is None:
             self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
             return
         pipeline = self._kiosk_pipeline()
-        self._timer.begin()
+        timer = self._timer
+        assert timer is not None   # made with the pipeline
+        timer.begin()
         pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality,
                       fade, inset)
-        self.frame_ms = self._timer.end()
+        self.frame_ms = timer.end()
 
     def capture(self, gpu, view, options: RenderOptions, hud: HudInfo | None = None) -> None:
         """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
         the following draw()s with ``fade`` lay it over the new frames."""
-        self._glfw.make_context_current(self.handle)
+        if options.quality is None:
+            raise ValueError("capture() draws a kiosk frame: options.quality must be set")
+        self._glfw.make_context_current(self._window)
         self._kiosk_pipeline().capture(gpu, view, self.size, options, hud, options.quality)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         """The notice screen (Renderer.notice) in the back buffer (call swap() to show it)."""
-        self._glfw.make_context_current(self.handle)
+        self._glfw.make_context_current(self._window)
         self.ctx.screen.use()
         self.renderer.notice(lines, self.size, drift)
 
@@ -215,12 +234,12 @@ class Window:
         return np.frombuffer(data, dtype=np.uint8).reshape(height, width, 3)[::-1].copy()
 
     def swap(self) -> None:
-        self._glfw.swap_buffers(self.handle)
+        self._glfw.swap_buffers(self._window)
         self._glfw.poll_events()
 
     @property
     def should_close(self) -> bool:
-        return bool(self._glfw.window_should_close(self.handle))
+        return bool(self._glfw.window_should_close(self._window))
 
     def close(self) -> None:
         if self.handle is None:
@@ -228,9 +247,14 @@ class Window:
         self._handler = None
         if self._pipeline is not None:
             self._pipeline.release()
+        if self._timer is not None:
             self._timer.release()
         self.renderer.release()
         self.ctx.release()
         self._glfw.destroy_window(self.handle)
         self._glfw.terminate()
         self.handle = None
+
+
+if TYPE_CHECKING:
+    _window_is_a_target: type[RenderTarget] = Window

@@ -26,6 +26,7 @@ import json
 import os
 import statistics
 import time
+from typing import Any
 
 import moderngl
 
@@ -43,6 +44,12 @@ PARTS = (
     ("lemma2", (), False),
     ("hud", (), True),
 )
+
+
+def _switched_off(names: tuple[str, ...]) -> dict[str, Any]:
+    """dataclasses.replace keywords turning the named switches off (RenderOptions's boolean
+    fields, named at run time, so a dict of Any: no one field type fits every name)."""
+    return {name: False for name in names}
 
 
 def add_arguments(parser) -> None:
@@ -110,18 +117,19 @@ def run(args) -> int:
             gpus = {}
             # SSIM's reference is MSAA at the full mesh, whichever levels are timed.
             direct = next(q for q in LADDER if q.name == "direct")
-            wanted = {q.mesh for q in levels} | ({0} if args.ssim else set())
-            for level in sorted(wanted | ({direct.mesh} if args.breakdown else set())):
+            meshes = {q.mesh for q in levels} | ({0} if args.ssim else set())
+            for level in sorted(meshes | ({direct.mesh} if args.breakdown else set())):
                 resolution = level_resolution(scene, config.resolution.get(name), level)
                 mesh, _ = build_cached(scene, params, resolution)
                 gpus[level] = renderer.upload(mesh)
-            hud = HudInfo(scene.title, scene.caption, tuple(scene.axes))
+            hud = HudInfo(scene.title, scene.caption, scene.axes)
             options = RenderOptions(hud=config.hud)
-            times = {q.name: [] for q in levels}
-            floors = {level: [] for level in gpus}
-            part_times = {part: [] for part, _, _ in PARTS} if args.breakdown else {}
+            times: dict[str, list[float]] = {q.name: [] for q in levels}
+            floors: dict[int, list[float]] = {level: [] for level in gpus}
+            part_times: dict[str, list[float]] = (
+                {part: [] for part, _, _ in PARTS} if args.breakdown else {})
             lean = options.at_quality(direct)
-            part_options = {part: (replace(lean, **{k: False for k in off}), with_hud)
+            part_options = {part: (replace(lean, **_switched_off(off)), with_hud)
                             for part, off, with_hud in PARTS}
 
             def floor(gpu, view):
@@ -157,7 +165,8 @@ def run(args) -> int:
                                                   floor_target.framebuffer, part_opts,
                                                   hud if with_hud else None),
                           part_times[part], i < 2)
-            rows = {}
+            # the scene's part of the JSON report: a row per level, "breakdown", "none"
+            rows: dict[str, dict[str, Any]] = {}
             for q in levels:
                 frame_ms = statistics.median(times[q.name])
                 floor_ms = statistics.median(floors[q.mesh])
@@ -196,7 +205,7 @@ def run(args) -> int:
     if error != "GL_NO_ERROR":
         raise ExhibitError(f"OpenGL reported {error} during the benchmark")
 
-    report_levels = []
+    report_levels: list[dict[str, Any]] = []
     for q in levels:
         name, row = max(((n, rows[q.name]) for n, rows in per_scene),
                         key=lambda item: item[1]["frame_ms"])
@@ -219,10 +228,11 @@ def run(args) -> int:
         r["used_here"] = r["name"] in usable
     candidates = [r for r in report_levels if r["used_here"]] or report_levels
     chosen = candidates[pick([r["frame_ms"] for r in candidates], target)]["name"]
-    report = {"size": list(size), "renderer": renderer_name, "levels": report_levels,
-              "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
-              "cpu": cpu_model(), "cpus": os.cpu_count(), "scenes": names,
-              "load_average": [round(x, 2) for x in os.getloadavg()]}
+    report: dict[str, Any] = {
+        "size": list(size), "renderer": renderer_name, "levels": report_levels,
+        "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
+        "cpu": cpu_model(), "cpus": os.cpu_count(), "scenes": names,
+        "load_average": [round(x, 2) for x in os.getloadavg()]}
     if args.breakdown:
         report["breakdown"] = {n: rows["breakdown"] for n, rows in per_scene}
     if args.ssim:  # no antialiasing at all, for comparison

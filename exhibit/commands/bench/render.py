@@ -158,7 +158,7 @@ def run(args) -> int:
     target = headless.target(size, samples)
     fbo = target.framebuffer
     sheets = headless.pipeline.target(size, samples, "sheets")
-    hud = HudInfo(scene.title, scene.caption, tuple(scene.axes))
+    hud = HudInfo(scene.title, scene.caption, scene.axes)
     results = []
     try:
         for count in counts:
@@ -214,7 +214,7 @@ def run(args) -> int:
                 "inset_cpu_ms": inset_cpu,
                 "inset_gpu_ms": inset_gpu,
             }
-            times = {key: [] for key in variants}
+            times: dict[str, list[float]] = {key: [] for key in variants}
             for i in range(frames + 2):  # two warm-up frames
                 view = scene.view.replace(
                     angles=(0.02 * i, -0.3 + 0.01 * i, -0.2, 0.4, -0.3, 0.0),
@@ -225,7 +225,7 @@ def run(args) -> int:
                     ctx.finish()
                     if i >= 2:
                         times[key].append((time.perf_counter() - start) * 1000.0)
-            row = {"triangles": gpu.triangle_count}
+            row: dict[str, float] = {"triangles": gpu.triangle_count}
             row.update({k: round(statistics.median(v), 2) for k, v in times.items()})
             row["intersections_ms"] = round(row["sheets_ms"] - row["pipeline_ms"], 2)
             row["slice_ms"] = round(row["sliced_frame_ms"] - row["frame_ms"], 2)
