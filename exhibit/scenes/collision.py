@@ -187,7 +187,7 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
     if inside.all():
         return [Curve(f"slice {i + 1}" if i else "slice", point(phi, sign), SLICE_MATERIAL, True)
                 for i, sign in enumerate((1.0, -1.0))]
-    curves = []
+    curves: list[Curve] = []
     start = int(np.argmin(inside))  # an index outside: arcs do not wrap past it
     order = np.roll(np.arange(samples), -start)
     step = 2 * math.pi / samples

@@ -20,7 +20,9 @@ Curves are split where points are dropped or excluded, so no segment joins acros
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
@@ -239,9 +241,9 @@ def split_at_reversals(curve, points: np.ndarray, closed: bool, ends: tuple[bool
     length = np.linalg.norm(step, axis=1)
     with np.errstate(all="ignore"):
         cosine = np.einsum("ij,ij->i", step[1:], step[:-1]) / (length[1:] * length[:-1])
-    turns = np.flatnonzero(cosine < HAIRPIN_COSINE) + 1
     # a fold, not a zigzag of one point refined out of order: the legs run back together
-    turns = [i for i in turns if 2 <= i <= len(points) - 3 and np.linalg.norm(
+    candidates = [int(i) for i in np.flatnonzero(cosine < HAIRPIN_COSINE) + 1]
+    turns = [i for i in candidates if 2 <= i <= len(points) - 3 and np.linalg.norm(
         points[i + 2] - points[i - 2]) < 0.5 * min(np.linalg.norm(points[i + 2] - points[i]),
                                                    np.linalg.norm(points[i - 2] - points[i]))]
     if len(turns) == 0:
@@ -336,14 +338,25 @@ def extend_end(system: SilhouetteSystem, end: np.ndarray, outward: np.ndarray, c
 
 # ----------------------------------------------------------------------------- parametric X(s, t)
 
+class Span(Protocol):
+    """A parameter's interval (exhibit.surfaces.parametric.Interval)."""
+
+    @property
+    def start(self) -> float: ...
+    @property
+    def stop(self) -> float: ...
+    @property
+    def periodic(self) -> bool: ...
+
+
 @dataclass
 class ParametricExact:
     """A parametric surface's X(s, t), its tangents, its intervals and each vertex's (s, t)."""
 
-    function: object
-    tangents: object
-    s_interval: object
-    t_interval: object
+    function: Callable[[np.ndarray, np.ndarray], np.ndarray]
+    tangents: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]
+    s_interval: Span
+    t_interval: Span
     params: np.ndarray  # (V, 2)
 
     @np.errstate(all="ignore")
@@ -456,7 +469,7 @@ def traced_with_parameters(surface, exact: ParametricExact, values: np.ndarray):
     segments = zero_set_segments(soup, np.arange(len(soup)).reshape(-1, 3), values[tris].ravel())
     if len(segments) == 0:
         return []
-    lookup = {}
+    lookup: dict[tuple, np.ndarray] = {}
     scale = max(float(np.abs(surface.positions).max()), 1.0) * 1e-9
     for end in segments.reshape(-1, 6):
         lookup.setdefault(tuple(np.round(end[:4] / scale).astype(np.int64)), end[4:])

@@ -228,13 +228,15 @@ def _kind(node) -> str | None:
     return _KIND.get(type(node.op)) if isinstance(node, ast.BinOp) else None
 
 
-def _operands(node: ast.BinOp) -> list[tuple[ast.AST, bool]]:
+def _operands(node: ast.BinOp) -> list[tuple[ast.expr, bool]]:
     """The terms of a run of + and - (or the factors of * and /), each with whether it is
     subtracted (divided by); without recursion, so a sum of a thousand terms is fine."""
-    kind, out, stack = _kind(node), [], [(node, False)]
+    kind = _kind(node)
+    out: list[tuple[ast.expr, bool]] = []
+    stack: list[tuple[ast.expr, bool]] = [(node, False)]
     while stack:
         part, inverted = stack.pop()
-        if _kind(part) == kind:
+        if _kind(part) == kind and isinstance(part, ast.BinOp):
             stack.append((part.right, inverted ^ isinstance(part.op, (ast.Sub, ast.Div))))
             stack.append((part.left, inverted))
         else:
@@ -245,7 +247,7 @@ def _operands(node: ast.BinOp) -> list[tuple[ast.AST, bool]]:
 def _too_deep(tree: ast.Expression) -> ast.AST | None:
     """The first node nested deeper than MAX_DEPTH, found without recursion (the text may be a
     thousand unary minus signs)."""
-    stack = [(tree.body, 0, None)]
+    stack: list[tuple[ast.expr, int, str | None]] = [(tree.body, 0, None)]
     while stack:
         node, depth, parent_kind = stack.pop()
         kind = _kind(node)

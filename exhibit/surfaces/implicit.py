@@ -319,6 +319,7 @@ def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
         if len(todo) == 0:
             break
     surface.normals[moved] = 0.0
+    assert surface.singular is not None  # __post_init__ sets it
     surface.singular[moved] = True
     return int(moved.sum())
 
@@ -521,12 +522,12 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     surface.singular = singular | surface.singular
     residual = np.max(np.abs(at_vertices[~singular]), axis=1)
     stats.max_residual = float(residual.max()) if len(residual) else 0.0
-    if progress:
+    if progress is not None:
         progress("searching for singular points")
     singular_points = find_singular_points(f1, f2, vertices, float(h.max()),
                                            float(np.max(domain_hi - domain_lo)))
     if len(singular_points):
-        if progress:
+        if progress is not None:
             progress("tracing the singular set")
         cell = float(h.max())
         singular_points = trace_singular_set(f1, f2, singular_points, cell / 4, 3 * cell)

@@ -165,25 +165,30 @@ class Mesh4D:
     def to_bytes(self) -> bytes:
         """Serialise to an .npz archive (arrays) with a JSON manifest (names, materials)."""
         arrays: dict[str, np.ndarray] = {}
-        manifest = {"format": 1, "surfaces": [], "curves": [], "markers": []}
+        surfaces: list[dict] = []
+        curves: list[dict] = []
+        markers: list[dict] = []
+        manifest = {"format": 1, "surfaces": surfaces, "curves": curves, "markers": markers}
         for i, s in enumerate(self.surfaces):
             arrays[f"s{i}_positions"] = s.positions
             arrays[f"s{i}_normals"] = s.normals
             arrays[f"s{i}_triangles"] = s.triangles
+            assert s.singular is not None  # __post_init__ sets it
             arrays[f"s{i}_singular"] = s.singular
-            manifest["surfaces"].append({"name": s.name, "material": s.material.to_json(),
+            surfaces.append({"name": s.name, "material": s.material.to_json(),
                                          "info": s.info})
         for i, c in enumerate(self.curves):
             arrays[f"c{i}_points"] = c.points
-            manifest["curves"].append({"name": c.name, "material": c.material.to_json(),
+            curves.append({"name": c.name, "material": c.material.to_json(),
                                        "closed": c.closed})
         for i, m in enumerate(self.markers):
             arrays[f"m{i}_position"] = m.position
-            manifest["markers"].append({"name": m.name, "material": m.material.to_json(),
+            markers.append({"name": m.name, "material": m.material.to_json(),
                                         "label": m.label})
         arrays["manifest"] = np.frombuffer(json.dumps(manifest).encode(), dtype=np.uint8)
         buffer = io.BytesIO()
-        np.savez_compressed(buffer, **arrays)
+        np.savez_compressed(buffer, **arrays)  # type: ignore[arg-type]  # numpy's stub types
+        # its keyword arrays as allow_pickle
         return buffer.getvalue()
 
     @classmethod
@@ -331,7 +336,7 @@ def _material(d: dict) -> Material:
     color, width = d.get("color"), d.get("line_width")
     numbers = (color if isinstance(color, list) else []) + [width]
     if (set(d) != {"color", "style", "line_width"} or not isinstance(color, list)
-            or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+            or not isinstance(width, (int, float)) or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
                        and abs(x) <= MAX_COORDINATE for x in numbers)):
         raise ValueError(f"malformed material {d!r:.80}")
-    return Material(tuple(color), d["style"], width)
+    return Material(tuple(color), d["style"], float(width))

@@ -153,6 +153,7 @@ def tessellate(name: str, function: PointFunction, s_interval: Interval, t_inter
                                                    t_interval.periodic))
     surface = Surface.from_tangents(name, positions[keep], t1[keep], t2[keep], triangles,
                                     material)
+    assert surface.singular is not None  # __post_init__ sets it
     surface.info = {"kind": "parametric", "max_residual": None, "singular_points":
                     int(surface.singular.sum()), "seconds": time.perf_counter() - started,
                     "resolution": [rows, cols]}

@@ -133,7 +133,8 @@ def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spa
     for _ in range(rounds):
         if len(points) < 2 or len(points) > limit:
             break
-        mids, pairs = [], 0
+        pieces: list[np.ndarray] = []
+        pairs = 0
         for start in range(0, len(points), 256):
             chunk = points[start:start + 256]
             d = np.linalg.norm(chunk[:, None] - points[None], axis=-1)
@@ -142,13 +143,13 @@ def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spa
             keep = i < j
             # only pairs with no point of the set already between them
             a, b = points[i[keep]], points[j[keep]]
-            mids.append((a + b) / 2)
+            pieces.append((a + b) / 2)
             pairs += len(a)
             if pairs > max_pairs:
                 break
         if pairs > max_pairs:
             break
-        mids = np.concatenate(mids) if mids else np.zeros((0, 4))
+        mids = np.concatenate(pieces) if pieces else np.zeros((0, 4))
         if len(mids) == 0:
             break
         keys = np.round(mids / (spacing / 2)).astype(np.int64)

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from exhibit.surfaces.curves import zero_set_curves
+from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.exact_silhouette import (ITERATIONS, NEWTON_TARGET, RESIDUAL_TOLERANCE,
                                                ParametricExact, RefineStats, min_norm_newton,
                                                split_runs, traced_with_parameters)
@@ -39,8 +40,8 @@ SLICE_MATERIAL = Material(color=(1.0, 0.93, 0.55), line_width=3.5)
 class ImplicitSlice:
     """f1 = f2 = 0 and x[axis] = at, for Newton."""
 
-    f1: object
-    f2: object
+    f1: ScalarField
+    f2: ScalarField
     axis: int
     at: float
 
@@ -135,7 +136,7 @@ def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | No
     out: list[Curve] = []
     material = material or Material()
     for points, st, closed in chains:
-        if st is not None:
+        if st is not None and isinstance(exact, ParametricExact):
             x, keep, s = _refine_parametric(exact, st, axis, at, max_move)
         elif exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2"):
             x, keep, s = ImplicitSlice(exact.f1, exact.f2, axis, at).refine(points, max_move)
@@ -182,7 +183,7 @@ def tangency_curves(surface: Surface, exact, axis: int, at: float, max_move: flo
                                 lambda x: np.tile(e, (len(x), 1)))
     edge = max_move / MAX_MOVE_EDGES
     chains = join_ends(chains, 4.0 * edge, refine, 0.5 * edge)
-    out = []
+    out: list[Curve] = []
     for points, closed in chains:
         if len(points) < 2:
             continue
