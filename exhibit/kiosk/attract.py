@@ -177,7 +177,7 @@ class WhileSpec(Model):
     sensor_distance: DistanceRange | None = None
     sensor_motion: Literal[MOTIONS] | None = None
     #: degrees the pose (six angles and the eye) may turn from the stating keyframe's
-    angles_within: Number(0, 180) | None = None
+    angles_within: Annotated[float, Number(0, 180)] | None = None
 
     @model_validator(mode="after")
     def _not_empty(self):
@@ -198,21 +198,21 @@ class WhileSpec(Model):
 
 class KeyframeSpec(Model):
     t: Seconds
-    angles: Numbers(6, -MAX_ANGLE, MAX_ANGLE) | None = None
+    angles: Annotated[tuple[float, ...], Numbers(6, -MAX_ANGLE, MAX_ANGLE)] | None = None
     sensor_distance: Distance | None = None
-    eye: Numbers(2, -MAX_ANGLE, MAX_ANGLE) | None = None
+    eye: Annotated[tuple[float, ...], Numbers(2, -MAX_ANGLE, MAX_ANGLE)] | None = None
     half_height: HalfHeight | None = None
     caption: Caption | None = None
     while_: WhileSpec | None = Field(None, alias="while")
     ease: Literal[EASES] = "smooth"
-    slice: Number(-1e6, 1e6) | Literal["off"] | None = None
+    slice: Annotated[float, Number(-1e6, 1e6)] | Literal["off"] | None = None
 
 
 class TimelineFile(Model):
     name: Name | None = None
     scene: Name
     preset: Name | None = None
-    params: dict[str, Number(-1e6, 1e6)] = {}
+    params: dict[str, Annotated[float, Number(-1e6, 1e6)]] = {}
     fit: bool | None = None
     slice_axis: Name | None = None
     keyframe: Annotated[list[KeyframeSpec], Field(min_length=2)]

@@ -120,8 +120,8 @@ class SessionsSection(Model):
 
     enabled: bool = True
     path: Annotated[str, PlainValidator(_db_path)] = ""
-    keep_days: Integer(1, 3650) = 400
-    max_sessions: Integer(100, 10_000_000) = 200_000
+    keep_days: Annotated[int, Integer(1, 3650)] = 400
+    max_sessions: Annotated[int, Integer(100, 10_000_000)] = 200_000
 
 
 @dataclass(frozen=True)

@@ -95,7 +95,7 @@ def _interval(value: Any) -> Interval:
     return Interval(start, stop, value[2])
 
 
-Formula = Text(MAX_LENGTH)
+Formula = Annotated[str, Text(MAX_LENGTH)]
 _formula = text_check(MAX_LENGTH)
 
 
@@ -106,15 +106,15 @@ def _formulas(value: Any) -> list[str]:
 
 
 class ParameterSpec(Model):
-    default: Number(-MAX_PARAMETER, MAX_PARAMETER)
-    min: Number(-MAX_PARAMETER, MAX_PARAMETER) = -MAX_PARAMETER
-    max: Number(-MAX_PARAMETER, MAX_PARAMETER) = MAX_PARAMETER
-    help: Text(500, empty_ok=True) = ""
+    default: Annotated[float, Number(-MAX_PARAMETER, MAX_PARAMETER)]
+    min: Annotated[float, Number(-MAX_PARAMETER, MAX_PARAMETER)] = -MAX_PARAMETER
+    max: Annotated[float, Number(-MAX_PARAMETER, MAX_PARAMETER)] = MAX_PARAMETER
+    help: Annotated[str, Text(500, empty_ok=True)] = ""
 
 
 class SurfaceSpec(Model):
     name: Name | None = None
-    color: Numbers(3, 0.0, 1.0) = (0.7, 0.7, 0.7)
+    color: Annotated[tuple[float, ...], Numbers(3, 0.0, 1.0)] = (0.7, 0.7, 0.7)
     style: Literal["solid", "wire"] = "solid"
     f1: Formula | None = None
     f2: Formula | None = None
@@ -125,7 +125,7 @@ class SurfaceSpec(Model):
 
 
 class ViewSpec(Model):
-    angles: Numbers(6, -3600, 3600) | None = None
+    angles: Annotated[tuple[float, ...], Numbers(6, -3600, 3600)] | None = None
     sensor_distance: Distance | None = None
     eye_distance: Distance | None = None
     eye_azimuth: Angle | None = None
@@ -138,7 +138,7 @@ class ViewSpec(Model):
 
 class SceneFile(Model):
     name: Annotated[str, PlainValidator(_scene_name)]
-    title: Text(200)
+    title: Annotated[str, Text(200)]
     caption: Caption
     axes: Annotated[tuple[str, ...], PlainValidator(_axes)] = ("x", "y", "z", "w")
     resolution: Resolution = 48
