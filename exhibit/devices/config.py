@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from exhibit.devices.base import DeviceConfigError, DeviceError, Kind
-from exhibit.devices.mapping import ACTIONS, PARAMS, Binding, MappingConfig, ParamLimits
+from exhibit.devices.mapping import PARAMS, Action, Binding, MappingConfig, Param, ParamLimits
 from exhibit.devices.url import backend_for_url
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
@@ -69,13 +69,13 @@ class DeviceEntry(Model):
 class BindSpec(Model):
     device: Name
     input: Annotated[str, Text(40)]
-    param: Literal[PARAMS] | None = None
+    param: Param | None = None
     step: _Step | None = None
     rate: _Rate | None = None
     dead_zone: Annotated[float, Number(0.0, 0.95)] = 0.0
     curve: Annotated[float, Number(0.2, 5.0)] = 1.0
     invert: bool = False
-    action: Literal[ACTIONS] | None = None
+    action: Action | None = None
     hold_s: Annotated[float, Number(0.5, 10.0)] | None = None
 
 

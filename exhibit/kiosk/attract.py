@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import Field, model_validator
 
@@ -55,8 +55,10 @@ from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, DistanceRange, HalfHeight, Name,
                                   Number, Numbers, Seconds, distance_to_r)
 
-EASES = ("smooth", "linear", "hold")
-MOTIONS = ("closer", "farther", "still")
+Ease = Literal["smooth", "linear", "hold"]
+EASES: tuple[Ease, ...] = get_args(Ease)
+Motion = Literal["closer", "farther", "still"]
+MOTIONS: tuple[Motion, ...] = get_args(Motion)
 #: Reduced motion: a stretch between keyframes plays as held poses about this long, each
 #: crossfaded into the next (a 1 s crossfade, then 3 s still).
 STEP_S = 4.0
@@ -175,7 +177,7 @@ class WhileSpec(Model):
     """``while = { ... }``: the state of the view a caption describes."""
 
     sensor_distance: DistanceRange | None = None
-    sensor_motion: Literal[MOTIONS] | None = None
+    sensor_motion: Motion | None = None
     #: degrees the pose (six angles and the eye) may turn from the stating keyframe's
     angles_within: Annotated[float, Number(0, 180)] | None = None
 
@@ -204,7 +206,7 @@ class KeyframeSpec(Model):
     half_height: HalfHeight | None = None
     caption: Caption | None = None
     while_: WhileSpec | None = Field(None, alias="while")
-    ease: Literal[EASES] = "smooth"
+    ease: Ease = "smooth"
     slice: Annotated[float, Number(-1e6, 1e6)] | Literal["off"] | None = None
 
 

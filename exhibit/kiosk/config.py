@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import PlainValidator
 from pydantic_core import PydanticCustomError
@@ -120,37 +120,37 @@ QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "direct", "scale
 MESH_LEVELS = {"full": 0, "reduced": 1, "low": 2}   # mesh resolution x1, x0.75, x0.5
 
 
-def _choice(*options: str) -> Any:
-    """One of ``options`` (a string)."""
+def _choice(*options: str) -> PlainValidator:
+    """One of ``options`` (a string): ``Annotated[str, _choice("auto", "full")]``."""
     def check(value: Any) -> str:
         if not isinstance(value, str) or value not in options:
             raise fail("must be one of " + ", ".join(f'"{o}"' for o in options), value)
         return value
-    return Annotated[str, PlainValidator(check)]
+    return PlainValidator(check)
 
 
-def _auto_or_number(low: float, high: float) -> Any:
+def _auto_or_number(low: float, high: float) -> PlainValidator:
     """"auto" (the governor's choice), or a number in [low, high]."""
     number = number_check(low, high)
 
-    def check(value: Any):
+    def check(value: Any) -> float | str:
         if value == "auto":
             return "auto"
         try:
             return number(value)
         except PydanticCustomError:
             raise fail(f'must be "auto" or a number in [{low:g}, {high:g}]', value) from None
-    return Annotated[Any, PlainValidator(check)]
+    return PlainValidator(check)
 
 
 class QualitySection(Model):
-    level: _choice("auto", *QUALITY_LEVELS) = "auto"
-    lowest: _choice("auto", *QUALITY_LEVELS) = "auto"
-    antialiasing: _choice("auto", "msaa", "fxaa", "none") = "auto"
-    mesh: _choice("auto", *MESH_LEVELS) = "auto"
-    effects: _choice("auto", "full", "lean") = "auto"
-    render_scale: _auto_or_number(0.25, 1.0) = "auto"
-    target_fps: _auto_or_number(10, 240) = "auto"
+    level: Annotated[str, _choice("auto", *QUALITY_LEVELS)] = "auto"
+    lowest: Annotated[str, _choice("auto", *QUALITY_LEVELS)] = "auto"
+    antialiasing: Annotated[str, _choice("auto", "msaa", "fxaa", "none")] = "auto"
+    mesh: Annotated[str, _choice("auto", *MESH_LEVELS)] = "auto"
+    effects: Annotated[str, _choice("auto", "full", "lean")] = "auto"
+    render_scale: Annotated[float | Literal["auto"], _auto_or_number(0.25, 1.0)] = "auto"
+    target_fps: Annotated[float | Literal["auto"], _auto_or_number(10, 240)] = "auto"
     step_interval_s: Annotated[float, Number(1, 600)] = 4.0
     calm_s: Annotated[float, Number(0, 60)] = 1.5
     headroom: Annotated[float, Number(0.3, 0.95)] = 0.7
