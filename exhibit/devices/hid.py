@@ -283,7 +283,13 @@ class HidBackend(ReconnectingBackend):
             raise DeviceError("a HID backend needs a layout")
         self.capabilities = self.layout.capabilities
         self.reports_ok = self.reports_unknown = 0
-        self._dev = None
+        self._dev: Any | None = None  # a hidapi device (hidapi has no type information)
+
+    @property
+    def _layout(self) -> Layout:
+        """The layout, which __post_init__ made sure of."""
+        assert self.layout is not None
+        return self.layout
 
     @property
     def target(self) -> str:
@@ -328,9 +334,10 @@ class HidBackend(ReconnectingBackend):
             return []
         if self.serial:
             found = [d for d in found if d.get("serial_number") == self.serial]
-        if self.layout.usage_page and self.backend == "hidraw":
+        usage_page = self._layout.usage_page
+        if usage_page and self.backend == "hidraw":
             # hidraw shows each top-level collection; pick the layout's (libusb reads 0 here)
-            best = [d for d in found if d.get("usage_page") == self.layout.usage_page]
+            best = [d for d in found if d.get("usage_page") == usage_page]
             found = best or found
         return [d["path"] for d in found]
 
@@ -351,17 +358,20 @@ class HidBackend(ReconnectingBackend):
                     "rule's permissions (docs/DEVICES.md)")
         self._dev = dev
         self.state = State.CONNECTED
+        name = self._layout.name
         try:
-            product = dev.get_product_string() or self.layout.name
+            product = dev.get_product_string() or name
         except (OSError, ValueError):
-            product = self.layout.name
-        self.detail = f"{product} ({self.layout.name} layout, {self.backend})"
+            product = name
+        self.detail = f"{product} ({name} layout, {self.backend})"
         return None
 
     def _read(self, now: float) -> None:
+        dev = self._dev
+        assert dev is not None  # ReconnectingBackend reads only while connected
         for _ in range(self.max_reports):  # bounded work per poll, even for a flooding device
             try:
-                data = self._dev.read(64)
+                data = dev.read(64)
             except (OSError, ValueError) as exc:
                 self._lost(now, f"{self.target} unplugged ({exc or 'read error'}); looking for it")
                 break
@@ -370,7 +380,7 @@ class HidBackend(ReconnectingBackend):
             self._report(bytes(data), now)
 
     def _report(self, data: bytes, now: float) -> None:
-        report = self.layout.report_for(data)
+        report = self._layout.report_for(data)
         if report is None:
             self.reports_unknown += 1
             return

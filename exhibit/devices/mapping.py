@@ -219,7 +219,8 @@ class Mapper:
             due = [b for b in self._by_channel[key] if b.hold_s is not None
                    and now - down >= b.hold_s]
             if due:
-                fired |= {b.action for b in due}
+                # load_mapping gives hold_s only to an action button
+                fired |= {b.action for b in due if b.action is not None}
                 self._holds[key] = None
         return fired
 
