@@ -276,7 +276,8 @@ def load_timeline(path: Path) -> Timeline:
                                  f"({frames[-1].t:g})")
         angles = (previous.angles if raw.angles is None
                   else tuple(math.radians(a) for a in raw.angles))
-        eye = previous.eye if raw.eye is None else tuple(math.radians(a) for a in raw.eye)
+        eye = (previous.eye if raw.eye is None  # Numbers(2, ...): two angles
+               else (math.radians(raw.eye[0]), math.radians(raw.eye[1])))
         previous = Keyframe(
             raw.t,
             angles,
