@@ -2,6 +2,9 @@
 
 Each type is a pydantic plain validator with its own message, so an error reads like
 ``must lie in [4, 512], got 2`` rather than pydantic's wording, and bool is never a number.
+A field names its Python type and its limits: ``x: Annotated[float, Number(0, 10)] = 5`` (the
+helpers return the validator, so a type checker reads the field as a float); the common ones
+have names (``Angle``, ``Distance``, ``Name``...).
 Limits are chosen so that everything accepted can be run: no step or rate that overflows, no
 distance whose reciprocal is inf, no angle that loses all precision.
 """
