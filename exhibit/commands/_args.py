@@ -4,15 +4,18 @@ than a file can (NaN, inf, 1e-320 and 1e308 are refused as ``argument --x: reaso
 from __future__ import annotations
 
 import argparse
-from typing import Callable
+from typing import Any, Callable, TypeVar
 
 from pydantic_core import PydanticCustomError
 
 from exhibit.schema.types import MAX_DISTANCE, MIN_DISTANCE, number_check
 
 
-def _argtype(check: Callable, name: str) -> Callable[[str], float]:
-    def parse(text: str):
+T = TypeVar("T", int, float)
+
+
+def _argtype(check: Callable[[Any], T], name: str) -> Callable[[str], T]:
+    def parse(text: str) -> T:
         value: object = text
         if text.strip().lower() not in ("inf", "+inf"):
             try:
@@ -35,7 +38,8 @@ def number(low: float, high: float, inf_ok: bool = False) -> Callable[[str], flo
 
 
 def integer(low: int, high: int) -> Callable[[str], int]:
-    return _argtype(number_check(low, high, integer=True), "whole number")
+    check = number_check(low, high, integer=True)  # an int, typed as a float
+    return _argtype(lambda value: int(check(value)), "whole number")
 
 
 def seconds(high: float = 1e7) -> Callable[[str], float]:

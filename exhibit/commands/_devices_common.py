@@ -37,7 +37,9 @@ def devices_config_path(args) -> Path:
         return args.devices_config
     from exhibit.kiosk.config import load_kiosk_config
 
-    return load_kiosk_config(args.config, check_linked=False).devices_config
+    path = load_kiosk_config(args.config, check_linked=False).devices_config
+    assert path is not None  # load_kiosk_config refuses a config whose device file is missing
+    return path
 
 
 def config_from_args(args) -> DeviceConfig:

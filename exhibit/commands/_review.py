@@ -179,7 +179,7 @@ def contact_sheet(frames, title: str):
         y = HEADER_H + GAP + row * (tile_h + LABEL_H + GAP)
         tile = Image.fromarray(frame.image).convert("RGB")
         if tile.size != (tile_w, tile_h):
-            tile = tile.resize((tile_w, tile_h), Image.LANCZOS)
+            tile = tile.resize((tile_w, tile_h), Image.Resampling.LANCZOS)
         sheet.paste(tile, (x, y))
         draw.text((x, y + tile_h + LABEL_H // 2), f"t = {frame.t:.1f} s \u00b7 {frame.language}",
                   font=label, fill=INK, anchor="lm")

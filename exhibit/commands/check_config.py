@@ -12,11 +12,12 @@ colours a colour-blind visitor cannot tell apart (exhibit.scenes.colours)."""
 from __future__ import annotations
 
 import json
+from collections.abc import Mapping
 
 from exhibit.kiosk.attract import load_timeline, timeline_paths
 from exhibit.kiosk.captions import caption_problems
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
-from exhibit.kiosk.language import coverage_problems
+from exhibit.kiosk.language import Catalogue, coverage_problems
 
 HELP = "check the kiosk configuration and all the files it names; exit 2 on any problem"
 
@@ -101,7 +102,7 @@ def _layout_problems(config) -> list[str]:
             return hud.get(english, "label")
         return "title" if where.endswith(": title") else "caption"
 
-    catalogues = {SOURCE: None}
+    catalogues: Mapping[str, Catalogue | None] = {SOURCE: None}
     if config.catalogues_dir is not None:
         catalogues = load_catalogues(config.catalogues_dir, config.languages)
     out: list[str] = []

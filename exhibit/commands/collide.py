@@ -48,8 +48,8 @@ def first_contact(part, unit: dict) -> np.ndarray:
     """(x, y, z, t) of first contact in scale-free units (t = -1): the mesh's lowest point
     refined by Newton on condition C where it agrees with the closed form, else the closed form
     (moving bodies with a speed always touch: the centres meet the axis at t = 0)."""
-    exact = collision.initial_colliding_point_closed_form(unit)
-    exact = np.array([exact["x"], exact["y"], exact["z"], exact["t"]])
+    closed = collision.initial_colliding_point_closed_form(unit)
+    exact = np.array([closed["x"], closed["y"], closed["z"], closed["t"]])
     refined = collision.colliding_point(part)
     if refined is not None and np.max(np.abs(refined - exact)) < 1e-6:
         return np.asarray(refined, dtype=float)
@@ -85,16 +85,17 @@ def run(args) -> int:
     scale = np.array([length, length, length, length / speed])
     point = point * scale
     components = components_through_singular_points(part, cell)
+    contact = {"t": float(point[3]), "x": float(point[0]), "y": float(point[1]),
+               "z": float(point[2])}
     result = {
-        "colliding_point": {"t": float(point[3]), "x": float(point[0]), "y": float(point[1]),
-                            "z": float(point[2])},
+        "colliding_point": contact,
         # None: the surface is too thin for a mesh at this resolution (a tiny radius)
         "components": components or None,
     }
     if args.json:
         print(json.dumps(result, indent=2))
     else:
-        p = result["colliding_point"]
+        p = contact
         pieces = (f"the collision surface has {components} component(s)" if components else
                   "the collision surface is too thin to mesh at this resolution")
         print(f"First contact at t = {p['t']:.6g}, at (x, y, z) = "

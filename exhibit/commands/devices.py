@@ -12,6 +12,7 @@ import json
 import os
 import time
 from pathlib import Path
+from typing import Any
 
 from exhibit.commands import _args
 from exhibit.commands._devices_common import add_config_arguments, config_from_args
@@ -47,7 +48,7 @@ def detected_serial() -> list[dict]:
 
 def detected_hid(layout_dirs) -> list[dict]:
     layouts = load_layouts(layout_dirs)
-    found = []
+    found: list[dict[str, Any]] = []  # one JSON object a device
     for backend in ("hid", "hidraw"):
         try:
             api = __import__(backend)

@@ -45,8 +45,8 @@ def exactness(surface) -> dict:
     box = surface.info.get("box")
     if box is None:
         return {"boundary_box_distance": None, "singular_gap": None}
-    report = {"boundary_box_distance": boundary_box_distance(surface.positions, surface.triangles,
-                                                             *box)}
+    report: dict[str, float | None] = {
+        "boundary_box_distance": boundary_box_distance(surface.positions, surface.triangles, *box)}
     result = getattr(surface.exact, "result", None)
     singular = None if result is None else result.singular_positions
     if singular is None:

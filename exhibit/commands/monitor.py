@@ -13,6 +13,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from collections.abc import Sequence
 
 from exhibit.commands import _args
 from exhibit.commands._devices_common import add_config_arguments, config_from_args
@@ -58,7 +59,7 @@ class Buttons:
 
 
 def snapshot(view: ViewState, devices: DeviceSet, mapper: Mapper, now: float,
-             buttons: list[dict] = ()) -> dict:
+             buttons: Sequence[dict] = ()) -> dict:
     idle = mapper.activity.idle_for(now)
     return {
         "angles_deg": [round(math.degrees(a), 3) for a in view.angles],

@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import time
+from typing import Any
 
 from exhibit.kiosk.attract import load_playlist
 from exhibit.kiosk.config import load_kiosk_config
@@ -36,7 +37,7 @@ def run(args) -> int:
     config = load_kiosk_config(args.config)
     timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
     jobs = scene_jobs(config, timelines, mesh_levels_for(config))
-    report = []
+    report: list[dict[str, Any]] = []  # one JSON object a scene
     with progress.on_terminal():
         for i, job in enumerate(jobs, 1):
             progress.report(f"preparing scene {i}/{len(jobs)}: {job.scene}")

@@ -17,12 +17,16 @@ import os
 import sys
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from exhibit.commands import _args
 from exhibit.devices import protocol as p
 from exhibit.devices.sim import SimController, parse_script
 from exhibit.schema import read_text
 from exhibit.errors import ExhibitError
+
+if TYPE_CHECKING:
+    from exhibit.devices.simavr import FirmwareController
 
 HELP = "run a simulated controller on a pseudo-terminal (prints the tty path)"
 
@@ -87,7 +91,8 @@ def run(args) -> int:
     if args.firmware is None:
         if args.harness is not None or args.eeprom is not None:
             raise ExhibitError("--harness and --eeprom go with --firmware")
-        sim = SimController(args.link, script=script, version=args.protocol_version)
+        sim: SimController | FirmwareController = SimController(
+            args.link, script=script, version=args.protocol_version)
     else:
         if args.protocol_version != p.PROTOCOL_VERSION:
             raise ExhibitError("--protocol-version: the firmware speaks the version it was built "
@@ -104,8 +109,9 @@ def run(args) -> int:
         start = time.monotonic()
         while args.duration is None or time.monotonic() - start < args.duration:
             time.sleep(0.05)
-            if getattr(sim, "error", None) is not None:
-                raise sim.error
+            error = getattr(sim, "error", None)  # a firmware run's failure
+            if error is not None:
+                raise error
     except KeyboardInterrupt:
         pass
     finally:

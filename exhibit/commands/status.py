@@ -99,15 +99,15 @@ def run(args) -> int:
     try:
         data = read_health(path)
     except HealthError as exc:
-        reason = str(exc)
+        why = str(exc)
         if exc.missing and len(paths) > 1:
-            reason = (f"no health file at {' or '.join(str(p) for p in paths)}: the kiosk is not "
-                      "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file")
+            why = (f"no health file at {' or '.join(str(p) for p in paths)}: the kiosk is not "
+                   "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file")
         if args.json:
-            _print_json({"path": str(path), "fresh": False, "reason": reason})
+            _print_json({"path": str(path), "fresh": False, "reason": why})
         if args.prometheus is not None:
             return _write_metrics(args.prometheus, None, "missing" if exc.missing else "broken")
-        print(f"exhibit status: {'MISSING' if exc.missing else 'BROKEN'}: {printable(reason)}",
+        print(f"exhibit status: {'MISSING' if exc.missing else 'BROKEN'}: {printable(why)}",
               file=sys.stderr)
         return EXIT_STALE
     fresh, age, reason = freshness(data, args.max_age, now=now)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+from typing import Any
 
 import numpy as np
 
@@ -55,7 +56,7 @@ def run(args) -> int:
     rows = []
     for distance in distances:
         view = base.with_sensor_distance(distance)
-        row = {"sensor_distance": None if math.isinf(distance) else distance}
+        row: dict[str, Any] = {"sensor_distance": None if math.isinf(distance) else distance}
         for name, latitude in TORI:
             area, radius = torus_image_area(latitude, view, args.samples)
             row[name] = {"area": area, "max_radius": radius}

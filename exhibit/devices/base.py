@@ -15,7 +15,7 @@ from __future__ import annotations
 import enum
 import time
 from dataclasses import dataclass, field
-from typing import Callable
+from typing import Callable, Self
 
 from exhibit.errors import ConfigError, ExhibitError
 
@@ -190,7 +190,7 @@ class Backend:
             return None
         return max(0.0, (self.clock() if now is None else now) - self._missing_since)
 
-    def open(self) -> "Backend":
+    def open(self) -> Self:
         """Start using the device. A device that is absent is not an error for a backend that
         can wait for it (state LOST, retried by ``poll``); a bad configuration is."""
         self._open()

@@ -26,10 +26,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any
 
 from exhibit.devices.base import DeviceConfigError, DeviceError, Kind
-from exhibit.devices.mapping import ACTIONS, PARAMS, Binding, MappingConfig, ParamLimits
+from exhibit.devices.mapping import PARAMS, Action, Binding, MappingConfig, Param, ParamLimits
 from exhibit.devices.url import backend_for_url
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
@@ -49,8 +49,8 @@ STEP_LIMITS = {"angle": 180.0, "sensor": 1.0}
 RATE_LIMITS = {"angle": 1440.0, "sensor": 20.0}
 
 
-_Step = Number(-STEP_LIMITS["angle"], STEP_LIMITS["angle"])
-_Rate = Number(0.0, RATE_LIMITS["angle"])
+_Step = Annotated[float, Number(-STEP_LIMITS["angle"], STEP_LIMITS["angle"])]
+_Rate = Annotated[float, Number(0.0, RATE_LIMITS["angle"])]
 
 
 @dataclass(frozen=True)
@@ -63,39 +63,39 @@ class DeviceConfig:
 
 
 class DeviceEntry(Model):
-    url: Text(1000)
+    url: Annotated[str, Text(1000)]
 
 
 class BindSpec(Model):
     device: Name
-    input: Text(40)
-    param: Literal[PARAMS] | None = None
+    input: Annotated[str, Text(40)]
+    param: Param | None = None
     step: _Step | None = None
     rate: _Rate | None = None
-    dead_zone: Number(0.0, 0.95) = 0.0
-    curve: Number(0.2, 5.0) = 1.0
+    dead_zone: Annotated[float, Number(0.0, 0.95)] = 0.0
+    curve: Annotated[float, Number(0.2, 5.0)] = 1.0
     invert: bool = False
-    action: Literal[ACTIONS] | None = None
-    hold_s: Number(0.5, 10.0) | None = None
+    action: Action | None = None
+    hold_s: Annotated[float, Number(0.5, 10.0)] | None = None
 
 
 class MappingSpec(Model):
-    sensor_min_distance: Number(MIN_DISTANCE, MAX_DISTANCE) = 2.0
-    home_angles: Numbers(6, -180.0, 180.0) = (0.0,) * 6
+    sensor_min_distance: Annotated[float, Number(MIN_DISTANCE, MAX_DISTANCE)] = 2.0
+    home_angles: Annotated[tuple[float, ...], Numbers(6, -180.0, 180.0)] = (0.0,) * 6
     home_sensor_distance: Distance = math.inf
     limits: dict[str, Any] = {}
     bind: list[BindSpec] = []
 
 
 class ActivitySpec(Model):
-    threshold: Number(0.0, 1.0) = 0.15
+    threshold: Annotated[float, Number(0.0, 1.0)] = 0.15
 
 
 class DevicesFile(Model):
     devices: dict[str, DeviceEntry] = {}
     mapping: MappingSpec = MappingSpec()
     activity: ActivitySpec = ActivitySpec()
-    layouts: list[Text(4096)] | None = None
+    layouts: list[Annotated[str, Text(4096)]] | None = None
 
 
 def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | None:

@@ -144,8 +144,10 @@ class SerialController(ReconnectingBackend):
         if handshaking and now >= self._next_hello:
             self._next_hello = now + self.hello_retry_s
             self.send(p.HelloRequest())
+        port = self._port
+        assert port is not None  # ReconnectingBackend reads only while connected
         try:
-            data = self._port.read(self.max_read)
+            data = port.read(self.max_read)
         except (OSError, serial.SerialException) as exc:
             self._lost(now, f"read failed on {self.path}: {_reason(exc)}")
             return
@@ -190,6 +192,7 @@ class SerialController(ReconnectingBackend):
 
     def _on_hello(self, frame: p.Frame, now: float) -> None:
         hello = frame.message
+        assert isinstance(hello, p.Hello)  # _feed passes HELLO frames only
         if self.state is State.CONNECTED and frame.seq == 0:
             # The board restarted: whatever it held is gone until its next AXES.
             self._release(now)

@@ -22,6 +22,7 @@ import itertools
 import random
 import time
 from collections import deque
+from typing import Iterable
 
 from exhibit.devices.base import DeviceError, Kind
 from exhibit.devices.hid import Layout
@@ -79,6 +80,13 @@ class FakeHidDevice:
         self._replug_at: float | None = None
         self.buttons = 0
 
+    @property
+    def _layout(self) -> Layout:
+        """The layout a script's turn, press and axes are encoded in (parse_hid_script parsed
+        them against it, so a script that has them has one)."""
+        assert self.layout is not None
+        return self.layout
+
     def push(self, *reports: bytes) -> None:
         self.reports.extend(bytes(r) for r in reports)
 
@@ -107,13 +115,14 @@ class FakeHidDevice:
             if cmd == "report":
                 self.push(args)
             elif cmd == "turn":
-                self.push(encode_report(self.layout, deltas={args[0]: args[1]}, buttons=self.buttons))
+                self.push(encode_report(self._layout, deltas={args[0]: args[1]},
+                                        buttons=self.buttons))
             elif cmd in ("press", "release"):
                 bit = 1 << args
                 self.buttons = self.buttons | bit if cmd == "press" else self.buttons & ~bit
-                self.push(encode_report(self.layout, buttons=self.buttons))
+                self.push(encode_report(self._layout, buttons=self.buttons))
             elif cmd == "axes":
-                self.push(encode_report(self.layout, axes=dict(enumerate(args))))
+                self.push(encode_report(self._layout, axes=dict(enumerate(args))))
             elif cmd == "wait":
                 self._resume_at = now + args
             elif cmd == "unplug":
@@ -179,7 +188,7 @@ class _Handle:
 class FakeHidBus:
     """The ``hid``/``hidraw`` module of a machine with these fake devices plugged in."""
 
-    def __init__(self, devices=()):
+    def __init__(self, devices: Iterable[FakeHidDevice] = ()):
         self.devices: list[FakeHidDevice] = list(devices)
         self.open_handles = 0
 
@@ -196,7 +205,7 @@ class FakeHidBus:
 def parse_hid_script(text: str, source: str, layout: Layout) -> list[tuple]:
     """Parses a fake HID script for ``layout``; DeviceError names the file and line."""
     caps = layout.capabilities
-    out = []
+    out: list[tuple] = []
     for _, where, cmd, rest, words in script_lines(text, source):
         try:
             if cmd == "report":

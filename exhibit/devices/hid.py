@@ -21,7 +21,7 @@ import importlib
 import struct
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, get_args
 
 from pydantic import Field as PydanticField
 
@@ -38,8 +38,14 @@ __all__ = ["Field", "Report", "Layout", "load_layouts", "load_layout", "find_lay
 
 LAYOUT_DIR = shipped("configs", "devices")
 
-_KINDS = {"axis": Kind.ABS, "delta": Kind.REL, "buttons": Kind.BUTTON}
+#: The names a layout file gives a field's kind and value type (written out, since a type
+#: checker reads no expression in a Literal; the asserts keep them and the tables in step).
+_KindName = Literal["axis", "delta", "buttons"]
+_TypeName = Literal["i8", "u8", "i16", "u16", "i16be", "u16be", "bits"]
+_KINDS: dict[str, Kind] = {"axis": Kind.ABS, "delta": Kind.REL, "buttons": Kind.BUTTON}
 _TYPES = {"i8": "b", "u8": "B", "i16": "<h", "u16": "<H", "i16be": ">h", "u16be": ">H"}
+assert get_args(_KindName) == tuple(_KINDS)
+assert get_args(_TypeName) == tuple(_TYPES) + ("bits",)
 
 
 @dataclass(frozen=True)
@@ -120,30 +126,30 @@ class Layout:
 # ---- loading -------------------------------------------------------------------------------
 
 
-_Offset = Integer(0, 1023)
+_Offset = Annotated[int, Integer(0, 1023)]
 
 
 class FieldSpec(Model):
-    kind: Literal[tuple(_KINDS)]
+    kind: _KindName
     offset: _Offset
-    type: Literal[tuple(_TYPES) + ("bits",)] | None = None
-    count: Integer(1, 64) = 1
-    index: Integer(0, 255) = 0
-    scale: Number(1e-6, 1e6) = 1.0
+    type: _TypeName | None = None
+    count: Annotated[int, Integer(1, 64)] = 1
+    index: Annotated[int, Integer(0, 255)] = 0
+    scale: Annotated[float, Number(1e-6, 1e6)] = 1.0
 
 
 class ReportSpec(Model):
-    id: Integer(1, 255) | None = None
-    size: Integer(1, 1024) | None = None
+    id: Annotated[int, Integer(1, 255)] | None = None
+    size: Annotated[int, Integer(1, 1024)] | None = None
     fields: Annotated[list[FieldSpec], PydanticField(min_length=1)]
 
 
 class LayoutHead(Model):
     name: Name
-    description: Text(500, empty_ok=True) = ""
-    match: list[Text(40)] = []
+    description: Annotated[str, Text(500, empty_ok=True)] = ""
+    match: list[Annotated[str, Text(40)]] = []
     backend: Literal["hid", "hidraw"] = "hidraw"
-    usage_page: Integer(0, 0xFFFF) | None = None
+    usage_page: Annotated[int, Integer(0, 0xFFFF)] | None = None
 
 
 class LayoutFile(Model):
@@ -277,7 +283,13 @@ class HidBackend(ReconnectingBackend):
             raise DeviceError("a HID backend needs a layout")
         self.capabilities = self.layout.capabilities
         self.reports_ok = self.reports_unknown = 0
-        self._dev = None
+        self._dev: Any | None = None  # a hidapi device (hidapi has no type information)
+
+    @property
+    def _layout(self) -> Layout:
+        """The layout, which __post_init__ made sure of."""
+        assert self.layout is not None
+        return self.layout
 
     @property
     def target(self) -> str:
@@ -322,9 +334,10 @@ class HidBackend(ReconnectingBackend):
             return []
         if self.serial:
             found = [d for d in found if d.get("serial_number") == self.serial]
-        if self.layout.usage_page and self.backend == "hidraw":
+        usage_page = self._layout.usage_page
+        if usage_page and self.backend == "hidraw":
             # hidraw shows each top-level collection; pick the layout's (libusb reads 0 here)
-            best = [d for d in found if d.get("usage_page") == self.layout.usage_page]
+            best = [d for d in found if d.get("usage_page") == usage_page]
             found = best or found
         return [d["path"] for d in found]
 
@@ -345,17 +358,20 @@ class HidBackend(ReconnectingBackend):
                     "rule's permissions (docs/DEVICES.md)")
         self._dev = dev
         self.state = State.CONNECTED
+        name = self._layout.name
         try:
-            product = dev.get_product_string() or self.layout.name
+            product = dev.get_product_string() or name
         except (OSError, ValueError):
-            product = self.layout.name
-        self.detail = f"{product} ({self.layout.name} layout, {self.backend})"
+            product = name
+        self.detail = f"{product} ({name} layout, {self.backend})"
         return None
 
     def _read(self, now: float) -> None:
+        dev = self._dev
+        assert dev is not None  # ReconnectingBackend reads only while connected
         for _ in range(self.max_reports):  # bounded work per poll, even for a flooding device
             try:
-                data = self._dev.read(64)
+                data = dev.read(64)
             except (OSError, ValueError) as exc:
                 self._lost(now, f"{self.target} unplugged ({exc or 'read error'}); looking for it")
                 break
@@ -364,7 +380,7 @@ class HidBackend(ReconnectingBackend):
             self._report(bytes(data), now)
 
     def _report(self, data: bytes, now: float) -> None:
-        report = self.layout.report_for(data)
+        report = self._layout.report_for(data)
         if report is None:
             self.reports_unknown += 1
             return

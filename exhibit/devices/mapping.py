@@ -34,17 +34,19 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Iterable
+from typing import Iterable, Literal, get_args
 
 from exhibit.devices.base import Event, Kind
 
-__all__ = ["PARAMS", "ACTIONS", "Binding", "ParamLimits", "MappingConfig", "Mapper",
-           "ActivityDetector", "shape"]
+__all__ = ["PARAMS", "ACTIONS", "Param", "Action", "Binding", "ParamLimits", "MappingConfig",
+           "Mapper", "ActivityDetector", "shape"]
 
 #: The seven parameters a device can drive, in order.
-PARAMS = ("theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor")
+Param = Literal["theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor"]
+PARAMS: tuple[Param, ...] = get_args(Param)
 #: What a button can do instead of driving a parameter.
-ACTIONS = ("home", "next-scene", "language")
+Action = Literal["home", "next-scene", "language"]
+ACTIONS: tuple[Action, ...] = get_args(Action)
 SENSOR = 6
 MAX_DT = 0.5  # a stalled loop does not turn into a lurch
 
@@ -217,7 +219,8 @@ class Mapper:
             due = [b for b in self._by_channel[key] if b.hold_s is not None
                    and now - down >= b.hold_s]
             if due:
-                fired |= {b.action for b in due}
+                # load_mapping gives hold_s only to an action button
+                fired |= {b.action for b in due if b.action is not None}
                 self._holds[key] = None
         return fired
 

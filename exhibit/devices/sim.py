@@ -38,6 +38,7 @@ import time
 import tty
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any, Protocol
 
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
@@ -104,6 +105,22 @@ def parse_script(text: str, source: str = "<script>") -> list[Step]:
     return steps
 
 
+class Board(Protocol):
+    """What a script drives: a SimController, or the firmware in simavr (FirmwareController)."""
+
+    rng: random.Random
+
+    def replug(self) -> None: ...
+    def set_axes(self, values: Any) -> None: ...
+    def set_axis(self, index: int, value: float) -> None: ...
+    def set_buttons(self, bits: int) -> None: ...
+    def inject(self, data: bytes) -> None: ...
+    def unplug(self) -> None: ...
+    def hang(self, seconds: float) -> None: ...
+    def watchdog_hang(self) -> None: ...
+    def reset(self, cause: p.ResetCause) -> None: ...
+
+
 class ScriptPlayer:
     """Runs script steps as simulated time passes, without a thread of its own: the simulator
     calls ``advance(now)`` every tick."""
@@ -118,7 +135,7 @@ class ScriptPlayer:
     def done(self) -> bool:
         return self.index >= len(self.steps) and self._replug_at is None
 
-    def advance(self, sim: "SimController", now: float) -> None:
+    def advance(self, sim: Board, now: float) -> None:
         if self._replug_at is not None:
             if now < self._replug_at:
                 return
@@ -195,6 +212,7 @@ class SimController:
         self._zeros = (REST_C16,) * p.N_AXES
         self._thread: threading.Thread | None = None
         self._stop = threading.Event()
+        self._wdt_reset_at: float | None = None
         self._boot(self.clock(), p.ResetCause.POWER_ON, send=False)
 
     # ---- plugging
@@ -279,7 +297,7 @@ class SimController:
         self._t_reset = now
         self._seq = 0
         self._silent_until = 0.0
-        self._wdt_reset_at: float | None = None
+        self._wdt_reset_at = None
         self._cal_due: float | None = now + CALIBRATION_DELAY_S
         self._last_active: float | None = None
         self._next_axes = 0.0

@@ -123,6 +123,7 @@ class Harness:
         self.pty = line.split(" ", 1)[1]
 
     def _read(self) -> None:
+        assert self.proc.stdout is not None  # Popen(stdout=PIPE)
         for line in self.proc.stdout:
             line = line.strip()
             if line.startswith("reset at "):
@@ -152,6 +153,7 @@ class Harness:
     def cmd(self, text: str) -> str:
         """Sends one command and returns its "ok ..." reply; DeviceError otherwise."""
         with self._lock:
+            assert self.proc.stdin is not None  # Popen(stdin=PIPE)
             try:
                 self.proc.stdin.write(text + "\n")
                 self.proc.stdin.flush()
@@ -223,6 +225,7 @@ class Harness:
             self.proc.kill()
             self.proc.wait()
         for f in (self.proc.stdin, self.proc.stdout):
+            assert f is not None  # Popen(stdin=PIPE, stdout=PIPE)
             try:
                 f.close()
             except OSError:

@@ -12,9 +12,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from exhibit.devices.controller import SerialController
 from exhibit.devices.sim import SimController, Step
+
+if TYPE_CHECKING:
+    from exhibit.devices.simavr import FirmwareController
 
 __all__ = ["SimulatedController", "SimulatedFirmware", "simulated_hid"]
 
@@ -25,15 +29,15 @@ class SimulatedController(SerialController):
 
     script: list[Step] | None = None
     seed: int | None = None
-    sim: object = field(default=None, init=False)
+    sim: SimController | FirmwareController | None = field(default=None, init=False)
 
-    def _simulator(self):
+    def _simulator(self) -> SimController | FirmwareController:
         """The simulated device to start (it offers ``link``, the pty, and ``stop()``)."""
         return SimController(script=self.script, seed=self.seed)
 
     def _open(self) -> None:
-        self.sim = self._simulator().start()
-        self.path = str(self.sim.link)
+        sim = self.sim = self._simulator().start()
+        self.path = str(sim.link)
         super()._open()
 
     def _close(self) -> None:
@@ -50,7 +54,7 @@ class SimulatedFirmware(SimulatedController):
 
     firmware: str = ""
 
-    def _simulator(self):
+    def _simulator(self) -> SimController | FirmwareController:
         from exhibit.devices.simavr import FirmwareController
 
         return FirmwareController(Path(self.firmware), script=self.script, seed=self.seed)

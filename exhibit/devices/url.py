@@ -83,6 +83,7 @@ def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.mo
     module (tests pass a fake bus)."""
     scheme, target, query = parse_url(url)
     name = name or scheme
+    b: Backend
     if scheme == "serial":
         from exhibit.devices.controller import SerialController
 
@@ -163,8 +164,9 @@ def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
         raise DeviceError(f"device URL {url!r}: no simulated device {target!r} (controller or "
                           f"a layout: {', '.join(sorted(layouts))})")
     layout = find_layout(layouts, target, None, None, url)
+    hid_script = None
     if "script" in query:
         from exhibit.devices.fakehid import parse_hid_script
 
-        script = parse_hid_script(text, str(path), layout)
-    return simulated_hid(name=name, clock=clock, layout=layout, script=script, seed=seed)
+        hid_script = parse_hid_script(text, str(path), layout)
+    return simulated_hid(name=name, clock=clock, layout=layout, script=hid_script, seed=seed)

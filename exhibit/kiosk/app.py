@@ -122,6 +122,8 @@ class Kiosk:
             log.error("scene file left out: %s", problem)
             self.problems.append(f"scene file left out: {problem}")
         try:
+            if config.attract_dir is None:  # load_config always sets it
+                raise ExhibitError("no attract folder is set")
             timelines = load_playlist(config.attract_dir)
         except Exception as exc:  # noqa: BLE001 - attract mode can do without timelines
             log.error("no attract timelines: %s", exc)
@@ -155,7 +157,7 @@ class Kiosk:
         self._fade_start: float | None = None
         now = clock()
         self.started = now
-        self.state = None
+        self.state: KioskState | None = None
         #: The scenes on the GPU: the first one now, the rest from the preparer.
         framers = Framers(self.framer, inset_framer)
         jobs = scene_jobs(config, timelines, mesh_levels(self.governor))
@@ -303,13 +305,14 @@ class Kiosk:
             self.stats.slow_frames += 1
             n = self.stats.slow_frames
             if n & (n - 1) == 0:
-                scene = self.state.frame.scene if self.state is not None else None
+                shown = self.state.frame.scene if self.state is not None else None
                 log.warning("slow frame: %.0f ms (scene %s; %d so far)", (end - start) * 1000.0,
-                            scene, n)
+                            shown, n)
 
     def _update_log_fields(self) -> dict[str, str | None]:
         """The journal fields for what is on screen, set for every record from now on (errors
         included) and returned for the record about the change itself."""
+        fields: dict[str, str | None]
         if self.state is None:
             fields = {"EXHIBIT_MODE": "notice", "EXHIBIT_SCENE": None}
         else:

@@ -44,7 +44,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 from pydantic import Field, model_validator
 
@@ -55,8 +55,10 @@ from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, DistanceRange, HalfHeight, Name,
                                   Number, Numbers, Seconds, distance_to_r)
 
-EASES = ("smooth", "linear", "hold")
-MOTIONS = ("closer", "farther", "still")
+Ease = Literal["smooth", "linear", "hold"]
+EASES: tuple[Ease, ...] = get_args(Ease)
+Motion = Literal["closer", "farther", "still"]
+MOTIONS: tuple[Motion, ...] = get_args(Motion)
 #: Reduced motion: a stretch between keyframes plays as held poses about this long, each
 #: crossfaded into the next (a 1 s crossfade, then 3 s still).
 STEP_S = 4.0
@@ -175,9 +177,9 @@ class WhileSpec(Model):
     """``while = { ... }``: the state of the view a caption describes."""
 
     sensor_distance: DistanceRange | None = None
-    sensor_motion: Literal[MOTIONS] | None = None
+    sensor_motion: Motion | None = None
     #: degrees the pose (six angles and the eye) may turn from the stating keyframe's
-    angles_within: Number(0, 180) | None = None
+    angles_within: Annotated[float, Number(0, 180)] | None = None
 
     @model_validator(mode="after")
     def _not_empty(self):
@@ -198,21 +200,21 @@ class WhileSpec(Model):
 
 class KeyframeSpec(Model):
     t: Seconds
-    angles: Numbers(6, -MAX_ANGLE, MAX_ANGLE) | None = None
+    angles: Annotated[tuple[float, ...], Numbers(6, -MAX_ANGLE, MAX_ANGLE)] | None = None
     sensor_distance: Distance | None = None
-    eye: Numbers(2, -MAX_ANGLE, MAX_ANGLE) | None = None
+    eye: Annotated[tuple[float, ...], Numbers(2, -MAX_ANGLE, MAX_ANGLE)] | None = None
     half_height: HalfHeight | None = None
     caption: Caption | None = None
     while_: WhileSpec | None = Field(None, alias="while")
-    ease: Literal[EASES] = "smooth"
-    slice: Number(-1e6, 1e6) | Literal["off"] | None = None
+    ease: Ease = "smooth"
+    slice: Annotated[float, Number(-1e6, 1e6)] | Literal["off"] | None = None
 
 
 class TimelineFile(Model):
     name: Name | None = None
     scene: Name
     preset: Name | None = None
-    params: dict[str, Number(-1e6, 1e6)] = {}
+    params: dict[str, Annotated[float, Number(-1e6, 1e6)]] = {}
     fit: bool | None = None
     slice_axis: Name | None = None
     keyframe: Annotated[list[KeyframeSpec], Field(min_length=2)]
@@ -274,7 +276,8 @@ def load_timeline(path: Path) -> Timeline:
                                  f"({frames[-1].t:g})")
         angles = (previous.angles if raw.angles is None
                   else tuple(math.radians(a) for a in raw.angles))
-        eye = previous.eye if raw.eye is None else tuple(math.radians(a) for a in raw.eye)
+        eye = (previous.eye if raw.eye is None  # Numbers(2, ...): two angles
+               else (math.radians(raw.eye[0]), math.radians(raw.eye[1])))
         previous = Keyframe(
             raw.t,
             angles,

@@ -103,6 +103,7 @@ def _condition_problems(timeline: Timeline) -> list[str]:
     pose = _Poses(timeline)
     for first, t0, t1 in runs:
         condition = timeline.keyframes[first].condition
+        assert condition is not None  # runs keeps the keyframes with one
         times = _samples(t0, t1, step)
         views = [pose(t) for t in times]
         r = [view.sensor_r for view in views]
@@ -123,11 +124,12 @@ POSE_NAMES = ("θ1", "θ2", "θ3", "θ4", "θ5", "θ6", "eye azimuth", "eye inci
 def _turn_problems(where: str, condition: Condition, times: list[float], views, first: int
                    ) -> list[str]:
     """The pose turned more than ``angles_within`` degrees from the stating keyframe's."""
-    limit = condition.angles_within
+    limit, stated = condition.angles_within, condition.pose
+    assert limit is not None and stated is not None  # set together (WhileSpec.condition)
     turns = []   # per sample: (largest turn in degrees, which angle)
     for view in views:
         pose = view.angles + (view.eye_azimuth, view.eye_incidence)
-        diffs = [abs(math.degrees(a - b)) for a, b in zip(pose, condition.pose)]
+        diffs = [abs(math.degrees(a - b)) for a, b in zip(pose, stated)]
         k = max(range(len(diffs)), key=diffs.__getitem__)
         turns.append((diffs[k], k))
     bad = [j for j, (turn, _) in enumerate(turns) if turn > limit + 1e-6]
@@ -145,6 +147,7 @@ def _distance(r: float) -> str:
 
 def _distance_problems(where: str, condition: Condition, times: list[float], r: list[float]
                        ) -> list[str]:
+    assert condition.sensor_r is not None and condition.sensor_distance is not None  # together
     low, high = condition.sensor_r
     bad = [j for j, x in enumerate(r) if not low - EPS_R <= x <= high + EPS_R]
     if not bad:

@@ -17,7 +17,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from pydantic import PlainValidator
 from pydantic_core import PydanticCustomError
@@ -39,22 +39,22 @@ SITE_CONFIG = Path("/etc/exhibit/kiosk.toml")
 __all__ = ["ConfigError", "DEFAULT_CONFIG", "SITE_CONFIG", "KioskConfig", "load_kiosk_config",
            "site_config_path"]
 
-PathText = Text(4096)
+PathText = Annotated[str, Text(4096)]
 
 
 class Display(Model):
     fullscreen: bool = True
-    monitor: Integer(0, 16) = 0
-    size: Numbers(2, 160, 16384, integer=True) = (1280, 720)
+    monitor: Annotated[int, Integer(0, 16)] = 0
+    size: Annotated[tuple[float, ...], Numbers(2, 160, 16384, integer=True)] = (1280, 720)
     vsync: bool = True
-    samples: Integer(0, 16) = 4
-    fps_limit: Number(10, 240) = 60.0
+    samples: Annotated[int, Integer(0, 16)] = 4
+    fps_limit: Annotated[float, Number(10, 240)] = 60.0
     hud: bool = True
 
 
 class Content(Model):
-    scenes: list[Text(100)] | None = None
-    start_scene: Text(100) | None = None
+    scenes: list[Annotated[str, Text(100)]] | None = None
+    start_scene: Annotated[str, Text(100)] | None = None
     resolution: dict[str, Resolution] = {}
 
 
@@ -64,13 +64,13 @@ class Devices(Model):
 
 class Attract(Model):
     timelines: PathText = "attract"
-    idle_timeout_s: Number(5, 3600) = 90.0
-    blend_s: Number(0, 30) = 2.0
+    idle_timeout_s: Annotated[float, Number(5, 3600)] = 90.0
+    blend_s: Annotated[float, Number(0, 30)] = 2.0
 
 
 class BurnIn(Model):
-    drift_px: Number(0, 200) = 12.0
-    drift_period_s: Number(10, 86400) = 600.0
+    drift_px: Annotated[float, Number(0, 200)] = 12.0
+    drift_period_s: Annotated[float, Number(10, 86400)] = 600.0
 
 
 #: The smallest caption cap height, a fraction of the screen height: exhibit.render.layout's,
@@ -104,8 +104,8 @@ class Accessibility(Model):
 
 class Text_(Model):
     caption_cap_height: Annotated[float, PlainValidator(_caption_cap)] = 0.024
-    title_cap_height: Number(MIN_CAPTION_CAP, 0.15) = 0.034
-    infinity_beyond: Number(1, 1e6) = 1000.0
+    title_cap_height: Annotated[float, Number(MIN_CAPTION_CAP, 0.15)] = 0.034
+    infinity_beyond: Annotated[float, Number(1, 1e6)] = 1000.0
 
 
 class Maintenance(Model):
@@ -120,40 +120,40 @@ QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "direct", "scale
 MESH_LEVELS = {"full": 0, "reduced": 1, "low": 2}   # mesh resolution x1, x0.75, x0.5
 
 
-def _choice(*options: str) -> Any:
-    """One of ``options`` (a string)."""
+def _choice(*options: str) -> PlainValidator:
+    """One of ``options`` (a string): ``Annotated[str, _choice("auto", "full")]``."""
     def check(value: Any) -> str:
         if not isinstance(value, str) or value not in options:
             raise fail("must be one of " + ", ".join(f'"{o}"' for o in options), value)
         return value
-    return Annotated[str, PlainValidator(check)]
+    return PlainValidator(check)
 
 
-def _auto_or_number(low: float, high: float) -> Any:
+def _auto_or_number(low: float, high: float) -> PlainValidator:
     """"auto" (the governor's choice), or a number in [low, high]."""
     number = number_check(low, high)
 
-    def check(value: Any):
+    def check(value: Any) -> float | str:
         if value == "auto":
             return "auto"
         try:
             return number(value)
         except PydanticCustomError:
             raise fail(f'must be "auto" or a number in [{low:g}, {high:g}]', value) from None
-    return Annotated[Any, PlainValidator(check)]
+    return PlainValidator(check)
 
 
 class QualitySection(Model):
-    level: _choice("auto", *QUALITY_LEVELS) = "auto"
-    lowest: _choice("auto", *QUALITY_LEVELS) = "auto"
-    antialiasing: _choice("auto", "msaa", "fxaa", "none") = "auto"
-    mesh: _choice("auto", *MESH_LEVELS) = "auto"
-    effects: _choice("auto", "full", "lean") = "auto"
-    render_scale: _auto_or_number(0.25, 1.0) = "auto"
-    target_fps: _auto_or_number(10, 240) = "auto"
-    step_interval_s: Number(1, 600) = 4.0
-    calm_s: Number(0, 60) = 1.5
-    headroom: Number(0.3, 0.95) = 0.7
+    level: Annotated[str, _choice("auto", *QUALITY_LEVELS)] = "auto"
+    lowest: Annotated[str, _choice("auto", *QUALITY_LEVELS)] = "auto"
+    antialiasing: Annotated[str, _choice("auto", "msaa", "fxaa", "none")] = "auto"
+    mesh: Annotated[str, _choice("auto", *MESH_LEVELS)] = "auto"
+    effects: Annotated[str, _choice("auto", "full", "lean")] = "auto"
+    render_scale: Annotated[float | Literal["auto"], _auto_or_number(0.25, 1.0)] = "auto"
+    target_fps: Annotated[float | Literal["auto"], _auto_or_number(10, 240)] = "auto"
+    step_interval_s: Annotated[float, Number(1, 600)] = 4.0
+    calm_s: Annotated[float, Number(0, 60)] = 1.5
+    headroom: Annotated[float, Number(0.3, 0.95)] = 0.7
 
 
 @dataclass(frozen=True)

@@ -10,8 +10,8 @@ import logging
 import time
 from collections.abc import Callable
 
-from exhibit.kiosk.preparing import Framers, InlinePreparer, Job, Prepared, run_job
-from exhibit.kiosk.state import VISITOR
+from exhibit.kiosk.preparing import Framers, InlinePreparer, Job, Prepared, Preparer, run_job
+from exhibit.kiosk.state import VISITOR, KioskState
 from exhibit.surfaces import progress
 from exhibit.surfaces.mesh import Mesh4D
 
@@ -38,8 +38,8 @@ class Content:
         self.problems, self.scenes_failed = problems, scenes_failed
         #: Every timeline, in the attract folder's order (where an arriving one goes).
         self.timelines = [t for job in jobs for t in job.timelines]
-        self.state = None
-        self.preparer = None
+        self.state: KioskState | None = None
+        self.preparer: Preparer | None = None
         #: When the last scene was taken in (None while some are being prepared).
         self.prepared_at: float | None = None
 
@@ -98,15 +98,17 @@ class Content:
         """Whatever the preparer has finished, taken in (a frame's work: uploads only). A
         worker process that cannot run leaves the rest to be prepared here, one per frame."""
         begin = time.perf_counter()
+        preparer = self.preparer
+        assert preparer is not None  # prepare_rest without one set prepared_at: no collect
         try:
-            results = self.preparer.results()
+            results = preparer.results()
         except Exception as exc:  # noqa: BLE001 - no worker process: here, one per frame
             log.error("the preparing process cannot run (%s: %s): the scenes left are prepared "
                       "here, one per frame", type(exc).__name__, exc)
-            pending = self.preparer.pending()
+            pending = preparer.pending()
             with contextlib.suppress(Exception):
-                self.preparer.close()
-            self.preparer = InlinePreparer(self.preparer.framers)
+                preparer.close()
+            self.preparer = InlinePreparer(preparer.framers)
             for job in pending:
                 self.preparer.submit(job)
             return
@@ -116,7 +118,7 @@ class Content:
                 log.info("scene %s prepared (mesh levels %s, %d timelines; %.0f ms to take in)",
                          prepared.job.scene, ",".join(map(str, sorted(prepared.meshes))),
                          len(prepared.timelines), (time.perf_counter() - begin) * 1000)
-        if not self.preparer.busy and self.prepared_at is None:
+        if not preparer.busy and self.prepared_at is None:
             self.prepared_at = now
             log.info("every scene is prepared (%.1f s after start)", now - started)
 
@@ -170,6 +172,7 @@ class Content:
         attract folder's order."""
         order = {(t.path, t.name): i for i, t in enumerate(self.timelines)}
         mine = order.get((timeline.path, timeline.name), len(order))
+        assert self.state is not None  # take_in places timelines only once there is a state
         return sum(1 for t in self.state.playlist.timelines
                    if order.get((t.path, t.name), 0) < mine)
 

@@ -27,6 +27,7 @@ import bisect
 import dataclasses
 import functools
 import math
+from typing import Any
 
 import numpy as np
 
@@ -214,7 +215,7 @@ class _Poses:
         timeline, frames = self.timeline, self.timeline.keyframes
         t = min(max(t, 0.0), timeline.duration)
         i = max(0, bisect.bisect_right(self.times, t) - 1)
-        changes = {"keyframes": frames[i:i + 2]}
+        changes: dict[str, Any] = {"keyframes": frames[i:i + 2]}  # fields of two types
         if isinstance(timeline, FramedTimeline):
             changes.update(centers=timeline.centers[i:i + 2], fills=timeline.fills[i:i + 2])
         return dataclasses.replace(timeline, **changes).at(t)[0]

@@ -54,7 +54,7 @@ class LanguagesSection(Model):
 
     shown: Annotated[list[LanguageCode], Field(min_length=1, max_length=12)] = [SOURCE]
     catalogues: Name = "languages"
-    switch_after_s: Number(0, 86400) = 0
+    switch_after_s: Annotated[float, Number(0, 86400)] = 0
 
     @field_validator("switch_after_s")
     @classmethod
@@ -68,7 +68,7 @@ class LanguagesSection(Model):
 
 #: A translation: never empty or blank (the title or caption would be shown blank), as long as
 #: an English caption may be.
-Translation = Text(2000, multiline=True)
+Translation = Annotated[str, Text(2000, multiline=True)]
 
 
 class CatalogueFile(Model):

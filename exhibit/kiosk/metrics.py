@@ -27,6 +27,7 @@ import shutil
 import tempfile
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TypeGuard
 
 from prometheus_client import CollectorRegistry, generate_latest, write_to_textfile
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
@@ -216,7 +217,8 @@ def escape_label(value) -> str:
     return (_clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n"))
 
 
-def _is_number(value) -> bool:
+def _is_number(value: object) -> TypeGuard[float]:
+    """A finite int or float (not a bool): a health file's value fit to be a sample."""
     return (isinstance(value, (int, float)) and not isinstance(value, bool)
             and math.isfinite(value))
 

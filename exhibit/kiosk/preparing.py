@@ -19,6 +19,9 @@ import queue
 import threading
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from multiprocessing.connection import Connection
+from multiprocessing.process import BaseProcess
+from typing import Protocol
 
 from exhibit import scenes
 from exhibit.kiosk.attract import Timeline
@@ -163,6 +166,20 @@ def frame(timeline: Timeline, scene, mesh: Mesh4D, framers: Framers) -> Timeline
 # ---------------------------------------------------------------------- where jobs run
 
 
+class Preparer(Protocol):
+    """Where jobs run: InlinePreparer (here) or ProcessPreparer (a worker process)."""
+
+    framers: Framers
+
+    def submit(self, job: Job) -> None: ...
+    @property
+    def busy(self) -> bool: ...
+    def first(self, key: tuple) -> None: ...
+    def pending(self) -> list[Job]: ...
+    def results(self) -> list[Prepared]: ...
+    def close(self) -> None: ...
+
+
 class InlinePreparer:
     """Runs each job in this process when its result is asked for: one job per results() call,
     so a test steps through the kiosk's start frame by frame."""
@@ -250,8 +267,9 @@ class ProcessPreparer:
     def __init__(self, framers: Framers = Framers()):
         self.framers = framers
         self._context = multiprocessing.get_context("spawn")
-        self._process = None
-        self._connection = None
+        #: the worker and the kiosk's end of its pipe: both set, or both None
+        self._process: BaseProcess | None = None
+        self._connection: Connection | None = None
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._in_flight: Job | None = None
         self._queue: list[Job] = []
@@ -293,6 +311,7 @@ class ProcessPreparer:
         if self._process is None:
             self._start()
         self._in_flight = self._queue.pop(0)
+        assert self._connection is not None  # set with the process
         try:
             self._connection.send(self._in_flight)  # a Job is small: the pipe takes it at once
         except OSError:
@@ -315,6 +334,7 @@ class ProcessPreparer:
         if self._in_flight is None and not self._queue and self._process is not None \
                 and not self._leaving:
             self._leaving = True  # nothing left: the worker's memory back
+            assert self._connection is not None  # set with the process
             try:
                 self._connection.send(None)
             except OSError:
@@ -326,6 +346,8 @@ class ProcessPreparer:
         which then fails; the worker starts again for the rest (up to WORKER_RESTARTS times;
         then they fail too)."""
         process, job = self._process, self._in_flight
+        # _ENDED comes from the reader of a started worker's pipe
+        assert process is not None and self._connection is not None
         self._connection.close()
         process.join(timeout=1.0)  # it has closed its end: it is exiting, if not gone
         self._process, self._connection, self._in_flight = None, None, None

@@ -201,16 +201,19 @@ class KioskPlayer:
 
         config = config or base_config()
         self.timeline = read_timeline(timeline) if timeline is not None else None
-        if self.timeline is None and scene is None:
+        if self.timeline is not None:
+            self.scene = self.timeline.scene
+        elif scene is not None:
+            self.scene = scene
+        else:
             raise ExhibitError("name a timeline or a scene")
-        self.scene = self.timeline.scene if self.timeline is not None else scene
         self.language, catalogues = check_language(config, language)
         self._tmp = Path(tempfile.mkdtemp(prefix="exhibit-review-"))
         self._own_headless = headless is None
         try:
             attract = self._tmp / "attract"
             attract.mkdir()
-            if self.timeline is not None:
+            if timeline is not None:  # and so self.timeline
                 shutil.copyfile(timeline, attract / Path(timeline).name)
             languages = (self.language, *(c for c in config.languages if c != self.language))
             config = dataclasses.replace(
@@ -272,14 +275,19 @@ class KioskPlayer:
 
     def frame(self) -> ReviewFrame:
         """The frame drawn last."""
-        frame = self.kiosk.state.frame
-        return ReviewFrame(self.clock.t, self.window.image.copy(),
+        state, image = self.kiosk.state, self.window.image
+        assert state is not None  # __init__ refused a kiosk without one
+        assert image is not None  # step_to drew a frame
+        frame = state.frame
+        return ReviewFrame(self.clock.t, image.copy(),
                            self.kiosk.translate(frame.caption), frame.caption,
                            self.kiosk.translate.language, frame.mode, frame.scene)
 
     def key(self, name: str, pressed: bool) -> None:
         """A key on the kiosk's keyboard device, now."""
-        self.kiosk.devices.keyboard.key(name, pressed, t=self.clock())
+        keyboard = self.kiosk.devices.keyboard
+        assert keyboard is not None  # keyboard_only() gave the review kiosk one
+        keyboard.key(name, pressed, t=self.clock())
 
     def play(self, fps: float, times: Iterable[float] | None = None) -> Iterator[ReviewFrame]:
         """The timeline from t = 0 to its end at ``fps`` frames a second, every frame (or only
@@ -317,7 +325,7 @@ class KioskPlayer:
         if kiosk is not None:
             kiosk.devices.close()
             kiosk.release()
-            self.kiosk = None
+            del self.kiosk  # closed: no kiosk left (getattr above)
         if self._own_headless and getattr(self, "headless", None) is not None:
             self.headless.release()
             self.headless = None

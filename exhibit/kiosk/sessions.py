@@ -120,8 +120,8 @@ class SessionsSection(Model):
 
     enabled: bool = True
     path: Annotated[str, PlainValidator(_db_path)] = ""
-    keep_days: Integer(1, 3650) = 400
-    max_sessions: Integer(100, 10_000_000) = 200_000
+    keep_days: Annotated[int, Integer(1, 3650)] = 400
+    max_sessions: Annotated[int, Integer(100, 10_000_000)] = 200_000
 
 
 @dataclass(frozen=True)
@@ -338,7 +338,9 @@ class SessionStore:
             cursor = self.db.execute(
                 "INSERT INTO sessions (start, end, duration_s, active_s, utc_offset_s, "
                 "language, scenes, inputs) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", session.row())
-        return int(cursor.lastrowid)
+        rowid = cursor.lastrowid
+        assert rowid is not None  # set by the INSERT
+        return int(rowid)
 
     def rotate(self) -> int:
         """Delete sessions older than keep_days, then all but the newest max_sessions, and give
@@ -485,6 +487,7 @@ class SessionWriter:
             try:
                 return self.store.add(session)
             except sqlite3.Error as exc:
+                error: Exception = exc
                 if attempt == 1 and _is_corrupt(exc):
                     try:
                         self.store.close()
@@ -492,12 +495,12 @@ class SessionWriter:
                         self.store.open()
                         continue
                     except (OSError, sqlite3.Error) as again:
-                        exc = again
+                        error = again
                         self.usable = False
                         self.reason = f"cannot reopen {self.store.path} ({again})"
                 self.failed += 1
                 if self.failed & (self.failed - 1) == 0:
-                    log.warning("sessions: a session was not written (%s; %d so far)", exc,
+                    log.warning("sessions: a session was not written (%s; %d so far)", error,
                                 self.failed)
                 return None
         return None
@@ -540,7 +543,7 @@ class SessionLog:
             reason = "opening the database"
         elif not w.usable:
             reason = w.reason or "the database cannot be written"
-        state = {**counts, "recording": reason is None}
+        state: dict[str, int | str] = {**counts, "recording": reason is None}
         if reason is not None:
             state["reason"] = reason
         return {"sessions": state, "language": self.language}

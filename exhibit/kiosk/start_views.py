@@ -23,7 +23,7 @@ class StartViews:
     timeline does. A scene not prepared yet is left as it is (KioskState.reframe frames it on
     arrival). Cached: the same few start views come back at every "home" and scene change."""
 
-    def __init__(self, framer, content):
+    def __init__(self, framer, content) -> None:
         self.framer = framer
         self.content = content
         self._framed: OrderedDict[tuple, object] = OrderedDict()

@@ -127,8 +127,8 @@ class KioskState:
             start = self.start_view(name, params)
             view = start.replace(angles=(start.angles[0] + turn, *start.angles[1:]))
         if self._blend_from is not None:
-            start_view, start, blend_scene = self._blend_from
-            u = (now - start) / self.blend_s if self.blend_s > 0 else 1.0
+            start_view, blend_start, blend_scene = self._blend_from
+            u = (now - blend_start) / self.blend_s if self.blend_s > 0 else 1.0
             if u >= 1.0 or blend_scene != name:
                 self._blend_from = None
             else:

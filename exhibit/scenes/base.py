@@ -6,7 +6,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Callable, Mapping
+from typing import Any, Callable, Mapping
 
 from exhibit.errors import ExhibitError
 from exhibit.geometry.view import ViewState
@@ -71,8 +71,9 @@ class Scene:
     #: or the reason they do not (the collision with nothing moving). Scene.resolve asks it.
     check: Callable[[dict], str | None] | None = None
 
-    def resolve(self, overrides: Mapping[str, object] | None = None) -> dict[str, float]:
-        """Defaults with overrides applied; an unknown name or bad value raises ExhibitError."""
+    def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, float]:
+        """Defaults with overrides applied; an unknown name or bad value raises ExhibitError
+        (the values may be anything: they are checked here)."""
         values = {p.name: float(p.default) for p in self.parameters}
         known = {p.name: p for p in self.parameters}
         for key, raw in (overrides or {}).items():

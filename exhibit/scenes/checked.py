@@ -47,10 +47,11 @@ def _load() -> set[str]:
 def check(text: str, variables: Sequence[str], parameters: Mapping[str, float], box) -> None:
     """check_expression on the box, unless this exact check has passed before."""
     key = _key(text, variables, parameters, box)
-    if key in _load():
+    passed = _load()
+    if key in passed:
         return
     check_expression(text, variables, parameters, box=box)
-    _passed.add(key)
+    passed.add(key)
     _new.add(key)
 
 

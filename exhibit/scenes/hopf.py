@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -26,9 +27,9 @@ def build(params: dict, resolution: int) -> Mesh4D:
     mesh = Mesh4D()
     for name, latitude, color in TORI:
         mesh.surfaces.append(tessellate(
-            name, lambda a, b, z=latitude: hopf_torus(z, a, b), full, full,
+            name, functools.partial(hopf_torus, latitude), full, full,
             (resolution, resolution),
-            tangents=lambda a, b, z=latitude: hopf_torus_tangents(z, a, b),
+            tangents=functools.partial(hopf_torus_tangents, latitude),
             material=Material(color=color), adaptive=False))
     angles = np.linspace(0.0, 2 * math.pi, 4 * resolution, endpoint=False)
     for name, latitude, color in FIBRES:

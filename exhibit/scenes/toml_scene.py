@@ -69,11 +69,12 @@ def _scene_name(value: Any) -> str:
     return value
 
 
-def _axes(value: Any) -> tuple[str, ...]:
+def _axes(value: Any) -> tuple[str, str, str, str]:
     if (not isinstance(value, list) or len(value) != 4 or len(set(value)) != 4
             or not all(isinstance(a, str) and a.isidentifier() and len(a) <= 16 for a in value)):
         raise fail("must be four different names", value)
-    return tuple(value)
+    x, y, z, w = value
+    return (x, y, z, w)
 
 
 def _box_pair(value: Any) -> tuple[float, float]:
@@ -95,7 +96,7 @@ def _interval(value: Any) -> Interval:
     return Interval(start, stop, value[2])
 
 
-Formula = Text(MAX_LENGTH)
+Formula = Annotated[str, Text(MAX_LENGTH)]
 _formula = text_check(MAX_LENGTH)
 
 
@@ -106,15 +107,15 @@ def _formulas(value: Any) -> list[str]:
 
 
 class ParameterSpec(Model):
-    default: Number(-MAX_PARAMETER, MAX_PARAMETER)
-    min: Number(-MAX_PARAMETER, MAX_PARAMETER) = -MAX_PARAMETER
-    max: Number(-MAX_PARAMETER, MAX_PARAMETER) = MAX_PARAMETER
-    help: Text(500, empty_ok=True) = ""
+    default: Annotated[float, Number(-MAX_PARAMETER, MAX_PARAMETER)]
+    min: Annotated[float, Number(-MAX_PARAMETER, MAX_PARAMETER)] = -MAX_PARAMETER
+    max: Annotated[float, Number(-MAX_PARAMETER, MAX_PARAMETER)] = MAX_PARAMETER
+    help: Annotated[str, Text(500, empty_ok=True)] = ""
 
 
 class SurfaceSpec(Model):
     name: Name | None = None
-    color: Numbers(3, 0.0, 1.0) = (0.7, 0.7, 0.7)
+    color: Annotated[tuple[float, float, float], Numbers(3, 0.0, 1.0)] = (0.7, 0.7, 0.7)
     style: Literal["solid", "wire"] = "solid"
     f1: Formula | None = None
     f2: Formula | None = None
@@ -125,7 +126,7 @@ class SurfaceSpec(Model):
 
 
 class ViewSpec(Model):
-    angles: Numbers(6, -3600, 3600) | None = None
+    angles: Annotated[tuple[float, ...], Numbers(6, -3600, 3600)] | None = None
     sensor_distance: Distance | None = None
     eye_distance: Distance | None = None
     eye_azimuth: Angle | None = None
@@ -138,9 +139,9 @@ class ViewSpec(Model):
 
 class SceneFile(Model):
     name: Annotated[str, PlainValidator(_scene_name)]
-    title: Text(200)
+    title: Annotated[str, Text(200)]
     caption: Caption
-    axes: Annotated[tuple[str, ...], PlainValidator(_axes)] = ("x", "y", "z", "w")
+    axes: Annotated[tuple[str, str, str, str], PlainValidator(_axes)] = ("x", "y", "z", "w")
     resolution: Resolution = 48
     parameters: dict[str, ParameterSpec] = {}
     surface: list[SurfaceSpec] = []
@@ -221,6 +222,7 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
         raise ConfigError(missing)
     if implicit:
         box = surface.box
+        assert box is not None  # not missing (above)
         f1 = _check(path, f"{where}.f1", surface.f1, axes, defaults, box)
         f2 = _check(path, f"{where}.f2", surface.f2, axes, defaults, box)
         lo, hi = [b[0] for b in box], [b[1] for b in box]
@@ -229,10 +231,12 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
             return mesh_implicit(name, f1, f2, axes, params, lo, hi, resolution, material).surface
         return build_implicit
 
-    intervals = (surface.s, surface.t)
+    s_range, t_range, formulas = surface.s, surface.t, surface.point
+    assert s_range is not None and t_range is not None and formulas is not None  # not missing
+    intervals = (s_range, t_range)
     box = [(i.start, i.stop) for i in intervals]
     point = [_check(path, f"{where}.point[{k}]", text, ("s", "t"), defaults, box)
-             for k, text in enumerate(surface.point)]
+             for k, text in enumerate(formulas)]
 
     def build_parametric(params, resolution):
         fields = [compile_field(text, ("s", "t"), params) for text in point]

@@ -2,6 +2,9 @@
 
 Each type is a pydantic plain validator with its own message, so an error reads like
 ``must lie in [4, 512], got 2`` rather than pydantic's wording, and bool is never a number.
+A field names its Python type and its limits: ``x: Annotated[float, Number(0, 10)] = 5`` (the
+helpers return the validator, so a type checker reads the field as a float); the common ones
+have names (``Angle``, ``Distance``, ``Name``...).
 Limits are chosen so that everything accepted can be run: no step or rate that overflows, no
 distance whose reciprocal is inf, no angle that loses all precision.
 """
@@ -76,13 +79,15 @@ def number_check(low: float, high: float, integer: bool = False, inf_ok: bool = 
     return check
 
 
-def Number(low: float = -1e9, high: float = 1e9, *, inf_ok: bool = False) -> Any:
-    """A finite float in [low, high]; with ``inf_ok`` also +inf (written inf or "inf")."""
-    return Annotated[float, PlainValidator(number_check(low, high, inf_ok=inf_ok))]
+def Number(low: float = -1e9, high: float = 1e9, *, inf_ok: bool = False) -> PlainValidator:
+    """A finite float in [low, high]; with ``inf_ok`` also +inf (written inf or "inf").
+    Used as ``Annotated[float, Number(0, 10)]``."""
+    return PlainValidator(number_check(low, high, inf_ok=inf_ok))
 
 
-def Integer(low: int, high: int) -> Any:
-    return Annotated[int, PlainValidator(number_check(low, high, integer=True))]
+def Integer(low: int, high: int) -> PlainValidator:
+    """A whole number in [low, high], as an int: ``Annotated[int, Integer(0, 16)]``."""
+    return PlainValidator(number_check(low, high, integer=True))
 
 
 def numbers_check(count: int, low: float = -1e9, high: float = 1e9, integer: bool = False
@@ -104,9 +109,11 @@ def numbers_check(count: int, low: float = -1e9, high: float = 1e9, integer: boo
     return check
 
 
-def Numbers(count: int, low: float = -1e9, high: float = 1e9, *, integer: bool = False) -> Any:
-    """A list of exactly ``count`` finite numbers in [low, high], as a tuple."""
-    return Annotated[tuple[float, ...], PlainValidator(numbers_check(count, low, high, integer))]
+def Numbers(count: int, low: float = -1e9, high: float = 1e9, *, integer: bool = False
+            ) -> PlainValidator:
+    """A list of exactly ``count`` finite numbers in [low, high], as a tuple:
+    ``Annotated[tuple[float, ...], Numbers(3, 0.0, 1.0)]``."""
+    return PlainValidator(numbers_check(count, low, high, integer))
 
 
 def text_check(max_length: int, multiline: bool = False, empty_ok: bool = False
@@ -129,20 +136,22 @@ def text_check(max_length: int, multiline: bool = False, empty_ok: bool = False
     return check
 
 
-def Text(max_length: int = 200, *, multiline: bool = False, empty_ok: bool = False) -> Any:
-    return Annotated[str, PlainValidator(text_check(max_length, multiline, empty_ok))]
+def Text(max_length: int = 200, *, multiline: bool = False, empty_ok: bool = False
+         ) -> PlainValidator:
+    """Text shown to people (see ``text_check``): ``Annotated[str, Text(100)]``."""
+    return PlainValidator(text_check(max_length, multiline, empty_ok))
 
 
 #: Angles in degrees and distances (sensor, eye): the same everywhere.
-Angle = Number(-MAX_ANGLE, MAX_ANGLE)
-Distance = Number(MIN_DISTANCE, MAX_DISTANCE, inf_ok=True)
-Resolution = Integer(MIN_RESOLUTION, MAX_RESOLUTION)
-Seconds = Number(0.0, 86400.0)
-Coordinate = Number(-MAX_COORDINATE, MAX_COORDINATE)
+Angle = Annotated[float, Number(-MAX_ANGLE, MAX_ANGLE)]
+Distance = Annotated[float, Number(MIN_DISTANCE, MAX_DISTANCE, inf_ok=True)]
+Resolution = Annotated[int, Integer(MIN_RESOLUTION, MAX_RESOLUTION)]
+Seconds = Annotated[float, Number(0.0, 86400.0)]
+Coordinate = Annotated[float, Number(-MAX_COORDINATE, MAX_COORDINATE)]
 #: Zoom: half the height of the view, in 3D units.
-HalfHeight = Number(1e-3, 1e3)
-Name = Text(100)
-Caption = Text(2000, multiline=True, empty_ok=True)
+HalfHeight = Annotated[float, Number(1e-3, 1e3)]
+Name = Annotated[str, Text(100)]
+Caption = Annotated[str, Text(2000, multiline=True, empty_ok=True)]
 
 
 def _distance_range(value: Any) -> tuple[float, float]:
