@@ -1,7 +1,8 @@
 """The `exhibit` command: one subcommand per module in exhibit.commands, each with its own help.
 
 A command module provides HELP (one line), add_arguments(parser) and run(args) -> exit code.
-ExhibitError becomes a one-line message and exit code 2; nothing else reaches the user as a traceback
+ExhibitError becomes a one-line message and exit code 2; nothing else reaches the user as a
+traceback
 unless EXHIBIT_DEBUG=1.
 """
 
@@ -95,15 +96,18 @@ def main(argv: list[str] | None = None) -> int:
         _drop_stdout()
         print(f"exhibit {args.command}: error: {exc.strerror}", file=sys.stderr)
         return 1
-    except Exception as exc:  # last line of defence: one line for people, traceback on request
+    except Exception as exc:  # noqa: BLE001 - the last line of defence: one line for people
         return _internal(args, exc)
 
 
 def _internal(args, exc: Exception) -> int:
     if os.environ.get("EXHIBIT_DEBUG") == "1":
         raise exc
-    print(f"exhibit {args.command}: internal error: {type(exc).__name__}: {exc} "
-          "(set EXHIBIT_DEBUG=1 for a traceback)", file=sys.stderr)
+    print(
+        f"exhibit {args.command}: internal error: {type(exc).__name__}: {exc} "
+        "(set EXHIBIT_DEBUG=1 for a traceback)",
+        file=sys.stderr,
+    )
     return 1
 
 

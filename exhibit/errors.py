@@ -2,7 +2,8 @@
 
 
 class ExhibitError(Exception):
-    """A problem the user can fix (bad argument, bad file, bad value); the message says what and where."""
+    """A problem the user can fix (bad argument, bad file, bad value); the message says what
+    and where."""
 
     exit_code = 2
 

@@ -18,18 +18,25 @@ os.environ.setdefault("EXHIBIT_STRICT_UNIFORMS", "1")
 @pytest.fixture
 def cli():
     """Run `python -m exhibit ARGS...` as a user would; returns the CompletedProcess."""
+
     def run(*args):
-        return subprocess.run([sys.executable, "-m", "exhibit", *args], capture_output=True,
-                              text=True)
+        return subprocess.run(
+            [sys.executable, "-m", "exhibit", *args], capture_output=True, text=True
+        )
+
     return run
 
 
 def pytest_addoption(parser):
     # Here, at the root of the suite, so the option is known however pytest is started.
-    parser.addoption("--update-golden", action="store_true", default=False,
-                     help="rewrite the golden images in tests/golden/ from the current renderer "
-                          "instead of comparing with them (look at them before committing: "
-                          "tests/golden/README.md)")
+    parser.addoption(
+        "--update-golden",
+        action="store_true",
+        default=False,
+        help="rewrite the golden images in tests/golden/ from the current renderer "
+        "instead of comparing with them (look at them before committing: "
+        "tests/golden/README.md)",
+    )
 
 
 @pytest.fixture(scope="session")

@@ -29,15 +29,21 @@ def test_no_command_prints_help_and_exits_2(capsys):
     assert "commands" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("args, fragment", [
-    (["sweep", "--distances", "3,banana"], "'banana' is not a number"),
-    (["sweep", "--distances", "-1"], "argument --distances: must lie in [0.05"),
-    (["sweep", "--distances", "1e-320"], "argument --distances: must lie in [0.05"),
-    (["devices", "--wait", "inf"], "argument --wait: must be a number in [0, 60]"),
-    (["monitor", "--duration", "nan"], "argument --duration: must be a number"),
-    (["render", "hopf", "--sensor-distance", "1e-320", "--out", "x.png"], "--sensor-distance: must lie in"),
-    (["sweep", "--samples", "2"], "argument --samples: must lie in [8, 2048]"),
-])
+@pytest.mark.parametrize(
+    "args, fragment",
+    [
+        (["sweep", "--distances", "3,banana"], "'banana' is not a number"),
+        (["sweep", "--distances", "-1"], "argument --distances: must lie in [0.05"),
+        (["sweep", "--distances", "1e-320"], "argument --distances: must lie in [0.05"),
+        (["devices", "--wait", "inf"], "argument --wait: must be a number in [0, 60]"),
+        (["monitor", "--duration", "nan"], "argument --duration: must be a number"),
+        (
+            ["render", "hopf", "--sensor-distance", "1e-320", "--out", "x.png"],
+            "--sensor-distance: must lie in",
+        ),
+        (["sweep", "--samples", "2"], "argument --samples: must lie in [8, 2048]"),
+    ],
+)
 def test_bad_arguments_give_one_line_and_exit_2(cli, args, fragment):
     result = cli(*args)
     assert result.returncode == 2
@@ -60,9 +66,17 @@ def test_a_closed_pipe_ends_quietly(tmp_path):
     """`exhibit scenes --json | true`: the reader is gone before the first write."""
     import subprocess
     import sys
+
     err = tmp_path / "err"
-    result = subprocess.run(["bash", "-o", "pipefail", "-c",
-                             f"{sys.executable} -m exhibit scenes --json 2>{err} | true"])
+    result = subprocess.run(
+        [
+            "bash",
+            "-o",
+            "pipefail",
+            "-c",
+            f"{sys.executable} -m exhibit scenes --json 2>{err} | true",
+        ]
+    )
     assert result.returncode == 141  # 128 + SIGPIPE, as for any Unix tool
     assert err.read_text() == ""
 
@@ -70,24 +84,59 @@ def test_a_closed_pipe_ends_quietly(tmp_path):
 def test_a_full_disk_is_one_line(tmp_path):
     import subprocess
     import sys
+
     with open("/dev/full", "w") as full:
-        result = subprocess.run([sys.executable, "-m", "exhibit", "scenes", "--json"],
-                                stdout=full, stderr=subprocess.PIPE, text=True)
+        result = subprocess.run(
+            [sys.executable, "-m", "exhibit", "scenes", "--json"],
+            stdout=full,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
     assert result.returncode == 1
     assert result.stderr.strip() == "exhibit scenes: error: No space left on device"
 
 
-NUMERIC_OPTIONS = [("devices", "--wait"), ("monitor", "--rate"), ("monitor", "--duration"),
-                   ("record", "--duration"), ("simulate", "--duration"),
-                   ("simulate", "--protocol-version"), ("sweep", "--samples"),
-                   ("sweep", "--distances"), ("status", "--max-age"), ("status", "--max-lost")]
-HOSTILE = ["nan", "inf", "-inf", "1e-320", "1e308", "-1", "0", "1e999", "", "x", "0x10",
-           "9" * 400, "1_000", " 3 ", "+inf", "NaN", "-0", "3,", ",", "inf,nan"]
+NUMERIC_OPTIONS = [
+    ("devices", "--wait"),
+    ("monitor", "--rate"),
+    ("monitor", "--duration"),
+    ("record", "--duration"),
+    ("simulate", "--duration"),
+    ("simulate", "--protocol-version"),
+    ("sweep", "--samples"),
+    ("sweep", "--distances"),
+    ("status", "--max-age"),
+    ("status", "--max-lost"),
+]
+HOSTILE = [
+    "nan",
+    "inf",
+    "-inf",
+    "1e-320",
+    "1e308",
+    "-1",
+    "0",
+    "1e999",
+    "",
+    "x",
+    "0x10",
+    "9" * 400,
+    "1_000",
+    " 3 ",
+    "+inf",
+    "NaN",
+    "-0",
+    "3,",
+    ",",
+    "inf,nan",
+]
 
 
 @settings(max_examples=examples(300), deadline=None, derandomize=True)
-@given(option=st.sampled_from(NUMERIC_OPTIONS),
-       text=st.one_of(st.sampled_from(HOSTILE), st.floats().map(repr), st.text(max_size=12)))
+@given(
+    option=st.sampled_from(NUMERIC_OPTIONS),
+    text=st.one_of(st.sampled_from(HOSTILE), st.floats().map(repr), st.text(max_size=12)),
+)
 def test_numeric_options_are_finite_or_refused(option, text):
     """Every numeric option either parses to finite values in range or exits 2 in one line."""
     import contextlib
@@ -97,8 +146,9 @@ def test_numeric_options_are_finite_or_refused(option, text):
     from exhibit.cli import build_parser
 
     command, flag = option
-    extra = ["file.jsonl"] if command == "record" else ["controller"] if command == "simulate" \
-        else []
+    extra = (
+        ["file.jsonl"] if command == "record" else ["controller"] if command == "simulate" else []
+    )
     err = io.StringIO()
     with contextlib.redirect_stderr(err):
         try:
@@ -109,6 +159,6 @@ def test_numeric_options_are_finite_or_refused(option, text):
             assert f"argument {flag}" in err.getvalue()
             return
     value = getattr(args, flag.lstrip("-").replace("-", "_"))
-    for v in (value if isinstance(value, list) else [value]):
+    for v in value if isinstance(value, list) else [value]:
         assert not math.isnan(v) and v >= 0
         assert math.isfinite(v) or flag == "--distances"

@@ -22,10 +22,13 @@ ROOT = pathlib.Path(exhibit.__file__).parent
 #: Layer of each package (or top-level module) of exhibit; a module may import its own package
 #: and anything in a lower layer. Same layer, different package: not allowed either.
 LAYERS = {
-    "__init__": 0, "errors": 0, "resources": 0,
+    "__init__": 0,
+    "errors": 0,
+    "resources": 0,
     "schema": 1,
     "geometry": 2,
-    "surfaces": 3, "devices": 3,
+    "surfaces": 3,
+    "devices": 3,
     "scenes": 4,
     "render": 5,
     "kiosk": 6,
@@ -53,10 +56,12 @@ def imports(path: pathlib.Path, name: str, known: set[str]) -> set[str]:
         elif isinstance(node, ast.ImportFrom):
             base = node.module or ""
             if node.level:
-                anchor = package.split(".")[:len(package.split(".")) - node.level + 1]
+                anchor = package.split(".")[: len(package.split(".")) - node.level + 1]
                 base = ".".join(anchor + ([base] if base else []))
-            targets = [f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base
-                       for alias in node.names]
+            targets = [
+                f"{base}.{alias.name}" if f"{base}.{alias.name}" in known else base
+                for alias in node.names
+            ]
         else:
             continue
         found.update(t for t in targets if t == "exhibit" or t.startswith("exhibit."))
@@ -64,11 +69,13 @@ def imports(path: pathlib.Path, name: str, known: set[str]) -> set[str]:
 
 
 def graph(root: pathlib.Path = ROOT) -> dict[str, set[str]]:
-    paths = {module_name(p, root): p for p in sorted(root.rglob("*.py"))
-             if "__pycache__" not in p.parts}
+    paths = {
+        module_name(p, root): p for p in sorted(root.rglob("*.py")) if "__pycache__" not in p.parts
+    }
     known = set(paths)
-    return {name: {t for t in imports(path, name, known) if t != name}
-            for name, path in paths.items()}
+    return {
+        name: {t for t in imports(path, name, known) if t != name} for name, path in paths.items()
+    }
 
 
 @functools.cache
@@ -86,8 +93,10 @@ def layer_of(module: str) -> tuple[str, int]:
     parts = module.split(".")
     key = parts[1] if len(parts) > 1 else "__init__"
     if key not in LAYERS:
-        raise AssertionError(f"{module}: package {key!r} has no layer in tests/test_layers.py "
-                             "(add it to LAYERS and to ARCHITECTURE.md)")
+        raise AssertionError(
+            f"{module}: package {key!r} has no layer in tests/test_layers.py "
+            "(add it to LAYERS and to ARCHITECTURE.md)"
+        )
     return key, LAYERS[key]
 
 
@@ -162,6 +171,7 @@ def test_no_import_cycles(edges):
 
 # The checks themselves, on planted faults in a copy of a small package tree.
 
+
 @pytest.fixture
 def tree(tmp_path):
     def write(files: dict[str, str]) -> dict[str, set[str]]:
@@ -170,33 +180,51 @@ def tree(tmp_path):
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_text(text)
         return graph(tmp_path)
+
     return write
 
 
 def test_a_planted_upward_import_is_found(tree):
-    edges = tree({"__init__.py": "", "geometry/__init__.py": "",
-                  "geometry/view.py": "def f():\n    from exhibit.render import frame\n",
-                  "render/__init__.py": "", "render/frame.py": "import exhibit.geometry.view\n"})
+    edges = tree(
+        {
+            "__init__.py": "",
+            "geometry/__init__.py": "",
+            "geometry/view.py": "def f():\n    from exhibit.render import frame\n",
+            "render/__init__.py": "",
+            "render/frame.py": "import exhibit.geometry.view\n",
+        }
+    )
     assert edges["exhibit.geometry.view"] == {"exhibit.render.frame"}
     assert upward_imports(edges) == [
-        "exhibit.geometry.view (layer 2) imports exhibit.render.frame (layer 5)"]
+        "exhibit.geometry.view (layer 2) imports exhibit.render.frame (layer 5)"
+    ]
 
 
 def test_a_sibling_package_of_the_same_layer_is_refused(tree):
-    edges = tree({"__init__.py": "", "surfaces/__init__.py": "",
-                  "surfaces/mesh.py": "from exhibit.devices.url import parse\n",
-                  "devices/__init__.py": "", "devices/url.py": ""})
+    edges = tree(
+        {
+            "__init__.py": "",
+            "surfaces/__init__.py": "",
+            "surfaces/mesh.py": "from exhibit.devices.url import parse\n",
+            "devices/__init__.py": "",
+            "devices/url.py": "",
+        }
+    )
     assert len(upward_imports(edges)) == 1
 
 
 def test_a_planted_cycle_is_found_through_relative_and_lazy_imports(tree):
-    edges = tree({"__init__.py": "", "devices/__init__.py": "",
-                  "devices/url.py": "from . import hid\n",
-                  "devices/hid.py": "def g():\n    from .fake import x\n",
-                  "devices/fake.py": "from exhibit.devices.url import y\n",
-                  "devices/alone.py": "from exhibit.devices import url\n"})
-    assert cycles(edges) == [["exhibit.devices.fake", "exhibit.devices.hid",
-                              "exhibit.devices.url"]]
+    edges = tree(
+        {
+            "__init__.py": "",
+            "devices/__init__.py": "",
+            "devices/url.py": "from . import hid\n",
+            "devices/hid.py": "def g():\n    from .fake import x\n",
+            "devices/fake.py": "from exhibit.devices.url import y\n",
+            "devices/alone.py": "from exhibit.devices import url\n",
+        }
+    )
+    assert cycles(edges) == [["exhibit.devices.fake", "exhibit.devices.hid", "exhibit.devices.url"]]
     assert upward_imports(edges) == []
 
 
@@ -207,21 +235,34 @@ TYPE_ONLY = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    {}\n"
 def test_a_planted_type_checking_cycle_is_found(tree, guard):
     """The shape options.py and quality.py once had: one imports the other for annotations only,
     the other imports it back at run time."""
-    edges = tree({"__init__.py": "", "render/__init__.py": "",
-                  "render/options.py": "import typing\n" + TYPE_ONLY.replace(
-                      "TYPE_CHECKING:", f"{guard}:").format(
-                      "from exhibit.render.quality import Quality"),
-                  "render/quality.py": "from exhibit.render.options import RenderOptions\n"})
+    edges = tree(
+        {
+            "__init__.py": "",
+            "render/__init__.py": "",
+            "render/options.py": "import typing\n"
+            + TYPE_ONLY.replace("TYPE_CHECKING:", f"{guard}:").format(
+                "from exhibit.render.quality import Quality"
+            ),
+            "render/quality.py": "from exhibit.render.options import RenderOptions\n",
+        }
+    )
     assert edges["exhibit.render.options"] == {"exhibit.render.quality"}
     assert cycles(edges) == [["exhibit.render.options", "exhibit.render.quality"]]
 
 
 def test_a_type_checking_import_counts_for_the_layers(tree):
-    edges = tree({"__init__.py": "", "devices/__init__.py": "",
-                  "devices/typed.py": TYPE_ONLY.format("from exhibit.render import frame"),
-                  "render/__init__.py": "", "render/frame.py": ""})
+    edges = tree(
+        {
+            "__init__.py": "",
+            "devices/__init__.py": "",
+            "devices/typed.py": TYPE_ONLY.format("from exhibit.render import frame"),
+            "render/__init__.py": "",
+            "render/frame.py": "",
+        }
+    )
     assert upward_imports(edges) == [
-        "exhibit.devices.typed (layer 3) imports exhibit.render.frame (layer 5)"]
+        "exhibit.devices.typed (layer 3) imports exhibit.render.frame (layer 5)"
+    ]
 
 
 def test_no_test_module_imports_another():
@@ -233,8 +274,13 @@ def test_no_test_module_imports_another():
     for path in sorted(tests.rglob("*.py")):
         tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
         for node in ast.walk(tree):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
-                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
             for name in names:
                 if name.startswith("tests.") and name.rsplit(".", 1)[-1].startswith("test_"):
                     problems.append(f"{path.relative_to(tests)} imports {name}")

@@ -28,6 +28,7 @@ def _argtype(check: Callable[[Any], T], name: str) -> Callable[[str], T]:
             return check(value)
         except PydanticCustomError as exc:
             raise argparse.ArgumentTypeError(exc.message()) from None
+
     parse.__name__ = name  # argparse names the type in its messages
     return parse
 

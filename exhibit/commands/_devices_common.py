@@ -18,17 +18,32 @@ from exhibit.errors import ExhibitError
 
 
 def add_config_arguments(parser) -> None:
-    parser.add_argument("--config", type=Path, default=None,
-                        help="kiosk config, as for `exhibit run` (default: $EXHIBIT_CONFIG, else "
-                             "/etc/exhibit/kiosk.toml, else the shipped one); its "
-                             "devices.config is used")
-    parser.add_argument("--devices-config", type=Path, default=None, metavar="FILE",
-                        help="a device config file instead (default: $EXHIBIT_DEVICES_CONFIG)")
-    parser.add_argument("--device", action="append", default=[], metavar="NAME=URL",
-                        help="add or replace a device, e.g. controller=sim://controller "
-                             "(repeatable); --only keeps just these")
-    parser.add_argument("--only", action="store_true",
-                        help="use only the --device devices, not the config's")
+    parser.add_argument(
+        "--config",
+        type=Path,
+        default=None,
+        help="kiosk config, as for `exhibit run` (default: $EXHIBIT_CONFIG, else "
+        "/etc/exhibit/kiosk.toml, else the shipped one); its "
+        "devices.config is used",
+    )
+    parser.add_argument(
+        "--devices-config",
+        type=Path,
+        default=None,
+        metavar="FILE",
+        help="a device config file instead (default: $EXHIBIT_DEVICES_CONFIG)",
+    )
+    parser.add_argument(
+        "--device",
+        action="append",
+        default=[],
+        metavar="NAME=URL",
+        help="add or replace a device, e.g. controller=sim://controller "
+        "(repeatable); --only keeps just these",
+    )
+    parser.add_argument(
+        "--only", action="store_true", help="use only the --device devices, not the config's"
+    )
 
 
 def devices_config_path(args) -> Path:

@@ -35,7 +35,7 @@ INK = (235, 235, 235)
 
 
 def output_kind(out: str) -> str:
-    """"folder" (ends in / or is a folder), "mp4" or "sheet" (.png); else an ExhibitError."""
+    """ "folder" (ends in / or is a folder), "mp4" or "sheet" (.png); else an ExhibitError."""
     path = Path(out)
     if out.endswith(("/", "\\")) or path.is_dir():
         if path.exists() and not path.is_dir():
@@ -43,8 +43,9 @@ def output_kind(out: str) -> str:
         return "folder"
     kind = {".mp4": "mp4", ".png": "sheet"}.get(path.suffix.lower())
     if kind is None:
-        raise ExhibitError(f"--out: {out} must be a folder (ending in /), an .mp4 or a .png "
-                           "contact sheet")
+        raise ExhibitError(
+            f"--out: {out} must be a folder (ending in /), an .mp4 or a .png contact sheet"
+        )
     if not path.parent.is_dir():
         raise ExhibitError(f"--out: folder {path.parent} does not exist")
     return kind
@@ -54,10 +55,15 @@ def _conflicts(args) -> None:
     if args.timeline is not None and args.takeover is not None:
         raise ExhibitError("give --timeline or --takeover, not both")
     flag = "--timeline" if args.timeline is not None else "--takeover"
-    for name, given in (("scene name", bool(args.scene)), ("--figure", args.figure is not None),
-                        ("--frames", args.frames is not None), ("--window", args.window),
-                        ("--slice", args.slice is not None), ("--angles", bool(args.angles)),
-                        ("--param", bool(args.param))):
+    for name, given in (
+        ("scene name", bool(args.scene)),
+        ("--figure", args.figure is not None),
+        ("--frames", args.frames is not None),
+        ("--window", args.window),
+        ("--slice", args.slice is not None),
+        ("--angles", bool(args.angles)),
+        ("--param", bool(args.param)),
+    ):
         if given:
             raise ExhibitError(f"{flag} plays the kiosk: it takes no {name}")
     if args.out is None:
@@ -81,7 +87,7 @@ def _timeline(args, size, config, language) -> int:
 
     kind = output_kind(args.out)
     timeline = read_timeline(args.timeline)  # one line if it is not a timeline
-    fps = args.fps or (10 if kind == "sheet" else 25)   # checked by argparse (_args.number)
+    fps = args.fps or (10 if kind == "sheet" else 25)  # checked by argparse (_args.number)
     if kind == "mp4":
         need_ffmpeg("a folder (DIR/) or a .png contact sheet")
     out = Path(args.out)
@@ -89,11 +95,13 @@ def _timeline(args, size, config, language) -> int:
         if kind == "sheet":
             spans = player.captions()
             if not spans:
-                raise ExhibitError(f"--timeline: {timeline.path} shows no caption for a contact "
-                                   "sheet")
+                raise ExhibitError(
+                    f"--timeline: {timeline.path} shows no caption for a contact sheet"
+                )
             frames = list(player.play(fps, times=[s.settled for s in spans]))
-            sheet = contact_sheet(frames, f"{timeline.name} ({Path(timeline.path).name}), "
-                                          f"language {language}")
+            sheet = contact_sheet(
+                frames, f"{timeline.name} ({Path(timeline.path).name}), language {language}"
+            )
             sheet.save(out)
             print(out)
             return 0
@@ -102,16 +110,35 @@ def _timeline(args, size, config, language) -> int:
             folder.mkdir(parents=True, exist_ok=True)
             index = []
             from PIL import Image
+
             for i, frame in enumerate(player.play(fps)):
                 name = f"frame_{i:04d}.png"
                 Image.fromarray(frame.image).save(folder / name)
-                index.append({"file": name, "t": round(frame.t, 4), "caption": frame.caption,
-                              "mode": frame.mode})
+                index.append(
+                    {
+                        "file": name,
+                        "t": round(frame.t, 4),
+                        "caption": frame.caption,
+                        "mode": frame.mode,
+                    }
+                )
             if kind == "folder":
-                (folder / "index.json").write_text(json.dumps(
-                    {"timeline": timeline.path, "scene": timeline.scene, "language": language,
-                     "fps": fps, "size": list(size), "frames": index},
-                    ensure_ascii=False, indent=1) + "\n", encoding="utf-8")
+                (folder / "index.json").write_text(
+                    json.dumps(
+                        {
+                            "timeline": timeline.path,
+                            "scene": timeline.scene,
+                            "language": language,
+                            "fps": fps,
+                            "size": list(size),
+                            "frames": index,
+                        },
+                        ensure_ascii=False,
+                        indent=1,
+                    )
+                    + "\n",
+                    encoding="utf-8",
+                )
             else:
                 encode_mp4(folder, out, fps)
         finally:
@@ -134,8 +161,9 @@ def _takeover(args, size, config, language) -> int:
         raise ExhibitError(f"--out: folder {out.parent} does not exist")
     after, fps = args.after, args.fps or 10
     timeline = shipped_timeline(args.takeover, config.attract_dir)
-    with KioskPlayer(size, timeline=timeline, scene=args.takeover, language=language,
-                     config=config) as player:
+    with KioskPlayer(
+        size, timeline=timeline, scene=args.takeover, language=language, config=config
+    ) as player:
         frame = player.takeover(after, fps)
         Image.fromarray(frame.image).save(out)
     print(out)
@@ -144,8 +172,10 @@ def _takeover(args, size, config, language) -> int:
 
 def _font(size: int):
     from PIL import ImageFont
+
     try:
         from exhibit.render.text import font
+
         return font("sans", size)
     except Exception:  # noqa: BLE001 - any font will label a tile
         return ImageFont.load_default(size)
@@ -158,8 +188,11 @@ def sheet_size(count: int, frame_size: tuple[int, int]) -> tuple[tuple[int, int]
     tile_h = max(1, round(h * tile_w / w))
     cols = min(count, COLUMNS)
     rows = math.ceil(count / cols)
-    return ((cols * tile_w + (cols + 1) * GAP,
-             HEADER_H + rows * (tile_h + LABEL_H) + (rows + 1) * GAP), tile_w, tile_h)
+    return (
+        (cols * tile_w + (cols + 1) * GAP, HEADER_H + rows * (tile_h + LABEL_H) + (rows + 1) * GAP),
+        tile_w,
+        tile_h,
+    )
 
 
 def contact_sheet(frames, title: str):
@@ -181,6 +214,11 @@ def contact_sheet(frames, title: str):
         if tile.size != (tile_w, tile_h):
             tile = tile.resize((tile_w, tile_h), Image.Resampling.LANCZOS)
         sheet.paste(tile, (x, y))
-        draw.text((x, y + tile_h + LABEL_H // 2), f"t = {frame.t:.1f} s \u00b7 {frame.language}",
-                  font=label, fill=INK, anchor="lm")
+        draw.text(
+            (x, y + tile_h + LABEL_H // 2),
+            f"t = {frame.t:.1f} s \u00b7 {frame.language}",
+            font=label,
+            fill=INK,
+            anchor="lm",
+        )
     return sheet

@@ -29,8 +29,11 @@ class StaffControls:
     def __init__(self, config: DeviceConfig, home, clock=time.monotonic):
         names = [n for n, url in config.devices.items() if parse_url(url)[0] == "keyboard"]
         name = names[0] if names else "keyboard"
-        binds = tuple(dataclasses.replace(b, device=name) for b in config.mapping.bindings
-                      if b.device in names)
+        binds = tuple(
+            dataclasses.replace(b, device=name)
+            for b in config.mapping.bindings
+            if b.device in names
+        )
         self.mapper = Mapper(dataclasses.replace(config.mapping, bindings=binds))
         self.keyboard = KeyboardBackend(name=name, clock=clock).open()
         self.home = home
@@ -69,6 +72,7 @@ def run(window, gpu, view, hud, config: DeviceConfig, options) -> None:
     window.set_input(on_input)
     while not window.should_close and not controls.quit:
         view = controls.step(view, time.monotonic())
-        window.draw(gpu, view, dataclasses.replace(options, depth_colour=controls.depth_colour),
-                    hud)
+        window.draw(
+            gpu, view, dataclasses.replace(options, depth_colour=controls.depth_colour), hud
+        )
         window.swap()

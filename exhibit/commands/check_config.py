@@ -23,18 +23,29 @@ HELP = "check the kiosk configuration and all the files it names; exit 2 on any 
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("config", nargs="?", help="site config over the shipped defaults "
-                                                  "(default: $EXHIBIT_CONFIG, else "
-                                                  "/etc/exhibit/kiosk.toml if it exists)")
-    parser.add_argument("--show", action="store_true",
-                        help="print the effective configuration, each value with its file")
+    parser.add_argument(
+        "config",
+        nargs="?",
+        help="site config over the shipped defaults "
+        "(default: $EXHIBIT_CONFIG, else "
+        "/etc/exhibit/kiosk.toml if it exists)",
+    )
+    parser.add_argument(
+        "--show",
+        action="store_true",
+        help="print the effective configuration, each value with its file",
+    )
 
 
 def run(args) -> int:
     try:
         config = load_kiosk_config(args.config)
-        problems = (_caption_problems(config.attract_dir) + coverage_problems(config)
-                    + _colour_problems(config) + _layout_problems(config))
+        problems = (
+            _caption_problems(config.attract_dir)
+            + coverage_problems(config)
+            + _colour_problems(config)
+            + _layout_problems(config)
+        )
     except ConfigError as exc:
         problems = exc.problems
     if problems:
@@ -49,8 +60,10 @@ def run(args) -> int:
             print(f"{line:<{width}}  # {origin}")
         return 0
     layered = " (over the shipped defaults)" if config.site else " (the shipped defaults)"
-    print(f"{config.path}: OK{layered}: {len(config.scenes)} scenes, devices "
-          f"{config.devices_config}, attract {config.attract_dir}")
+    print(
+        f"{config.path}: OK{layered}: {len(config.scenes)} scenes, devices "
+        f"{config.devices_config}, attract {config.attract_dir}"
+    )
     return 0
 
 
@@ -59,7 +72,9 @@ def _caption_problems(attract_dir) -> list[str]:
     timelines have been checked already, so they load)."""
     if attract_dir is None:
         return []
-    return [p for path in timeline_paths(attract_dir) for p in caption_problems(load_timeline(path))]
+    return [
+        p for path in timeline_paths(attract_dir) for p in caption_problems(load_timeline(path))
+    ]
 
 
 def _colour_problems(config) -> list[str]:
@@ -117,10 +132,10 @@ def _layout_problems(config) -> list[str]:
             if code == SOURCE or catalogue is None:
                 text, prefix = english, f"{where}: {_short(english)}"
                 if where == "the HUD":
-                    continue   # the HUD's own English words fit (tests/render)
+                    continue  # the HUD's own English words fit (tests/render)
             else:
                 if english not in catalogue.text:
-                    continue   # reported as missing; the English is shown
+                    continue  # reported as missing; the English is shown
                 text = catalogue.text[english]
                 prefix = f"{catalogue.path}: text.{english!r}"
             for reason in text_problems(what, text, sizes, word=english):

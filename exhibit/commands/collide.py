@@ -18,8 +18,12 @@ HELP = "first contact of a moving cylinder and sphere (paper, section 4.3)"
 
 
 def add_arguments(parser) -> None:
-    for name, help_text in (("rc", "cylinder radius"), ("rs", "sphere radius"),
-                            ("vc", "cylinder speed along +y"), ("vs", "sphere speed along -z")):
+    for name, help_text in (
+        ("rc", "cylinder radius"),
+        ("rs", "sphere radius"),
+        ("vc", "cylinder speed along +y"),
+        ("vs", "sphere speed along -z"),
+    ):
         parser.add_argument(f"--{name}", required=True, metavar="R", help=help_text)
     parser.add_argument("--resolution", metavar="N", help="mesh resolution (default: 48)")
     parser.add_argument("--json", action="store_true", help="print JSON")
@@ -75,18 +79,26 @@ def run(args) -> int:
     # mesh and Newton see first contact at t = -1 whatever the radii and speeds (rc = 1e-6
     # with rs = 1e6 no longer falls between the cells); scaled back at the end.
     length, speed = params["rc"] + params["rs"], math.hypot(params["vc"], params["vs"])
-    unit = {"rc": params["rc"] / length, "rs": params["rs"] / length,
-            "vc": params["vc"] / speed, "vs": params["vs"] / speed}
+    unit = {
+        "rc": params["rc"] / length,
+        "rs": params["rs"] / length,
+        "vc": params["vc"] / speed,
+        "vs": params["vs"] / speed,
+    }
     with progress.on_terminal():
         part = collision.build_part(unit, resolution)
     lo, hi = collision.box(unit)
-    cell = max(h - l for l, h in zip(lo, hi)) / resolution
+    cell = max(high - low for low, high in zip(lo, hi)) / resolution
     point = first_contact(part, unit)
     scale = np.array([length, length, length, length / speed])
     point = point * scale
     components = components_through_singular_points(part, cell)
-    contact = {"t": float(point[3]), "x": float(point[0]), "y": float(point[1]),
-               "z": float(point[2])}
+    contact = {
+        "t": float(point[3]),
+        "x": float(point[0]),
+        "y": float(point[1]),
+        "z": float(point[2]),
+    }
     result = {
         "colliding_point": contact,
         # None: the surface is too thin for a mesh at this resolution (a tiny radius)
@@ -96,8 +108,13 @@ def run(args) -> int:
         print(json.dumps(result, indent=2))
     else:
         p = contact
-        pieces = (f"the collision surface has {components} component(s)" if components else
-                  "the collision surface is too thin to mesh at this resolution")
-        print(f"First contact at t = {p['t']:.6g}, at (x, y, z) = "
-              f"({p['x']:.6g}, {p['y']:.6g}, {p['z']:.6g}); {pieces}.")
+        pieces = (
+            f"the collision surface has {components} component(s)"
+            if components
+            else "the collision surface is too thin to mesh at this resolution"
+        )
+        print(
+            f"First contact at t = {p['t']:.6g}, at (x, y, z) = "
+            f"({p['x']:.6g}, {p['y']:.6g}, {p['z']:.6g}); {pieces}."
+        )
     return 0

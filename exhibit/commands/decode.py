@@ -19,12 +19,20 @@ BLOCK = 1 << 16
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--protocol", choices=["controller"], default="controller",
-                        help="the wire protocol (firmware/PROTOCOL.md); only 'controller' so far")
-    parser.add_argument("file", nargs="?", default="-",
-                        help="captured bytes; '-' or nothing reads standard input")
-    parser.add_argument("--frames-only", action="store_true",
-                        help="leave out the lines of rejected chunks (the summary still counts them)")
+    parser.add_argument(
+        "--protocol",
+        choices=["controller"],
+        default="controller",
+        help="the wire protocol (firmware/PROTOCOL.md); only 'controller' so far",
+    )
+    parser.add_argument(
+        "file", nargs="?", default="-", help="captured bytes; '-' or nothing reads standard input"
+    )
+    parser.add_argument(
+        "--frames-only",
+        action="store_true",
+        help="leave out the lines of rejected chunks (the summary still counts them)",
+    )
 
 
 def run(args) -> int:
@@ -42,8 +50,11 @@ def run(args) -> int:
                 raise ExhibitError(f"cannot read {args.file}: {exc.strerror or exc}") from None
             if not block:
                 break
-            lines = [json.dumps(item.to_dict()) for item in decoder.feed(block)
-                     if not (args.frames_only and isinstance(item, p.Rejected))]
+            lines = [
+                json.dumps(item.to_dict())
+                for item in decoder.feed(block)
+                if not (args.frames_only and isinstance(item, p.Rejected))
+            ]
             if lines:
                 out.write("\n".join(lines) + "\n")
     # Bytes after the last delimiter are a frame still arriving when the capture stopped: not

@@ -26,8 +26,12 @@ HELP = "list configured devices with their state, and detected serial and HID de
 def add_arguments(parser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true", help="one JSON document")
-    parser.add_argument("--wait", type=_args.number(0, 60), default=1.5,
-                        help="seconds to give each device to connect (default 1.5)")
+    parser.add_argument(
+        "--wait",
+        type=_args.number(0, 60),
+        default=1.5,
+        help="seconds to give each device to connect (default 1.5)",
+    )
 
 
 def detected_serial() -> list[dict]:
@@ -40,10 +44,15 @@ def detected_serial() -> list[dict]:
     if d.is_dir():
         for link in d.iterdir():
             by_id[os.path.realpath(link)] = str(link)
-    return [{"path": by_id.get(os.path.realpath(port.device), port.device), "device": port.device,
-             "vid_pid": f"{port.vid:04x}:{port.pid:04x}" if port.vid is not None else None,
-             "description": port.description}
-            for port in list_ports.comports()]
+    return [
+        {
+            "path": by_id.get(os.path.realpath(port.device), port.device),
+            "device": port.device,
+            "vid_pid": f"{port.vid:04x}:{port.pid:04x}" if port.vid is not None else None,
+            "description": port.description,
+        }
+        for port in list_ports.comports()
+    ]
 
 
 def detected_hid(layout_dirs) -> list[dict]:
@@ -58,13 +67,19 @@ def detected_hid(layout_dirs) -> list[dict]:
             continue
         for e in entries:
             vp = (e.get("vendor_id", 0), e.get("product_id", 0))
-            layout = next((l.name for l in layouts.values() if vp in l.match), None)
-            found.append({"backend": backend, "vid_pid": f"{vp[0]:04x}:{vp[1]:04x}",
-                          "path": e.get("path", b"").decode(errors="replace"),
-                          "product": e.get("product_string") or "",
-                          "serial": e.get("serial_number") or "",
-                          "usage_page": e.get("usage_page", 0), "layout": layout,
-                          "url": f"{backend}://{vp[0]:04x}:{vp[1]:04x}"})
+            layout = next((lay.name for lay in layouts.values() if vp in lay.match), None)
+            found.append(
+                {
+                    "backend": backend,
+                    "vid_pid": f"{vp[0]:04x}:{vp[1]:04x}",
+                    "path": e.get("path", b"").decode(errors="replace"),
+                    "product": e.get("product_string") or "",
+                    "serial": e.get("serial_number") or "",
+                    "usage_page": e.get("usage_page", 0),
+                    "layout": layout,
+                    "url": f"{backend}://{vp[0]:04x}:{vp[1]:04x}",
+                }
+            )
     return found
 
 
@@ -78,8 +93,11 @@ def run(args) -> int:
                 break
             time.sleep(0.01)
         configured = devices.statuses()
-    report = {"configured": configured, "serial": detected_serial(),
-              "hid": detected_hid(config.layout_dirs)}
+    report = {
+        "configured": configured,
+        "serial": detected_serial(),
+        "hid": detected_hid(config.layout_dirs),
+    }
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
@@ -95,8 +113,10 @@ def run(args) -> int:
     print("HID devices:" if hid else "HID devices: none")
     for h in hid:
         layout = f"layout {h['layout']}" if h["layout"] else "no layout"
-        print(f"  {h['url']:<24} {h['product'] or '?'}  ({layout}, usage page "
-              f"0x{h['usage_page']:04x}, {h['path']})")
+        print(
+            f"  {h['url']:<24} {h['product'] or '?'}  ({layout}, usage page "
+            f"0x{h['usage_page']:04x}, {h['path']})"
+        )
     for h in report["hid"]:
         if "error" in h:
             print(f"  ({h['backend']}: {h['error']})")

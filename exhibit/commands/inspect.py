@@ -46,7 +46,8 @@ def exactness(surface) -> dict:
     if box is None:
         return {"boundary_box_distance": None, "singular_gap": None}
     report: dict[str, float | None] = {
-        "boundary_box_distance": boundary_box_distance(surface.positions, surface.triangles, *box)}
+        "boundary_box_distance": boundary_box_distance(surface.positions, surface.triangles, *box)
+    }
     result = getattr(surface.exact, "result", None)
     singular = None if result is None else result.singular_positions
     if singular is None:
@@ -54,8 +55,9 @@ def exactness(surface) -> dict:
     elif len(singular) == 0:
         report["singular_gap"] = 0.0
     else:
-        report["singular_gap"] = float(distance_to_mesh(singular, surface.positions,
-                                                        surface.triangles).max())
+        report["singular_gap"] = float(
+            distance_to_mesh(singular, surface.positions, surface.triangles).max()
+        )
     diagonal = float(np.linalg.norm(np.subtract(box[1], box[0])))
     report["box_diagonal"] = diagonal
     return report
@@ -71,18 +73,25 @@ def run(args) -> int:
     print(f"{scene.title} ({scene.name})")
     for p in parts:
         residual = "-" if p["max_residual"] is None else f"{p['max_residual']:.1e}"
-        print(f"  {p['name']}: {p['kind']}, {p['vertices']} vertices, {p['triangles']} triangles, "
-              f"{p['components']} component(s), χ = {p['euler_characteristic']}, "
-              f"{p['boundary_edges']} boundary / {p['nonmanifold_edges']} non-manifold edges, "
-              f"max residual {residual}, {p['singular_points']} singular points, "
-              f"{p['seconds']:.2f} s")
+        print(
+            f"  {p['name']}: {p['kind']}, {p['vertices']} vertices, {p['triangles']} triangles, "
+            f"{p['components']} component(s), χ = {p['euler_characteristic']}, "
+            f"{p['boundary_edges']} boundary / {p['nonmanifold_edges']} non-manifold edges, "
+            f"max residual {residual}, {p['singular_points']} singular points, "
+            f"{p['seconds']:.2f} s"
+        )
         if p["boundary_box_distance"] is not None:
             gap = "-" if p["singular_gap"] is None else f"{p['singular_gap']:.2g}"
-            print(f"    boundary off the box by {p['boundary_box_distance']:.1e}, singular set "
-                  f"off the mesh by {gap} (box diagonal {p['box_diagonal']:.3g})")
+            print(
+                f"    boundary off the box by {p['boundary_box_distance']:.1e}, singular set "
+                f"off the mesh by {gap} (box diagonal {p['box_diagonal']:.3g})"
+            )
     for curve in mesh.curves:
-        print(f"  {curve.name}: curve, {len(curve.points)} points{' (closed)' if curve.closed else ''}")
+        closed = " (closed)" if curve.closed else ""
+        print(f"  {curve.name}: curve, {len(curve.points)} points{closed}")
     for marker in mesh.markers:
-        print(f"  {marker.name}: {', '.join(f'{v:.6g}' for v in marker.position)}"
-              f"{' — ' + marker.label if marker.label else ''}")
+        print(
+            f"  {marker.name}: {', '.join(f'{v:.6g}' for v in marker.position)}"
+            f"{' — ' + marker.label if marker.label else ''}"
+        )
     return 0

@@ -77,34 +77,48 @@ _DISPLAY_PROGRAMS = (
 @dataclass
 class Planned:
     """One file to write: where, what, and whether it is new, changed or already the same."""
+
     path: Path
     text: str
     state: str  # "new" | "changed" | "unchanged"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--root", metavar="DIR",
-                        help="write under this folder instead of / and only print the remaining "
-                             "steps (staging an image, or reviewing the files)")
-    parser.add_argument("--prefix", default=DEFAULT_PREFIX, metavar="DIR",
-                        help=f"where the checkout and its .venv live on the kiosk (default "
-                             f"{DEFAULT_PREFIX}); ExecStart= is PREFIX/.venv/bin/exhibit run")
-    parser.add_argument("--dry-run", action="store_true",
-                        help="write and run nothing; show what would be written and run")
+    parser.add_argument(
+        "--root",
+        metavar="DIR",
+        help="write under this folder instead of / and only print the remaining "
+        "steps (staging an image, or reviewing the files)",
+    )
+    parser.add_argument(
+        "--prefix",
+        default=DEFAULT_PREFIX,
+        metavar="DIR",
+        help=f"where the checkout and its .venv live on the kiosk (default "
+        f"{DEFAULT_PREFIX}); ExecStart= is PREFIX/.venv/bin/exhibit run",
+    )
+    parser.add_argument(
+        "--dry-run",
+        action="store_true",
+        help="write and run nothing; show what would be written and run",
+    )
 
 
 def run(args) -> int:
     prefix = check_prefix(args.prefix)
     if args.root == "":  # Path("") is ".": an empty variable in a script would stage into cwd
-        raise ExhibitError("--root '': give a folder to stage into, or leave --root out to "
-                           "install into /")
+        raise ExhibitError(
+            "--root '': give a folder to stage into, or leave --root out to install into /"
+        )
     root = Path("/") if args.root is None else Path(args.root)
     if args.root is not None and not root.is_dir():
         raise ExhibitError(f"--root {root}: no such folder")
     perform = args.root is None and not args.dry_run
     if perform and os.geteuid() != 0:
-        raise ExhibitError(f"installing into / needs root: sudo {prefix}/.venv/bin/exhibit "
-                           "install; or stage the files with --root DIR, or look with --dry-run")
+        raise ExhibitError(
+            f"installing into / needs root: sudo {prefix}/.venv/bin/exhibit "
+            "install; or stage the files with --root DIR, or look with --dry-run"
+        )
     return install(root, prefix, dry_run=args.dry_run, perform=perform)
 
 
@@ -115,13 +129,17 @@ def check_prefix(prefix: str) -> str:
         raise ExhibitError(f"--prefix {text!r}: must be an absolute path (e.g. {DEFAULT_PREFIX})")
     norm = os.path.normpath(text)
     if not _SAFE_PATH.match(norm):
-        raise ExhibitError(f"--prefix {text!r}: use only letters, digits and . _ + - / (it is "
-                           "written into unit files unquoted)")
+        raise ExhibitError(
+            f"--prefix {text!r}: use only letters, digits and . _ + - / (it is "
+            "written into unit files unquoted)"
+        )
     for hidden in _HIDDEN:
         if norm == hidden or norm.startswith(hidden + "/"):
-            raise ExhibitError(f"--prefix {norm}: the service cannot use {hidden} (hidden by "
-                               f"its ProtectHome=/PrivateTmp=, or cleared at boot); use e.g. "
-                               f"{DEFAULT_PREFIX}")
+            raise ExhibitError(
+                f"--prefix {norm}: the service cannot use {hidden} (hidden by "
+                f"its ProtectHome=/PrivateTmp=, or cleared at boot); use e.g. "
+                f"{DEFAULT_PREFIX}"
+            )
     if norm == "/":
         raise ExhibitError("--prefix /: give the folder of the checkout, e.g. /opt/exhibit")
     return norm
@@ -143,9 +161,11 @@ def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
         try:
             text = render(src.read_text(encoding="utf-8"), prefix)
         except OSError as exc:
-            raise ExhibitError(f"cannot read {src}: {exc.strerror or exc} (exhibit install works "
-                               "from a source checkout installed with pip install -e, as "
-                               "./bootstrap.sh does)") from None
+            raise ExhibitError(
+                f"cannot read {src}: {exc.strerror or exc} (exhibit install works "
+                "from a source checkout installed with pip install -e, as "
+                "./bootstrap.sh does)"
+            ) from None
         path = root / dest
         try:
             check_target(path, root=root)
@@ -185,8 +205,9 @@ def _read_existing(path: Path, limit: int = 1 << 20) -> bytes:
         os.close(fd)
 
 
-def write(planned: list[Planned], root: Path = Path("/"),
-          out: Callable[[str], None] | None = None) -> None:
+def write(
+    planned: list[Planned], root: Path = Path("/"), out: Callable[[str], None] | None = None
+) -> None:
     """Write each changed file atomically (mode 0644, fsynced) with
     :func:`exhibit.schema.files.write_atomic`, creating folders as needed but never following a
     symlink below ``root``; ``out`` hears "wrote PATH" once each file is in place."""
@@ -255,26 +276,50 @@ def as_service(exe: str, args: list[str], env: list[str]) -> list[str]:
 def prepare_steps(exe: str, env: list[str]) -> list[list[str]]:
     """Build the mesh cache before a start: the cache folder for the user (systemd makes it only
     at the first start), then `exhibit prepare` as the user, with the service's environment."""
-    return [["install", "-d", "-o", USER, "-g", USER, "-m", "0755", CACHE_ROOT],
-            as_service(exe, ["prepare"], env)]
+    return [
+        ["install", "-d", "-o", USER, "-g", USER, "-m", "0755", CACHE_ROOT],
+        as_service(exe, ["prepare"], env),
+    ]
 
 
-def steps(need_user: bool = True, prefix: str = DEFAULT_PREFIX, site_env: list[str] | tuple = (),
-          source: Path = SOURCE_DIR) -> list[list[str]]:
+def steps(
+    need_user: bool = True,
+    prefix: str = DEFAULT_PREFIX,
+    site_env: list[str] | tuple = (),
+    source: Path = SOURCE_DIR,
+) -> list[list[str]]:
     """The commands that finish an installation on the target, in order; the last ones build
     the mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's."""
     unit = render((source / "exhibit.service").read_text(encoding="utf-8"), prefix)
     commands = []
     if need_user:
-        commands.append(["useradd", "--system", "--user-group", "--home-dir", HOME,
-                         "--no-create-home", "--shell", "/usr/sbin/nologin",
-                         "--comment", "exhibit kiosk", USER])
+        commands.append(
+            [
+                "useradd",
+                "--system",
+                "--user-group",
+                "--home-dir",
+                HOME,
+                "--no-create-home",
+                "--shell",
+                "/usr/sbin/nologin",
+                "--comment",
+                "exhibit kiosk",
+                USER,
+            ]
+        )
     commands += [
         ["modprobe", "-a", "usbserial", "cdc_acm"],
         ["sysctl", "--system"],  # kernel.sysrq = 0 now; systemd-sysctl applies it at each boot
         ["udevadm", "control", "--reload"],
-        ["udevadm", "trigger", "--action=add", "--subsystem-match=tty",
-         "--subsystem-match=hidraw", "--subsystem-match=usb"],
+        [
+            "udevadm",
+            "trigger",
+            "--action=add",
+            "--subsystem-match=tty",
+            "--subsystem-match=hidraw",
+            "--subsystem-match=usb",
+        ],
         ["systemctl", "daemon-reload"],
         ["systemctl", "enable", *ENABLE],
         *prepare_steps(f"{prefix}/.venv/bin/exhibit", service_environment(unit, site_env)),
@@ -302,26 +347,36 @@ def _run(command: list[str]) -> subprocess.CompletedProcess:
     return subprocess.run(command, capture_output=True, text=True)
 
 
-def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = False,
-            out: Callable[[str], None] = print, runner: Callable = _run,
-            user_exists: Callable[[str], bool] = _user_exists,
-            group_exists: Callable[[str], bool] = _group_exists,
-            source: Path = SOURCE_DIR) -> int:
+def install(
+    root: Path,
+    prefix: str,
+    dry_run: bool = False,
+    perform: bool = False,
+    out: Callable[[str], None] = print,
+    runner: Callable = _run,
+    user_exists: Callable[[str], bool] = _user_exists,
+    group_exists: Callable[[str], bool] = _group_exists,
+    source: Path = SOURCE_DIR,
+) -> int:
     """Write the files under ``root`` and, with ``perform``, run the remaining steps (the caller
     checks for root). Returns the exit code; ExhibitError for anything the user must fix."""
     planned = plan(root, prefix, source)
     exe = Path(prefix) / ".venv" / "bin" / "exhibit"
     if perform:
         if not os.access(exe, os.X_OK):
-            raise ExhibitError(f"{exe} does not exist: put the checkout at {prefix} and create "
-                               f"its venv first (cd {prefix} && PYTHON=/usr/bin/python3 "
-                               "./bootstrap.sh run --help), or give --prefix")
+            raise ExhibitError(
+                f"{exe} does not exist: put the checkout at {prefix} and create "
+                f"its venv first (cd {prefix} && PYTHON=/usr/bin/python3 "
+                "./bootstrap.sh run --help), or give --prefix"
+            )
         _check_interpreter(Path(prefix))
         missing = [g for g in GROUPS if not group_exists(g)]
         if missing:
-            raise ExhibitError(f"group(s) {', '.join(missing)} do not exist here; exhibit.service "
-                               "names them in SupplementaryGroups= and would not start: create "
-                               f"them (groupadd --system {missing[0]}) or edit that line")
+            raise ExhibitError(
+                f"group(s) {', '.join(missing)} do not exist here; exhibit.service "
+                "names them in SupplementaryGroups= and would not start: create "
+                f"them (groupadd --system {missing[0]}) or edit that line"
+            )
     for item in planned:
         if item.state == "unchanged":
             out(f"unchanged: {item.path}")
@@ -332,8 +387,12 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
 
     on_target = perform or root == Path("/")
     # Staging for another machine: whether its user exists cannot be known from here.
-    todo = steps(need_user=not user_exists(USER) if on_target else True, prefix=prefix,
-                 site_env=environment_file(root / SITE_ENVIRONMENT), source=source)
+    todo = steps(
+        need_user=not user_exists(USER) if on_target else True,
+        prefix=prefix,
+        site_env=environment_file(root / SITE_ENVIRONMENT),
+        source=source,
+    )
     if not perform:
         where = "as root" if on_target else "on the kiosk, as root"
         out(f"\n{'steps it would run' if dry_run and on_target else 'remaining steps'} ({where}):")
@@ -354,9 +413,11 @@ def install(root: Path, prefix: str, dry_run: bool = False, perform: bool = Fals
     for program, package, why in _DISPLAY_PROGRAMS:
         if not Path(program).exists():
             out(f"note: {program} is missing: apt-get install {package} ({why})")
-    out("\ninstalled and enabled. Start now (takes over tty1) or reboot:\n"
+    out(
+        "\ninstalled and enabled. Start now (takes over tty1) or reboot:\n"
         f"  {START}\n"
-        "then check: systemctl status exhibit; journalctl -u exhibit -b; exhibit status")
+        "then check: systemctl status exhibit; journalctl -u exhibit -b; exhibit status"
+    )
     return 0
 
 
@@ -373,11 +434,12 @@ def _check_interpreter(prefix: Path) -> None:
             raise ExhibitError(
                 f"{python} is {real}, which the service cannot run ({hidden} is hidden from it "
                 f"or not kept): make the venv from Debian's Python: rm -rf {prefix}/.venv && "
-                f"cd {prefix} && PYTHON=/usr/bin/python3 ./bootstrap.sh run --help")
+                f"cd {prefix} && PYTHON=/usr/bin/python3 ./bootstrap.sh run --help"
+            )
 
 
 def _failed(command: list[str], why: str, todo: list[list[str]], out) -> None:
-    rest = todo[todo.index(command):]
+    rest = todo[todo.index(command) :]
     out("the files are in place; run what is left by hand:")
     for c in rest:
         out("  " + shlex.join(c))

@@ -3,7 +3,8 @@
 Polls every configured device (as the kiosk does, never blocking), applies the mapping, and
 prints the seven parameters, each device's state, the buttons and the idle time a few times a
 second. Whenever a device's state or what it says of itself changes (the controller's HELLO:
-its firmware version; a HID device's product name; why a device is missing), a line says so. A button is shown on every line while it is held, and on the next line after a press too
+its firmware version; a HID device's product name; why a device is missing), a line says so. A
+button is shown on every line while it is held, and on the next line after a press too
 short to be seen held (a tap between two lines), with what the mapping makes it do. With --json
 every line is a JSON object, for scripts.
 """
@@ -28,9 +29,15 @@ HELP = "show the live mapped parameters (angles, sensor distance) and device sta
 def add_arguments(parser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true", help="one JSON object per line")
-    parser.add_argument("--rate", type=_args.number(0.1, 100), default=5.0, help="lines per second (default 5)")
-    parser.add_argument("--duration", type=_args.seconds(), default=None,
-                        help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument(
+        "--rate", type=_args.number(0.1, 100), default=5.0, help="lines per second (default 5)"
+    )
+    parser.add_argument(
+        "--duration",
+        type=_args.seconds(),
+        default=None,
+        help="stop after this many seconds (default: until Ctrl-C)",
+    )
 
 
 class Buttons:
@@ -54,12 +61,20 @@ class Buttons:
         """The buttons for one line (1-based, as on the hardware); forgets the taps."""
         shown = sorted(self.held | self.tapped)
         self.tapped.clear()
-        return [{"device": d, "button": i + 1, "held": (d, i) in self.held,
-                 "does": mapper.button_role(d, i)} for d, i in shown]
+        return [
+            {
+                "device": d,
+                "button": i + 1,
+                "held": (d, i) in self.held,
+                "does": mapper.button_role(d, i),
+            }
+            for d, i in shown
+        ]
 
 
-def snapshot(view: ViewState, devices: DeviceSet, mapper: Mapper, now: float,
-             buttons: Sequence[dict] = ()) -> dict:
+def snapshot(
+    view: ViewState, devices: DeviceSet, mapper: Mapper, now: float, buttons: Sequence[dict] = ()
+) -> dict:
     idle = mapper.activity.idle_for(now)
     return {
         "angles_deg": [round(math.degrees(a), 3) for a in view.angles],
@@ -89,10 +104,13 @@ def text_line(s: dict) -> str:
     d = "inf" if s["sensor_distance"] is None else f"{s['sensor_distance']:.2f}"
     devs = ", ".join(f"{k} {v}" for k, v in s["devices"].items())
     idle = "never touched" if s["idle_s"] is None else f"idle {s['idle_s']:.1f} s"
-    pressed = ", ".join(f"{b['device']} button {b['button']} ({b['does']}"
-                        f"{', held' if b['held'] else ''})" for b in s["buttons"])
-    return (f"{angles}  sensor d={d} (r={s['sensor_r']:.3f})  | {devs} | {idle}"
-            + (f" | {pressed}" if pressed else ""))
+    pressed = ", ".join(
+        f"{b['device']} button {b['button']} ({b['does']}{', held' if b['held'] else ''})"
+        for b in s["buttons"]
+    )
+    return f"{angles}  sensor d={d} (r={s['sensor_r']:.3f})  | {devs} | {idle}" + (
+        f" | {pressed}" if pressed else ""
+    )
 
 
 def run(args) -> int:

@@ -20,8 +20,11 @@ HELP = "build the mesh cache the kiosk loads at start (run before the service st
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--config", help="site config over the shipped defaults (default: "
-                                         "$EXHIBIT_CONFIG, else the shipped one)")
+    parser.add_argument(
+        "--config",
+        help="site config over the shipped defaults (default: "
+        "$EXHIBIT_CONFIG, else the shipped one)",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -29,8 +32,13 @@ def mesh_levels_for(config) -> list[int]:
     """Every mesh level the kiosk may use on any machine: its ladder on a GPU and on software
     GL (the renderer is only known once the kiosk's window is open)."""
     quality = getattr(config, "quality", None)
-    return sorted({level.mesh for renderer in ("", "llvmpipe")
-                   for level in kiosk_levels(quality, renderer)[0]})
+    return sorted(
+        {
+            level.mesh
+            for renderer in ("", "llvmpipe")
+            for level in kiosk_levels(quality, renderer)[0]
+        }
+    )
 
 
 def run(args) -> int:
@@ -43,10 +51,15 @@ def run(args) -> int:
             progress.report(f"preparing scene {i}/{len(jobs)}: {job.scene}")
             start = time.perf_counter()
             prepared = run_job(job)
-            report.append({"scene": job.scene, "params": dict(job.params),
-                           "resolutions": sorted({r for _, r in job.levels}),
-                           "seconds": round(time.perf_counter() - start, 2),
-                           "error": prepared.error})
+            report.append(
+                {
+                    "scene": job.scene,
+                    "params": dict(job.params),
+                    "resolutions": sorted({r for _, r in job.levels}),
+                    "seconds": round(time.perf_counter() - start, 2),
+                    "error": prepared.error,
+                }
+            )
     failed = [r for r in report if r["error"]]
     if args.json:
         print(json.dumps({"cache": str(cache_dir()), "scenes": report}, indent=2))
@@ -54,7 +67,6 @@ def run(args) -> int:
         print(f"mesh cache: {cache_dir()}")
         for r in report:
             what = f"failed: {r['error']}" if r["error"] else f"{r['seconds']:.2f} s"
-            print(f"  {r['scene']:<20} resolutions {', '.join(map(str, r['resolutions']))}: "
-                  f"{what}")
+            print(f"  {r['scene']:<20} resolutions {', '.join(map(str, r['resolutions']))}: {what}")
         print(f"{len(report) - len(failed)} of {len(report)} scenes ready")
     return 1 if failed else 0

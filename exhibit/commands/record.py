@@ -19,8 +19,12 @@ HELP = "record device events to a JSON-lines file (play it back with replay://FI
 def add_arguments(parser) -> None:
     parser.add_argument("file", help="where to write the recording (.jsonl)")
     add_config_arguments(parser)
-    parser.add_argument("--duration", type=_args.seconds(), default=None,
-                        help="stop after this many seconds (default: until Ctrl-C)")
+    parser.add_argument(
+        "--duration",
+        type=_args.seconds(),
+        default=None,
+        help="stop after this many seconds (default: until Ctrl-C)",
+    )
 
 
 def run(args) -> int:

@@ -12,80 +12,143 @@ from pathlib import Path
 
 from exhibit import scenes
 from exhibit.commands import _args
-from exhibit.commands._media import (MAX_PIXELS, encode_mp4, need_ffmpeg,  # noqa: F401
-                                       parse_size, whole_number as _int)
+from exhibit.commands._media import (
+    encode_mp4,
+    need_ffmpeg,  # noqa: F401
+    parse_size,
+    whole_number as _int,
+)
 from exhibit.errors import ExhibitError
+from exhibit.scenes.base import parse_overrides
+from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
 #: The most --fps and --after a review may ask for (exhibit.commands._review).
 MAX_FPS = 120
 MAX_AFTER_S = 600.0
-from exhibit.scenes.base import parse_overrides
-from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
 HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
 
 
 def add_arguments(parser) -> None:
     parser.add_argument("scene", nargs="?", help="scene name (see `exhibit scenes`)")
-    parser.add_argument("--figure", type=str, metavar="N",
-                        help="render the paper's Figure N with the parameters it states")
-    parser.add_argument("--param", action="append", default=[], metavar="K=V",
-                        help="scene parameter (repeatable)")
-    parser.add_argument("--size", default="1280x720", metavar="WxH",
-                        help="image size in pixels (default: %(default)s)")
-    parser.add_argument("--angles", metavar="A1,...,A6",
-                        help="the six 4D Euler angles in degrees")
-    parser.add_argument("--sensor-distance", metavar="D|inf",
-                        help="sensor distance (inf = orthographic 4D -> 3D)")
+    parser.add_argument(
+        "--figure",
+        type=str,
+        metavar="N",
+        help="render the paper's Figure N with the parameters it states",
+    )
+    parser.add_argument(
+        "--param", action="append", default=[], metavar="K=V", help="scene parameter (repeatable)"
+    )
+    parser.add_argument(
+        "--size",
+        default="1280x720",
+        metavar="WxH",
+        help="image size in pixels (default: %(default)s)",
+    )
+    parser.add_argument("--angles", metavar="A1,...,A6", help="the six 4D Euler angles in degrees")
+    parser.add_argument(
+        "--sensor-distance", metavar="D|inf", help="sensor distance (inf = orthographic 4D -> 3D)"
+    )
     parser.add_argument("--eye", metavar="AZ,INC", help="eye azimuth and incidence in degrees")
-    parser.add_argument("--resolution", type=str, metavar="N",
-                        help="mesh resolution (default: the scene's)")
-    parser.add_argument("--frames", type=str, metavar="N",
-                        help="render N frames of the sensor moving in from the view's distance "
-                             "to --sensor-to; --out is a folder, a .gif or an .mp4")
-    parser.add_argument("--sensor-to", default="2", metavar="D",
-                        help="final sensor distance of an animation (default: %(default)s)")
-    parser.add_argument("--samples", type=str, default="4", metavar="S",
-                        help="multisampling samples per pixel, 0 = off (default: %(default)s)")
+    parser.add_argument(
+        "--resolution", type=str, metavar="N", help="mesh resolution (default: the scene's)"
+    )
+    parser.add_argument(
+        "--frames",
+        type=str,
+        metavar="N",
+        help="render N frames of the sensor moving in from the view's distance "
+        "to --sensor-to; --out is a folder, a .gif or an .mp4",
+    )
+    parser.add_argument(
+        "--sensor-to",
+        default="2",
+        metavar="D",
+        help="final sensor distance of an animation (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--samples",
+        type=str,
+        default="4",
+        metavar="S",
+        help="multisampling samples per pixel, 0 = off (default: %(default)s)",
+    )
     parser.add_argument("--no-hud", action="store_true", help="no title, numbers or axes gizmo")
-    parser.add_argument("--no-fit", action="store_true",
-                        help="keep the view's own zoom (default: the picture is fitted into the "
-                             "space the text leaves free)")
-    parser.add_argument("--no-silhouettes", action="store_true",
-                        help="do not draw the live Lemma 3 silhouettes and Lemma 2 points")
-    parser.add_argument("--depth-colour", action="store_true",
-                        help="colour surfaces by 4D depth (w after rotation)")
-    parser.add_argument("--slice", metavar="AXIS=C",
-                        help="draw the slice of the surfaces by the hyperplane AXIS = C, glowing "
-                             "(e.g. t=-1.5 for the collision: the moment t = -1.5)")
-    parser.add_argument("--inset", action="store_true",
-                        help="with --slice: add a picture in the picture of the 3D world at that "
-                             "moment (the collision's pipe and ball), or the slice curves alone")
-    parser.add_argument("--out", metavar="FILE",
-                        help="output .png (or, with --frames, a folder, .gif or .mp4)")
-    parser.add_argument("--timeline", metavar="FILE",
-                        help="play an attract timeline headlessly as the kiosk shows it; --out "
-                             "is a folder (DIR/: numbered PNGs), an .mp4 or a .png contact sheet "
-                             "(one frame per caption)")
-    parser.add_argument("--takeover", metavar="SCENE",
-                        help="the frame a visitor sees --after seconds after taking over from "
-                             "attract mode in SCENE; --out FILE.png")
-    parser.add_argument("--after", default=2.0, metavar="S", type=_args.number(0.0, MAX_AFTER_S),
-                        help="with --takeover: seconds after the takeover (default: "
-                             "%(default)s)")
-    parser.add_argument("--fps", metavar="N", type=_args.number(1, MAX_FPS),
-                        help="with --timeline or --takeover: kiosk frames per second (default: "
-                             "25 for frames and MP4, 10 for a contact sheet or a takeover)")
-    parser.add_argument("--language", metavar="CODE",
-                        help="with --timeline or --takeover: the language shown (default: the "
-                             "kiosk's first)")
-    parser.add_argument("--config", metavar="KIOSK.toml",
-                        help="with --timeline or --takeover: a kiosk site file (text sizes, "
-                             "languages, mesh resolutions; default: the shipped config)")
-    parser.add_argument("--window", action="store_true",
-                        help="show it in a window instead, driven by the kiosk's keyboard keys "
-                             "(q/a w/s e/d r/f t/g y/h turn theta1..6, u/j move the sensor, "
-                             "space = home; c colours by 4D depth, Esc quits)")
+    parser.add_argument(
+        "--no-fit",
+        action="store_true",
+        help="keep the view's own zoom (default: the picture is fitted into the "
+        "space the text leaves free)",
+    )
+    parser.add_argument(
+        "--no-silhouettes",
+        action="store_true",
+        help="do not draw the live Lemma 3 silhouettes and Lemma 2 points",
+    )
+    parser.add_argument(
+        "--depth-colour", action="store_true", help="colour surfaces by 4D depth (w after rotation)"
+    )
+    parser.add_argument(
+        "--slice",
+        metavar="AXIS=C",
+        help="draw the slice of the surfaces by the hyperplane AXIS = C, glowing "
+        "(e.g. t=-1.5 for the collision: the moment t = -1.5)",
+    )
+    parser.add_argument(
+        "--inset",
+        action="store_true",
+        help="with --slice: add a picture in the picture of the 3D world at that "
+        "moment (the collision's pipe and ball), or the slice curves alone",
+    )
+    parser.add_argument(
+        "--out", metavar="FILE", help="output .png (or, with --frames, a folder, .gif or .mp4)"
+    )
+    parser.add_argument(
+        "--timeline",
+        metavar="FILE",
+        help="play an attract timeline headlessly as the kiosk shows it; --out "
+        "is a folder (DIR/: numbered PNGs), an .mp4 or a .png contact sheet "
+        "(one frame per caption)",
+    )
+    parser.add_argument(
+        "--takeover",
+        metavar="SCENE",
+        help="the frame a visitor sees --after seconds after taking over from "
+        "attract mode in SCENE; --out FILE.png",
+    )
+    parser.add_argument(
+        "--after",
+        default=2.0,
+        metavar="S",
+        type=_args.number(0.0, MAX_AFTER_S),
+        help="with --takeover: seconds after the takeover (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--fps",
+        metavar="N",
+        type=_args.number(1, MAX_FPS),
+        help="with --timeline or --takeover: kiosk frames per second (default: "
+        "25 for frames and MP4, 10 for a contact sheet or a takeover)",
+    )
+    parser.add_argument(
+        "--language",
+        metavar="CODE",
+        help="with --timeline or --takeover: the language shown (default: the kiosk's first)",
+    )
+    parser.add_argument(
+        "--config",
+        metavar="KIOSK.toml",
+        help="with --timeline or --takeover: a kiosk site file (text sizes, "
+        "languages, mesh resolutions; default: the shipped config)",
+    )
+    parser.add_argument(
+        "--window",
+        action="store_true",
+        help="show it in a window instead, driven by the kiosk's keyboard keys "
+        "(q/a w/s e/d r/f t/g y/h turn theta1..6, u/j move the sensor, "
+        "space = home; c colours by 4D depth, Esc quits)",
+    )
 
 
 def _distance(text: str, name: str) -> float:
@@ -163,6 +226,7 @@ def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
 def run(args) -> int:
     if args.timeline is not None or args.takeover is not None:
         from exhibit.commands import _review
+
         return _review.run(args)
     for flag in ("language", "config", "fps"):
         if getattr(args, flag) is not None:
@@ -170,8 +234,11 @@ def run(args) -> int:
     scene, params, view, note = resolve(args)
     size = parse_size(args.size)
     samples = _int(args.samples, "--samples", 0, 16)
-    resolution = (None if args.resolution is None
-                  else _int(args.resolution, "--resolution", MIN_RESOLUTION, MAX_RESOLUTION))
+    resolution = (
+        None
+        if args.resolution is None
+        else _int(args.resolution, "--resolution", MIN_RESOLUTION, MAX_RESOLUTION)
+    )
     frames = None if args.frames is None else _int(args.frames, "--frames", 1, 10000)
     if args.window:
         return _window(scene, params, view, note, size, resolution, samples)
@@ -196,9 +263,12 @@ def run(args) -> int:
 
     from exhibit.render import Headless, HudInfo, RenderOptions, save_png
 
-    options = RenderOptions(silhouettes=not args.no_silhouettes,
-                            pinch_points=not args.no_silhouettes,
-                            depth_colour=args.depth_colour, hud=not args.no_hud)
+    options = RenderOptions(
+        silhouettes=not args.no_silhouettes,
+        pinch_points=not args.no_silhouettes,
+        depth_colour=args.depth_colour,
+        hud=not args.no_hud,
+    )
     hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
     mesh = scene.build(params, resolution)
     fit = not args.no_fit and (args.figure is None or scenes.figure(int(args.figure))[1].fit)
@@ -206,11 +276,13 @@ def run(args) -> int:
     if args.inset:
         from exhibit.render.inset import inset_rect
         from exhibit.render.layout import hud_layout
+
         inset = inset_rect(size, hud_layout(size, sizes=options.text).margin)
     if fit and scene.fit and frames is None:
         # The picture in the space the text (and the inset) leave (exhibit.render.framer). Not
         # animations: the sensor sweep's point is the image growing to fill the world.
         from exhibit.render.framer import Framer
+
         framer = Framer(size, options.text, hud=options.hud, extra=(inset,) if inset else ())
         view = framer.view(mesh, view, scene.title, [(scene.caption, note)])
     headless = Headless()
@@ -250,8 +322,12 @@ def _inset(headless, scene, params, mesh, view, rect):
     world = inset_mesh(scene, scene.resolve(params), mesh, axis, at)
     size = (int(rect.width), int(rect.height))
     gpu = headless.renderer.upload(world)
-    return gpu, Inset(gpu, inset_view(view, world, size), (rect.x0, rect.y0, *size),
-                      inset_label(scene.axes[axis], at))
+    return gpu, Inset(
+        gpu,
+        inset_view(view, world, size),
+        (rect.x0, rect.y0, *size),
+        inset_label(scene.axes[axis], at),
+    )
 
 
 def _window(scene, params, view, note, size, resolution, samples) -> int:

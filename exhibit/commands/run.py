@@ -16,9 +16,12 @@ HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--config", help="site config over the shipped defaults (default: "
-                                         "$EXHIBIT_CONFIG, else /etc/exhibit/kiosk.toml if it "
-                                         "exists)")
+    parser.add_argument(
+        "--config",
+        help="site config over the shipped defaults (default: "
+        "$EXHIBIT_CONFIG, else /etc/exhibit/kiosk.toml if it "
+        "exists)",
+    )
     parser.add_argument("--windowed", action="store_true", help="a window instead of fullscreen")
     parser.add_argument("--duration", metavar="S", help="stop after S seconds (tests, staff)")
     parser.add_argument("--screenshot", metavar="FILE.png", help="save the last frame on exit")
@@ -30,8 +33,9 @@ def run(args) -> int:
         try:
             duration = float(args.duration)
         except ValueError:
-            raise ExhibitError(f"--duration must be a number of seconds, got {args.duration!r}") \
-                from None
+            raise ExhibitError(
+                f"--duration must be a number of seconds, got {args.duration!r}"
+            ) from None
         if not (math.isfinite(duration) and duration > 0):
             raise ExhibitError("--duration must be a positive number of seconds")
     screenshot = Path(args.screenshot) if args.screenshot else None
@@ -57,9 +61,14 @@ def run(args) -> int:
 
     window = open_window(config, args.windowed)
     try:
-        kiosk = Kiosk(config, window, notifier=Notifier.from_env(),
-                      health_path=default_path(),
-                      sessions=open_session_log(config.sessions), preparer=ProcessPreparer)
+        kiosk = Kiosk(
+            config,
+            window,
+            notifier=Notifier.from_env(),
+            health_path=default_path(),
+            sessions=open_session_log(config.sessions),
+            preparer=ProcessPreparer,
+        )
         return kiosk.run(duration=duration, screenshot=screenshot)
     finally:
         window.close()

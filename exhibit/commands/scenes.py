@@ -12,10 +12,13 @@ HELP = "list the scenes with their titles and parameters"
 
 def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.add_argument("--check-colours", action="store_true",
-                        help="check that every scene's colours stay apart for colour-blind "
-                             "visitors (ΔE 15 under protanopia, deuteranopia, tritanopia); "
-                             "exit 2 on any pair that does not")
+    parser.add_argument(
+        "--check-colours",
+        action="store_true",
+        help="check that every scene's colours stay apart for colour-blind "
+        "visitors (ΔE 15 under protanopia, deuteranopia, tritanopia); "
+        "exit 2 on any pair that does not",
+    )
 
 
 def run(args) -> int:
@@ -51,8 +54,7 @@ def _check_colours() -> int:
         problems += found
         if not found:
             least, vision = least_delta_e(parts)
-            margin = "one colour" if least == float("inf") else f"least ΔE {least:.1f} " \
-                                                                 f"({vision})"
+            margin = "one colour" if least == float("inf") else f"least ΔE {least:.1f} ({vision})"
             print(f"{name:20} OK: {len(parts)} colours, {margin}")
     for problem in problems:
         print(problem)

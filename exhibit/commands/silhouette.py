@@ -12,11 +12,20 @@ from exhibit import scenes
 from exhibit.errors import ExhibitError
 from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
-from exhibit.scenes.implicit_scene import (ImplicitPart, cell_size, exclusion_radius,
-                                           fixed_silhouette)
+from exhibit.scenes.implicit_scene import (
+    ImplicitPart,
+    cell_size,
+    exclusion_radius,
+    fixed_silhouette,
+)
 from exhibit.surfaces.double_zeros import touching_silhouette
-from exhibit.surfaces.exact_silhouette import (EXCLUSION_RATIO, ParametricExact, RefineStats,
-                                               SilhouetteSystem, parametric_silhouette)
+from exhibit.surfaces.exact_silhouette import (
+    EXCLUSION_RATIO,
+    ParametricExact,
+    RefineStats,
+    SilhouetteSystem,
+    parametric_silhouette,
+)
 from exhibit.surfaces.singular import jacobian_ratio
 from exhibit.surfaces.mesh import Material
 from exhibit.surfaces.whole_silhouette import whole_silhouette_components
@@ -26,8 +35,12 @@ HELP = "silhouette curves of a scene for the orthographic view along two axes"
 
 def add_arguments(parser) -> None:
     add_scene_arguments(parser)
-    parser.add_argument("--along", required=True, metavar="AXIS,AXIS",
-                        help="two of the scene's axis names, e.g. u,v or x,y")
+    parser.add_argument(
+        "--along",
+        required=True,
+        metavar="AXIS,AXIS",
+        help="two of the scene's axis names, e.g. u,v or x,y",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -37,8 +50,9 @@ def parse_along(text: str, axes: tuple[str, ...]) -> tuple[int, int]:
         raise ExhibitError(f"--along needs two different axis names, got {text!r}")
     for name in names:
         if name not in axes:
-            raise ExhibitError(f"--along: {name!r} is not an axis of this scene "
-                               f"(axes: {', '.join(axes)})")
+            raise ExhibitError(
+                f"--along: {name!r} is not an axis of this scene (axes: {', '.join(axes)})"
+            )
     return axes.index(names[0]), axes.index(names[1])
 
 
@@ -59,27 +73,43 @@ def run(args) -> int:
         # Every exported point is refined onto the exact silhouette of the surface's own
         # equations (or parametrisation); points that do not converge are dropped, points near
         # singular points excluded (surfaces/exact_silhouette.py).
-        curves += [curve.polyline().tolist()
-                   for curve in exact_silhouette_curves(surface, along, stats)]
+        curves += [
+            curve.polyline().tolist() for curve in exact_silhouette_curves(surface, along, stats)
+        ]
     names = f"{scene.axes[along[0]]}, {scene.axes[along[1]]}"
     smallest = smallest_ratio(mesh.surfaces, curves)
     if args.json:
-        print(json.dumps({"axes": list(scene.axes), "curves": curves, "components": components,
-                          "smallest_ratio": smallest, **stats.to_json()}))
+        print(
+            json.dumps(
+                {
+                    "axes": list(scene.axes),
+                    "curves": curves,
+                    "components": components,
+                    "smallest_ratio": smallest,
+                    **stats.to_json(),
+                }
+            )
+        )
         return 0
     for part in components:
         if part["whole_component"]:
-            print(f"the whole of {part['name']} is silhouette along {names}: every tangent "
-                  "plane projects to a line (the silhouette function vanishes there)")
+            print(
+                f"the whole of {part['name']} is silhouette along {names}: every tangent "
+                "plane projects to a line (the silhouette function vanishes there)"
+            )
     print(f"{len(curves)} silhouette curve(s) of {scene.name} along {names}:")
     for i, curve in enumerate(curves, 1):
         print(f"  curve {i}: {len(curve)} points")
-    print(f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
-          f"{stats.dropped} dropped (no convergence), {stats.excluded} excluded (near singular "
-          "points)")
+    print(
+        f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
+        f"{stats.dropped} dropped (no convergence), {stats.excluded} excluded (near singular "
+        "points)"
+    )
     if smallest is not None:
-        print(f"  nearest to the singular set: σ_min/σ_max of the normals {smallest:.1e} "
-              f"(points below {EXCLUSION_RATIO:.0e} are excluded)")
+        print(
+            f"  nearest to the singular set: σ_min/σ_max of the normals {smallest:.1e} "
+            f"(points below {EXCLUSION_RATIO:.0e} are excluded)"
+        )
     return 0
 
 
@@ -103,16 +133,27 @@ def exact_silhouette_curves(surface, along, stats: RefineStats):
     exact = surface.exact
     if isinstance(exact, ImplicitPart):
         # Sign changes of s, then the branches where s only touches zero (double zeros).
-        return fixed_silhouette(exact, along, "silhouette", Material(), stats) + \
-            touching_silhouette(exact.f1, exact.f2, exact.surface, along, cell_size(exact),
-                                exact.result.singular_positions, exclusion_radius(exact),
-                                "silhouette (touching)", Material(), stats)
+        return fixed_silhouette(
+            exact, along, "silhouette", Material(), stats
+        ) + touching_silhouette(
+            exact.f1,
+            exact.f2,
+            exact.surface,
+            along,
+            cell_size(exact),
+            exact.result.singular_positions,
+            exclusion_radius(exact),
+            "silhouette (touching)",
+            Material(),
+            stats,
+        )
     if isinstance(exact, ParametricExact):
         return parametric_silhouette(surface, exact, along, "silhouette", Material(), stats)
     # Without the exact surface nothing can be refined: every traced point counts as dropped.
     e = np.eye(4)
-    values = silhouette_function(surface.normals[:, 0], surface.normals[:, 1], e[along[0]],
-                                 e[along[1]])
+    values = silhouette_function(
+        surface.normals[:, 0], surface.normals[:, 1], e[along[0]], e[along[1]]
+    )
     segments = zero_set_segments(surface.positions, surface.triangles, values)
     stats.dropped += 2 * len(segments)
     return []

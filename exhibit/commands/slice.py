@@ -21,18 +21,28 @@ MAX_AT = 1e6
 
 def add_arguments(parser) -> None:
     add_scene_arguments(parser)
-    parser.add_argument("--axis", required=True, metavar="AXIS",
-                        help="one of the scene's axis names, e.g. t for the collision")
-    parser.add_argument("--at", required=True, type=number(-MAX_AT, MAX_AT), metavar="C",
-                        help="where the hyperplane AXIS = C lies")
+    parser.add_argument(
+        "--axis",
+        required=True,
+        metavar="AXIS",
+        help="one of the scene's axis names, e.g. t for the collision",
+    )
+    parser.add_argument(
+        "--at",
+        required=True,
+        type=number(-MAX_AT, MAX_AT),
+        metavar="C",
+        help="where the hyperplane AXIS = C lies",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
 def parse_axis(name: str, axes: tuple[str, ...]) -> int:
     name = name.strip()
     if name not in axes:
-        raise ExhibitError(f"--axis: {name!r} is not an axis of this scene "
-                           f"(axes: {', '.join(axes)})")
+        raise ExhibitError(
+            f"--axis: {name!r} is not an axis of this scene (axes: {', '.join(axes)})"
+        )
     return axes.index(name)
 
 
@@ -43,16 +53,30 @@ def run(args) -> int:
     stats = RefineStats()
     curves = []
     for surface in mesh.surfaces:
-        curves += [curve.polyline().tolist()
-                   for curve in slice_curves(surface, axis, float(args.at), stats)]
+        curves += [
+            curve.polyline().tolist()
+            for curve in slice_curves(surface, axis, float(args.at), stats)
+        ]
     if args.json:
-        print(json.dumps({"axis": scene.axes[axis], "at": float(args.at), "axes": list(scene.axes),
-                          "curves": curves, "refined": int(stats.refined), "dropped": int(stats.dropped),
-                          "max_residual": stats.max_residual}))
+        print(
+            json.dumps(
+                {
+                    "axis": scene.axes[axis],
+                    "at": float(args.at),
+                    "axes": list(scene.axes),
+                    "curves": curves,
+                    "refined": int(stats.refined),
+                    "dropped": int(stats.dropped),
+                    "max_residual": stats.max_residual,
+                }
+            )
+        )
         return 0
     print(f"{len(curves)} curve(s) of {scene.name} at {scene.axes[axis]} = {args.at:g}:")
     for i, curve in enumerate(curves, 1):
         print(f"  curve {i}: {len(curve)} points")
-    print(f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
-          f"{stats.dropped} dropped (no convergence)")
+    print(
+        f"  {stats.refined} points refined to residual {stats.max_residual:.1e}, "
+        f"{stats.dropped} dropped (no convergence)"
+    )
     return 0

@@ -30,8 +30,10 @@ from exhibit.errors import ExhibitError
 from exhibit.kiosk.health import format_duration
 from exhibit.kiosk.sessions import Session, candidate_paths, read_sessions
 
-HELP = ("what visitors do: sessions per day and hour, median length, most-used scenes and "
-        "inputs, from the kiosk's session log (--plot FILE.png for a curator's report)")
+HELP = (
+    "what visitors do: sessions per day and hour, median length, most-used scenes and "
+    "inputs, from the kiosk's session log (--plot FILE.png for a curator's report)"
+)
 #: Scenes and inputs listed in the text report (JSON has them all).
 TOP = 10
 #: Days in a row filled in with zeros (closed days show as gaps); a longer span (a clock set
@@ -48,17 +50,32 @@ def date_arg(text: str) -> dt.date:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--db", type=Path, metavar="PATH",
-                        help="the sessions database (default: [sessions] path of the kiosk "
-                             "config, else sessions.db in the state folder)")
-    parser.add_argument("--config", metavar="FILE",
-                        help="kiosk site config naming the database (default: $EXHIBIT_CONFIG, "
-                             "else /etc/exhibit/kiosk.toml if it exists)")
-    parser.add_argument("--since", type=date_arg, metavar="DATE",
-                        help="only sessions from this day on (YYYY-MM-DD, the kiosk's local date)")
+    parser.add_argument(
+        "--db",
+        type=Path,
+        metavar="PATH",
+        help="the sessions database (default: [sessions] path of the kiosk "
+        "config, else sessions.db in the state folder)",
+    )
+    parser.add_argument(
+        "--config",
+        metavar="FILE",
+        help="kiosk site config naming the database (default: $EXHIBIT_CONFIG, "
+        "else /etc/exhibit/kiosk.toml if it exists)",
+    )
+    parser.add_argument(
+        "--since",
+        type=date_arg,
+        metavar="DATE",
+        help="only sessions from this day on (YYYY-MM-DD, the kiosk's local date)",
+    )
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
-    parser.add_argument("--plot", type=Path, metavar="FILE.png",
-                        help="also draw sessions per day and by hour of the day into a PNG")
+    parser.add_argument(
+        "--plot",
+        type=Path,
+        metavar="FILE.png",
+        help="also draw sessions per day and by hour of the day into a PNG",
+    )
 
 
 def run(args) -> int:
@@ -71,10 +88,13 @@ def run(args) -> int:
     since = None if args.since is None else (args.since - EPOCH).days * 86400.0
     skipped: Counter = Counter()
     report = summarize(read_sessions(path, since, skipped))
-    report = {"db": str(path), "since": None if args.since is None else args.since.isoformat(),
-              **report, "skipped": sum(skipped.values()),
-              "skipped_reasons": [{"reason": r["name"], "rows": r["sessions"]}
-                                  for r in _ranked(skipped)]}
+    report = {
+        "db": str(path),
+        "since": None if args.since is None else args.since.isoformat(),
+        **report,
+        "skipped": sum(skipped.values()),
+        "skipped_reasons": [{"reason": r["name"], "rows": r["sessions"]} for r in _ranked(skipped)],
+    }
     if args.plot is not None:  # first: a reader that stops early (| head) still gets it
         plot(report, args.plot)
     if args.json:
@@ -85,7 +105,7 @@ def run(args) -> int:
 
 
 def skipped_line(report: dict) -> str | None:
-    """"skipped N rows: why (count); ..." for rows of the database that were not counted."""
+    """ "skipped N rows: why (count); ..." for rows of the database that were not counted."""
     n = report.get("skipped", 0)
     if not n:
         return None
@@ -105,6 +125,7 @@ def _default_db(config_path: str | None) -> Path:
 
 # ---------------------------------------------------------------------- the arithmetic
 
+
 def local_day(session: Session) -> dt.date:
     return EPOCH + dt.timedelta(days=int(session.local_start // 86400))
 
@@ -118,8 +139,10 @@ def _median(values: list[float]) -> float | None:
 
 
 def _ranked(counter: Counter) -> list[dict]:
-    return [{"name": name, "sessions": n}
-            for name, n in sorted(counter.items(), key=lambda kv: (-kv[1], kv[0]))]
+    return [
+        {"name": name, "sessions": n}
+        for name, n in sorted(counter.items(), key=lambda kv: (-kv[1], kv[0]))
+    ]
 
 
 def summarize(sessions: list[Session]) -> dict:
@@ -152,32 +175,42 @@ def summarize(sessions: list[Session]) -> dict:
 
 # ---------------------------------------------------------------------- the outputs
 
+
 def _printable(text: str) -> str:
     return "".join(c if c.isprintable() else "?" for c in str(text))
 
 
 def text(report: dict) -> str:
     n = report["sessions"]
-    lines = [f"{n} visitor session{'s' if n != 1 else ''}"
-             + (f", {report['first']} .. {report['last']}" if n else "")
-             + f" ({_printable(report['db'])})"]
+    lines = [
+        f"{n} visitor session{'s' if n != 1 else ''}"
+        + (f", {report['first']} .. {report['last']}" if n else "")
+        + f" ({_printable(report['db'])})"
+    ]
     skipped = skipped_line(report)
     if skipped:
         lines.append(skipped)
     if not n:
         return "\n".join(lines)
-    lines.append(f"median length {format_duration(report['median_s'])} (takeover to idle "
-                 f"return); {format_duration(report['median_active_s'])} to the last input")
+    lines.append(
+        f"median length {format_duration(report['median_s'])} (takeover to idle "
+        f"return); {format_duration(report['median_active_s'])} to the last input"
+    )
     width = max(len(str(d["sessions"])) for d in report["per_day"])
     peak = max(d["sessions"] for d in report["per_day"]) or 1
     days = report["per_day"][-31:]
     lines.append("sessions per day" + (" (the last 31)" if len(report["per_day"]) > 31 else ""))
-    lines += [f"  {d['date']}  {d['sessions']:>{width}}  {'#' * round(40 * d['sessions'] / peak)}"
-              for d in days]
+    lines += [
+        f"  {d['date']}  {d['sessions']:>{width}}  {'#' * round(40 * d['sessions'] / peak)}"
+        for d in days
+    ]
     lines.append("sessions by hour of the day (local)")
     peak = max(report["per_hour"]) or 1
-    lines += [f"  {h:02d}:00  {c:>{width}}  {'#' * round(40 * c / peak)}"
-              for h, c in enumerate(report["per_hour"]) if c]
+    lines += [
+        f"  {h:02d}:00  {c:>{width}}  {'#' * round(40 * c / peak)}"
+        for h, c in enumerate(report["per_hour"])
+        if c
+    ]
     for key, title in (("scenes", "scenes"), ("inputs", "inputs"), ("languages", "languages")):
         items = report[key][:TOP]
         if items:
@@ -189,6 +222,7 @@ def text(report: dict) -> str:
 def plot(report: dict, path: Path) -> None:
     """Sessions per day and by hour as bars, in a PNG for a curator's report."""
     import matplotlib
+
     matplotlib.use("Agg")  # no display: a file only
     from matplotlib.dates import AutoDateLocator, ConciseDateFormatter
     from matplotlib.figure import Figure
@@ -201,8 +235,7 @@ def plot(report: dict, path: Path) -> None:
     by_day.set_ylabel("sessions")
     by_day.yaxis.get_major_locator().set_params(integer=True)
     if not days:
-        by_day.text(0.5, 0.5, "no sessions", ha="center", va="center",
-                    transform=by_day.transAxes)
+        by_day.text(0.5, 0.5, "no sessions", ha="center", va="center", transform=by_day.transAxes)
     elif len(days) <= 14:  # a tick per day, named
         by_day.set_xticks(days, [d.strftime("%a %d %b") for d in days])
         by_day.set_xlim(days[0] - dt.timedelta(days=1), days[-1] + dt.timedelta(days=1))
@@ -219,10 +252,15 @@ def plot(report: dict, path: Path) -> None:
     by_hour.yaxis.get_major_locator().set_params(integer=True)
     median = report["median_s"]
     n = report["sessions"]
-    fig.suptitle(f"{n} visitor session{'s' if n != 1 else ''}"
-                 + (f", {report['first']} to {report['last']}, median length "
-                    f"{format_duration(median)}" if median is not None else "")
-                 + (f" ({report['skipped']} rows skipped)" if report.get("skipped") else ""))
+    fig.suptitle(
+        f"{n} visitor session{'s' if n != 1 else ''}"
+        + (
+            f", {report['first']} to {report['last']}, median length {format_duration(median)}"
+            if median is not None
+            else ""
+        )
+        + (f" ({report['skipped']} rows skipped)" if report.get("skipped") else "")
+    )
     try:
         fig.savefig(path, format="png", dpi=100)
     except OSError as exc:

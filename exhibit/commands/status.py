@@ -35,13 +35,23 @@ from pathlib import Path
 
 from exhibit.commands import _args
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.health import (MISSING_STATES, DeviceHealth, Health, HealthError,
-                                  candidate_paths, format_duration, freshness, missing_devices,
-                                  read_health)
+from exhibit.kiosk.health import (
+    MISSING_STATES,
+    DeviceHealth,
+    Health,
+    HealthError,
+    candidate_paths,
+    format_duration,
+    freshness,
+    missing_devices,
+    read_health,
+)
 from exhibit.schema.files import UnsafePath, check_target, split_target
 
-HELP = ("health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken, 3 a "
-        "device missing for longer than --max-lost; --prometheus FILE: 0 once written)")
+HELP = (
+    "health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken, 3 a "
+    "device missing for longer than --max-lost; --prometheus FILE: 0 once written)"
+)
 DEFAULT_MAX_AGE = 10.0
 #: Seconds a configured device may be missing before status exits 3: a replug or a board's
 #: reset takes a few seconds; a minute is a device someone has to look at.
@@ -51,28 +61,50 @@ EXIT_DEVICE_MISSING = 3
 EXIT_METRICS_UNWRITTEN = 4
 #: Terminal escape sequences, removed whole (parameters included): CSI (ESC [ or 8-bit 0x9B),
 #: strings (OSC, DCS, SOS, PM, APC: ESC ] P X ^ _ up to BEL or ST) and two-byte ESC sequences.
-_ESCAPES = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]?|\x9b[0-?]*[ -/]*[@-~]?"
-                      r"|\x1b[]PX^_].*?(?:\x07|\x1b\\|\x9c|$)|\x1b[ -/]*[0-~]?", re.S)
+_ESCAPES = re.compile(
+    r"\x1b\[[0-?]*[ -/]*[@-~]?|\x9b[0-?]*[ -/]*[@-~]?"
+    r"|\x1b[]PX^_].*?(?:\x07|\x1b\\|\x9c|$)|\x1b[ -/]*[0-~]?",
+    re.S,
+)
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--json", action="store_true",
-                        help="print the health data as JSON, with path, age_s, fresh, reason and "
-                             "devices_missing")
-    parser.add_argument("--max-age", type=_args.seconds(), default=DEFAULT_MAX_AGE, metavar="S",
-                        help=f"seconds after which the file counts as stale (default "
-                             f"{DEFAULT_MAX_AGE:g}; the kiosk writes it every second)")
-    parser.add_argument("--max-lost", type=_args.number(0, 1e7), default=DEFAULT_MAX_LOST,
-                        metavar="S",
-                        help=f"exit 3 when a configured device has been missing (lost, or "
-                             f"waiting: never connected since the start) for longer than S "
-                             f"seconds (default {DEFAULT_MAX_LOST:g})")
-    parser.add_argument("--file", type=Path, metavar="PATH",
-                        help="read this health file instead of looking in the usual places")
-    parser.add_argument("--prometheus", type=_metrics_file, metavar="FILE",
-                        help="write the health as Prometheus metrics to FILE (atomically; for "
-                             "node_exporter's textfile collector) instead of the summary; exit 0 "
-                             "once written, whatever the health, 4 if it cannot be written")
+    parser.add_argument(
+        "--json",
+        action="store_true",
+        help="print the health data as JSON, with path, age_s, fresh, reason and devices_missing",
+    )
+    parser.add_argument(
+        "--max-age",
+        type=_args.seconds(),
+        default=DEFAULT_MAX_AGE,
+        metavar="S",
+        help=f"seconds after which the file counts as stale (default "
+        f"{DEFAULT_MAX_AGE:g}; the kiosk writes it every second)",
+    )
+    parser.add_argument(
+        "--max-lost",
+        type=_args.number(0, 1e7),
+        default=DEFAULT_MAX_LOST,
+        metavar="S",
+        help=f"exit 3 when a configured device has been missing (lost, or "
+        f"waiting: never connected since the start) for longer than S "
+        f"seconds (default {DEFAULT_MAX_LOST:g})",
+    )
+    parser.add_argument(
+        "--file",
+        type=Path,
+        metavar="PATH",
+        help="read this health file instead of looking in the usual places",
+    )
+    parser.add_argument(
+        "--prometheus",
+        type=_metrics_file,
+        metavar="FILE",
+        help="write the health as Prometheus metrics to FILE (atomically; for "
+        "node_exporter's textfile collector) instead of the summary; exit 0 "
+        "once written, whatever the health, 4 if it cannot be written",
+    )
 
 
 def _metrics_file(text: str) -> Path:
@@ -80,9 +112,10 @@ def _metrics_file(text: str) -> Path:
     try:
         split_target(text)
     except UnsafePath as exc:
-        raise argparse.ArgumentTypeError(f"{printable(exc)}: give the metrics file to write, "
-                                         "e.g. /var/lib/prometheus/node-exporter/exhibit.prom"
-                                         ) from None
+        raise argparse.ArgumentTypeError(
+            f"{printable(exc)}: give the metrics file to write, "
+            "e.g. /var/lib/prometheus/node-exporter/exhibit.prom"
+        ) from None
     return Path(text)
 
 
@@ -101,20 +134,32 @@ def run(args) -> int:
     except HealthError as exc:
         why = str(exc)
         if exc.missing and len(paths) > 1:
-            why = (f"no health file at {' or '.join(str(p) for p in paths)}: the kiosk is not "
-                   "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file")
+            why = (
+                f"no health file at {' or '.join(str(p) for p in paths)}: the kiosk is not "
+                "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file"
+            )
         if args.json:
             _print_json({"path": str(path), "fresh": False, "reason": why})
         if args.prometheus is not None:
             return _write_metrics(args.prometheus, None, "missing" if exc.missing else "broken")
-        print(f"exhibit status: {'MISSING' if exc.missing else 'BROKEN'}: {printable(why)}",
-              file=sys.stderr)
+        print(
+            f"exhibit status: {'MISSING' if exc.missing else 'BROKEN'}: {printable(why)}",
+            file=sys.stderr,
+        )
         return EXIT_STALE
     fresh, age, reason = freshness(data, args.max_age, now=now)
     missing = missing_devices(data, args.max_lost, age) if fresh else []
     if args.json:
-        _print_json({**data.as_dict(), "path": str(path), "age_s": round(age, 3), "fresh": fresh,
-                     "reason": reason, "devices_missing": missing})
+        _print_json(
+            {
+                **data.as_dict(),
+                "path": str(path),
+                "age_s": round(age, 3),
+                "fresh": fresh,
+                "reason": reason,
+                "devices_missing": missing,
+            }
+        )
     elif not quiet:
         print(summary(data, path, age, fresh, missing))
     if args.prometheus is not None:
@@ -123,22 +168,24 @@ def run(args) -> int:
         print(f"exhibit status: STALE: {printable(reason)}", file=sys.stderr)
         return EXIT_STALE
     if missing:
-        print("exhibit status: DEVICE MISSING: "
-              + "; ".join(printable(_missing_text(m, args.max_lost)) for m in missing),
-              file=sys.stderr)
+        print(
+            "exhibit status: DEVICE MISSING: "
+            + "; ".join(printable(_missing_text(m, args.max_lost)) for m in missing),
+            file=sys.stderr,
+        )
         return EXIT_DEVICE_MISSING
     return 0
 
 
 def _missing_text(m: dict, max_lost: float) -> str:
-    how = ("waiting (never connected since the start)" if m["state"] == "waiting"
-           else m["state"])
-    return (f"{m['device']} ({m['url']}) {how} for {format_duration(m['missing_s'])} "
-            f"(more than {max_lost:g} s)")
+    how = "waiting (never connected since the start)" if m["state"] == "waiting" else m["state"]
+    return (
+        f"{m['device']} ({m['url']}) {how} for {format_duration(m['missing_s'])} "
+        f"(more than {max_lost:g} s)"
+    )
 
 
-def _write_metrics(target: Path, data: Health | None, status: str,
-                   age: float | None = None) -> int:
+def _write_metrics(target: Path, data: Health | None, status: str, age: float | None = None) -> int:
     from exhibit.kiosk.metrics import write_metrics
 
     try:
@@ -148,17 +195,25 @@ def _write_metrics(target: Path, data: Health | None, status: str,
         return EXIT_METRICS_UNWRITTEN
     except OSError as exc:
         why = exc.strerror or str(exc)
-        hint = (": is node_exporter (prometheus-node-exporter) installed?"
-                if isinstance(exc, FileNotFoundError) else "")
-        print(f"exhibit status: cannot write the metrics file {printable(target)}: "
-              f"{printable(why)}{hint}", file=sys.stderr)
+        hint = (
+            ": is node_exporter (prometheus-node-exporter) installed?"
+            if isinstance(exc, FileNotFoundError)
+            else ""
+        )
+        print(
+            f"exhibit status: cannot write the metrics file {printable(target)}: "
+            f"{printable(why)}{hint}",
+            file=sys.stderr,
+        )
         return EXIT_METRICS_UNWRITTEN
     return 0
 
 
-def summary(data: Health, path: Path, age: float, fresh: bool,
-            missing: list[dict] | None = None) -> str:
+def summary(
+    data: Health, path: Path, age: float, fresh: bool, missing: list[dict] | None = None
+) -> str:
     """The staff-facing text: one header line, then one aligned line per topic."""
+
     def get(key, fmt="{}"):
         value = getattr(data, key)
         return "?" if value is None else printable(fmt.format(value))
@@ -170,8 +225,10 @@ def summary(data: Health, path: Path, age: float, fresh: bool,
     rows = [
         ("mode", get("mode")),
         ("scene", get("scene")),
-        ("fps", f"{get('fps', '{:.1f}')} "
-                f"(95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)"),
+        (
+            "fps",
+            f"{get('fps', '{:.1f}')} (95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)",
+        ),
         ("uptime", "?" if uptime is None else format_duration(float(uptime))),
     ]
     if data.quality is not None:
@@ -181,9 +238,12 @@ def summary(data: Health, path: Path, age: float, fresh: bool,
         urls = [printable(d.url) for d in devices]
         width = max(map(len, urls))
         for i, (url, device) in enumerate(zip(urls, devices)):
-            rows.append(("devices" if i == 0 else "",
-                         f"{url:<{width}}  {printable(device.state)}"
-                         f"{_how_long(device, age)}"))
+            rows.append(
+                (
+                    "devices" if i == 0 else "",
+                    f"{url:<{width}}  {printable(device.state)}{_how_long(device, age)}",
+                )
+            )
     else:
         rows.append(("devices", "none"))
     failed = [f for f in (data.scenes_failed or []) if isinstance(f, dict)]
@@ -191,20 +251,30 @@ def summary(data: Health, path: Path, age: float, fresh: bool,
     for i, problem in enumerate(problems[:20]):
         rows.append(("problems" if i == 0 else "", printable(problem)[:300]))
     if failed and not problems:
-        rows.append(("problems", f"{len(failed)} scene(s) failed: "
-                                 + printable(", ".join(str(f.get("scene")) for f in failed))))
+        rows.append(
+            (
+                "problems",
+                f"{len(failed)} scene(s) failed: "
+                + printable(", ".join(str(f.get("scene")) for f in failed)),
+            )
+        )
     rows.append(("frames", f"{get('frames')} drawn, {get('frame_errors')} failed"))
     rss = data.rss_kb
-    rows.append(("process", f"{get('gl_errors')} GL errors, "
-                            f"{'?' if rss is None else f'{rss / 1024:.0f} MB'} resident, "
-                            f"{get('fds')} open files"))
+    rows.append(
+        (
+            "process",
+            f"{get('gl_errors')} GL errors, "
+            f"{'?' if rss is None else f'{rss / 1024:.0f} MB'} resident, "
+            f"{get('fds')} open files",
+        )
+    )
     rows.append(("file", printable(path)))
     lines += [f"  {name:<8}  {value}" for name, value in rows]
     return "\n".join(lines)
 
 
 def _how_long(device: DeviceHealth, age: float) -> str:
-    """" for 3 min 5 s (never connected)" for a missing device whose kiosk knows how long."""
+    """ " for 3 min 5 s (never connected)" for a missing device whose kiosk knows how long."""
     missing = device.missing_s
     if device.state not in MISSING_STATES or missing is None:
         return ""
@@ -219,27 +289,36 @@ def quality_line(data: Health) -> str:
     detail = detail if isinstance(detail, dict) else {}
 
     def num(value, fmt):
-        return fmt.format(value) if isinstance(value, (int, float)) \
-            and not isinstance(value, bool) else "?"
+        return (
+            fmt.format(value)
+            if isinstance(value, (int, float)) and not isinstance(value, bool)
+            else "?"
+        )
 
     mesh = detail.get("mesh")
     factor = {0: "1", 1: "0.75", 2: "0.5"}.get(mesh, "?") if isinstance(mesh, int) else "?"
     how = "pinned" if detail.get("pinned") is True else "auto"
-    parts = [printable(detail.get("antialiasing", "?")), f"mesh x{factor}",
-             printable(detail.get("effects", "?")),
-             f"scale {num(detail.get('render_scale'), '{:g}')}"]
-    return (f"{printable(data.quality)} (level {num(detail.get('level'), '{}')} of "
-            f"{num(detail.get('levels'), '{}')}, {how}; {', '.join(parts)}), frames "
-            f"{num(data.frame_ms, '{:.1f}')} ms for a {num(data.target_ms, '{:.1f}')}"
-            " ms target")
+    parts = [
+        printable(detail.get("antialiasing", "?")),
+        f"mesh x{factor}",
+        printable(detail.get("effects", "?")),
+        f"scale {num(detail.get('render_scale'), '{:g}')}",
+    ]
+    return (
+        f"{printable(data.quality)} (level {num(detail.get('level'), '{}')} of "
+        f"{num(detail.get('levels'), '{}')}, {how}; {', '.join(parts)}), frames "
+        f"{num(data.frame_ms, '{:.1f}')} ms for a {num(data.target_ms, '{:.1f}')}"
+        " ms target"
+    )
 
 
 def printable(text) -> str:
     """``text`` as one line safe for a terminal: escape sequences and every other control or
     invisible formatting character (C0, DEL, C1, bidi overrides) removed, and tabs and line
     breaks turned into spaces."""
-    return "".join(c if c.isprintable() else " " if c.isspace() else ""
-                   for c in _ESCAPES.sub("", str(text)))
+    return "".join(
+        c if c.isprintable() else " " if c.isspace() else "" for c in _ESCAPES.sub("", str(text))
+    )
 
 
 def _print_json(obj: dict) -> None:

@@ -26,11 +26,18 @@ HYPERSPHERE_OFFSET = (0.0, 0.0, 0.0, 1.0)
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--distances", type=_args.distances, default="inf,6,4,3,2.5,2.2,2",
-                        help="comma-separated sensor distances (inf = orthographic); "
-                             "default: %(default)s")
-    parser.add_argument("--samples", type=_args.integer(8, 2048), default=181,
-                        help="samples per circle of each torus (default: %(default)s)")
+    parser.add_argument(
+        "--distances",
+        type=_args.distances,
+        default="inf,6,4,3,2.5,2.2,2",
+        help="comma-separated sensor distances (inf = orthographic); default: %(default)s",
+    )
+    parser.add_argument(
+        "--samples",
+        type=_args.integer(8, 2048),
+        default=181,
+        help="samples per circle of each torus (default: %(default)s)",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
 
 
@@ -45,8 +52,13 @@ def torus_image_area(latitude: float, view: ViewState, samples: int) -> tuple[fl
     # Two triangles per grid cell; the area is the sum of their areas.
     a, b = image[:-1, :-1], image[1:, :-1]
     c, d = image[1:, 1:], image[:-1, 1:]
-    area = 0.5 * (np.linalg.norm(np.cross(b - a, c - a), axis=-1)
-                  + np.linalg.norm(np.cross(c - a, d - a), axis=-1)).sum()
+    area = (
+        0.5
+        * (
+            np.linalg.norm(np.cross(b - a, c - a), axis=-1)
+            + np.linalg.norm(np.cross(c - a, d - a), axis=-1)
+        ).sum()
+    )
     return float(area), float(np.linalg.norm(image, axis=-1).max())
 
 

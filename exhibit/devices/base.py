@@ -19,8 +19,17 @@ from typing import Callable, Self
 
 from exhibit.errors import ConfigError, ExhibitError
 
-__all__ = ["DeviceError", "State", "MISSING", "Kind", "Event", "Capabilities", "Backend",
-           "Clock", "release_events"]
+__all__ = [
+    "DeviceError",
+    "State",
+    "MISSING",
+    "Kind",
+    "Event",
+    "Capabilities",
+    "Backend",
+    "Clock",
+    "release_events",
+]
 
 Clock = Callable[[], float]
 
@@ -87,13 +96,19 @@ class Event:
     value: float
 
     def to_dict(self) -> dict:
-        return {"t": round(self.t, 6), "device": self.device, "kind": self.kind.value,
-                "index": self.index, "value": self.value}
+        return {
+            "t": round(self.t, 6),
+            "device": self.device,
+            "kind": self.kind.value,
+            "index": self.index,
+            "value": self.value,
+        }
 
     @classmethod
     def from_dict(cls, d: dict) -> "Event":
-        return cls(float(d["t"]), str(d["device"]), Kind(d["kind"]), int(d["index"]),
-                   float(d["value"]))
+        return cls(
+            float(d["t"]), str(d["device"]), Kind(d["kind"]), int(d["index"]), float(d["value"])
+        )
 
 
 @dataclass(frozen=True)
@@ -111,8 +126,9 @@ class Capabilities:
         return {Kind.ABS: self.axes, Kind.REL: self.deltas, Kind.BUTTON: self.buttons}[kind]
 
 
-def release_events(t: float, device: str, axes: dict[int, float], buttons: dict[int, float]
-                   ) -> list[Event]:
+def release_events(
+    t: float, device: str, axes: dict[int, float], buttons: dict[int, float]
+) -> list[Event]:
     """Zero every deflected axis and release every pressed button: sent when a device is lost,
     so nothing it held keeps acting on the view."""
     out = [Event(t, device, Kind.ABS, i, 0.0) for i, v in sorted(axes.items()) if v]
@@ -215,11 +231,16 @@ class Backend:
         caller has read it already."""
         now = self.clock() if now is None else now
         state_s, missing_s = self.state_seconds(now), self.missing_seconds(now)
-        return {"name": self.name, "url": self.url, "state": self.state.value,
-                "detail": self.detail, "capabilities": self.capabilities.to_dict(),
-                "state_s": None if state_s is None else round(state_s, 3),
-                "missing_s": None if missing_s is None else round(missing_s, 3),
-                "ever_connected": self.ever_connected}
+        return {
+            "name": self.name,
+            "url": self.url,
+            "state": self.state.value,
+            "detail": self.detail,
+            "capabilities": self.capabilities.to_dict(),
+            "state_s": None if state_s is None else round(state_s, 3),
+            "missing_s": None if missing_s is None else round(missing_s, 3),
+            "ever_connected": self.ever_connected,
+        }
 
     def __enter__(self) -> "Backend":
         return self.open()

@@ -35,11 +35,26 @@ from exhibit.errors import ConfigError
 from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.files import parse_int
-from exhibit.schema.types import (MAX_ANGLE, MAX_DISTANCE, MIN_DISTANCE, Distance, Name, Number,
-                                  Numbers, Text)
+from exhibit.schema.types import (
+    MAX_ANGLE,
+    MAX_DISTANCE,
+    MIN_DISTANCE,
+    Distance,
+    Name,
+    Number,
+    Numbers,
+    Text,
+)
 
-__all__ = ["DeviceConfig", "DeviceConfigError", "load_config", "parse_config", "DEFAULT_CONFIG",
-           "STEP_LIMITS", "RATE_LIMITS"]
+__all__ = [
+    "DeviceConfig",
+    "DeviceConfigError",
+    "load_config",
+    "parse_config",
+    "DEFAULT_CONFIG",
+    "STEP_LIMITS",
+    "RATE_LIMITS",
+]
 
 DEFAULT_CONFIG = shipped("configs", "devices", "default.toml")
 _INPUTS = {"axis": Kind.ABS, "delta": Kind.REL, "button": Kind.BUTTON}
@@ -103,8 +118,9 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
     ``devices`` are the names configured (a device whose URL is wrong is still named, so its
     bindings get no second error); none configured: any name (devices come from --device)."""
     if devices and spec.device not in devices and spec.device != "*":
-        return problem(f"{where}.device", f"no device {spec.device!r} (configured: "
-                                          f"{', '.join(devices)})")
+        return problem(
+            f"{where}.device", f"no device {spec.device!r} (configured: {', '.join(devices)})"
+        )
     words = spec.input.split()
     number = None
     if len(words) == 2 and words[0] in _INPUTS:
@@ -113,16 +129,25 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
         except ValueError:
             pass
     if number is None:
-        return problem(f"{where}.input", "expected 'axis N', 'delta N' or 'button N' (N from 1 "
-                                         f"to 256, in the digits 0-9), got {spec.input!r}")
+        return problem(
+            f"{where}.input",
+            "expected 'axis N', 'delta N' or 'button N' (N from 1 "
+            f"to 256, in the digits 0-9), got {spec.input!r}",
+        )
     kind, index = _INPUTS[words[0]], number - 1
     if kind is Kind.BUTTON and (spec.action is None) == (spec.param is None):
-        return problem(where, "a button takes either action = \"home\" or \"next-scene\", or a "
-                              "param it moves at rate while held")
+        return problem(
+            where,
+            'a button takes either action = "home" or "next-scene", or a '
+            "param it moves at rate while held",
+        )
     if spec.hold_s is not None and spec.action != "language":
-        return problem(f"{where}.hold_s", "only a \"language\" button waits to be held (a "
-                                          "long press: a button that does something else "
-                                          "when pressed can also switch the language)")
+        return problem(
+            f"{where}.hold_s",
+            'only a "language" button waits to be held (a '
+            "long press: a button that does something else "
+            "when pressed can also switch the language)",
+        )
     if kind is Kind.BUTTON and spec.action is not None:
         return Binding(spec.device, kind, index, action=spec.action, hold_s=spec.hold_s)
     if spec.action is not None:
@@ -133,23 +158,37 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
     if kind is not Kind.ABS:
         for key in ("dead_zone", "curve") + (("rate",) if kind is Kind.REL else ()):
             if key in spec.model_fields_set:
-                return problem(f"{where}.{key}", f"only for axes; a {words[0]} takes "
-                                                 f"{'step' if kind is Kind.REL else 'rate'}")
+                return problem(
+                    f"{where}.{key}",
+                    f"only for axes; a {words[0]} takes {'step' if kind is Kind.REL else 'rate'}",
+                )
     if kind is Kind.REL:
         step = spec.step if spec.step is not None else (5.0 if unit == "angle" else 0.025)
         if abs(step) > STEP_LIMITS[unit]:
-            return problem(f"{where}.step", f"must lie in [-{STEP_LIMITS[unit]:g}, "
-                                            f"{STEP_LIMITS[unit]:g}] for {spec.param}, got {step}")
+            return problem(
+                f"{where}.step",
+                f"must lie in [-{STEP_LIMITS[unit]:g}, "
+                f"{STEP_LIMITS[unit]:g}] for {spec.param}, got {step}",
+            )
         return Binding(spec.device, kind, index, spec.param, step=step, invert=spec.invert)
     if spec.step is not None:
         held = "an axis" if kind is Kind.ABS else "a button"
         return problem(f"{where}.step", f"only for deltas; {held} takes rate")
     rate = spec.rate if spec.rate is not None else (90.0 if unit == "angle" else 0.25)
     if rate > RATE_LIMITS[unit]:
-        return problem(f"{where}.rate", f"must lie in [0, {RATE_LIMITS[unit]:g}] for "
-                                        f"{spec.param}, got {rate}")
-    return Binding(spec.device, kind, index, spec.param, rate=rate, dead_zone=spec.dead_zone,
-                   curve=spec.curve, invert=spec.invert)
+        return problem(
+            f"{where}.rate", f"must lie in [0, {RATE_LIMITS[unit]:g}] for {spec.param}, got {rate}"
+        )
+    return Binding(
+        spec.device,
+        kind,
+        index,
+        spec.param,
+        rate=rate,
+        dead_zone=spec.dead_zone,
+        curve=spec.curve,
+        invert=spec.invert,
+    )
 
 
 def parse_config(doc: dict, source: str = "<config>", base: Path | None = None) -> DeviceConfig:
@@ -185,9 +224,17 @@ def parse_config(doc: dict, source: str = "<config>", base: Path | None = None) 
         if param not in PARAMS[:6]:
             problem(where, "limits are for theta1..theta6 (the sensor has sensor_min_distance)")
             continue
-        ok = (isinstance(pair, list) and len(pair) == 2
-              and all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                      and math.isfinite(v) and abs(v) <= MAX_ANGLE for v in pair))
+        ok = (
+            isinstance(pair, list)
+            and len(pair) == 2
+            and all(
+                isinstance(v, (int, float))
+                and not isinstance(v, bool)
+                and math.isfinite(v)
+                and abs(v) <= MAX_ANGLE
+                for v in pair
+            )
+        )
         if not ok or not pair[0] < pair[1]:
             problem(where, f"expected [low, high] in degrees with low < high, got {pair!r}")
             continue
@@ -200,8 +247,9 @@ def parse_config(doc: dict, source: str = "<config>", base: Path | None = None) 
             bindings.append(binding)
     if problems:
         raise DeviceConfigError(problems)
-    mapping = MappingConfig(tuple(bindings), m.sensor_min_distance, limits, m.home_angles,
-                            m.home_sensor_distance)
+    mapping = MappingConfig(
+        tuple(bindings), m.sensor_min_distance, limits, m.home_angles, m.home_sensor_distance
+    )
     return DeviceConfig(devices, mapping, spec.activity.threshold, layout_dirs, source)
 
 

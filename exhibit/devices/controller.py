@@ -59,7 +59,11 @@ class DeviceClock:
         self._raw, self._last_arrival = t_ms, arrival
         device = self._ms / 1000.0
         candidate = arrival - device
-        if self._offset is None or candidate < self._offset or candidate - self._offset > self.JUMP_S:
+        if (
+            self._offset is None
+            or candidate < self._offset
+            or candidate - self._offset > self.JUMP_S
+        ):
             self._offset = candidate
         else:
             self._offset += (candidate - self._offset) * self.FOLLOW
@@ -157,10 +161,16 @@ class SerialController(ReconnectingBackend):
         silence = now - self._last_rx
         if self.state is State.CONNECTED and silence > self.lost_after:
             self._lost(now, f"silent for {silence:.1f} s (no heartbeat)")
-        elif self.state in (State.CONNECTING, State.RECONNECTING) and now - self._opened_at > max(2.0, self.lost_after):
+        elif self.state in (State.CONNECTING, State.RECONNECTING) and now - self._opened_at > max(
+            2.0, self.lost_after
+        ):
             # Open but no HELLO: a hung board (reopening resets a Nano) or another device.
-            self._lost(now, self.detail if "version" in self.detail
-                       else f"no HELLO from {self.path} in {now - self._opened_at:.1f} s")
+            self._lost(
+                now,
+                self.detail
+                if "version" in self.detail
+                else f"no HELLO from {self.path} in {now - self._opened_at:.1f} s",
+            )
 
     @property
     def lost_after(self) -> float:
@@ -175,8 +185,10 @@ class SerialController(ReconnectingBackend):
                         version = p.cobs_decode(item.data)[0]
                     except (p.ProtocolError, IndexError):
                         continue
-                    self.detail = (f"{self.path} speaks protocol version {version}; this host "
-                                   f"speaks {p.PROTOCOL_VERSION} (update the firmware or exhibit)")
+                    self.detail = (
+                        f"{self.path} speaks protocol version {version}; this host "
+                        f"speaks {p.PROTOCOL_VERSION} (update the firmware or exhibit)"
+                    )
                 continue
             msg = item.message
             if isinstance(msg, p.Hello):
@@ -219,9 +231,14 @@ class SerialController(ReconnectingBackend):
 
     def status(self, now: float | None = None) -> dict:
         d = super().status(now)
-        d["link"] = {**self.decoder.summary(), "lost_frames": self.tracker.lost,
-                     "reordered": self.tracker.reordered, "duplicates": self.tracker.duplicates,
-                     "restarts": self.tracker.restarts, "reconnects": self.reconnects}
+        d["link"] = {
+            **self.decoder.summary(),
+            "lost_frames": self.tracker.lost,
+            "reordered": self.tracker.reordered,
+            "duplicates": self.tracker.duplicates,
+            "restarts": self.tracker.restarts,
+            "reconnects": self.reconnects,
+        }
         return d
 
 

@@ -33,8 +33,12 @@ __all__ = ["FakeHidDevice", "FakeHidBus", "encode_report", "parse_hid_script"]
 _paths = itertools.count(1)
 
 
-def encode_report(layout: Layout, deltas: dict[int, int] | None = None,
-                  axes: dict[int, float] | None = None, buttons: int = 0) -> bytes:
+def encode_report(
+    layout: Layout,
+    deltas: dict[int, int] | None = None,
+    axes: dict[int, float] | None = None,
+    buttons: int = 0,
+) -> bytes:
     """The report bytes the device would send for these values: the smallest report of the
     layout whose fields carry every channel given (button bits go wherever a buttons field is)."""
     deltas, axes = deltas or {}, axes or {}
@@ -62,9 +66,19 @@ def encode_report(layout: Layout, deltas: dict[int, int] | None = None,
 class FakeHidDevice:
     """One simulated HID device: what is plugged in, its reports, and its script."""
 
-    def __init__(self, vid: int, pid: int, *, product: str = "Fake HID", serial: str = "",
-                 usage_page: int = 0, script=None, clock=time.monotonic, seed=None,
-                 layout: Layout | None = None):
+    def __init__(
+        self,
+        vid: int,
+        pid: int,
+        *,
+        product: str = "Fake HID",
+        serial: str = "",
+        usage_page: int = 0,
+        script=None,
+        clock=time.monotonic,
+        seed=None,
+        layout: Layout | None = None,
+    ):
         self.vid, self.pid, self.product, self.serial = vid, pid, product, serial
         self.usage_page = usage_page
         self.path = f"fake-hid-{next(_paths)}".encode()
@@ -115,8 +129,9 @@ class FakeHidDevice:
             if cmd == "report":
                 self.push(args)
             elif cmd == "turn":
-                self.push(encode_report(self._layout, deltas={args[0]: args[1]},
-                                        buttons=self.buttons))
+                self.push(
+                    encode_report(self._layout, deltas={args[0]: args[1]}, buttons=self.buttons)
+                )
             elif cmd in ("press", "release"):
                 bit = 1 << args
                 self.buttons = self.buttons | bit if cmd == "press" else self.buttons & ~bit
@@ -133,10 +148,18 @@ class FakeHidDevice:
                 self._index = 0
 
     def info(self) -> dict:
-        return {"path": self.path, "vendor_id": self.vid, "product_id": self.pid,
-                "serial_number": self.serial, "release_number": 0x100,
-                "manufacturer_string": "Exhibit test", "product_string": self.product,
-                "usage_page": self.usage_page, "usage": 1, "interface_number": 0}
+        return {
+            "path": self.path,
+            "vendor_id": self.vid,
+            "product_id": self.pid,
+            "serial_number": self.serial,
+            "release_number": 0x100,
+            "manufacturer_string": "Exhibit test",
+            "product_string": self.product,
+            "usage_page": self.usage_page,
+            "usage": 1,
+            "interface_number": 0,
+        }
 
 
 class _Handle:
@@ -195,8 +218,11 @@ class FakeHidBus:
     def enumerate(self, vendor_id: int = 0, product_id: int = 0) -> list[dict]:
         for d in self.devices:
             d.advance(d.clock())  # a scripted replug happens while nobody has it open
-        return [d.info() for d in self.devices if d.plugged
-                and vendor_id in (0, d.vid) and product_id in (0, d.pid)]
+        return [
+            d.info()
+            for d in self.devices
+            if d.plugged and vendor_id in (0, d.vid) and product_id in (0, d.pid)
+        ]
 
     def device(self) -> _Handle:
         return _Handle(self)
@@ -216,8 +242,10 @@ def parse_hid_script(text: str, source: str, layout: Layout) -> list[tuple]:
             elif cmd == "turn":
                 ch, steps = int(rest[0]), int(rest[1])
                 if len(rest) != 2 or not 1 <= ch <= caps.deltas or not -127 <= steps <= 127:
-                    raise DeviceError(f"{where}: turn CHANNEL STEPS with channel 1..{caps.deltas}"
-                                      " and steps -127..127")
+                    raise DeviceError(
+                        f"{where}: turn CHANNEL STEPS with channel 1..{caps.deltas}"
+                        " and steps -127..127"
+                    )
                 out.append((cmd, (ch - 1, steps)))
             elif cmd in ("press", "release"):
                 b = int(rest[0])
@@ -239,8 +267,10 @@ def parse_hid_script(text: str, source: str, layout: Layout) -> list[tuple]:
                     raise DeviceError(f"{where}: repeat takes nothing")
                 out.append((cmd, None))
             else:
-                raise DeviceError(f"{where}: unknown command {words[0]!r} (report, turn, press, "
-                                  "release, axes, wait, unplug, repeat)")
+                raise DeviceError(
+                    f"{where}: unknown command {words[0]!r} (report, turn, press, "
+                    "release, axes, wait, unplug, repeat)"
+                )
         except (ValueError, IndexError):
             raise DeviceError(f"{where}: bad arguments {' '.join(rest)!r} for {cmd}") from None
     return out

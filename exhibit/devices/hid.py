@@ -25,16 +25,23 @@ from typing import Annotated, Any, Literal, get_args
 
 from pydantic import Field as PydanticField
 
-from exhibit.devices.base import (Capabilities, DeviceConfigError, DeviceError, Event, Kind,
-                                  State)
+from exhibit.devices.base import Capabilities, DeviceConfigError, DeviceError, Event, Kind, State
 from exhibit.devices.reconnect import ReconnectingBackend
 from exhibit.errors import ConfigError
 from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Integer, Name, Number, Text
 
-__all__ = ["Field", "Report", "Layout", "load_layouts", "load_layout", "find_layout",
-           "HidBackend", "LAYOUT_DIR"]
+__all__ = [
+    "Field",
+    "Report",
+    "Layout",
+    "load_layouts",
+    "load_layout",
+    "find_layout",
+    "HidBackend",
+    "LAYOUT_DIR",
+]
 
 LAYOUT_DIR = shipped("configs", "devices")
 
@@ -68,7 +75,7 @@ class Field:
 
     def values(self, data: bytes) -> list[int]:
         if self.kind is Kind.BUTTON:
-            bits = int.from_bytes(data[self.offset:self.end], "little")
+            bits = int.from_bytes(data[self.offset : self.end], "little")
             return [(bits >> i) & 1 for i in range(self.count)]
         fmt = _TYPES[self.type]
         order = fmt[0] if fmt[0] in "<>" else ""
@@ -77,7 +84,7 @@ class Field:
     def pack(self, values: list[int], into: bytearray) -> None:
         if self.kind is Kind.BUTTON:
             bits = sum((1 << i) for i, v in enumerate(values) if v)
-            into[self.offset:self.end] = bits.to_bytes(self.end - self.offset, "little")
+            into[self.offset : self.end] = bits.to_bytes(self.end - self.offset, "little")
             return
         fmt = _TYPES[self.type]
         order = fmt[0] if fmt[0] in "<>" else ""
@@ -168,8 +175,9 @@ def parse_vid_pid(text: str, url: str = "") -> tuple[int, int, str | None]:
         if not (0 <= v <= 0xFFFF and 0 <= p <= 0xFFFF) or len(vid) > 4 or len(pid) > 4:
             raise ValueError
     except ValueError:
-        raise DeviceError(f"device URL {url or text!r}: expected VID:PID in hex "
-                          f"(e.g. 2341:8037), got {ids!r}") from None
+        raise DeviceError(
+            f"device URL {url or text!r}: expected VID:PID in hex (e.g. 2341:8037), got {ids!r}"
+        ) from None
     return v, p, serial or None
 
 
@@ -186,8 +194,7 @@ def parse_layout(doc: dict, source: str) -> Layout:
             vid, pid, _ = parse_vid_pid(text)
             match.append((vid, pid))
         except DeviceError:
-            problems.append(f"{source}: layout.match[{i}]: expected \"VID:PID\" in hex, "
-                            f"got {text!r}")
+            problems.append(f'{source}: layout.match[{i}]: expected "VID:PID" in hex, got {text!r}')
     reports = []
     for ri, rep in enumerate(spec.report):
         rw = f"{source}: report[{ri}]"
@@ -197,8 +204,7 @@ def parse_layout(doc: dict, source: str) -> Layout:
             fw = f"{rw}.fields[{fi}]"
             ftype = fd.type or ("bits" if fd.kind == "buttons" else "i8")
             if (fd.kind == "buttons") != (ftype == "bits"):
-                problems.append(f"{fw}.type: buttons are bits and only buttons are, got "
-                                f"{ftype!r}")
+                problems.append(f"{fw}.type: buttons are bits and only buttons are, got {ftype!r}")
                 continue
             if fd.offset < first:
                 problems.append(f"{fw}.offset: {fd.offset} overlaps the report id byte")
@@ -212,8 +218,15 @@ def parse_layout(doc: dict, source: str) -> Layout:
     if problems:
         raise DeviceConfigError(problems)
     head = spec.layout
-    return Layout(head.name, head.description, tuple(match), head.backend, head.usage_page,
-                  tuple(reports), source)
+    return Layout(
+        head.name,
+        head.description,
+        tuple(match),
+        head.backend,
+        head.usage_page,
+        tuple(reports),
+        source,
+    )
 
 
 def _read(path: Path) -> dict:
@@ -232,7 +245,7 @@ def load_layouts(dirs=None) -> dict[str, Layout]:
     """Every layout file (a TOML file with a [layout] table) in ``dirs`` (default
     configs/devices), by name; a later directory overrides an earlier one."""
     layouts: dict[str, Layout] = {}
-    for d in ([LAYOUT_DIR] if dirs is None else [Path(x) for x in dirs]):
+    for d in [LAYOUT_DIR] if dirs is None else [Path(x) for x in dirs]:
         try:
             paths = sorted(Path(d).glob("*.toml"))
         except OSError as exc:
@@ -248,17 +261,23 @@ def load_layouts(dirs=None) -> dict[str, Layout]:
 def find_layout(layouts: dict[str, Layout], name: str | None, vid, pid, url: str) -> Layout:
     if name is not None:
         if name not in layouts:
-            raise DeviceError(f"device URL {url!r}: no layout {name!r} (known: "
-                              f"{', '.join(sorted(layouts)) or 'none'})")
+            raise DeviceError(
+                f"device URL {url!r}: no layout {name!r} (known: "
+                f"{', '.join(sorted(layouts)) or 'none'})"
+            )
         return layouts[name]
     for layout in layouts.values():
         if (vid, pid) in layout.match:
             return layout
     if vid is None:
-        raise DeviceError(f"device URL {url!r}: say which layout (?layout=NAME; known: "
-                          f"{', '.join(sorted(layouts)) or 'none'})")
-    raise DeviceError(f"device URL {url!r}: no layout matches {vid:04x}:{pid:04x}; add one to "
-                      f"configs/devices with match = [\"{vid:04x}:{pid:04x}\"] (docs/DEVICES.md)")
+        raise DeviceError(
+            f"device URL {url!r}: say which layout (?layout=NAME; known: "
+            f"{', '.join(sorted(layouts)) or 'none'})"
+        )
+    raise DeviceError(
+        f"device URL {url!r}: no layout matches {vid:04x}:{pid:04x}; add one to "
+        f'configs/devices with match = ["{vid:04x}:{pid:04x}"] (docs/DEVICES.md)'
+    )
 
 
 # ---- the backend ---------------------------------------------------------------------------
@@ -303,8 +322,10 @@ class HidBackend(ReconnectingBackend):
             try:
                 self.api = importlib.import_module("hid" if self.backend == "hid" else "hidraw")
             except ImportError as exc:
-                raise DeviceError(f"hidapi's {self.backend} backend is missing ({exc}); "
-                                  "pip install 'hidapi>=0.14'") from None
+                raise DeviceError(
+                    f"hidapi's {self.backend} backend is missing ({exc}); "
+                    "pip install 'hidapi>=0.14'"
+                ) from None
         return self.api
 
     def _open(self) -> None:
@@ -354,8 +375,10 @@ class HidBackend(ReconnectingBackend):
                 dev.close()
             except (OSError, ValueError):
                 pass
-            return (f"cannot open {self.target} ({self.backend}): {exc}; check the udev "
-                    "rule's permissions (docs/DEVICES.md)")
+            return (
+                f"cannot open {self.target} ({self.backend}): {exc}; check the udev "
+                "rule's permissions (docs/DEVICES.md)"
+            )
         self._dev = dev
         self.state = State.CONNECTED
         name = self._layout.name
@@ -405,6 +428,9 @@ class HidBackend(ReconnectingBackend):
 
     def status(self, now: float | None = None) -> dict:
         d = super().status(now)
-        d["link"] = {"reports_ok": self.reports_ok, "reports_unknown": self.reports_unknown,
-                     "reconnects": self.reconnects}
+        d["link"] = {
+            "reports_ok": self.reports_ok,
+            "reports_unknown": self.reports_unknown,
+            "reconnects": self.reconnects,
+        }
         return d

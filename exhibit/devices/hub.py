@@ -32,9 +32,9 @@ class DeviceSet:
         self.clock = clock
         # construct every backend first: a bad URL or layout fails before anything is opened
         self.backends: list[Backend] = [
-            backend_for_url(url, name, clock=clock, layout_dirs=config.layout_dirs,
-                            hid_api=hid_api)
-            for name, url in config.devices.items()]
+            backend_for_url(url, name, clock=clock, layout_dirs=config.layout_dirs, hid_api=hid_api)
+            for name, url in config.devices.items()
+        ]
         self._broken: dict[int, float] = {}
         self._errors: dict[int, int] = {}  # backend index -> exceptions so far
         self._logged: set[tuple[int, str]] = set()  # (index, exception type) with a traceback
@@ -57,13 +57,19 @@ class DeviceSet:
             known = isinstance(exc, DeviceError)  # a problem a person fixes: no traceback
             if (i, type(exc).__name__) not in self._logged:
                 self._logged.add((i, type(exc).__name__))
-                log.error("device %s (%s): %s, retried every %g s (logged once; the count is "
-                          "in its status)", b.name, b.url,
-                          exc if known else "backend error", RETRY_S,
-                          exc_info=None if known else exc)
+                log.error(
+                    "device %s (%s): %s, retried every %g s (logged once; the count is "
+                    "in its status)",
+                    b.name,
+                    b.url,
+                    exc if known else "backend error",
+                    RETRY_S,
+                    exc_info=None if known else exc,
+                )
             b.state = State.LOST  # WAITING if never connected; the absence runs on across reopens
-            b.detail = ((f"{exc}" if known else f"backend error: {type(exc).__name__}: {exc}")
-                        + (f" ({count} so far)" if count > 1 else ""))
+            b.detail = (f"{exc}" if known else f"backend error: {type(exc).__name__}: {exc}") + (
+                f" ({count} so far)" if count > 1 else ""
+            )
             self._broken[i] = self.clock() + RETRY_S
             return None
 

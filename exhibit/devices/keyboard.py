@@ -25,12 +25,21 @@ from exhibit.devices.base import Backend, Capabilities, Event, Kind, State
 __all__ = ["KeyboardBackend", "DEFAULT_KEYS", "BUTTON_KEYS", "key_name"]
 
 #: key -> (axis, direction)
-DEFAULT_KEYS = {k: (i, d) for i, pair in enumerate(("qa", "ws", "ed", "rf", "tg", "yh", "uj"))
-                for k, d in zip(pair, (1.0, -1.0))}
+DEFAULT_KEYS = {
+    k: (i, d)
+    for i, pair in enumerate(("qa", "ws", "ed", "rf", "tg", "yh", "uj"))
+    for k, d in zip(pair, (1.0, -1.0))
+}
 BUTTON_KEYS = {"space": 0, "n": 1, "l": 2}
 #: GLFW key names for keys that have none of their own (glfw.get_key_name gives None for them).
-SPECIAL_KEYS = {"SPACE": "space", "ESCAPE": "escape", "UP": "up", "DOWN": "down",
-                "LEFT": "left", "RIGHT": "right"}
+SPECIAL_KEYS = {
+    "SPACE": "space",
+    "ESCAPE": "escape",
+    "UP": "up",
+    "DOWN": "down",
+    "LEFT": "left",
+    "RIGHT": "right",
+}
 
 
 def key_name(glfw, key: int) -> str | None:
@@ -75,8 +84,9 @@ class KeyboardBackend(Backend):
     def _t(self, t: float | None) -> float:
         return self.clock() if t is None else t
 
-    def key(self, name: str, pressed: bool, t: float | None = None,
-            mods: Iterable[str] = ()) -> None:
+    def key(
+        self, name: str, pressed: bool, t: float | None = None, mods: Iterable[str] = ()
+    ) -> None:
         """A key went down or up (repeats of a held key are harmless); ``mods``: the modifiers
         held ("ctrl", "alt", "shift", "super"). A press with any modifier but Shift is a
         shortcut meant for someone else (Ctrl+Q, Alt+Tab, the staff's quit combination), not
@@ -87,8 +97,15 @@ class KeyboardBackend(Backend):
         name = name.lower()
         if name in BUTTON_KEYS:
             if pressed != (name in self._down):
-                self._queue.append(Event(self._t(t), self.name, Kind.BUTTON, BUTTON_KEYS[name],
-                                         1.0 if pressed else 0.0))
+                self._queue.append(
+                    Event(
+                        self._t(t),
+                        self.name,
+                        Kind.BUTTON,
+                        BUTTON_KEYS[name],
+                        1.0 if pressed else 0.0,
+                    )
+                )
         (self._down.add if pressed else self._down.discard)(name)
         if name not in self.keys:
             return

@@ -38,8 +38,18 @@ from typing import Iterable, Literal, get_args
 
 from exhibit.devices.base import Event, Kind
 
-__all__ = ["PARAMS", "ACTIONS", "Param", "Action", "Binding", "ParamLimits", "MappingConfig",
-           "Mapper", "ActivityDetector", "shape"]
+__all__ = [
+    "PARAMS",
+    "ACTIONS",
+    "Param",
+    "Action",
+    "Binding",
+    "ParamLimits",
+    "MappingConfig",
+    "Mapper",
+    "ActivityDetector",
+    "shape",
+]
 
 #: The seven parameters a device can drive, in order.
 Param = Literal["theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor"]
@@ -168,8 +178,11 @@ class Mapper:
         # held channel (device, kind, index) -> [held value, time integrated up to]: axes, and
         # buttons that drive a parameter while held
         self._held: dict[tuple[str, Kind, int], list[float]] = {}
-        self._rate_buttons = {key for key, binds in self._by_channel.items()
-                              if key[1] is Kind.BUTTON and any(b.param for b in binds)}
+        self._rate_buttons = {
+            key
+            for key, binds in self._by_channel.items()
+            if key[1] is Kind.BUTTON and any(b.param for b in binds)
+        }
         # long presses: channel -> when its button went down (None once it has fired)
         self._holds: dict[tuple[str, Kind, int], float | None] = {}
         #: Actions whose long press came due in the latest apply().
@@ -189,20 +202,30 @@ class Mapper:
         binds = self._by_channel.get((device, Kind.BUTTON, index), ())
         if not binds:
             return "next-scene"  # as switches_scene: a button bound to nothing
-        return ", ".join((f"{b.action} (held {b.hold_s:g} s)" if b.hold_s else b.action)
-                         or f"{b.param} {'-' if b.invert else '+'}" for b in binds)
+        return ", ".join(
+            (f"{b.action} (held {b.hold_s:g} s)" if b.hold_s else b.action)
+            or f"{b.param} {'-' if b.invert else '+'}"
+            for b in binds
+        )
 
     def pressed(self, events: Iterable[Event], action: str) -> bool:
         """Whether ``events`` press a button bound to ``action`` (one of ACTIONS), or a long
         press of one came due in the latest apply()."""
-        return action in self.fired or any(e.kind is Kind.BUTTON and e.value > 0 and any(
-            b.action == action and b.hold_s is None
-            for b in self._by_channel.get((e.device, e.kind, e.index), ())) for e in events)
+        return action in self.fired or any(
+            e.kind is Kind.BUTTON
+            and e.value > 0
+            and any(
+                b.action == action and b.hold_s is None
+                for b in self._by_channel.get((e.device, e.kind, e.index), ())
+            )
+            for e in events
+        )
 
     def _long_presses(self, e: Event, key, now: float) -> None:
         """Track the buttons of long-press bindings: down starts the wait, up ends it."""
         if e.kind is not Kind.BUTTON or not any(
-                b.hold_s is not None for b in self._by_channel.get(key, ())):
+            b.hold_s is not None for b in self._by_channel.get(key, ())
+        ):
             return
         if e.value > 0:
             if key not in self._holds:
@@ -216,16 +239,18 @@ class Mapper:
         for key, down in self._holds.items():
             if down is None:
                 continue
-            due = [b for b in self._by_channel[key] if b.hold_s is not None
-                   and now - down >= b.hold_s]
+            due = [
+                b for b in self._by_channel[key] if b.hold_s is not None and now - down >= b.hold_s
+            ]
             if due:
                 # load_mapping gives hold_s only to an action button
                 fired |= {b.action for b in due if b.action is not None}
                 self._holds[key] = None
         return fired
 
-    def _integrate(self, key: tuple[str, Kind, int], st: list[float], t: float,
-                   acc: list[float]) -> None:
+    def _integrate(
+        self, key: tuple[str, Kind, int], st: list[float], t: float, acc: list[float]
+    ) -> None:
         dt = t - st[1]
         if dt <= 0:
             return
@@ -284,12 +309,18 @@ class Mapper:
             lim = self.config.limits.get(PARAMS[i])
             a = angles[i] + math.radians(acc[i])
             if lim is None or (lim.low is None and lim.high is None):
-                a = math.remainder(a, 2 * math.pi)  # (-pi, pi]: any multiple of 2 pi is the same view
+                a = math.remainder(
+                    a, 2 * math.pi
+                )  # (-pi, pi]: any multiple of 2 pi is the same view
                 if a == -math.pi:
                     a = math.pi
             else:
-                a = _bounded(angles[i], a, lim.low and math.radians(lim.low),
-                             lim.high and math.radians(lim.high))
+                a = _bounded(
+                    angles[i],
+                    a,
+                    lim.low and math.radians(lim.low),
+                    lim.high and math.radians(lim.high),
+                )
             angles[i] = a
         r = view.sensor_r
         if acc[SENSOR]:

@@ -225,8 +225,14 @@ class Hello(Message):
 
     def pack(self) -> bytes:
         return struct.pack(
-            self._FMT, *self.firmware, self.board, self.n_axes, self.n_buttons,
-            self.frame_hz, self.heartbeat_ms, int(self.reset_cause),
+            self._FMT,
+            *self.firmware,
+            self.board,
+            self.n_axes,
+            self.n_buttons,
+            self.frame_hz,
+            self.heartbeat_ms,
+            int(self.reset_cause),
         )
 
     @classmethod
@@ -405,7 +411,9 @@ def encode_frame(message: Message, seq: int) -> bytes:
     """The wire bytes of ``message`` with sequence number ``seq`` (mod 256), delimiter included."""
     payload = message.pack()
     if len(payload) != message.SIZE:
-        raise ValueError(f"{type(message).__name__} packs to {len(payload)} bytes, not {message.SIZE}")
+        raise ValueError(
+            f"{type(message).__name__} packs to {len(payload)} bytes, not {message.SIZE}"
+        )
     return encode_raw(message.TYPE, seq, payload)
 
 
@@ -421,7 +429,9 @@ def decode_frame(chunk: bytes) -> Frame:
         raise ProtocolError(Reject.CRC)
     version, msg_type, seq = raw[0], raw[1], raw[2]
     if version != PROTOCOL_VERSION:
-        raise ProtocolError(Reject.VERSION, f"version {version}, this host speaks {PROTOCOL_VERSION}")
+        raise ProtocolError(
+            Reject.VERSION, f"version {version}, this host speaks {PROTOCOL_VERSION}"
+        )
     cls = _MESSAGES.get(msg_type)
     if cls is None:
         raise ProtocolError(Reject.TYPE, f"type 0x{msg_type:02x}")
@@ -501,8 +511,11 @@ class StreamDecoder:
         self._discarding = 0
 
     def summary(self) -> dict[str, int]:
-        return {"frames_ok": self.frames_ok, "rejected": self.rejected,
-                "bytes_skipped": self.bytes_skipped}
+        return {
+            "frames_ok": self.frames_ok,
+            "rejected": self.rejected,
+            "bytes_skipped": self.bytes_skipped,
+        }
 
 
 class SequenceTracker:
@@ -552,8 +565,9 @@ class SequenceTracker:
                     self.reordered += 1  # from before the resync: nothing to take back
                 return 0
             self.lost += gap
-            self._missing.update((self.expected + k) & 0xFF
-                                 for k in range(max(0, gap - self.WINDOW), gap))
+            self._missing.update(
+                (self.expected + k) & 0xFF for k in range(max(0, gap - self.WINDOW), gap)
+            )
             self._span = min(self.WINDOW, self._span + gap + 1)
             if self._missing:
                 self._missing = {m for m in self._missing if (seq - m) & 0xFF <= self.WINDOW}

@@ -13,8 +13,15 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from exhibit.devices.base import (Backend, Capabilities, DeviceError, Event, Kind, State,
-                                  release_events)
+from exhibit.devices.base import (
+    Backend,
+    Capabilities,
+    DeviceError,
+    Event,
+    Kind,
+    State,
+    release_events,
+)
 from exhibit.errors import ConfigError
 from exhibit.schema import read_text
 
@@ -62,8 +69,10 @@ def read_recording(path: Path) -> tuple[dict, list[Event]]:
     except (ValueError, RecursionError):
         header = None
     if not isinstance(header, dict) or header.get("exhibit_recording") != FORMAT:
-        raise DeviceError(f"{path} line 1: not an exhibit recording (expected the header "
-                          f'{{"exhibit_recording": {FORMAT}, ...}})')
+        raise DeviceError(
+            f"{path} line 1: not an exhibit recording (expected the header "
+            f'{{"exhibit_recording": {FORMAT}, ...}})'
+        )
     events = []
     for n, line in enumerate(lines[1:], 2):
         if not line.strip():
@@ -73,8 +82,9 @@ def read_recording(path: Path) -> tuple[dict, list[Event]]:
             if not 0 <= e.t <= 1e7:
                 raise ValueError(f"time {e.t} is not in [0, 1e7] s")
             if not (math.isfinite(e.value) and abs(e.value) <= MAX_EVENT_VALUE):
-                raise ValueError(f"value {e.value} is not a finite number within "
-                                 f"±{MAX_EVENT_VALUE:g}")
+                raise ValueError(
+                    f"value {e.value} is not a finite number within ±{MAX_EVENT_VALUE:g}"
+                )
             if not 0 <= e.index < 256:
                 raise ValueError(f"index {e.index} is not in 0..255")
         except (ValueError, KeyError, TypeError, OverflowError, RecursionError) as exc:

@@ -59,9 +59,18 @@ class Step:
     args: tuple[float, ...]
 
 
-_ARITY = {"axes": (6, 6), "axis": (2, 2), "buttons": (0, 4), "wait": (1, 1), "garbage": (1, 1),
-          "unplug": (1, 1), "hang": (1, 1), "watchdog": (0, 0), "reset": (0, 0),
-          "repeat": (0, 0)}
+_ARITY = {
+    "axes": (6, 6),
+    "axis": (2, 2),
+    "buttons": (0, 4),
+    "wait": (1, 1),
+    "garbage": (1, 1),
+    "unplug": (1, 1),
+    "hang": (1, 1),
+    "watchdog": (0, 0),
+    "reset": (0, 0),
+    "repeat": (0, 0),
+}
 
 
 def script_lines(text: str, source: str):
@@ -78,8 +87,9 @@ def parse_script(text: str, source: str = "<script>") -> list[Step]:
     steps = []
     for n, where, cmd, rest, words in script_lines(text, source):
         if cmd not in _ARITY:
-            raise DeviceError(f"{where}: unknown command {words[0]!r} "
-                              f"(one of {', '.join(sorted(_ARITY))})")
+            raise DeviceError(
+                f"{where}: unknown command {words[0]!r} (one of {', '.join(sorted(_ARITY))})"
+            )
         lo, hi = _ARITY[cmd]
         if not lo <= len(rest) <= hi:
             want = f"{lo}" if lo == hi else f"{lo} to {hi}"
@@ -89,7 +99,9 @@ def parse_script(text: str, source: str = "<script>") -> list[Step]:
         except ValueError:
             raise DeviceError(f"{where}: {cmd} needs numbers, got {' '.join(rest)!r}") from None
         bad = None
-        if cmd in ("axes", "axis") and not all(-1 <= a <= 1 for a in args[-6 if cmd == "axes" else -1:]):
+        if cmd in ("axes", "axis") and not all(
+            -1 <= a <= 1 for a in args[-6 if cmd == "axes" else -1 :]
+        ):
             bad = "deflections must lie in [-1, 1]"
         elif cmd == "axis" and args[0] not in range(1, 7):
             bad = "axis number must be 1..6"
@@ -178,10 +190,18 @@ class SimController:
     time call ``plug()`` and ``tick(now)`` themselves. ``link`` is the stable name to open.
     """
 
-    def __init__(self, link: str | os.PathLike | None = None, *, firmware=(1, 0, 0),
-                 version: int = p.PROTOCOL_VERSION, heartbeat_ms: int = 250,
-                 script: list[Step] | None = None, seed: int | None = None, clock=time.monotonic,
-                 sync: bool = False):
+    def __init__(
+        self,
+        link: str | os.PathLike | None = None,
+        *,
+        firmware=(1, 0, 0),
+        version: int = p.PROTOCOL_VERSION,
+        heartbeat_ms: int = 250,
+        script: list[Step] | None = None,
+        seed: int | None = None,
+        clock=time.monotonic,
+        sync: bool = False,
+    ):
         self._tmpdir = None
         if link is None:
             self._tmpdir = tempfile.TemporaryDirectory(prefix="exhibit-sim-")
@@ -347,8 +367,11 @@ class SimController:
 
     def _command(self, msg: p.Message, now: float) -> None:
         if isinstance(msg, p.HelloRequest):
-            self._send(p.Hello(self.firmware, 1, p.N_AXES, 4, 100, self.heartbeat_ms,
-                               p.ResetCause.POWER_ON))
+            self._send(
+                p.Hello(
+                    self.firmware, 1, p.N_AXES, 4, 100, self.heartbeat_ms, p.ResetCause.POWER_ON
+                )
+            )
         elif isinstance(msg, p.Calibrate):
             self._send(p.Calibration(p.CalibrationReason.HOST, 0, self._zeros))
         elif isinstance(msg, p.WatchdogTest) and msg.key == p.WATCHDOG_KEY:

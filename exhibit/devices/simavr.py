@@ -29,8 +29,18 @@ from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
 from exhibit.devices.sim import ScriptPlayer, Step
 
-__all__ = ["Harness", "FirmwareController", "find_harness", "check_elf", "deflection_mv",
-           "VCC_MV", "REST_MV", "BUTTON_PINS", "EEPROM_SIZE", "HARNESS_PACKAGES"]
+__all__ = [
+    "Harness",
+    "FirmwareController",
+    "find_harness",
+    "check_elf",
+    "deflection_mv",
+    "VCC_MV",
+    "REST_MV",
+    "BUTTON_PINS",
+    "EEPROM_SIZE",
+    "HARNESS_PACKAGES",
+]
 
 VCC_MV = 5000
 REST_MV = VCC_MV // 2
@@ -54,8 +64,12 @@ def check_elf(path: Path) -> Path:
     try:
         head = path.read_bytes()[:20]
     except OSError as exc:
-        hint = " (build it: make -C firmware controller)" if isinstance(exc, FileNotFoundError) else ""
-        raise DeviceError(f"{path}: cannot read the firmware: {exc.strerror or exc}{hint}") from None
+        hint = (
+            " (build it: make -C firmware controller)" if isinstance(exc, FileNotFoundError) else ""
+        )
+        raise DeviceError(
+            f"{path}: cannot read the firmware: {exc.strerror or exc}{hint}"
+        ) from None
     if head[:4] != b"\x7fELF" or len(head) < 20:
         raise DeviceError(f"{path}: not an ELF file (give the .elf, not the .hex)")
     machine = int.from_bytes(head[18:20], "little")
@@ -80,8 +94,10 @@ def find_harness(elf: Path | None = None, harness: Path | None = None) -> Path:
     for c in candidates:
         if c.is_file() and os.access(c, os.X_OK):
             return c
-    raise DeviceError(f"{candidates[0]}: the simavr harness is not built: make -C firmware sim "
-                      f"(Debian: apt-get install {HARNESS_PACKAGES})")
+    raise DeviceError(
+        f"{candidates[0]}: the simavr harness is not built: make -C firmware sim "
+        f"(Debian: apt-get install {HARNESS_PACKAGES})"
+    )
 
 
 class Harness:
@@ -90,8 +106,16 @@ class Harness:
     The CPU waits for :meth:`run`, so a host can open the pty first and see the boot frames.
     ``resets`` collects the simulated times (s) of CPU resets (the watchdog, ...)."""
 
-    def __init__(self, elf: Path, *, harness: Path | None = None, speed: float = 1.0,
-                 eeprom: Path | None = None, log: Path | None = None, timeout: float = 10.0):
+    def __init__(
+        self,
+        elf: Path,
+        *,
+        harness: Path | None = None,
+        speed: float = 1.0,
+        eeprom: Path | None = None,
+        log: Path | None = None,
+        timeout: float = 10.0,
+    ):
         elf = check_elf(elf)
         exe = find_harness(elf, harness)
         self.timeout = timeout
@@ -104,9 +128,14 @@ class Harness:
         cmd = [str(exe), "--speed", f"{speed:g}"]
         if eeprom is not None:
             cmd += ["--eeprom", str(eeprom)]
-        self.proc = subprocess.Popen(cmd + [str(elf)], stdin=subprocess.PIPE,
-                                     stdout=subprocess.PIPE, stderr=self._log, text=True,
-                                     bufsize=1)
+        self.proc = subprocess.Popen(
+            cmd + [str(elf)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=self._log,
+            text=True,
+            bufsize=1,
+        )
         self.replies: queue.Queue[str | None] = queue.Queue()
         self.resets: list[float] = []
         self._lock = threading.Lock()
@@ -136,7 +165,9 @@ class Harness:
         try:
             line = self.replies.get(timeout=self.timeout)
         except queue.Empty:
-            raise DeviceError(f"simavr harness: no answer to {what!r} in {self.timeout:g} s") from None
+            raise DeviceError(
+                f"simavr harness: no answer to {what!r} in {self.timeout:g} s"
+            ) from None
         if line is None:
             self.replies.put(None)
             raise DeviceError(f"simavr harness stopped ({what!r}): {self.log_tail()}")
@@ -245,9 +276,18 @@ class FirmwareController:
     (default: a temporary file, erased at the first start).
     """
 
-    def __init__(self, elf: Path, link: str | os.PathLike | None = None, *,
-                 harness: Path | None = None, eeprom: Path | None = None, speed: float = 1.0,
-                 script: list[Step] | None = None, seed: int | None = None, log_dir: Path | None = None):
+    def __init__(
+        self,
+        elf: Path,
+        link: str | os.PathLike | None = None,
+        *,
+        harness: Path | None = None,
+        eeprom: Path | None = None,
+        speed: float = 1.0,
+        script: list[Step] | None = None,
+        seed: int | None = None,
+        log_dir: Path | None = None,
+    ):
         self.elf = check_elf(elf)
         self.harness_exe = find_harness(self.elf, harness)
         self._tmpdir = tempfile.TemporaryDirectory(prefix="exhibit-fwsim-")
@@ -285,8 +325,13 @@ class FirmwareController:
             if self.harness is not None:
                 return
             self.plugs += 1
-            h = Harness(self.elf, harness=self.harness_exe, speed=self.speed, eeprom=self.eeprom,
-                        log=self.log_dir / f"harness-{self.plugs}.log")
+            h = Harness(
+                self.elf,
+                harness=self.harness_exe,
+                speed=self.speed,
+                eeprom=self.eeprom,
+                log=self.log_dir / f"harness-{self.plugs}.log",
+            )
             try:
                 for ch, mv in enumerate(self._mv):
                     h.adc(ch, mv)

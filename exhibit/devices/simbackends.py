@@ -65,10 +65,27 @@ def simulated_hid(name, clock, layout, script=None, seed=None):
     from exhibit.devices.hid import HidBackend
 
     vid, pid = layout.match[0] if layout.match else (0xF00D, 0x0001)
-    device = FakeHidDevice(vid, pid, product=layout.description or layout.name, serial="SIM1",
-                           usage_page=layout.usage_page or 0, script=script, clock=clock,
-                           seed=seed, layout=layout)
+    device = FakeHidDevice(
+        vid,
+        pid,
+        product=layout.description or layout.name,
+        serial="SIM1",
+        usage_page=layout.usage_page or 0,
+        script=script,
+        clock=clock,
+        seed=seed,
+        layout=layout,
+    )
     bus = FakeHidBus([device])
     # The real HidBackend, on a bus where only the fake device is plugged in (its ``api``).
-    return HidBackend(name=name, clock=clock, layout=layout, backend=layout.backend,
-                      vid=vid, pid=pid, serial=None, path=None, api=bus)
+    return HidBackend(
+        name=name,
+        clock=clock,
+        layout=layout,
+        backend=layout.backend,
+        vid=vid,
+        pid=pid,
+        serial=None,
+        path=None,
+        api=bus,
+    )

@@ -43,13 +43,17 @@ SCHEMES = {
 def parse_url(url: str) -> tuple[str, str, dict[str, str]]:
     """(scheme, target, query) of a device URL; DeviceError says what is wrong with it."""
     if not isinstance(url, str) or "://" not in url:
-        raise DeviceError(f"device URL {url!r} needs a scheme: one of "
-                          + ", ".join(f"{s}://" for s in SCHEMES))
+        raise DeviceError(
+            f"device URL {url!r} needs a scheme: one of " + ", ".join(f"{s}://" for s in SCHEMES)
+        )
     parts = urlsplit(url)
     scheme = parts.scheme.lower()
     if scheme not in SCHEMES:
-        raise DeviceError(f"device URL {url!r}: unknown scheme {scheme!r} (one of "
-                          + ", ".join(f"{s}://" for s in SCHEMES) + ")")
+        raise DeviceError(
+            f"device URL {url!r}: unknown scheme {scheme!r} (one of "
+            + ", ".join(f"{s}://" for s in SCHEMES)
+            + ")"
+        )
     target = parts.netloc + parts.path
     query: dict[str, str] = {}
     for key, values in parse_qs(parts.query, keep_blank_values=True).items():
@@ -71,13 +75,20 @@ def _number(url: str, key: str, value: str, kind, low, high):
     except (ValueError, OverflowError):
         raise DeviceError(f"device URL {url!r}: option {key}={value!r} is not a number") from None
     if not low < n <= high:  # NaN fails too
-        raise DeviceError(f"device URL {url!r}: option {key} must lie in ({low:g}, {high:g}], "
-                          f"got {value!r}")
+        raise DeviceError(
+            f"device URL {url!r}: option {key} must lie in ({low:g}, {high:g}], got {value!r}"
+        )
     return n
 
 
-def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.monotonic,
-                    layout_dirs=None, hid_api=None) -> Backend:
+def backend_for_url(
+    url: str,
+    name: str | None = None,
+    *,
+    clock: Clock = time.monotonic,
+    layout_dirs=None,
+    hid_api=None,
+) -> Backend:
     """A backend for ``url``, not yet opened. ``name`` tags its events (default: the scheme).
     ``layout_dirs`` overrides where HID layouts are looked up; ``hid_api`` replaces the hidapi
     module (tests pass a fake bus)."""
@@ -97,16 +108,27 @@ def backend_for_url(url: str, name: str | None = None, *, clock: Clock = time.mo
         layouts = load_layouts(layout_dirs)
         if target.startswith("/"):
             if scheme == "hid":
-                raise DeviceError(f"device URL {url!r}: hid:// takes VID:PID; use "
-                                  f"hidraw://{target} for a /dev/hidraw path")
+                raise DeviceError(
+                    f"device URL {url!r}: hid:// takes VID:PID; use "
+                    f"hidraw://{target} for a /dev/hidraw path"
+                )
             vid = pid = serial = None
             path = target
         else:
             vid, pid, serial = parse_vid_pid(target, url)
             path = None
         layout = find_layout(layouts, query.get("layout"), vid, pid, url)
-        b = HidBackend(name=name, clock=clock, layout=layout, backend=scheme, vid=vid, pid=pid,
-                       serial=serial, path=path, api=hid_api)
+        b = HidBackend(
+            name=name,
+            clock=clock,
+            layout=layout,
+            backend=scheme,
+            vid=vid,
+            pid=pid,
+            serial=serial,
+            path=path,
+            api=hid_api,
+        )
     elif scheme == "sim":
         b = _sim_backend(url, target, query, name, clock, layout_dirs)
     elif scheme == "replay":
@@ -150,19 +172,24 @@ def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
                 find_harness(check_elf(Path(query["firmware"])))
             except DeviceError as exc:
                 raise DeviceError(f"device URL {url!r}: {exc}") from None
-            return SimulatedFirmware(name=name, clock=clock, firmware=query["firmware"],
-                                     script=script, seed=seed)
+            return SimulatedFirmware(
+                name=name, clock=clock, firmware=query["firmware"], script=script, seed=seed
+            )
         return SimulatedController(name=name, clock=clock, script=script, seed=seed)
     from exhibit.devices.hid import find_layout, load_layouts
     from exhibit.devices.simbackends import simulated_hid
 
     if "firmware" in query:
-        raise DeviceError(f"device URL {url!r}: firmware= runs the controller firmware: "
-                          "sim://controller?firmware=ELF")
+        raise DeviceError(
+            f"device URL {url!r}: firmware= runs the controller firmware: "
+            "sim://controller?firmware=ELF"
+        )
     layouts = load_layouts(layout_dirs)
     if target not in layouts:
-        raise DeviceError(f"device URL {url!r}: no simulated device {target!r} (controller or "
-                          f"a layout: {', '.join(sorted(layouts))})")
+        raise DeviceError(
+            f"device URL {url!r}: no simulated device {target!r} (controller or "
+            f"a layout: {', '.join(sorted(layouts))})"
+        )
     layout = find_layout(layouts, target, None, None, url)
     hid_script = None
     if "script" in query:

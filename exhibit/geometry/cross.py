@@ -20,19 +20,20 @@ def generalized_cross(*vectors) -> np.ndarray:
     rows = np.stack(np.broadcast_arrays(*[np.asarray(v, dtype=float) for v in vectors]), axis=-2)
     n = rows.shape[-1]
     if rows.shape[-2] != n - 1:
-        raise ValueError(f"generalized_cross needs n-1 vectors of R^n: got {rows.shape[-2]} "
-                         f"vectors of length {n}")
+        raise ValueError(
+            f"generalized_cross needs n-1 vectors of R^n: got {rows.shape[-2]} "
+            f"vectors of length {n}"
+        )
     if n == 2:
         return np.stack([rows[..., 0, 1], -rows[..., 0, 0]], axis=-1)
     # Cofactor expansion along the basis row: component i = (-1)^i det(rows without column i).
-    components = [
-        (-1) ** i * np.linalg.det(np.delete(rows, i, axis=-1)) for i in range(n)
-    ]
+    components = [(-1) ** i * np.linalg.det(np.delete(rows, i, axis=-1)) for i in range(n)]
     return np.stack(components, axis=-1)
 
 
 def cross4(a, b, c) -> np.ndarray:
-    """⊗(a, b, c) in R^4, written out: this is the per-vertex work of Lemma 1(b), so it is vectorised
+    """⊗(a, b, c) in R^4, written out: this is the per-vertex work of Lemma 1(b), so it is
+    vectorised
     without the general determinant."""
     a, b, c = (np.asarray(v, dtype=float) for v in (a, b, c))
     ax, ay, az, aw = np.moveaxis(a, -1, 0)
@@ -45,12 +46,15 @@ def cross4(a, b, c) -> np.ndarray:
     m_xw = bx * cw - bw * cx
     m_xz = bx * cz - bz * cx
     m_xy = bx * cy - by * cx
-    return np.stack([
-        ay * m_zw - az * m_yw + aw * m_yz,
-        -(ax * m_zw - az * m_xw + aw * m_xz),
-        ax * m_yw - ay * m_xw + aw * m_xy,
-        -(ax * m_yz - ay * m_xz + az * m_xy),
-    ], axis=-1)
+    return np.stack(
+        [
+            ay * m_zw - az * m_yw + aw * m_yz,
+            -(ax * m_zw - az * m_xw + aw * m_xz),
+            ax * m_yw - ay * m_xw + aw * m_xy,
+            -(ax * m_yz - ay * m_xz + az * m_xy),
+        ],
+        axis=-1,
+    )
 
 
 def bivector_norm(a, b) -> np.ndarray:

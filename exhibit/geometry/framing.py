@@ -48,8 +48,12 @@ class Bounds:
     def union(self, other: "Bounds | None") -> "Bounds":
         if other is None:
             return self
-        return Bounds(min(self.x0, other.x0), min(self.y0, other.y0), max(self.x1, other.x1),
-                      max(self.y1, other.y1))
+        return Bounds(
+            min(self.x0, other.x0),
+            min(self.y0, other.y0),
+            max(self.x1, other.x1),
+            max(self.y1, other.y1),
+        )
 
 
 def mesh_sample(mesh, limit: int = SAMPLE) -> tuple[np.ndarray, np.ndarray]:
@@ -60,8 +64,10 @@ def mesh_sample(mesh, limit: int = SAMPLE) -> tuple[np.ndarray, np.ndarray]:
         core = core[:: int(math.ceil(len(core) / limit))]
     markers = [np.asarray(m.position, dtype=float)[None] for m in mesh.markers]
     curves = [np.asarray(c.points, dtype=float) for c in mesh.curves if len(c.points)]
-    return (np.concatenate([core, *markers]) if markers else core,
-            np.concatenate(curves) if curves else np.zeros((0, 4)))
+    return (
+        np.concatenate([core, *markers]) if markers else core,
+        np.concatenate(curves) if curves else np.zeros((0, 4)),
+    )
 
 
 def sample_bounds(sample, view: ViewState) -> Bounds | None:
@@ -80,13 +86,19 @@ def sample_bounds(sample, view: ViewState) -> Bounds | None:
 
     def clamp(v, lo, hi):
         return min(max(v, lo), hi)
-    reach = Bounds(clamp(c.x0, b.x0 - rx, b.x1 + rx), clamp(c.y0, b.y0 - ry, b.y1 + ry),
-                   clamp(c.x1, b.x0 - rx, b.x1 + rx), clamp(c.y1, b.y0 - ry, b.y1 + ry))
+
+    reach = Bounds(
+        clamp(c.x0, b.x0 - rx, b.x1 + rx),
+        clamp(c.y0, b.y0 - ry, b.y1 + ry),
+        clamp(c.x1, b.x0 - rx, b.x1 + rx),
+        clamp(c.y1, b.y0 - ry, b.y1 + ry),
+    )
     return b.union(reach)
 
 
-def to_pixels(bounds: Bounds, view: ViewState, size: tuple[int, int]
-              ) -> tuple[float, float, float, float]:
+def to_pixels(
+    bounds: Bounds, view: ViewState, size: tuple[int, int]
+) -> tuple[float, float, float, float]:
     """Image-plane bounds (as :func:`image_bounds` gives them) in pixels at ``view``'s zoom and
     lens shift: (x0, y0, x1, y1), y down. Exact: the screen is affine in both."""
     width, height = size
@@ -142,8 +154,9 @@ def _half_height(bounds: Bounds, size: tuple[int, int], area) -> float | None:
     return max(bw / (aspect * (nx1 - nx0)), bh / (ny1 - ny0))
 
 
-def best_area(bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[float]]
-              ) -> Sequence[float] | None:
+def best_area(
+    bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[float]]
+) -> Sequence[float] | None:
     """The area of ``areas`` where ``bounds`` comes out largest (None if all are empty)."""
     best = None
     for area in areas:
@@ -153,8 +166,9 @@ def best_area(bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[fl
     return None if best is None else best[1]
 
 
-def fit(view: ViewState, bounds: Bounds, size: tuple[int, int],
-        areas: Iterable[Sequence[float]]) -> ViewState:
+def fit(
+    view: ViewState, bounds: Bounds, size: tuple[int, int], areas: Iterable[Sequence[float]]
+) -> ViewState:
     """``view`` with ``half_height`` and ``center`` chosen so ``bounds`` fills one of ``areas``
     (rectangles (x0, y0, x1, y1) in pixels, y down) as largely as it can, centred in it. The
     area where the picture comes out largest wins. Zoom is limited to MAX_ZOOM either way."""
@@ -162,7 +176,7 @@ def fit(view: ViewState, bounds: Bounds, size: tuple[int, int],
     if area is None:
         return view
     fitted = _half_height(bounds, size, area)
-    assert fitted is not None   # best_area only returns an area that is not empty
+    assert fitted is not None  # best_area only returns an area that is not empty
     half = min(max(fitted, view.half_height / MAX_ZOOM), view.half_height * MAX_ZOOM)
     return view.replace(half_height=half, center=_centered(bounds, size, area, half))
 
@@ -171,8 +185,10 @@ def _centered(bounds: Bounds, size, area, half: float) -> tuple[float, float]:
     """The lens shift that puts the middle of ``bounds`` at the middle of ``area``."""
     nx0, ny0, nx1, ny1 = _ndc(area, size)
     aspect = size[0] / size[1]
-    return (0.5 * (bounds.x0 + bounds.x1) - 0.5 * (nx0 + nx1) * half * aspect,
-            0.5 * (bounds.y0 + bounds.y1) - 0.5 * (ny0 + ny1) * half)
+    return (
+        0.5 * (bounds.x0 + bounds.x1) - 0.5 * (nx0 + nx1) * half * aspect,
+        0.5 * (bounds.y0 + bounds.y1) - 0.5 * (ny0 + ny1) * half,
+    )
 
 
 def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> ViewState:
@@ -183,13 +199,19 @@ def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> V
     mx, my = 0.5 * (nx0 + nx1), 0.5 * (ny0 + ny1)
     half = view.half_height * factor
     cx, cy = view.center
-    return view.replace(half_height=half,
-                        center=(cx + mx * aspect * (view.half_height - half),
-                                cy + my * (view.half_height - half)))
+    return view.replace(
+        half_height=half,
+        center=(cx + mx * aspect * (view.half_height - half), cy + my * (view.half_height - half)),
+    )
 
 
-def frame(view: ViewState, points, size: tuple[int, int],
-          areas: Iterable[Sequence[float]], poses: Iterable[ViewState] = ()) -> ViewState:
+def frame(
+    view: ViewState,
+    points,
+    size: tuple[int, int],
+    areas: Iterable[Sequence[float]],
+    poses: Iterable[ViewState] = (),
+) -> ViewState:
     """``view`` framed so the image of ``points`` (an array, or a :func:`mesh_sample`) at its
     pose, and at every pose of ``poses``
     (a timeline's samples: one zoom and shift for all of them, so nothing breathes), lies in
@@ -204,8 +226,9 @@ def frame(view: ViewState, points, size: tuple[int, int],
     return fit(view, bounds, size, list(areas))
 
 
-def pixel_bounds(points: np.ndarray, view: ViewState, size: tuple[int, int]
-                 ) -> tuple[float, float, float, float] | None:
+def pixel_bounds(
+    points: np.ndarray, view: ViewState, size: tuple[int, int]
+) -> tuple[float, float, float, float] | None:
     """(x0, y0, x1, y1) in pixels (y down) of the points' images at ``view``, for checks."""
     width, height = size
     ct = clip_transform(view, width / height)

@@ -12,8 +12,9 @@ import numpy as np
 def hopf_map(points) -> np.ndarray:
     """h: S^3 -> S^2 applied to points (..., 4)."""
     x, y, z, w = np.moveaxis(np.asarray(points, dtype=float), -1, 0)
-    return np.stack([2 * (x * y + z * w), 2 * (x * w - y * z), (x * x + z * z) - (y * y + w * w)],
-                    axis=-1)
+    return np.stack(
+        [2 * (x * y + z * w), 2 * (x * w - y * z), (x * x + z * z) - (y * y + w * w)], axis=-1
+    )
 
 
 def torus_radii(latitude: float) -> tuple[float, float]:
@@ -30,8 +31,10 @@ def hopf_torus(latitude: float, alpha, beta) -> np.ndarray:
     """
     r_xz, r_yw = torus_radii(latitude)
     alpha, beta = np.broadcast_arrays(np.asarray(alpha, float), np.asarray(beta, float))
-    return np.stack([r_xz * np.cos(alpha), r_yw * np.cos(beta),
-                     r_xz * np.sin(alpha), r_yw * np.sin(beta)], axis=-1)
+    return np.stack(
+        [r_xz * np.cos(alpha), r_yw * np.cos(beta), r_xz * np.sin(alpha), r_yw * np.sin(beta)],
+        axis=-1,
+    )
 
 
 def hopf_torus_tangents(latitude: float, alpha, beta) -> tuple[np.ndarray, np.ndarray]:

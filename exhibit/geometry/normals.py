@@ -13,7 +13,6 @@ import numpy as np
 from exhibit.geometry.cross import cross4
 
 
-
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i", a, b)
 
@@ -45,10 +44,12 @@ def _cross_with_basis(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     p_xy, p_xz, p_xw = ax * by - ay * bx, ax * bz - az * bx, ax * bw - aw * bx
     p_yz, p_yw, p_zw = ay * bz - az * by, ay * bw - aw * by, az * bw - aw * bz
     zero = np.zeros_like(p_xy)
-    rows = [(zero, -p_zw, p_yw, -p_yz),       # ⊗(a, b, e_x)
-            (p_zw, zero, -p_xw, p_xz),        # ⊗(a, b, e_y)
-            (-p_yw, p_xw, zero, -p_xy),       # ⊗(a, b, e_z)
-            (p_yz, -p_xz, p_xy, zero)]        # ⊗(a, b, e_w)
+    rows = [
+        (zero, -p_zw, p_yw, -p_yz),  # ⊗(a, b, e_x)
+        (p_zw, zero, -p_xw, p_xz),  # ⊗(a, b, e_y)
+        (-p_yw, p_xw, zero, -p_xy),  # ⊗(a, b, e_z)
+        (p_yz, -p_xz, p_xy, zero),
+    ]  # ⊗(a, b, e_w)
     return np.stack([np.stack(row, axis=-1) for row in rows], axis=-2)
 
 

@@ -44,15 +44,23 @@ def hidden(points: np.ndarray, surfaces, ct: ClipTransform) -> np.ndarray:
             x, y, z = p[i]
             # Vertex-level sides first (cheap): a triangle can cover the point only if its
             # vertices are on both sides of it in x and in y, all in front of the eye.
-            code = ((v[:, 0] <= x) | ((v[:, 0] >= x) << 1) | ((v[:, 1] <= y) << 2)
-                    | ((v[:, 1] >= y) << 3) | (~front << 4)).astype(np.uint8)
+            code = (
+                (v[:, 0] <= x)
+                | ((v[:, 0] >= x) << 1)
+                | ((v[:, 1] <= y) << 2)
+                | ((v[:, 1] >= y) << 3)
+                | (~front << 4)
+            ).astype(np.uint8)
             either = code[tris[:, 0]] | code[tris[:, 1]] | code[tris[:, 2]]
-            near = either == 15     # both sides in x and y, no vertex behind the eye
+            near = either == 15  # both sides in x and y, no vertex behind the eye
             if not near.any():
                 continue
             cand = tris[near]
-            ok = np.all(ct.clip_distances(surface.positions[cand].reshape(-1, 4)) >= 0,
-                        axis=1).reshape(-1, 3).all(axis=1)
+            ok = (
+                np.all(ct.clip_distances(surface.positions[cand].reshape(-1, 4)) >= 0, axis=1)
+                .reshape(-1, 3)
+                .all(axis=1)
+            )
             cand = cand[ok]
             ta, tb, tc = v[cand[:, 0]], v[cand[:, 1]], v[cand[:, 2]]
             e1, e2 = tb - ta, tc - ta

@@ -37,7 +37,9 @@ def _check_points(points) -> np.ndarray:
 def _check_reciprocal(r: float, name: str) -> float:
     r = float(r)
     if not np.isfinite(r) or r < 0:
-        raise ValueError(f"{name} must be a finite number >= 0 (1/distance; 0 = at infinity), got {r}")
+        raise ValueError(
+            f"{name} must be a finite number >= 0 (1/distance; 0 = at infinity), got {r}"
+        )
     return r
 
 
@@ -71,7 +73,8 @@ def project_to_2d(points, r_sensor: float, r_eye: float) -> Projected:
 
 
 def sensor_jacobian(points, r: float) -> np.ndarray:
-    """Derivative of v at p, shape (..., 3, 4): dv(t) = t_xyz/h + p_xyz (r t_w)/h², h = 1 - r p_w."""
+    """Derivative of v at p, shape (..., 3, 4): dv(t) = t_xyz/h + p_xyz (r t_w)/h², h = 1 - r
+    p_w."""
     points = _check_points(points)
     h = sensor_depth(points, r)
     safe = np.where(np.abs(h) > MIN_HOMOGENEOUS_DEPTH, h, np.nan)
@@ -91,7 +94,8 @@ def sensor_ray(points, r: float) -> np.ndarray:
 
 
 def eye_ray(points, r_eye: float) -> np.ndarray:
-    """r2·(k/r2 - p): the ray from p towards the eye on the z-axis (e_z when the eye is at infinity)."""
+    """r2·(k/r2 - p): the ray from p towards the eye on the z-axis (e_z when the eye is at
+    infinity)."""
     points = _check_points(points)
     r2 = _check_reciprocal(r_eye, "eye r")
     ray = -r2 * points

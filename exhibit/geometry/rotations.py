@@ -48,8 +48,10 @@ def dimension_for_angle_count(count: int) -> int:
     """Inverse of euler_angle_count; raises ValueError if count is not a triangular number >= 1."""
     n = int(round((1 + math.sqrt(1 + 8 * count)) / 2))
     if n < 2 or euler_angle_count(n) != count:
-        raise ValueError(f"{count} angles do not describe a rotation: "
-                         "expected 1, 3, 6 or 10 (n(n-1)/2 angles for R^n)")
+        raise ValueError(
+            f"{count} angles do not describe a rotation: "
+            "expected 1, 3, 6 or 10 (n(n-1)/2 angles for R^n)"
+        )
     return n
 
 
@@ -65,7 +67,8 @@ def euler_planes(n: int) -> list[tuple[int, int]]:
 
 
 def plane_rotation(n: int, i: int, j: int, theta) -> np.ndarray:
-    """Basic rotation R_ij(θ) in R^n; θ may be an array, giving a stack of shape θ.shape + (n, n)."""
+    """Basic rotation R_ij(θ) in R^n; θ may be an array, giving a stack of shape θ.shape + (n,
+    n)."""
     if not (0 <= i < n and 0 <= j < n and i != j):
         raise ValueError(f"plane ({i}, {j}) is not a coordinate plane of R^{n}")
     theta = np.asarray(theta, dtype=float)

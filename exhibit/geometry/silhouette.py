@@ -39,6 +39,7 @@ def is_singular_pair(u1, u2, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- Lemma 2 (4D -> 3D)
 
+
 def lemma2_measure_tangents(t1, t2, ray) -> np.ndarray:
     """sin of the angle between the ray ρ and the tangent plane: |⊗(t1,t2,ρ)| / (|t1∧t2| |ρ|).
 
@@ -57,8 +58,9 @@ def lemma2_measure_normals(n1, n2, ray) -> np.ndarray:
     return _safe_ratio(_norm(n), bivector_norm(n1, n2) * _norm(ray))
 
 
-def is_silhouette_point_3d(t1=None, t2=None, ray=None, *, n1=None, n2=None,
-                           tol: float = SILHOUETTE_TOLERANCE) -> np.ndarray:
+def is_silhouette_point_3d(
+    t1=None, t2=None, ray=None, *, n1=None, n2=None, tol: float = SILHOUETTE_TOLERANCE
+) -> np.ndarray:
     """Lemma 2: p is a silhouette point of the sensor projection iff t1, t2, ρ are dependent.
 
     Give tangents (t1, t2) or normals (n1=, n2=). Singular points are never silhouettes.
@@ -71,6 +73,7 @@ def is_silhouette_point_3d(t1=None, t2=None, ray=None, *, n1=None, n2=None,
 
 
 # ----------------------------------------------------------------------------- Lemma 3 (4D -> 2D)
+
 
 def silhouette_function(n1, n2, ray1, ray2) -> np.ndarray:
     """s = (n1·ρ1)(n2·ρ2) - (n1·ρ2)(n2·ρ1) = (n1∧n2)·(ρ1∧ρ2).
@@ -96,14 +99,16 @@ def silhouette_function_normalized(n1, n2, ray1, ray2) -> np.ndarray:
 
 def lemma3_measure_tangents(t1, t2, ray1, ray2) -> np.ndarray:
     """|det[t1, t2, ρ1, ρ2]| / (|t1∧t2| |ρ1∧ρ2|) in [0, 1]: Lemma 3(b)'s test, scale-free."""
-    t1, t2, ray1, ray2 = np.broadcast_arrays(*(np.asarray(v, dtype=float)
-                                               for v in (t1, t2, ray1, ray2)))
+    t1, t2, ray1, ray2 = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (t1, t2, ray1, ray2))
+    )
     det = np.abs(_dot(cross4(t1, t2, ray1), ray2))
     return _safe_ratio(det, bivector_norm(t1, t2) * bivector_norm(ray1, ray2))
 
 
-def is_silhouette_point_2d(t1=None, t2=None, ray1=None, ray2=None, *, n1=None, n2=None,
-                           tol: float = SILHOUETTE_TOLERANCE) -> np.ndarray:
+def is_silhouette_point_2d(
+    t1=None, t2=None, ray1=None, ray2=None, *, n1=None, n2=None, tol: float = SILHOUETTE_TOLERANCE
+) -> np.ndarray:
     """Lemma 3: p is a silhouette point of the 4D -> 2D map iff t1, t2, ρ1, ρ2 are dependent
     (b), equivalently iff n1, n2 and the plane orthogonal to ρ1, ρ2 are dependent (c)."""
     if n1 is not None and n2 is not None:
@@ -115,6 +120,7 @@ def is_silhouette_point_2d(t1=None, t2=None, ray1=None, ray2=None, *, n1=None, n
 
 
 # ----------------------------------------------------------------------------- zero sets on meshes
+
 
 def zero_set_segments(positions, triangles, values) -> np.ndarray:
     """Line segments where a per-vertex scalar crosses zero on a triangle mesh (marching triangles).
@@ -137,12 +143,16 @@ def zero_set_segments(positions, triangles, values) -> np.ndarray:
     # The odd vertex out is the lone negative (count 1) or the lone non-negative (count 2).
     lone = np.where(neg.sum(axis=1) == 1, np.argmax(neg, axis=1), np.argmin(neg, axis=1))
     apex = tris[np.arange(len(tris)), lone]
-    others = np.stack([tris[np.arange(len(tris)), (lone + 1) % 3],
-                       tris[np.arange(len(tris)), (lone + 2) % 3]], axis=1)
+    others = np.stack(
+        [tris[np.arange(len(tris)), (lone + 1) % 3], tris[np.arange(len(tris)), (lone + 2) % 3]],
+        axis=1,
+    )
 
     def crossing_point(a, b):
         va, vb = values[a], values[b]
         t = va / (va - vb)  # va, vb have opposite signs (or vb is 0): denominator is nonzero
         return positions[a] + t[:, None] * (positions[b] - positions[a])
 
-    return np.stack([crossing_point(apex, others[:, 0]), crossing_point(apex, others[:, 1])], axis=1)
+    return np.stack(
+        [crossing_point(apex, others[:, 0]), crossing_point(apex, others[:, 1])], axis=1
+    )

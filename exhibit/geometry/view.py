@@ -119,8 +119,9 @@ class ViewState:
         if math.isnan(front):
             raise ValueError("front_distance must be a number or inf (no front clipping)")
         if self.eye_r > 0 and math.isfinite(front) and front >= 1.0 / self.eye_r:
-            raise ValueError(f"front_distance {front} must be less than the eye distance "
-                             f"{1.0 / self.eye_r}")
+            raise ValueError(
+                f"front_distance {front} must be less than the eye distance {1.0 / self.eye_r}"
+            )
         set_(self, "front_distance", front)
         lights = []
         for index, light in enumerate(self.lights):
@@ -168,7 +169,8 @@ class ViewState:
         return euler_to_matrix(self.angles)
 
     def rotation(self) -> np.ndarray:
-        """4x4 rotation from scene (world/body) coordinates to view coordinates, eye orbit included."""
+        """4x4 rotation from scene (world/body) coordinates to view coordinates, eye orbit
+        included."""
         a = self.orientation()
         base = a.T if self.reading == "screen" else a
         eye = np.eye(4)

@@ -52,8 +52,7 @@ from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content, nearest_level
 from exhibit.kiosk.governor import for_kiosk, mesh_levels
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
-from exhibit.kiosk.language import (PREPARING, LanguageChoice, in_every_language,
-                                    translator_for)
+from exhibit.kiosk.language import PREPARING, LanguageChoice, in_every_language, translator_for
 from exhibit.kiosk.preparing import Framers, scene_jobs
 from exhibit.kiosk.slice_inset import SliceInset
 from exhibit.kiosk.start_views import StartViews
@@ -76,8 +75,11 @@ SLOW_FRAME_MS = 100.0
 #: Seconds of a crossfade between timelines and between scenes.
 CROSSFADE_S = 1.0
 #: What the screen says when no scene could be prepared (the second line is for staff).
-NOTICE = ("This exhibit is resting for a moment.",
-          "(no scene could be prepared: see `exhibit status` and the journal)")
+NOTICE = (
+    "This exhibit is resting for a moment.",
+    "(no scene could be prepared: see `exhibit status` and the journal)",
+)
+
 
 def _rss_kb() -> int:
     try:
@@ -105,8 +107,16 @@ class Kiosk:
     preparer (exhibit.kiosk.preparing) of every scene but the first, while the kiosk runs;
     None: all of them here, before the first frame (reviews, most tests)."""
 
-    def __init__(self, config: KioskConfig, window, clock=time.monotonic, notifier=None,
-                 health_path: Path | None = None, sessions=None, preparer=None):
+    def __init__(
+        self,
+        config: KioskConfig,
+        window,
+        clock=time.monotonic,
+        notifier=None,
+        health_path: Path | None = None,
+        sessions=None,
+        preparer=None,
+    ):
         journal.install()  # stderr is the journal (a service): structured fields from here on
         self.config = config
         self.window = window
@@ -131,25 +141,42 @@ class Kiosk:
             timelines = []
         device_config = load_config(config.devices_config)
         self.devices = DeviceSet(device_config, clock=clock).open()
-        mapper = Mapper(device_config.mapping,
-                        ActivityDetector(threshold=device_config.activity_threshold))
+        mapper = Mapper(
+            device_config.mapping, ActivityDetector(threshold=device_config.activity_threshold)
+        )
         self.governor = for_kiosk(config, window, clock())  # picture quality vs frame time
         #: Text sizes for the HUD, and the framing that keeps the picture clear of it.
-        self.text = TextSizes(config.text.caption_cap, config.text.title_cap,
-                              config.text.infinity_beyond)
+        self.text = TextSizes(
+            config.text.caption_cap, config.text.title_cap, config.text.infinity_beyond
+        )
         #: The language on screen and its words (exhibit.kiosk.language).
         self.translate = translator_for(config, self.problems)
-        self.language = LanguageChoice(self.translate, config.language_switch_s, clock(),
-                                       on_change=self._language_changed)
+        self.language = LanguageChoice(
+            self.translate, config.language_switch_s, clock(), on_change=self._language_changed
+        )
         versions = functools.partial(in_every_language, self.translate)
-        self.framer = Framer(getattr(window, "size", config.size), self.text, config.drift_px,
-                             hud=config.hud, versions=versions, words=self._words())
+        self.framer = Framer(
+            getattr(window, "size", config.size),
+            self.text,
+            config.drift_px,
+            hud=config.hud,
+            versions=versions,
+            words=self._words(),
+        )
         #: The time-slice inset, in a corner (a panel for timelines that slice).
         size = tuple(getattr(window, "size", config.size))
-        self.inset = SliceInset(inset_rect(size, hud_layout(size, sizes=self.text).margin),
-                                window.renderer.upload)
-        inset_framer = Framer(size, self.text, config.drift_px, hud=config.hud,
-                              extra=(self.inset.rect,), versions=versions, words=self._words())
+        self.inset = SliceInset(
+            inset_rect(size, hud_layout(size, sizes=self.text).margin), window.renderer.upload
+        )
+        inset_framer = Framer(
+            size,
+            self.text,
+            config.drift_px,
+            hud=config.hud,
+            extra=(self.inset.rect,),
+            versions=versions,
+            words=self._words(),
+        )
         if sessions is not None:
             sessions.language = self.translate.language
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
@@ -162,18 +189,27 @@ class Kiosk:
         framers = Framers(self.framer, inset_framer)
         jobs = scene_jobs(config, timelines, mesh_levels(self.governor))
         self.content = Content(window.renderer.upload, jobs, self.problems, self.scenes_failed)
-        first = self.content.prepare_first(jobs, framers, self.governor.quality.mesh, clock,
-                                           notifier)
+        first = self.content.prepare_first(
+            jobs, framers, self.governor.quality.mesh, clock, notifier
+        )
         if self.content.gpu:
-            self.state = KioskState(Playlist(first), mapper, self.content.shown(config.scenes),
-                                    config.idle_timeout_s, config.blend_s, now,
-                                    framer=StartViews(self.framer, self.content),
-                                    reduced_motion=config.reduced_motion)
+            self.state = KioskState(
+                Playlist(first),
+                mapper,
+                self.content.shown(config.scenes),
+                config.idle_timeout_s,
+                config.blend_s,
+                now,
+                framer=StartViews(self.framer, self.content),
+                reduced_motion=config.reduced_motion,
+            )
             self.content.state = self.state
             self.content.prepare_rest(jobs, framers, preparer, now)
         else:
-            log.critical("no scene could be prepared: the kiosk shows a notice until it is "
-                         "fixed and restarted")
+            log.critical(
+                "no scene could be prepared: the kiosk shows a notice until it is "
+                "fixed and restarted"
+            )
             self.problems.append("no scene could be prepared: the screen shows a notice")
             self.content.prepare_rest(jobs, framers, None, now)
         self._log_fields: dict[str, str | None] = {}
@@ -206,16 +242,22 @@ class Kiosk:
         timelines = self.content.timelines
         names = (set(self.state.content) | {t.scene for t in timelines}) & known
         words = {(scenes.get(name).title, scenes.get(name).caption, name) for name in names}
-        words |= {(scenes.get(t.scene).title, k.caption, t.scene)
-                  for t in timelines for k in t.keyframes if t.scene in known}
+        words |= {
+            (scenes.get(t.scene).title, k.caption, t.scene)
+            for t in timelines
+            for k in t.keyframes
+            if t.scene in known
+        }
         chores: list = []
         if self.config.hud:
-            chores += [functools.partial(self._warm_hud, self._hud(title, caption, scene,
-                                                                   language))
-                       for language in self.translate.order
-                       for title, caption, scene in sorted(words)]
-        chores += [functools.partial(self._warm_quality, quality)
-                   for quality in self.governor.levels]
+            chores += [
+                functools.partial(self._warm_hud, self._hud(title, caption, scene, language))
+                for language in self.translate.order
+                for title, caption, scene in sorted(words)
+            ]
+        chores += [
+            functools.partial(self._warm_quality, quality) for quality in self.governor.levels
+        ]
         return chores
 
     def _warm_hud(self, hud: HudInfo) -> bool:
@@ -262,8 +304,10 @@ class Kiosk:
             if not event.focused and keyboard is not None:
                 keyboard.release_all()
         elif isinstance(event, CloseRequest):
-            log.info("the window system asked to close: ignored (staff quit with %s)",
-                     "+".join(self.config.quit_keys))
+            log.info(
+                "the window system asked to close: ignored (staff quit with %s)",
+                "+".join(self.config.quit_keys),
+            )
 
     # ------------------------------------------------------------------ the loop
 
@@ -276,8 +320,9 @@ class Kiosk:
         else:
             mode, scene = self.state.mode, self.state.frame.scene
             frame = self.state.update(events, start)
-            self.language.update(self.state.mapper.pressed(events, "language"),
-                                 self.state.mode == ATTRACT, start)
+            self.language.update(
+                self.state.mapper.pressed(events, "language"), self.state.mode == ATTRACT, start
+            )
             if self.sessions is not None:  # never raises, never blocks
                 self.sessions.observe(frame.mode, frame.scene, events, start)
             if frame.mode == ATTRACT and mode != ATTRACT:  # after the session took its language
@@ -286,8 +331,13 @@ class Kiosk:
                 fields = self._update_log_fields()
                 if frame.mode != mode:
                     angles = ", ".join(f"{math.degrees(a):.1f}" for a in frame.view.angles)
-                    log.info("mode %s: scene %s, angles (%s) degrees", frame.mode, frame.scene,
-                             angles, extra=fields)
+                    log.info(
+                        "mode %s: scene %s, angles (%s) degrees",
+                        frame.mode,
+                        frame.scene,
+                        angles,
+                        extra=fields,
+                    )
                 else:
                     log.info("scene %s (%s mode)", frame.scene, frame.mode, extra=fields)
             self._draw(frame, start)
@@ -306,8 +356,9 @@ class Kiosk:
             n = self.stats.slow_frames
             if n & (n - 1) == 0:
                 shown = self.state.frame.scene if self.state is not None else None
-                log.warning("slow frame: %.0f ms (scene %s; %d so far)", (end - start) * 1000.0,
-                            shown, n)
+                log.warning(
+                    "slow frame: %.0f ms (scene %s; %d so far)", (end - start) * 1000.0, shown, n
+                )
 
     def _update_log_fields(self) -> dict[str, str | None]:
         """The journal fields for what is on screen, set for every record from now on (errors
@@ -340,22 +391,31 @@ class Kiosk:
         self._last_report = now
         # Per device: its state, seconds in it, and seconds it has been missing (null when
         # connected), for `exhibit status --max-lost` and the metrics (exhibit.kiosk.health).
-        devices = [{"name": s.get("name", ""), "url": s.get("url", ""),
-                    "state": s.get("state", ""), "state_s": _round(s.get("state_s")),
-                    "missing_s": _round(s.get("missing_s"))}
-                   for s in self.devices.statuses(now)]
+        devices = [
+            {
+                "name": s.get("name", ""),
+                "url": s.get("url", ""),
+                "state": s.get("state", ""),
+                "state_s": _round(s.get("state_s")),
+                "missing_s": _round(s.get("missing_s")),
+            }
+            for s in self.devices.statuses(now)
+        ]
         mode = scene = None
         if self.state is not None:
             mode, scene = self.state.mode, self.state.frame.scene
         problems = list(self.problems)
         if self.errors.failing_since is not None:
-            problems.append(f"frames failing for {now - self.errors.failing_since:.0f} s "
-                            "(see the journal)")
+            problems.append(
+                f"frames failing for {now - self.errors.failing_since:.0f} s (see the journal)"
+            )
         if self.notifier is not None:
             states = ", ".join(f"{d['url']} {d['state']}" for d in devices)
             what = f"{mode}, {scene}" if self.state is not None else "notice (no scene)"
-            self.notifier.status(f"{fps:.0f} fps, {what}; {states}"
-                                 + (f"; {len(problems)} problems" if problems else ""))
+            self.notifier.status(
+                f"{fps:.0f} fps, {what}; {states}"
+                + (f"; {len(problems)} problems" if problems else "")
+            )
         if self.health_path is not None:
             from exhibit.kiosk.health import process_uptime, report, write_health
 
@@ -363,22 +423,40 @@ class Kiosk:
             # this object was built: that missed the whole start-up (issue 24).
             uptime = process_uptime()
             try:
-                write_health(self.health_path, report(**{
-                    "time": time.time(), "pid": os.getpid(), "fps": round(fps, 1),
-                    "frame_ms_p95": round(p95, 2), "mode": mode, "scene": scene,
-                    "devices": devices,
-                    "uptime_s": round(now - self.started if uptime is None else uptime, 1),
-                    "gl_errors": self.stats.gl_errors, "rss_kb": _rss_kb(), "fds": _fd_count(),
-                    "frames": self.frames, "frame_errors": self.errors.total,
-                    "problems": problems, "scenes_failed": self.scenes_failed,
-                    "language": self.translate.language,
-                    **(self.sessions.health() if self.sessions is not None else {}),
-                    **self.governor.health()}))  # quality level, frame_ms, target_ms
+                write_health(
+                    self.health_path,
+                    report(
+                        **{
+                            "time": time.time(),
+                            "pid": os.getpid(),
+                            "fps": round(fps, 1),
+                            "frame_ms_p95": round(p95, 2),
+                            "mode": mode,
+                            "scene": scene,
+                            "devices": devices,
+                            "uptime_s": round(now - self.started if uptime is None else uptime, 1),
+                            "gl_errors": self.stats.gl_errors,
+                            "rss_kb": _rss_kb(),
+                            "fds": _fd_count(),
+                            "frames": self.frames,
+                            "frame_errors": self.errors.total,
+                            "problems": problems,
+                            "scenes_failed": self.scenes_failed,
+                            "language": self.translate.language,
+                            **(self.sessions.health() if self.sessions is not None else {}),
+                            **self.governor.health(),
+                        }
+                    ),
+                )  # quality level, frame_ms, target_ms
             except (OSError, TypeError) as exc:
                 log.warning("cannot write the health file %s: %s", self.health_path, exc)
 
-    def run(self, duration: float | None = None, screenshot: Path | None = None,
-            max_frames: int | None = None) -> int:
+    def run(
+        self,
+        duration: float | None = None,
+        screenshot: Path | None = None,
+        max_frames: int | None = None,
+    ) -> int:
         """Run until the maintenance keys (or duration / max_frames, for tests and staff).
 
         Returns 0, or FAILING_EXIT after FAILING_EXIT_S in which every frame raised. READY goes
@@ -402,9 +480,12 @@ class Kiosk:
                     if self.notifier is not None:
                         self.notifier.ready()
                 if not drawn and start - self.errors.failing_since >= FAILING_EXIT_S:
-                    log.critical("no frame drawn for %.0f s (%d failed): exiting, for systemd "
-                                 "to restart the kiosk", start - self.errors.failing_since,
-                                 self.errors.total)
+                    log.critical(
+                        "no frame drawn for %.0f s (%d failed): exiting, for systemd "
+                        "to restart the kiosk",
+                        start - self.errors.failing_since,
+                        self.errors.total,
+                    )
                     code = FAILING_EXIT
                     break
                 frames += 1
@@ -453,21 +534,27 @@ class Kiosk:
     def _hud(self, title: str, caption: str, scene: str, language: str | None = None) -> HudInfo:
         """The HUD's words in the language on screen (or ``language``)."""
         tr = self.translate
-        return HudInfo(title=tr(title, language), caption=tr(caption, language),
-                       axes=scenes.get(scene).axes, axes_label=tr("4D axes", language),
-                       words=tr.hud_words(language))
+        return HudInfo(
+            title=tr(title, language),
+            caption=tr(caption, language),
+            axes=scenes.get(scene).axes,
+            axes_label=tr("4D axes", language),
+            words=tr.hud_words(language),
+        )
 
     def _draw(self, frame, now: float) -> None:
         hud = self._hud(frame.title, frame.caption, frame.scene)
         quality = self.governor.quality
-        options = RenderOptions(hud=self.config.hud, hud_drift=self.drift(now), quality=quality,
-                                text=self.text)
+        options = RenderOptions(
+            hud=self.config.hud, hud_drift=self.drift(now), quality=quality, text=self.text
+        )
         self.governor.observe(frame.mode, frame.scene, frame.view, now)
         levels = self.content.levels((frame.scene, frame.params))
         if not levels:  # a visitor chose a scene still being prepared: it comes next
             self.content.wanted((frame.scene, frame.params))
-            self.window.notice([self.translate(PREPARING).replace("{title}", hud.title)],
-                               self.drift(now))
+            self.window.notice(
+                [self.translate(PREPARING).replace("{title}", hud.title)], self.drift(now)
+            )
             self._shown = self._fade_start = None
             return
         gpu = nearest_level(levels, quality.mesh)
@@ -483,14 +570,20 @@ class Kiosk:
                 self._fade_start = None
             else:
                 fade = 1.0 - u * u * (3.0 - 2.0 * u)
-        inset = (self.inset.for_frame(frame, self.content.mesh(frame.scene, frame.params))
-                 if self.config.hud else None)
+        inset = (
+            self.inset.for_frame(frame, self.content.mesh(frame.scene, frame.params))
+            if self.config.hud
+            else None
+        )
         self.window.draw(gpu, frame.view, options, hud, fade=fade, inset=inset)
         self._shown = (gpu, frame.view, options, hud)
         if self.governor.update(getattr(self.window, "frame_ms", None), now):
-            log.info("quality %s (frames took %.1f ms, the target is %.1f ms)",
-                     self.governor.quality.describe(), self.governor.recent_ms or 0.0,
-                     self.governor.settings.target_ms)
+            log.info(
+                "quality %s (frames took %.1f ms, the target is %.1f ms)",
+                self.governor.quality.describe(),
+                self.governor.recent_ms or 0.0,
+                self.governor.settings.target_ms,
+            )
 
     def release(self) -> None:
         """Free the GPU meshes this kiosk uploaded (each level once) and the inset's. The
@@ -520,14 +613,23 @@ def open_window(config: KioskConfig, windowed: bool):
     from exhibit.render.window import Window
 
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise ExhibitError("no display (neither DISPLAY nor WAYLAND_DISPLAY is set): the kiosk "
-                           "needs a screen. Headless, render pictures instead: "
-                           "`exhibit render --figure 8 --out figure-8.png`")
+        raise ExhibitError(
+            "no display (neither DISPLAY nor WAYLAND_DISPLAY is set): the kiosk "
+            "needs a screen. Headless, render pictures instead: "
+            "`exhibit render --figure 8 --out figure-8.png`"
+        )
     try:
-        return Window(size=config.size, title="exhibit",
-                      fullscreen=config.fullscreen and not windowed, samples=0,
-                      msaa_samples=config.samples, vsync=config.vsync, monitor=config.monitor)
+        return Window(
+            size=config.size,
+            title="exhibit",
+            fullscreen=config.fullscreen and not windowed,
+            samples=0,
+            msaa_samples=config.samples,
+            vsync=config.vsync,
+            monitor=config.monitor,
+        )
     except RenderUnavailable as exc:
-        raise ExhibitError(f"{exc}. Headless, render pictures instead: "
-                           "`exhibit render --figure 8 --out figure-8.png`") from None
-
+        raise ExhibitError(
+            f"{exc}. Headless, render pictures instead: "
+            "`exhibit render --figure 8 --out figure-8.png`"
+        ) from None

@@ -52,8 +52,18 @@ from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.view import ViewState
 from exhibit.schema import Model, read_toml, validate
-from exhibit.schema.types import (MAX_ANGLE, Caption, Distance, DistanceRange, HalfHeight, Name,
-                                  Number, Numbers, Seconds, distance_to_r)
+from exhibit.schema.types import (
+    MAX_ANGLE,
+    Caption,
+    Distance,
+    DistanceRange,
+    HalfHeight,
+    Name,
+    Number,
+    Numbers,
+    Seconds,
+    distance_to_r,
+)
 
 Ease = Literal["smooth", "linear", "hold"]
 EASES: tuple[Ease, ...] = get_args(Ease)
@@ -152,7 +162,7 @@ class Timeline:
         for a, b in zip(self.keyframes, self.keyframes[1:]):
             steps = max(1, round((b.t - a.t) / STEP_S))
             out += [a.t + (b.t - a.t) * k / steps for k in range(1, steps)] + [b.t]
-        return out[:-1]   # the last keyframe ends the last stretch (Timeline.at)
+        return out[:-1]  # the last keyframe ends the last stretch (Timeline.at)
 
     def index_at(self, t: float) -> int:
         """The keyframe in force ``t`` seconds in (its caption is the one shown)."""
@@ -161,16 +171,21 @@ class Timeline:
     def _view(self, a: Keyframe, b: Keyframe, u: float) -> ViewState:
         def mix(x, y):
             return x + (y - x) * u
+
         angles = tuple(mix(x, y) for x, y in zip(a.angles, b.angles))
         half = math.exp(mix(math.log(a.half_height), math.log(b.half_height)))
         sliced = {}
         if self.slice_axis is not None and a.slice_at is not None:
             at = a.slice_at if b.slice_at is None else mix(a.slice_at, b.slice_at)
             sliced = {"slice_axis": self.slice_axis, "slice_at": at}
-        return self.base_view.replace(angles=angles, sensor_r=mix(a.sensor_r, b.sensor_r),
-                                      eye_azimuth=mix(a.eye[0], b.eye[0]),
-                                      eye_incidence=mix(a.eye[1], b.eye[1]), half_height=half,
-                                      **sliced)
+        return self.base_view.replace(
+            angles=angles,
+            sensor_r=mix(a.sensor_r, b.sensor_r),
+            eye_azimuth=mix(a.eye[0], b.eye[0]),
+            eye_incidence=mix(a.eye[1], b.eye[1]),
+            half_height=half,
+            **sliced,
+        )
 
 
 class WhileSpec(Model):
@@ -183,10 +198,14 @@ class WhileSpec(Model):
 
     @model_validator(mode="after")
     def _not_empty(self):
-        if (self.sensor_distance is None and self.sensor_motion is None
-                and self.angles_within is None):
-            raise ValueError("states no condition: give sensor_distance, sensor_motion or "
-                             "angles_within")
+        if (
+            self.sensor_distance is None
+            and self.sensor_motion is None
+            and self.angles_within is None
+        ):
+            raise ValueError(
+                "states no condition: give sensor_distance, sensor_motion or angles_within"
+            )
         return self
 
     def condition(self, pose: tuple[float, ...]) -> Condition:
@@ -194,8 +213,7 @@ class WhileSpec(Model):
         d = self.sensor_distance
         r = None if d is None else (distance_to_r(d[1]), distance_to_r(d[0]))
         within = None if self.angles_within is None else float(self.angles_within)
-        return Condition(r, d, self.sensor_motion, within,
-                         None if within is None else tuple(pose))
+        return Condition(r, d, self.sensor_motion, within, None if within is None else tuple(pose))
 
 
 class KeyframeSpec(Model):
@@ -255,33 +273,51 @@ def load_timeline(path: Path) -> Timeline:
             if spec.slice_axis in scene.axes:
                 slice_axis = scene.axes.index(spec.slice_axis)
             else:
-                problem("slice_axis", f"{spec.slice_axis!r} is not an axis of {scene.name} "
-                                      f"(axes: {', '.join(scene.axes)})")
+                problem(
+                    "slice_axis",
+                    f"{spec.slice_axis!r} is not an axis of {scene.name} "
+                    f"(axes: {', '.join(scene.axes)})",
+                )
         else:
             slice_axis = scene.slice_axis
         if slice_axis is None and any(k.slice is not None for k in spec.keyframe):
-            problem("slice_axis", f"keyframes slice, but {scene.name} has no time-like axis: "
-                                  f"name one of {', '.join(scene.axes)}")
+            problem(
+                "slice_axis",
+                f"keyframes slice, but {scene.name} has no time-like axis: "
+                f"name one of {', '.join(scene.axes)}",
+            )
 
     frames: list[Keyframe] = []
-    previous = Keyframe(0.0, base_view.angles, base_view.sensor_r,
-                        (base_view.eye_azimuth, base_view.eye_incidence), base_view.half_height,
-                        "", "smooth")
+    previous = Keyframe(
+        0.0,
+        base_view.angles,
+        base_view.sensor_r,
+        (base_view.eye_azimuth, base_view.eye_incidence),
+        base_view.half_height,
+        "",
+        "smooth",
+    )
     for i, raw in enumerate(spec.keyframe):
         where = f"keyframe[{i}]."
         if i == 0 and raw.t != 0:
             problem(where + "t", "the first keyframe must be at t = 0")
         if i > 0 and raw.t <= frames[-1].t:
-            problem(where + "t", f"{raw.t:g} must be later than the keyframe before "
-                                 f"({frames[-1].t:g})")
-        angles = (previous.angles if raw.angles is None
-                  else tuple(math.radians(a) for a in raw.angles))
-        eye = (previous.eye if raw.eye is None  # Numbers(2, ...): two angles
-               else (math.radians(raw.eye[0]), math.radians(raw.eye[1])))
+            problem(
+                where + "t", f"{raw.t:g} must be later than the keyframe before ({frames[-1].t:g})"
+            )
+        angles = (
+            previous.angles if raw.angles is None else tuple(math.radians(a) for a in raw.angles)
+        )
+        eye = (
+            previous.eye
+            if raw.eye is None  # Numbers(2, ...): two angles
+            else (math.radians(raw.eye[0]), math.radians(raw.eye[1]))
+        )
         previous = Keyframe(
             raw.t,
             angles,
-            previous.sensor_r if raw.sensor_distance is None
+            previous.sensor_r
+            if raw.sensor_distance is None
             else distance_to_r(raw.sensor_distance),
             eye,
             previous.half_height if raw.half_height is None else raw.half_height,
@@ -289,17 +325,28 @@ def load_timeline(path: Path) -> Timeline:
             raw.ease,
             _condition(previous, raw, angles + eye),
             previous.caption_from if raw.caption is None and raw.while_ is None else i,
-            previous.slice_at if raw.slice is None else None if raw.slice == "off"
-            else float(raw.slice))
+            previous.slice_at
+            if raw.slice is None
+            else None
+            if raw.slice == "off"
+            else float(raw.slice),
+        )
         frames.append(previous)
     if problems:
         raise ConfigError(problems)
-    return Timeline(spec.name or path.stem, str(path), spec.scene, params, base_view,
-                    tuple(frames), spec.fit, slice_axis)
+    return Timeline(
+        spec.name or path.stem,
+        str(path),
+        spec.scene,
+        params,
+        base_view,
+        tuple(frames),
+        spec.fit,
+        slice_axis,
+    )
 
 
-def _condition(previous: Keyframe, raw: KeyframeSpec, pose: tuple[float, ...]
-               ) -> Condition | None:
+def _condition(previous: Keyframe, raw: KeyframeSpec, pose: tuple[float, ...]) -> Condition | None:
     """The condition in force from this keyframe: its own (``angles_within`` counted from
     ``pose``, this keyframe's), else the caption's it keeps (a new caption without ``while``
     states none)."""

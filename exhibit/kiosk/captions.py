@@ -66,9 +66,11 @@ def _reading_problems(timeline: Timeline) -> list[str]:
         need = reading_time(caption)
         if t1 - t0 < need:
             where = "the timeline ends here" if t1 == t0 else f"t = {t0:g}..{t1:g} s"
-            out.append(f"{timeline.path}: keyframe[{first}].caption: shown for {t1 - t0:.1f} s "
-                       f"({where}), too short to read: {len(caption.split())} words need "
-                       f"{need:.1f} s ({SECONDS_PER_WORD:g} s a word, at least {MIN_READ_S:g} s)")
+            out.append(
+                f"{timeline.path}: keyframe[{first}].caption: shown for {t1 - t0:.1f} s "
+                f"({where}), too short to read: {len(caption.split())} words need "
+                f"{need:.1f} s ({SECONDS_PER_WORD:g} s a word, at least {MIN_READ_S:g} s)"
+            )
     return out
 
 
@@ -90,14 +92,16 @@ class _Poses:
         frames = self.timeline.keyframes
         t = min(max(t, 0.0), self.timeline.duration)
         i = max(0, bisect.bisect_right(self.times, t) - 1)
-        return dataclasses.replace(self.timeline, keyframes=frames[i:i + 2]).at(t)[0]
+        return dataclasses.replace(self.timeline, keyframes=frames[i : i + 2]).at(t)[0]
 
 
 def _condition_problems(timeline: Timeline) -> list[str]:
     out = []
-    runs = [(first, t0, t1) for first, t0, t1
-            in _runs(timeline, lambda k: (k.caption_from, k.condition))
-            if timeline.keyframes[first].condition is not None]
+    runs = [
+        (first, t0, t1)
+        for first, t0, t1 in _runs(timeline, lambda k: (k.caption_from, k.condition))
+        if timeline.keyframes[first].condition is not None
+    ]
     # one step for the whole timeline: STEP_S, or coarser where that would pass MAX_SAMPLES
     step = max(STEP_S, sum(t1 - t0 for _, t0, t1 in runs) / MAX_SAMPLES)
     pose = _Poses(timeline)
@@ -121,12 +125,13 @@ def _condition_problems(timeline: Timeline) -> list[str]:
 POSE_NAMES = ("θ1", "θ2", "θ3", "θ4", "θ5", "θ6", "eye azimuth", "eye incidence")
 
 
-def _turn_problems(where: str, condition: Condition, times: list[float], views, first: int
-                   ) -> list[str]:
+def _turn_problems(
+    where: str, condition: Condition, times: list[float], views, first: int
+) -> list[str]:
     """The pose turned more than ``angles_within`` degrees from the stating keyframe's."""
     limit, stated = condition.angles_within, condition.pose
     assert limit is not None and stated is not None  # set together (WhileSpec.condition)
-    turns = []   # per sample: (largest turn in degrees, which angle)
+    turns = []  # per sample: (largest turn in degrees, which angle)
     for view in views:
         pose = view.angles + (view.eye_azimuth, view.eye_incidence)
         diffs = [abs(math.degrees(a - b)) for a, b in zip(pose, stated)]
@@ -136,28 +141,35 @@ def _turn_problems(where: str, condition: Condition, times: list[float], views, 
     if not bad:
         return []
     worst, k = max(turns[j] for j in bad)
-    return [f"{where}.angles_within: the caption is shown at t = {_spans(times, bad)} with the "
-            f"view turned up to {worst:.1f}° ({POSE_NAMES[k]}) from keyframe[{first}]'s pose, "
-            f"more than {limit:g}°"]
+    return [
+        f"{where}.angles_within: the caption is shown at t = {_spans(times, bad)} with the "
+        f"view turned up to {worst:.1f}° ({POSE_NAMES[k]}) from keyframe[{first}]'s pose, "
+        f"more than {limit:g}°"
+    ]
 
 
 def _distance(r: float) -> str:
     return "inf" if r <= 0 else f"{1 / r:.3g}"
 
 
-def _distance_problems(where: str, condition: Condition, times: list[float], r: list[float]
-                       ) -> list[str]:
+def _distance_problems(
+    where: str, condition: Condition, times: list[float], r: list[float]
+) -> list[str]:
     assert condition.sensor_r is not None and condition.sensor_distance is not None  # together
     low, high = condition.sensor_r
     bad = [j for j, x in enumerate(r) if not low - EPS_R <= x <= high + EPS_R]
     if not bad:
         return []
     d = condition.sensor_distance
-    want = "inf" if d[0] == math.inf else f"[{d[0]:g}, {'inf' if d[1] == math.inf else f'{d[1]:g}'}]"
+    want = (
+        "inf" if d[0] == math.inf else f"[{d[0]:g}, {'inf' if d[1] == math.inf else f'{d[1]:g}'}]"
+    )
     near, far = _distance(max(r[j] for j in bad)), _distance(min(r[j] for j in bad))
     seen = near if near == far else f"{near}..{far}"
-    return [f"{where}.sensor_distance: the caption is shown at t = {_spans(times, bad)} with the "
-            f"sensor at {seen}, outside {want}"]
+    return [
+        f"{where}.sensor_distance: the caption is shown at t = {_spans(times, bad)} with the "
+        f"sensor at {seen}, outside {want}"
+    ]
 
 
 def _motion_problems(where: str, motion: str, times: list[float], r: list[float]) -> list[str]:
@@ -170,12 +182,16 @@ def _motion_problems(where: str, motion: str, times: list[float], r: list[float]
         bad = [j for j, s in enumerate(steps) if s * sign < -EPS_R]
         what = "the sensor moves " + ("farther" if sign > 0 else "closer")
         if not bad and not any(s * sign > EPS_R for s in steps):
-            return [f"{where}.sensor_motion: the caption says the sensor moves {motion}, but it "
-                    f"stays at {_distance(r[0])} all the while (t = {times[0]:g}..{times[-1]:g} s)"]
+            return [
+                f"{where}.sensor_motion: the caption says the sensor moves {motion}, but it "
+                f"stays at {_distance(r[0])} all the while (t = {times[0]:g}..{times[-1]:g} s)"
+            ]
     if not bad:
         return []
-    return [f"{where}.sensor_motion: the caption says {motion!r}, but {what} at t = "
-            f"{_spans(times, bad, steps=True)}"]
+    return [
+        f"{where}.sensor_motion: the caption says {motion!r}, but {what} at t = "
+        f"{_spans(times, bad, steps=True)}"
+    ]
 
 
 def _spans(times: list[float], indices: list[int], steps: bool = False, most: int = 3) -> str:

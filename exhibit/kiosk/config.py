@@ -29,15 +29,29 @@ from exhibit.kiosk.sessions import SessionsConfig, SessionsSection, sessions_con
 from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
 from exhibit.schema.layers import leaves, merge, source_of
-from exhibit.schema.types import (Integer, Number, Numbers, QuitKeys, Resolution, Text, fail,
-                                  number_check)
+from exhibit.schema.types import (
+    Integer,
+    Number,
+    Numbers,
+    QuitKeys,
+    Resolution,
+    Text,
+    fail,
+    number_check,
+)
 
 DEFAULT_CONFIG = shipped("configs", "kiosk.toml")
 #: Where an installed kiosk keeps its site settings (docs/DEPLOYMENT.md).
 SITE_CONFIG = Path("/etc/exhibit/kiosk.toml")
 
-__all__ = ["ConfigError", "DEFAULT_CONFIG", "SITE_CONFIG", "KioskConfig", "load_kiosk_config",
-           "site_config_path"]
+__all__ = [
+    "ConfigError",
+    "DEFAULT_CONFIG",
+    "SITE_CONFIG",
+    "KioskConfig",
+    "load_kiosk_config",
+    "site_config_path",
+]
 
 PathText = Annotated[str, Text(4096)]
 
@@ -93,9 +107,11 @@ def _caption_cap(value: Any) -> float:
     try:
         return number_check(MIN_CAPTION_CAP, 0.1)(value)
     except PydanticCustomError:
-        raise fail("the caption's capital letters must be a fraction of the screen height "
-                   "from 1/45 (0.0222: 24 px at 1080p, legible from a few metres) to 0.1",
-                   value) from None
+        raise fail(
+            "the caption's capital letters must be a fraction of the screen height "
+            "from 1/45 (0.0222: 24 px at 1080p, legible from a few metres) to 0.1",
+            value,
+        ) from None
 
 
 class Accessibility(Model):
@@ -115,22 +131,23 @@ class Maintenance(Model):
 # ---------------------------------------------------------------------- [quality]: the governor
 
 #: exhibit.render.quality's ladder, named here so the config layer imports no GL code.
-QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "direct", "scale-75",
-                  "scale-50")
-MESH_LEVELS = {"full": 0, "reduced": 1, "low": 2}   # mesh resolution x1, x0.75, x0.5
+QUALITY_LEVELS = ("msaa", "fxaa", "mesh-75", "mesh-50", "lean", "direct", "scale-75", "scale-50")
+MESH_LEVELS = {"full": 0, "reduced": 1, "low": 2}  # mesh resolution x1, x0.75, x0.5
 
 
 def _choice(*options: str) -> PlainValidator:
     """One of ``options`` (a string): ``Annotated[str, _choice("auto", "full")]``."""
+
     def check(value: Any) -> str:
         if not isinstance(value, str) or value not in options:
             raise fail("must be one of " + ", ".join(f'"{o}"' for o in options), value)
         return value
+
     return PlainValidator(check)
 
 
 def _auto_or_number(low: float, high: float) -> PlainValidator:
-    """"auto" (the governor's choice), or a number in [low, high]."""
+    """ "auto" (the governor's choice), or a number in [low, high]."""
     number = number_check(low, high)
 
     def check(value: Any) -> float | str:
@@ -140,6 +157,7 @@ def _auto_or_number(low: float, high: float) -> PlainValidator:
             return number(value)
         except PydanticCustomError:
             raise fail(f'must be "auto" or a number in [{low:g}, {high:g}]', value) from None
+
     return PlainValidator(check)
 
 
@@ -175,13 +193,19 @@ class QualityConfig:
 def _quality(section: QualitySection) -> QualityConfig:
     def pin(value):
         return None if value == "auto" else value
+
     return QualityConfig(
-        level=section.level, lowest=section.lowest,
+        level=section.level,
+        lowest=section.lowest,
         antialiasing_pin=pin(section.antialiasing),
         mesh_pin=None if section.mesh == "auto" else MESH_LEVELS[section.mesh],
-        effects_pin=pin(section.effects), scale_pin=pin(section.render_scale),
-        target_fps=pin(section.target_fps), step_interval_s=section.step_interval_s,
-        calm_s=section.calm_s, headroom=section.headroom)
+        effects_pin=pin(section.effects),
+        scale_pin=pin(section.render_scale),
+        target_fps=pin(section.target_fps),
+        step_interval_s=section.step_interval_s,
+        calm_s=section.calm_s,
+        headroom=section.headroom,
+    )
 
 
 class KioskFile(Model):
@@ -270,15 +294,15 @@ def _unreadable(file: Path, problems: list[str]) -> list[str]:
     """A config file that cannot be read, said plainly when it is a dangling symlink."""
     try:
         if os.path.islink(file) and not os.path.lexists(os.path.realpath(file)):
-            return [f"{file}: cannot read: a symlink to {os.readlink(file)}, which does not "
-                    "exist"]
+            return [f"{file}: cannot read: a symlink to {os.readlink(file)}, which does not exist"]
     except OSError:
         pass
     return problems
 
 
-def _path(problems: list[str], origin: Path, raw: str, key: str, env: str, want_dir: bool
-          ) -> tuple[Path | None, str]:
+def _path(
+    problems: list[str], origin: Path, raw: str, key: str, env: str, want_dir: bool
+) -> tuple[Path | None, str]:
     """A referenced file or folder, and what named it: $ENV if set, else relative to the file
     that names it, else relative to the shipped configs."""
     if os.environ.get(env):
@@ -302,15 +326,19 @@ def _start_problem(start: str, start_from: Path, scenes_from: Path, site: Path |
     if site is None or (start_from != site and scenes_from != site):
         return f"{start_from}: content.start_scene: {start!r} is not one of content.scenes"
     if start_from == site:
-        return (f"{site}: content.start_scene: {start!r} is not one of content.scenes"
-                + ("" if scenes_from == site else " (the shipped defaults' list)"))
-    return (f"{site}: content.scenes: does not include the start scene {start!r} (the shipped "
-            f"default of content.start_scene); add it, or set content.start_scene to one of "
-            f"the scenes listed here")
+        return f"{site}: content.start_scene: {start!r} is not one of content.scenes" + (
+            "" if scenes_from == site else " (the shipped defaults' list)"
+        )
+    return (
+        f"{site}: content.scenes: does not include the start scene {start!r} (the shipped "
+        f"default of content.start_scene); add it, or set content.start_scene to one of "
+        f"the scenes listed here"
+    )
 
 
-def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True,
-                      broken_scenes_ok: bool = False) -> KioskConfig:
+def load_kiosk_config(
+    path: str | Path | None = None, check_linked: bool = True, broken_scenes_ok: bool = False
+) -> KioskConfig:
     """Read and check the shipped defaults with the site file over them; raises ConfigError
     listing every problem found.
 
@@ -346,69 +374,106 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True,
     values: dict = {"path": site or DEFAULT_CONFIG, "site": site}
     if spec is not None:
         d, c = spec.display, spec.content
-        values.update(fullscreen=d.fullscreen, monitor=d.monitor, size=tuple(d.size),
-                      vsync=d.vsync, samples=d.samples, fps_limit=d.fps_limit, hud=d.hud)
+        values.update(
+            fullscreen=d.fullscreen,
+            monitor=d.monitor,
+            size=tuple(d.size),
+            vsync=d.vsync,
+            samples=d.samples,
+            fps_limit=d.fps_limit,
+            hud=d.hud,
+        )
         scene_list = c.scenes if c.scenes is not None else sorted(known)
         if not scene_list:
-            problems.append(f"{where('content', 'scenes')}: content.scenes: must name at least "
-                            "one scene")
+            problems.append(
+                f"{where('content', 'scenes')}: content.scenes: must name at least one scene"
+            )
         for name in scene_list:
             if name not in known:
-                problems.append(f"{where('content', 'scenes')}: content.scenes: no scene named "
-                                f"{name!r} (scenes: {', '.join(sorted(known))})")
+                problems.append(
+                    f"{where('content', 'scenes')}: content.scenes: no scene named "
+                    f"{name!r} (scenes: {', '.join(sorted(known))})"
+                )
         values["scenes"] = tuple(s for s in scene_list if s in known) or tuple(sorted(known))
         start = c.start_scene if c.start_scene is not None else values["scenes"][0]
         if start not in values["scenes"]:
-            problems.append(_start_problem(start, where("content", "start_scene"),
-                                           where("content", "scenes"), site))
+            problems.append(
+                _start_problem(
+                    start, where("content", "start_scene"), where("content", "scenes"), site
+                )
+            )
         values["start_scene"] = start
         for name in c.resolution:
             if name not in known:
-                problems.append(f"{where('content', 'resolution', name)}: "
-                                f"content.resolution.{name}: no such scene")
+                problems.append(
+                    f"{where('content', 'resolution', name)}: "
+                    f"content.resolution.{name}: no such scene"
+                )
         values["resolution"] = {k: v for k, v in c.resolution.items() if k in known}
-        values["sources"] = {".".join(key): (value, origin.get(key, last))
-                             for key, value in leaves(doc)}
+        values["sources"] = {
+            ".".join(key): (value, origin.get(key, last)) for key, value in leaves(doc)
+        }
         for name, section, key, env, want_dir in (
-                ("devices_config", "devices", "config", "EXHIBIT_DEVICES_CONFIG", False),
-                ("attract_dir", "attract", "timelines", "EXHIBIT_ATTRACT_DIR", True)):
-            path, named_by = _path(problems, where(section, key),
-                                   getattr(getattr(spec, section), key), f"{section}.{key}", env,
-                                   want_dir)
+            ("devices_config", "devices", "config", "EXHIBIT_DEVICES_CONFIG", False),
+            ("attract_dir", "attract", "timelines", "EXHIBIT_ATTRACT_DIR", True),
+        ):
+            path, named_by = _path(
+                problems,
+                where(section, key),
+                getattr(getattr(spec, section), key),
+                f"{section}.{key}",
+                env,
+                want_dir,
+            )
             values[name] = path
             if path is not None:  # --show: the resolved path, and what named it
                 values["sources"][f"{section}.{key}"] = (str(path), named_by)
         languages = spec.languages
         if len(set(languages.shown)) != len(languages.shown):
-            problems.append(f"{where('languages', 'shown')}: languages.shown: names a language "
-                            f"twice: {languages.shown}")
-        values.update(languages=tuple(dict.fromkeys(languages.shown)),
-                      language_switch_s=languages.switch_after_s)
+            problems.append(
+                f"{where('languages', 'shown')}: languages.shown: names a language "
+                f"twice: {languages.shown}"
+            )
+        values.update(
+            languages=tuple(dict.fromkeys(languages.shown)),
+            language_switch_s=languages.switch_after_s,
+        )
         if any(code != SOURCE for code in languages.shown):
-            path, named_by = _path(problems, where("languages", "catalogues"),
-                                   languages.catalogues, "languages.catalogues",
-                                   "EXHIBIT_LANGUAGES_DIR", True)
+            path, named_by = _path(
+                problems,
+                where("languages", "catalogues"),
+                languages.catalogues,
+                "languages.catalogues",
+                "EXHIBIT_LANGUAGES_DIR",
+                True,
+            )
             values["catalogues_dir"] = path
             if path is not None:
                 values["sources"]["languages.catalogues"] = (str(path), named_by)
-        values.update(idle_timeout_s=spec.attract.idle_timeout_s, blend_s=spec.attract.blend_s,
-                      drift_px=spec.burn_in.drift_px,
-                      drift_period_s=spec.burn_in.drift_period_s,
-                      quit_keys=spec.maintenance.quit_keys, quality=_quality(spec.quality),
-                      sessions=sessions_config(spec.sessions),
-                      reduced_motion=spec.accessibility.reduced_motion)
+        values.update(
+            idle_timeout_s=spec.attract.idle_timeout_s,
+            blend_s=spec.attract.blend_s,
+            drift_px=spec.burn_in.drift_px,
+            drift_period_s=spec.burn_in.drift_period_s,
+            quit_keys=spec.maintenance.quit_keys,
+            quality=_quality(spec.quality),
+            sessions=sessions_config(spec.sessions),
+            reduced_motion=spec.accessibility.reduced_motion,
+        )
         t = spec.text
         if t.title_cap_height <= t.caption_cap_height:
-            problems.append(f"{where('text', 'title_cap_height')}: text.title_cap_height: must be "
-                            f"larger than text.caption_cap_height ({t.caption_cap_height:g}), "
-                            f"got {t.title_cap_height:g}")
+            problems.append(
+                f"{where('text', 'title_cap_height')}: text.title_cap_height: must be "
+                f"larger than text.caption_cap_height ({t.caption_cap_height:g}), "
+                f"got {t.title_cap_height:g}"
+            )
         else:
-            values["text"] = TextConfig(t.caption_cap_height, t.title_cap_height,
-                                       t.infinity_beyond)
+            values["text"] = TextConfig(t.caption_cap_height, t.title_cap_height, t.infinity_beyond)
 
     if check_linked and spec is not None:
         if values["devices_config"] is not None:
             from exhibit.devices.config import load_config
+
             try:
                 load_config(values["devices_config"])
             except ConfigError as exc:
@@ -417,10 +482,13 @@ def load_kiosk_config(path: str | Path | None = None, check_linked: bool = True,
                 problems.append(str(exc))
         if values["attract_dir"] is not None:
             from exhibit.kiosk.attract import timeline_paths, load_timeline
+
             timelines = timeline_paths(values["attract_dir"])
             if not timelines:
-                problems.append(f"{where('attract', 'timelines')}: attract.timelines: "
-                                f"{values['attract_dir']} has no *.toml timelines")
+                problems.append(
+                    f"{where('attract', 'timelines')}: attract.timelines: "
+                    f"{values['attract_dir']} has no *.toml timelines"
+                )
             for timeline_path in timelines:
                 try:
                     load_timeline(timeline_path)

@@ -30,8 +30,9 @@ class Content:
     there is one) gets the timelines and hears of scenes that arrive or fail. ``problems`` and
     ``scenes_failed`` are the kiosk's lists for the health file, appended to here."""
 
-    def __init__(self, upload: Callable, jobs: list[Job], problems: list[str],
-                 scenes_failed: list[dict]):
+    def __init__(
+        self, upload: Callable, jobs: list[Job], problems: list[str], scenes_failed: list[dict]
+    ):
         self.upload = upload
         self.gpu: dict[tuple, dict] = {}
         self.failed: set[tuple] = set()
@@ -56,14 +57,18 @@ class Content:
 
     def shown(self, names) -> tuple[str, ...]:
         """The content list less the scenes that failed (those still coming stay in)."""
-        return tuple(name for name in names
-                     if not any(key[0] == name for key in self.failed)
-                     or any(key[0] == name for key in self.gpu))
+        return tuple(
+            name
+            for name in names
+            if not any(key[0] == name for key in self.failed)
+            or any(key[0] == name for key in self.gpu)
+        )
 
     # ------------------------------------------------------------------ preparing
 
-    def prepare_first(self, jobs: list[Job], framers: Framers, level: int, clock,
-                      notifier=None) -> list:
+    def prepare_first(
+        self, jobs: list[Job], framers: Framers, level: int, clock, notifier=None
+    ) -> list:
         """The first frame's scene, here and now: jobs in order until one can be shown, at
         mesh ``level`` only (the scene's other levels go back at the head of ``jobs``).
         Returns the playlist to start with: the framed timelines of that scene."""
@@ -103,8 +108,12 @@ class Content:
         try:
             results = preparer.results()
         except Exception as exc:  # noqa: BLE001 - no worker process: here, one per frame
-            log.error("the preparing process cannot run (%s: %s): the scenes left are prepared "
-                      "here, one per frame", type(exc).__name__, exc)
+            log.error(
+                "the preparing process cannot run (%s: %s): the scenes left are prepared "
+                "here, one per frame",
+                type(exc).__name__,
+                exc,
+            )
             pending = preparer.pending()
             with contextlib.suppress(Exception):
                 preparer.close()
@@ -115,9 +124,13 @@ class Content:
         for prepared in results:
             self.take_in(prepared, now)
             if prepared.error is None:
-                log.info("scene %s prepared (mesh levels %s, %d timelines; %.0f ms to take in)",
-                         prepared.job.scene, ",".join(map(str, sorted(prepared.meshes))),
-                         len(prepared.timelines), (time.perf_counter() - begin) * 1000)
+                log.info(
+                    "scene %s prepared (mesh levels %s, %d timelines; %.0f ms to take in)",
+                    prepared.job.scene,
+                    ",".join(map(str, sorted(prepared.meshes))),
+                    len(prepared.timelines),
+                    (time.perf_counter() - begin) * 1000,
+                )
         if not preparer.busy and self.prepared_at is None:
             self.prepared_at = now
             log.info("every scene is prepared (%.1f s after start)", now - started)
@@ -162,8 +175,12 @@ class Content:
             for timeline in prepared.timelines:
                 state.playlist.insert(self._position(timeline), timeline, now)
             frame = state.frame
-            if (waited and state.mode == VISITOR and frame.scene == job.scene
-                    and frame.params == job.params):
+            if (
+                waited
+                and state.mode == VISITOR
+                and frame.scene == job.scene
+                and frame.params == job.params
+            ):
                 state.reframe()  # a visitor waited for it: its start view, framed now
         return prepared.timelines
 
@@ -173,13 +190,18 @@ class Content:
         order = {(t.path, t.name): i for i, t in enumerate(self.timelines)}
         mine = order.get((timeline.path, timeline.name), len(order))
         assert self.state is not None  # take_in places timelines only once there is a state
-        return sum(1 for t in self.state.playlist.timelines
-                   if order.get((t.path, t.name), 0) < mine)
+        return sum(
+            1 for t in self.state.playlist.timelines if order.get((t.path, t.name), 0) < mine
+        )
 
     def _failed(self, job: Job, reason: str, now: float) -> None:
         if job.key in self.gpu:  # more mesh levels of a scene on screen: it has one already
-            log.warning("scene %s: mesh levels %s not prepared (%s); using the level it has",
-                        job.scene, ",".join(str(level) for level, _ in job.levels), reason)
+            log.warning(
+                "scene %s: mesh levels %s not prepared (%s); using the level it has",
+                job.scene,
+                ",".join(str(level) for level, _ in job.levels),
+                reason,
+            )
             return
         self.failed.add(job.key)
         log.error("scene %s skipped: %s", job.scene, reason)

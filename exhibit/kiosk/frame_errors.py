@@ -56,6 +56,10 @@ class FrameErrors:
 
     def flush(self, now: float) -> None:
         if self._count and now - self._logged >= self.every:
-            log.error("%d more failed frames in the last %.0f s (the last: %s)", self._count,
-                      now - self._logged, self._latest)
+            log.error(
+                "%d more failed frames in the last %.0f s (the last: %s)",
+                self._count,
+                now - self._logged,
+                self._latest,
+            )
             self._count, self._logged = 0, now

@@ -2,7 +2,8 @@
 exhibit.geometry.framing's fit), done once at start-up for the whole playlist.
 
 * One area of the free space for all of a timeline (the best for all its poses sampled every
-  0.5 s and at every keyframe, clear of all its captions), so moving between keyframes never crosses a panel.
+  0.5 s and at every keyframe, clear of all its captions), so moving between keyframes never
+  crosses a panel.
 * Either one zoom and shift for all of it, or one per keyframe (each keyframe fitted to the
   poses half way to its neighbours, both ends of a stretch zoomed out a little where a sample
   between them spills out; FramedTimeline interpolates the lens shift as the rest of the view),
@@ -31,8 +32,14 @@ from typing import Any
 
 import numpy as np
 
-from exhibit.geometry.framing import (best_area, fit, mesh_sample, sample_bounds, to_pixels,
-                                      zoom_about)
+from exhibit.geometry.framing import (
+    best_area,
+    fit,
+    mesh_sample,
+    sample_bounds,
+    to_pixels,
+    zoom_about,
+)
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Timeline
 from exhibit.render.framer import Framer
@@ -91,8 +98,7 @@ class _TimelineFramer:
         def framed_stretch(t: float) -> bool:
             """Whether ``t`` lies at or between keyframes that are both framed."""
             i = timeline.index_at(t)
-            return not fills[i] and (i + 1 == len(frames) or not fills[i + 1]
-                                     or t == frames[i].t)
+            return not fills[i] and (i + 1 == len(frames) or not fills[i + 1] or t == frames[i].t)
 
         seen = [b for t, b in bounds.items() if b is not None and framed_stretch(t)]
         if not seen:
@@ -109,14 +115,14 @@ class _TimelineFramer:
         # Two candidates, the larger picture wins: one framing for all (nothing moves but the
         # object), or one per keyframe (the camera follows; larger where poses differ much, and
         # the only one for a timeline with moments that fill the world).
-        following = self._per_keyframe(timeline, points, times, bounds, fills, framed_stretch,
-                                       area)
+        following = self._per_keyframe(timeline, points, times, bounds, fills, framed_stretch, area)
         if any(fills):
             return following or timeline
         uniform = fit(base, union, self.size, [area])
         if following is not None and (
-                np.mean([np.log(k.half_height) for k in following.keyframes])
-                < np.log(uniform.half_height)):
+            np.mean([np.log(k.half_height) for k in following.keyframes])
+            < np.log(uniform.half_height)
+        ):
             return following
         return FramedTimeline.of(timeline, [uniform] * len(frames), fills)
 
@@ -160,15 +166,18 @@ class _TimelineFramer:
                 views.append(own)
                 continue
             lo = k.t - 0.5 * (k.t - frames[i - 1].t) if i and not fills[i - 1] else k.t
-            hi = (k.t + 0.5 * (frames[i + 1].t - k.t)
-                  if i + 1 < len(frames) and not fills[i + 1] else k.t)
+            hi = (
+                k.t + 0.5 * (frames[i + 1].t - k.t)
+                if i + 1 < len(frames) and not fills[i + 1]
+                else k.t
+            )
             near = [b for t, b in bounds.items() if lo <= t <= hi and b is not None]
             box = near[0]
             for b in near[1:]:
                 box = box.union(b)
             views.append(fit(own, box, self.size, [area]))
         checked = [t for t in times if framed_stretch(t)]
-        for _ in range(MAX_GROWTH_STEPS):   # between keyframes: zoom out where it spills
+        for _ in range(MAX_GROWTH_STEPS):  # between keyframes: zoom out where it spills
             framed = FramedTimeline.of(timeline, views, fills)
             framed_pose = _Poses(framed)
             spills = set()
@@ -181,8 +190,10 @@ class _TimelineFramer:
                     spills |= {j for j in (i, i + 1) if j < len(frames) and not fills[j]}
             if not spills:
                 return framed
-            views = [zoom_about(v, GROWTH, area, self.size) if i in spills else v
-                     for i, v in enumerate(views)]
+            views = [
+                zoom_about(v, GROWTH, area, self.size) if i in spills else v
+                for i, v in enumerate(views)
+            ]
         return None
 
 
@@ -192,8 +203,9 @@ def sample_times(timeline: Timeline) -> list[float]:
     spread evenly, the first and last among them) and an even grid filling up MAX_POSES."""
     frames, duration = timeline.keyframes, timeline.duration
     if math.ceil(duration / TIMELINE_STEP_S) + len(frames) + 1 <= MAX_POSES:
-        return sorted({*np.arange(0.0, duration, TIMELINE_STEP_S).tolist(),
-                       *(k.t for k in frames), duration})
+        return sorted(
+            {*np.arange(0.0, duration, TIMELINE_STEP_S).tolist(), *(k.t for k in frames), duration}
+        )
     keys = [k.t for k in frames]
     if len(keys) > MAX_KEYFRAME_POSES:
         picks = np.linspace(0, len(keys) - 1, MAX_KEYFRAME_POSES).round().astype(int)
@@ -215,16 +227,20 @@ class _Poses:
         timeline, frames = self.timeline, self.timeline.keyframes
         t = min(max(t, 0.0), timeline.duration)
         i = max(0, bisect.bisect_right(self.times, t) - 1)
-        changes: dict[str, Any] = {"keyframes": frames[i:i + 2]}  # fields of two types
+        changes: dict[str, Any] = {"keyframes": frames[i : i + 2]}  # fields of two types
         if isinstance(timeline, FramedTimeline):
-            changes.update(centers=timeline.centers[i:i + 2], fills=timeline.fills[i:i + 2])
+            changes.update(centers=timeline.centers[i : i + 2], fills=timeline.fills[i : i + 2])
         return dataclasses.replace(timeline, **changes).at(t)[0]
 
 
 def _inside(box, area, tolerance: float = 1.0) -> bool:
     x0, y0, x1, y1 = box
-    return (x0 >= area[0] - tolerance and y0 >= area[1] - tolerance
-            and x1 <= area[2] + tolerance and y1 <= area[3] + tolerance)
+    return (
+        x0 >= area[0] - tolerance
+        and y0 >= area[1] - tolerance
+        and x1 <= area[2] + tolerance
+        and y1 <= area[3] + tolerance
+    )
 
 
 @dataclasses.dataclass(frozen=True)
@@ -240,10 +256,15 @@ class FramedTimeline(Timeline):
     @classmethod
     def of(cls, timeline: Timeline, views: list[ViewState], fills=()) -> "FramedTimeline":
         fields = {f.name: getattr(timeline, f.name) for f in dataclasses.fields(Timeline)}
-        fields["keyframes"] = tuple(dataclasses.replace(k, half_height=v.half_height)
-                                    for k, v in zip(timeline.keyframes, views))
-        return cls(**fields, centers=tuple(v.center for v in views),
-                   fills=tuple(fills) or (False,) * len(views))
+        fields["keyframes"] = tuple(
+            dataclasses.replace(k, half_height=v.half_height)
+            for k, v in zip(timeline.keyframes, views)
+        )
+        return cls(
+            **fields,
+            centers=tuple(v.center for v in views),
+            fills=tuple(fills) or (False,) * len(views),
+        )
 
     def _view(self, a, b, u: float) -> ViewState:
         view = super()._view(a, b, u)

@@ -90,8 +90,14 @@ class Governor:
     """Chooses the quality level frame by frame. ``levels``: the ladder (best first); ``start``:
     the level to begin at; ``pinned``: a fixed level (one level, no decisions)."""
 
-    def __init__(self, levels: tuple[Quality, ...] = LADDER, settings: Settings = Settings(),
-                 now: float = 0.0, start: int = 0, pinned: bool = False):
+    def __init__(
+        self,
+        levels: tuple[Quality, ...] = LADDER,
+        settings: Settings = Settings(),
+        now: float = 0.0,
+        start: int = 0,
+        pinned: bool = False,
+    ):
         if not levels:
             raise ValueError("a governor needs at least one level")
         self.levels = tuple(levels)
@@ -99,10 +105,10 @@ class Governor:
         self.pinned = pinned or len(self.levels) == 1
         self.index = max(0, min(start, len(self.levels) - 1))
         self._frames: deque[tuple[float, float]] = deque()
-        self._changed = now          # last step (or start): the interval counts from here
+        self._changed = now  # last step (or start): the interval counts from here
         self._settled = now + settings.settle_s
         self._calm_until = -math.inf
-        self._last_up: tuple[float, int] | None = None   # (when, level stepped up to)
+        self._last_up: tuple[float, int] | None = None  # (when, level stepped up to)
         self._backoff: dict[int, tuple[float, float]] = {}  # level -> (until, current length)
         self._previous: tuple | None = None  # (scene, view, time) of the last observed frame
         #: The latest frame time given (ms) and the recent median, for the health file.
@@ -160,20 +166,22 @@ class Governor:
         if now < self._calm_until or len(self._frames) < s.min_frames:
             return False
         times = [ms for _, ms in self._frames]
-        if (now - self._changed < s.step_interval_s
-                and not (percentile(times, 50) > s.target_ms * s.far
-                         and self.index < len(self.levels) - 1)):
+        if now - self._changed < s.step_interval_s and not (
+            percentile(times, 50) > s.target_ms * s.far and self.index < len(self.levels) - 1
+        ):
             return False
         if percentile(times, 50) > s.target_ms * s.down and self.index < len(self.levels) - 1:
             if self._last_up is not None and now - self._last_up[0] <= 2 * s.step_interval_s:
-                level = self._last_up[1]   # that step up did not hold: wait longer next time
-                length = min(self._backoff.get(level, (0.0, s.backoff_s / 2))[1] * 2,
-                             MAX_BACKOFF_S)
+                level = self._last_up[1]  # that step up did not hold: wait longer next time
+                length = min(self._backoff.get(level, (0.0, s.backoff_s / 2))[1] * 2, MAX_BACKOFF_S)
                 self._backoff[level] = (now + length, length)
             self._last_up = None
             return self._step(self.index + 1, now)
-        if (self.index > 0 and percentile(times, 90) < s.target_ms * s.up
-                and now >= self._backoff.get(self.index - 1, (-math.inf, 0.0))[0]):
+        if (
+            self.index > 0
+            and percentile(times, 90) < s.target_ms * s.up
+            and now >= self._backoff.get(self.index - 1, (-math.inf, 0.0))[0]
+        ):
             self._last_up = (now, self.index - 1)
             return self._step(self.index - 1, now)
         return False
@@ -205,17 +213,25 @@ class Governor:
         target (ms)."""
         recent = self.recent_ms
         q = self.quality
-        return {"quality": q.name,
-                "quality_detail": {"antialiasing": q.antialiasing, "mesh": q.mesh,
-                                   "effects": q.effects, "render_scale": q.scale,
-                                   "level": self.index + 1, "levels": len(self.levels),
-                                   "pinned": self.pinned, "steps": self.steps},
-                "frame_ms": None if recent is None else round(recent, 2),
-                "frame_ms_max": (None if self.frame_ms_max is None
-                                 else round(self.frame_ms_max, 2)),
-                "frame_ms_max_at_s": (None if self.frame_ms_max_at is None
-                                      else round(self.frame_ms_max_at, 1)),
-                "target_ms": round(self.settings.target_ms, 2)}
+        return {
+            "quality": q.name,
+            "quality_detail": {
+                "antialiasing": q.antialiasing,
+                "mesh": q.mesh,
+                "effects": q.effects,
+                "render_scale": q.scale,
+                "level": self.index + 1,
+                "levels": len(self.levels),
+                "pinned": self.pinned,
+                "steps": self.steps,
+            },
+            "frame_ms": None if recent is None else round(recent, 2),
+            "frame_ms_max": (None if self.frame_ms_max is None else round(self.frame_ms_max, 2)),
+            "frame_ms_max_at_s": (
+                None if self.frame_ms_max_at is None else round(self.frame_ms_max_at, 1)
+            ),
+            "target_ms": round(self.settings.target_ms, 2),
+        }
 
 
 def fast(a, b, dt: float) -> bool:
@@ -223,14 +239,16 @@ def fast(a, b, dt: float) -> bool:
     slowly: any angle (or the eye's orbit) above FAST_DEG_S, or the sensor above FAST_R_S."""
     if dt <= 0:
         return False
-    angles = list(zip(a.angles, b.angles)) + [(a.eye_azimuth, b.eye_azimuth),
-                                               (a.eye_incidence, b.eye_incidence)]
+    angles = list(zip(a.angles, b.angles)) + [
+        (a.eye_azimuth, b.eye_azimuth),
+        (a.eye_incidence, b.eye_incidence),
+    ]
     turn = max(abs(math.remainder(y - x, 2 * math.pi)) for x, y in angles)
-    return (math.degrees(turn) / dt > FAST_DEG_S
-            or abs(b.sensor_r - a.sensor_r) / dt > FAST_R_S)
+    return math.degrees(turn) / dt > FAST_DEG_S or abs(b.sensor_r - a.sensor_r) / dt > FAST_R_S
 
 
 # ---------------------------------------------------------------------- the kiosk's governor
+
 
 def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bool]:
     """The ladder for this kiosk: its [quality] pins applied, MSAA and render scales below 1
@@ -239,13 +257,12 @@ def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bo
     q = quality_config
     if q is not None and q.level != "auto":
         base = next(level for level in LADDER if level.name == q.level)
-        levels = ladder(q.antialiasing_pin, q.mesh_pin, q.effects_pin, q.scale_pin,
-                        levels=(base,))
+        levels = ladder(q.antialiasing_pin, q.mesh_pin, q.effects_pin, q.scale_pin, levels=(base,))
         return levels, True
     levels = LADDER
     if q is not None and q.lowest != "auto":
         cut = next(i for i, level in enumerate(LADDER) if level.name == q.lowest)
-        levels = LADDER[:cut + 1]
+        levels = LADDER[: cut + 1]
     aa = q.antialiasing_pin if q is not None else None
     scale = q.scale_pin if q is not None else None
     if software_renderer(renderer):
@@ -253,9 +270,15 @@ def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bo
         # the pass that upscales a smaller picture about what that picture saves (scale-75 is
         # slower than direct: docs/PERFORMANCE.md); the ladder must stay in cost order, so
         # direct is the lowest level there.
-        levels = tuple(level for level in levels
-                       if (aa is not None or level.antialiasing != "msaa")
-                       and (scale is not None or level.scale == 1.0)) or levels
+        levels = (
+            tuple(
+                level
+                for level in levels
+                if (aa is not None or level.antialiasing != "msaa")
+                and (scale is not None or level.scale == 1.0)
+            )
+            or levels
+        )
     if q is not None:
         levels = ladder(aa, q.mesh_pin, q.effects_pin, q.scale_pin, levels=levels)
     return levels, len(levels) == 1
@@ -282,8 +305,12 @@ def for_kiosk(config, window, now: float) -> Governor:
     levels, pinned = kiosk_levels(q, renderer)
     settings = Settings(target_ms=target_ms(config, getattr(window, "refresh_hz", None)))
     if q is not None:
-        settings = Settings(target_ms=settings.target_ms, step_interval_s=q.step_interval_s,
-                            calm_s=q.calm_s, up=q.headroom)
+        settings = Settings(
+            target_ms=settings.target_ms,
+            step_interval_s=q.step_interval_s,
+            calm_s=q.calm_s,
+            up=q.headroom,
+        )
     return Governor(levels, settings, now=now, pinned=pinned)
 
 
@@ -296,4 +323,5 @@ def level_resolution(scene, configured: int | None, level: int) -> int:
     """A scene's mesh resolution at a mesh level: content.resolution (else the scene's own)
     times the level's factor."""
     from exhibit.render.quality import mesh_resolution
+
     return mesh_resolution(int(configured or scene.default_resolution), level)

@@ -31,17 +31,39 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Annotated, Any
 
-from pydantic import (BaseModel, BeforeValidator, ConfigDict, PlainValidator, ValidationError,
-                      model_validator)
+from pydantic import (
+    BaseModel,
+    BeforeValidator,
+    ConfigDict,
+    PlainValidator,
+    ValidationError,
+    model_validator,
+)
 from pydantic_core import PydanticCustomError
 
 from exhibit.errors import ExhibitError
 from exhibit.schema import files
 
-__all__ = ["HEALTH_FILE", "SERVICE_STATE_DIR", "MAX_HEALTH_BYTES", "Health", "DeviceHealth",
-           "HealthError", "state_dir", "default_path", "candidate_paths", "report",
-           "write_health", "write_atomic", "read_health", "freshness", "missing_devices",
-           "device_label", "format_duration", "process_uptime"]
+__all__ = [
+    "HEALTH_FILE",
+    "SERVICE_STATE_DIR",
+    "MAX_HEALTH_BYTES",
+    "Health",
+    "DeviceHealth",
+    "HealthError",
+    "state_dir",
+    "default_path",
+    "candidate_paths",
+    "report",
+    "write_health",
+    "write_atomic",
+    "read_health",
+    "freshness",
+    "missing_devices",
+    "device_label",
+    "format_duration",
+    "process_uptime",
+]
 
 HEALTH_FILE = "health.json"
 #: Where the service's StateDirectory=exhibit puts the file (exhibit.service).
@@ -62,6 +84,7 @@ def _fail(message: str):
 def _number(wanted: str, *, nullable: bool = True, seconds: bool = False):
     """A JSON number (int or float, never a bool), finite and within ±2**53; seconds: in
     [0, 2**53]. Kept as it was read (an int stays an int)."""
+
     def check(value):
         if value is None and nullable:
             return None
@@ -74,6 +97,7 @@ def _number(wanted: str, *, nullable: bool = True, seconds: bool = False):
         if abs(value) > MAX_NUMBER:
             raise _fail("out of range (beyond ±2**53)")
         return value
+
     return PlainValidator(check)
 
 
@@ -135,8 +159,11 @@ class DeviceHealth(BaseModel):
     @model_validator(mode="before")
     @classmethod
     def _an_entry(cls, value):
-        if not isinstance(value, (dict, DeviceHealth)) or isinstance(value, dict) and not all(
-                isinstance(value.get(k), str) for k in ("url", "state")):
+        if (
+            not isinstance(value, (dict, DeviceHealth))
+            or isinstance(value, dict)
+            and not all(isinstance(value.get(k), str) for k in ("url", "state"))
+        ):
             raise _fail(f'expected {{"url": str, "state": str}}, got {value!r}')
         return value
 
@@ -300,20 +327,25 @@ def read_health(path: str | os.PathLike) -> Health:
     try:
         raw = _read_regular(path)
     except FileNotFoundError:
-        raise HealthError(f"no health file at {path}: the kiosk is not running or has not "
-                          "drawn its first second yet", missing=True) from None
+        raise HealthError(
+            f"no health file at {path}: the kiosk is not running or has not "
+            "drawn its first second yet",
+            missing=True,
+        ) from None
     except IsADirectoryError:
         raise HealthError(f"{path} is a folder, not a health file") from None
     except (OSError, ValueError) as exc:
         raise HealthError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
     try:
-        data = json.loads(raw.decode("utf-8"), parse_constant=_no_constant,
-                          parse_float=_finite_float)
+        data = json.loads(
+            raw.decode("utf-8"), parse_constant=_no_constant, parse_float=_finite_float
+        )
     except UnicodeDecodeError:
         raise HealthError(f"{path}: not UTF-8 text") from None
     except json.JSONDecodeError as exc:
-        raise HealthError(f"{path}: not valid JSON (line {exc.lineno} column {exc.colno}: "
-                          f"{exc.msg})") from None
+        raise HealthError(
+            f"{path}: not valid JSON (line {exc.lineno} column {exc.colno}: {exc.msg})"
+        ) from None
     except ValueError as exc:  # NaN, 1e400, a 5000-digit int
         raise HealthError(f"{path}: not valid JSON ({str(exc)[:80]})") from None
     except RecursionError:
@@ -335,8 +367,9 @@ def _read_regular(path: Path) -> bytes:
         if stat.S_ISDIR(info.st_mode):
             raise IsADirectoryError(path)
         if not stat.S_ISREG(info.st_mode):
-            raise ValueError(f"not a regular file (a FIFO, socket or device: "
-                             f"{stat.filemode(info.st_mode)})")
+            raise ValueError(
+                f"not a regular file (a FIFO, socket or device: {stat.filemode(info.st_mode)})"
+            )
         raw = os.read(fd, MAX_HEALTH_BYTES + 1)  # one more: a bigger file is refused unparsed
         if len(raw) > MAX_HEALTH_BYTES:
             raise ValueError(f"more than the {MAX_HEALTH_BYTES} bytes a health file may have")
@@ -356,8 +389,9 @@ def _finite_float(text: str) -> float:
     return value
 
 
-def freshness(data: Health | Mapping, max_age: float, now: float | None = None,
-              check_pid: bool = True) -> tuple[bool, float, str | None]:
+def freshness(
+    data: Health | Mapping, max_age: float, now: float | None = None, check_pid: bool = True
+) -> tuple[bool, float, str | None]:
     """(fresh, age in seconds, reason when not fresh) of health data read with read_health.
 
     Stale when older than ``max_age``, when its time lies more than ``max_age`` ahead (the clock
@@ -370,12 +404,18 @@ def freshness(data: Health | Mapping, max_age: float, now: float | None = None,
     if age > max_age:
         return False, age, f"last update {format_duration(age)} ago (more than {max_age:g} s)"
     if age < -max_age:
-        return False, age, (f"last update is stamped {format_duration(-age)} in the future "
-                            "(clock changed?)")
+        return (
+            False,
+            age,
+            (f"last update is stamped {format_duration(-age)} in the future (clock changed?)"),
+        )
     pid = data.pid
     if check_pid and isinstance(pid, int) and pid > 0 and not _pid_alive(pid):
-        return False, age, (f"the kiosk process {pid} is not running (last update "
-                            f"{format_duration(age)} ago)")
+        return (
+            False,
+            age,
+            (f"the kiosk process {pid} is not running (last update {format_duration(age)} ago)"),
+        )
     return True, age, None
 
 
@@ -396,8 +436,14 @@ def missing_devices(data: Health | Mapping, max_lost: float, age: float = 0.0) -
             continue
         missing = float(missing) + max(0.0, age)
         if missing > max_lost:
-            out.append({"device": device_label(device), "url": device.url,
-                        "state": device.state, "missing_s": round(missing, 1)})
+            out.append(
+                {
+                    "device": device_label(device),
+                    "url": device.url,
+                    "state": device.state,
+                    "missing_s": round(missing, 1),
+                }
+            )
     return out
 
 
@@ -410,7 +456,7 @@ def process_uptime(pid: int | None = None) -> float | None:
         with open(f"/proc/{pid or 'self'}/stat", "rb") as f:
             stat_line = f.read().decode("ascii", "replace")
         # After the command name, which is in parentheses and may hold spaces or ")".
-        fields = stat_line[stat_line.rindex(")") + 2:].split()
+        fields = stat_line[stat_line.rindex(")") + 2 :].split()
         started = int(fields[19]) / os.sysconf("SC_CLK_TCK")  # field 22, starttime
         return max(0.0, time.clock_gettime(time.CLOCK_BOOTTIME) - started)
     except (OSError, ValueError, IndexError, AttributeError):

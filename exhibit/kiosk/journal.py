@@ -35,8 +35,15 @@ import sys
 from collections.abc import Mapping
 from pathlib import Path
 
-__all__ = ["JOURNAL_SOCKET", "JournalHandler", "context", "set_context", "encode",
-           "stderr_is_journal", "install"]
+__all__ = [
+    "JOURNAL_SOCKET",
+    "JournalHandler",
+    "context",
+    "set_context",
+    "encode",
+    "stderr_is_journal",
+    "install",
+]
 
 JOURNAL_SOCKET = "/run/systemd/journal/socket"
 #: Fields added to every record sent; the kiosk sets EXHIBIT_MODE and EXHIBIT_SCENE.
@@ -45,8 +52,12 @@ context: dict[str, str] = {}
 #: starting with a digit or an underscore (those are the journal's trusted fields), <= 64 long.
 _FIELD = re.compile(r"[A-Z][A-Z0-9_]{0,63}")
 _PRIORITY = ((logging.CRITICAL, 2), (logging.ERROR, 3), (logging.WARNING, 4), (logging.INFO, 6))
-_SEALS = (getattr(fcntl, "F_SEAL_SHRINK", 2) | getattr(fcntl, "F_SEAL_GROW", 4)
-          | getattr(fcntl, "F_SEAL_WRITE", 8) | getattr(fcntl, "F_SEAL_SEAL", 1))
+_SEALS = (
+    getattr(fcntl, "F_SEAL_SHRINK", 2)
+    | getattr(fcntl, "F_SEAL_GROW", 4)
+    | getattr(fcntl, "F_SEAL_WRITE", 8)
+    | getattr(fcntl, "F_SEAL_SEAL", 1)
+)
 
 
 def set_context(**fields: str | None) -> None:
@@ -84,9 +95,13 @@ class JournalHandler(logging.Handler):
     """Sends records to the journal's socket at ``socket_path`` (injectable for tests); a record
     that cannot be sent goes to ``fallback`` (a stderr handler unless given)."""
 
-    def __init__(self, socket_path: str | os.PathLike = JOURNAL_SOCKET,
-                 identifier: str = "exhibit", fallback: logging.Handler | None = None,
-                 level: int = logging.NOTSET):
+    def __init__(
+        self,
+        socket_path: str | os.PathLike = JOURNAL_SOCKET,
+        identifier: str = "exhibit",
+        fallback: logging.Handler | None = None,
+        level: int = logging.NOTSET,
+    ):
         super().__init__(level)
         self.socket_path = os.fspath(socket_path)
         self.identifier = identifier
@@ -132,11 +147,15 @@ class JournalHandler(logging.Handler):
             try:
                 view = memoryview(data)
                 while view:
-                    view = view[os.write(fd, view):]
+                    view = view[os.write(fd, view) :]
                 fcntl.fcntl(fd, fcntl.F_ADD_SEALS, _SEALS)
                 # (socket.send_fds would drop the address: sendmsg with SCM_RIGHTS itself)
-                self._sock.sendmsg([b""], [(socket.SOL_SOCKET, socket.SCM_RIGHTS,
-                                            array.array("i", [fd]))], 0, self.socket_path)
+                self._sock.sendmsg(
+                    [b""],
+                    [(socket.SOL_SOCKET, socket.SCM_RIGHTS, array.array("i", [fd]))],
+                    0,
+                    self.socket_path,
+                )
             finally:
                 os.close(fd)
 
@@ -161,9 +180,12 @@ def stderr_is_journal(environ: Mapping[str, str] | None = None, stream=None) -> 
     return (info.st_dev, info.st_ino) == (dev, ino)
 
 
-def install(environ: Mapping[str, str] | None = None, stream=None,
-            socket_path: str | os.PathLike = JOURNAL_SOCKET,
-            logger: logging.Logger | None = None) -> JournalHandler | None:
+def install(
+    environ: Mapping[str, str] | None = None,
+    stream=None,
+    socket_path: str | os.PathLike = JOURNAL_SOCKET,
+    logger: logging.Logger | None = None,
+) -> JournalHandler | None:
     """Route ``logger``'s (the root logger's) stderr handlers to the journal when stderr is the
     journal and its socket exists; returns the handler, or None when logging stays as it was.
     Idempotent. The replaced handlers' level and formatter carry over, and become the fallback."""
@@ -174,8 +196,11 @@ def install(environ: Mapping[str, str] | None = None, stream=None,
     stream = sys.stderr if stream is None else stream
     if not stderr_is_journal(environ, stream) or not Path(socket_path).is_socket():
         return None
-    on_stderr = [h for h in logger.handlers
-                 if type(h) is logging.StreamHandler and getattr(h, "stream", None) is stream]
+    on_stderr = [
+        h
+        for h in logger.handlers
+        if type(h) is logging.StreamHandler and getattr(h, "stream", None) is stream
+    ]
     fallback = on_stderr[0] if on_stderr else logging.StreamHandler(stream)
     handler = JournalHandler(socket_path, fallback=fallback, level=fallback.level)
     handler.setFormatter(fallback.formatter or logging.Formatter("%(name)s: %(message)s"))

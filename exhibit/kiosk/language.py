@@ -61,8 +61,9 @@ class LanguagesSection(Model):
     def _readable(cls, value: float) -> float:
         # A language that changes faster than a caption can be read is no language at all.
         if 0 < value < MIN_SWITCH_S:
-            raise ValueError(f"must be 0 (buttons only) or at least {MIN_SWITCH_S:g} s, got "
-                             f"{value:g}")
+            raise ValueError(
+                f"must be 0 (buttons only) or at least {MIN_SWITCH_S:g} s, got {value:g}"
+            )
         return value
 
 
@@ -93,9 +94,11 @@ def load_catalogue(path: Path) -> Catalogue:
     if isinstance(doc.get("text"), dict):
         for english, text in list(doc["text"].items()):
             if isinstance(text, str) and not text.strip():
-                blank.append(f"{path}: text.{english!r}: the translation is empty (a blank "
-                             "title or caption); translate it or leave the line out to show "
-                             "the English")
+                blank.append(
+                    f"{path}: text.{english!r}: the translation is empty (a blank "
+                    "title or caption); translate it or leave the line out to show "
+                    "the English"
+                )
                 del doc["text"][english]
     try:
         spec = validate(CatalogueFile, doc, str(path))
@@ -104,8 +107,9 @@ def load_catalogue(path: Path) -> Catalogue:
     if blank:
         raise ConfigError(blank)
     if spec.language != path.stem:
-        raise ConfigError([f"{path}: language: {spec.language!r} does not match the file name "
-                           f"({path.stem}.toml)"])
+        raise ConfigError(
+            [f"{path}: language: {spec.language!r} does not match the file name ({path.stem}.toml)"]
+        )
     return Catalogue(spec.language, spec.name, dict(spec.text), path)
 
 
@@ -212,6 +216,7 @@ def in_every_language(translator: Translator, text: str) -> tuple[str, ...]:
 
 # ---------------------------------------------------------------------- for check-config
 
+
 def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
     """Every English text the kiosk can show, with where it comes from: the content scenes'
     titles and captions, every timeline's scene title and keyframe captions, the HUD's words."""
@@ -253,8 +258,11 @@ def coverage_problems(config) -> list[str]:
 def missing(catalogue: Catalogue, texts: dict[str, str]) -> list[str]:
     """``texts``: English text -> where it comes from. One problem per text the catalogue does
     not translate."""
-    return [f"{catalogue.path}: text: no translation of {english!r} (from {where})"
-            for english, where in texts.items() if english and english not in catalogue.text]
+    return [
+        f"{catalogue.path}: text: no translation of {english!r} (from {where})"
+        for english, where in texts.items()
+        if english and english not in catalogue.text
+    ]
 
 
 @lru_cache(maxsize=8)
@@ -276,9 +284,12 @@ def uncovered(catalogue: Catalogue, styles: Iterable[str] = ("sans", "bold")) ->
     problems = []
     sets = [_codepoints(style) for style in styles]
     for english, text in catalogue.text.items():
-        lacking = sorted({ch for ch in text if not ch.isspace()
-                          and any(ord(ch) not in s for s in sets)})
+        lacking = sorted(
+            {ch for ch in text if not ch.isspace() and any(ord(ch) not in s for s in sets)}
+        )
         if lacking:
-            problems.append(f"{catalogue.path}: text.{english!r}: the font has no glyph for "
-                            f"{''.join(lacking)!r}")
+            problems.append(
+                f"{catalogue.path}: text.{english!r}: the font has no glyph for "
+                f"{''.join(lacking)!r}"
+            )
     return problems

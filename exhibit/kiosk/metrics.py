@@ -48,29 +48,46 @@ MAX_DEVICES = 64
 
 #: name -> (type, help), in the order they are written.
 FAMILIES = {
-    "exhibit_up": ("gauge", "1 when the kiosk's health file is fresh (the kiosk is running), "
-                            "else 0"),
-    "exhibit_health": ("gauge", "The health file's status: 1 for the one that holds (ok, stale, "
-                                "missing, broken)"),
-    "exhibit_health_age_seconds": ("gauge", "Seconds since the kiosk last wrote its health "
-                                            "file"),
-    "exhibit_last_update_timestamp_seconds": ("gauge", "When the kiosk last wrote its health "
-                                                       "file (unix time)"),
+    "exhibit_up": (
+        "gauge",
+        "1 when the kiosk's health file is fresh (the kiosk is running), else 0",
+    ),
+    "exhibit_health": (
+        "gauge",
+        "The health file's status: 1 for the one that holds (ok, stale, missing, broken)",
+    ),
+    "exhibit_health_age_seconds": ("gauge", "Seconds since the kiosk last wrote its health file"),
+    "exhibit_last_update_timestamp_seconds": (
+        "gauge",
+        "When the kiosk last wrote its health file (unix time)",
+    ),
     "exhibit_fps": ("gauge", "Frames drawn per second over the last second"),
-    "exhibit_frame_time_p95_seconds": ("gauge", "95th percentile of the frame time over the "
-                                                "last second"),
-    "exhibit_mode": ("gauge", "1 for the kiosk's mode (attract, visitor; notice: no scene could "
-                              "be prepared)"),
+    "exhibit_frame_time_p95_seconds": (
+        "gauge",
+        "95th percentile of the frame time over the last second",
+    ),
+    "exhibit_mode": (
+        "gauge",
+        "1 for the kiosk's mode (attract, visitor; notice: no scene could be prepared)",
+    ),
     "exhibit_scene_info": ("gauge", "The scene on screen, as its label"),
-    "exhibit_device_state": ("gauge", "1 for each configured device's state (waiting: never "
-                                      "connected since the start; lost: connected, then gone)"),
+    "exhibit_device_state": (
+        "gauge",
+        "1 for each configured device's state (waiting: never "
+        "connected since the start; lost: connected, then gone)",
+    ),
     "exhibit_device_state_seconds": ("gauge", "Seconds each device has been in its state"),
-    "exhibit_device_missing_seconds": ("gauge", "Seconds since each device was last connected "
-                                                "(since the start if never); 0 while connected"),
+    "exhibit_device_missing_seconds": (
+        "gauge",
+        "Seconds since each device was last connected "
+        "(since the start if never); 0 while connected",
+    ),
     "exhibit_uptime_seconds": ("gauge", "Seconds since the kiosk process started"),
     "exhibit_frames_total": ("counter", "Frames drawn since the kiosk started"),
-    "exhibit_frame_errors_total": ("counter", "Frames that raised an error since the kiosk "
-                                              "started"),
+    "exhibit_frame_errors_total": (
+        "counter",
+        "Frames that raised an error since the kiosk started",
+    ),
     "exhibit_gl_errors_total": ("counter", "OpenGL errors since the kiosk started"),
     "exhibit_scenes_failed": ("gauge", "Scenes skipped because they could not be prepared"),
     "exhibit_problems": ("gauge", "Problems the kiosk reports for people (see exhibit status)"),
@@ -79,8 +96,9 @@ FAMILIES = {
 }
 
 
-def registry(data: Health | Mapping | None, status: str,
-             age: float | None = None) -> CollectorRegistry:
+def registry(
+    data: Health | Mapping | None, status: str, age: float | None = None
+) -> CollectorRegistry:
     """A registry of its own holding the metrics for health ``data`` (read with read_health;
     None when there is none), its ``status`` (one of HEALTH_STATUSES) and ``age`` in seconds
     (None if unknown)."""
@@ -121,7 +139,8 @@ class _Samples:
                 continue
             labels = list(rows[0][0])
             family = (CounterMetricFamily if kind == "counter" else GaugeMetricFamily)(
-                name, text, labels=labels)
+                name, text, labels=labels
+            )
             for row_labels, value in rows:
                 family.add_metric([_clean(row_labels[k]) for k in labels], value)
             yield family
@@ -158,16 +177,21 @@ def _kiosk(data: Health, add) -> None:
             add("exhibit_device_state", int(s == state), **labels, state=s)
         add("exhibit_device_state_seconds", device.state_s, **labels)
         missing = device.missing_s
-        if (state == State.CONNECTED.value and missing is None
-                and "state_s" in device.model_fields_set):
+        if (
+            state == State.CONNECTED.value
+            and missing is None
+            and "state_s" in device.model_fields_set
+        ):
             missing = 0  # a current kiosk writes null while connected; an old one knows nothing
         add("exhibit_device_missing_seconds", missing, **labels)
     add("exhibit_uptime_seconds", data.uptime_s)
     add("exhibit_frames_total", data.frames)
     add("exhibit_frame_errors_total", data.frame_errors)
     add("exhibit_gl_errors_total", data.gl_errors)
-    for name, value in (("exhibit_scenes_failed", data.scenes_failed),
-                        ("exhibit_problems", data.problems)):
+    for name, value in (
+        ("exhibit_scenes_failed", data.scenes_failed),
+        ("exhibit_problems", data.problems),
+    ):
         if isinstance(value, list):
             add(name, len(value))
     rss = data.rss_kb
@@ -178,8 +202,9 @@ def _kiosk(data: Health, add) -> None:
         add("exhibit_open_fds", fds)
 
 
-def write_metrics(path: str | os.PathLike, data: Health | Mapping | None, status: str,
-                  age: float | None = None) -> None:
+def write_metrics(
+    path: str | os.PathLike, data: Health | Mapping | None, status: str, age: float | None = None
+) -> None:
     """Replace the metrics file at ``path`` atomically with the metrics of registry(), by
     prometheus_client's write_to_textfile, world-readable (node_exporter runs as another user).
 
@@ -214,11 +239,9 @@ def _clean(value) -> str:
 def escape_label(value) -> str:
     """A label value for the text format: cleaned (_clean), then backslash, double quote and
     line feed escaped."""
-    return (_clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n"))
+    return _clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")
 
 
 def _is_number(value: object) -> TypeGuard[float]:
     """A finite int or float (not a bool): a health file's value fit to be a sample."""
-    return (isinstance(value, (int, float)) and not isinstance(value, bool)
-            and math.isfinite(value))
-
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)

@@ -34,15 +34,22 @@ class Notifier:
     is a monotonic clock in seconds, replaceable for tests.
     """
 
-    def __init__(self, address: str | None, watchdog_usec: int | None = None,
-                 clock: Callable[[], float] = time.monotonic):
+    def __init__(
+        self,
+        address: str | None,
+        watchdog_usec: int | None = None,
+        clock: Callable[[], float] = time.monotonic,
+    ):
         self._address = _socket_address(address) if address else None
         self._address_text = address
-        if watchdog_usec is not None and (isinstance(watchdog_usec, bool)
-                                          or not isinstance(watchdog_usec, int)
-                                          or watchdog_usec <= 0):
-            raise ValueError(f"watchdog_usec must be a positive whole number, "
-                             f"got {watchdog_usec!r}")
+        if watchdog_usec is not None and (
+            isinstance(watchdog_usec, bool)
+            or not isinstance(watchdog_usec, int)
+            or watchdog_usec <= 0
+        ):
+            raise ValueError(
+                f"watchdog_usec must be a positive whole number, got {watchdog_usec!r}"
+            )
         self._watchdog_usec = watchdog_usec if self._address is not None else None
         # Ping at half the timeout (as sd_watchdog_enabled(3) advises), so one late frame or a
         # lost datagram does not cost the service its life.
@@ -52,12 +59,13 @@ class Notifier:
         self._sock: socket.socket | None = None
         self._last_status: str | None = None
         self._logged: set[int] = set()
-        self.sent = 0           #: datagrams delivered to the socket
-        self.send_errors = 0    #: datagrams that could not be sent (see the log for why)
+        self.sent = 0  #: datagrams delivered to the socket
+        self.send_errors = 0  #: datagrams that could not be sent (see the log for why)
 
     @classmethod
-    def from_env(cls, environ: Mapping[str, str] | None = None,
-                 clock: Callable[[], float] = time.monotonic) -> Notifier:
+    def from_env(
+        cls, environ: Mapping[str, str] | None = None, clock: Callable[[], float] = time.monotonic
+    ) -> Notifier:
         """A notifier for $NOTIFY_SOCKET, with the watchdog of $WATCHDOG_USEC when $WATCHDOG_PID is
         unset or this process (a child that inherited the variables must not ping for its
         parent). Malformed values are logged and ignored: a bad unit file must not stop the
@@ -65,8 +73,11 @@ class Notifier:
         env = os.environ if environ is None else environ
         address = env.get("NOTIFY_SOCKET") or None
         if address is not None and not (address.startswith("/") or address.startswith("@")):
-            log.warning("NOTIFY_SOCKET=%r is neither an absolute path nor '@abstract': "
-                        "systemd notifications are off", address)
+            log.warning(
+                "NOTIFY_SOCKET=%r is neither an absolute path nor '@abstract': "
+                "systemd notifications are off",
+                address,
+            )
             address = None
         usec = None
         raw = env.get("WATCHDOG_USEC")
@@ -112,8 +123,10 @@ class Notifier:
         return self._period
 
     def __repr__(self) -> str:
-        return (f"Notifier({self._address_text!r}, watchdog_interval={self.watchdog_interval}, "
-                f"sent={self.sent}, send_errors={self.send_errors})")
+        return (
+            f"Notifier({self._address_text!r}, watchdog_interval={self.watchdog_interval}, "
+            f"sent={self.sent}, send_errors={self.send_errors})"
+        )
 
     # ------------------------------------------------------------------ messages
 
@@ -188,9 +201,13 @@ class Notifier:
             code = exc.errno or -1
             if code not in self._logged:
                 self._logged.add(code)
-                log.warning("cannot notify systemd at %s (%s): %s; the kiosk carries on, and "
-                            "further errors of this kind are not logged", self._address_text,
-                            errno.errorcode.get(code, code), exc.strerror or exc)
+                log.warning(
+                    "cannot notify systemd at %s (%s): %s; the kiosk carries on, and "
+                    "further errors of this kind are not logged",
+                    self._address_text,
+                    errno.errorcode.get(code, code),
+                    exc.strerror or exc,
+                )
             return False
         self.sent += 1
         return True

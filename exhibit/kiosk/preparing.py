@@ -96,15 +96,18 @@ def scene_jobs(config, timelines: Sequence[Timeline], levels: Iterable[int]) -> 
         try:
             scene = scenes.get(name)
             params = params if params is not None else tuple(sorted(scene.resolve().items()))
-            resolutions = tuple((level, level_resolution(scene, config.resolution.get(name),
-                                                         level)) for level in levels)
+            resolutions = tuple(
+                (level, level_resolution(scene, config.resolution.get(name), level))
+                for level in levels
+            )
         except Exception as exc:  # noqa: BLE001 - reported by the caller as this scene's
             jobs[(name, ())] = Job(name, (), (), tuple(shown))
             log.debug("scene %s: %s", name, exc)
             continue
         old = jobs.get((name, params))
-        jobs[(name, params)] = Job(name, params, resolutions,
-                                   (old.timelines if old else ()) + tuple(shown))
+        jobs[(name, params)] = Job(
+            name, params, resolutions, (old.timelines if old else ()) + tuple(shown)
+        )
     return list(jobs.values())
 
 
@@ -117,8 +120,9 @@ def run_job(job: Job, framers: Framers = Framers()) -> Prepared:
         if not meshes:
             raise ValueError("no mesh level to build")
     except Exception as exc:  # noqa: BLE001 - one scene must not stop the exhibit
-        log.error("scene %s cannot be prepared: %s: %s", job.scene, type(exc).__name__, exc,
-                  exc_info=exc)
+        log.error(
+            "scene %s cannot be prepared: %s: %s", job.scene, type(exc).__name__, exc, exc_info=exc
+        )
         return Prepared(job, error=f"{type(exc).__name__}: {exc}")
     finest = meshes[min(meshes)]
     framed = [frame(t, scene, finest, framers) for t in job.timelines]
@@ -138,16 +142,23 @@ def build_levels(scene, job: Job) -> dict[int, Mesh4D]:
         except Exception as exc:  # noqa: BLE001
             if not meshes:
                 raise
-            log.warning("scene %s: no mesh at resolution %d (%s); using a finer one",
-                        job.scene, resolution, exc)
+            log.warning(
+                "scene %s: no mesh at resolution %d (%s); using a finer one",
+                job.scene,
+                resolution,
+                exc,
+            )
             meshes[level] = meshes[max(meshes)]
     return meshes
 
 
 def slices(scene, timeline: Timeline) -> bool:
     """Whether the timeline slices a scene that has a 3D world at each moment (the inset)."""
-    return (scene.world_at is not None and timeline.slice_axis == scene.slice_axis
-            and any(k.slice_at is not None for k in timeline.keyframes))
+    return (
+        scene.world_at is not None
+        and timeline.slice_axis == scene.slice_axis
+        and any(k.slice_at is not None for k in timeline.keyframes)
+    )
 
 
 def frame(timeline: Timeline, scene, mesh: Mesh4D, framers: Framers) -> Timeline:
@@ -216,7 +227,8 @@ def _portable(prepared: Prepared) -> Prepared:
     for level, mesh in prepared.meshes.items():
         same = next((plain[other] for other in plain if prepared.meshes[other] is mesh), None)
         plain[level] = same or dataclasses.replace(
-            mesh, surfaces=[dataclasses.replace(s, exact=None) for s in mesh.surfaces])
+            mesh, surfaces=[dataclasses.replace(s, exact=None) for s in mesh.surfaces]
+        )
     return dataclasses.replace(prepared, meshes=plain)
 
 
@@ -227,6 +239,7 @@ def _worker(connection, framers: Framers) -> None:
     except OSError:  # a system call filter without setpriority: the same priority, then
         pass
     from exhibit.kiosk import journal
+
     journal.install()
     scenes.load()
     while True:
@@ -278,14 +291,16 @@ class ProcessPreparer:
 
     def _start(self) -> None:
         parent, child = self._context.Pipe()
-        self._process = self._context.Process(target=_worker, args=(child, self.framers),
-                                              name="exhibit-prepare", daemon=True)
+        self._process = self._context.Process(
+            target=_worker, args=(child, self.framers), name="exhibit-prepare", daemon=True
+        )
         self._process.start()
         child.close()
         self._connection = parent
         self._inbox = queue.SimpleQueue()
-        threading.Thread(target=_read, args=(parent, self._inbox), daemon=True,
-                         name="exhibit-prepare-reader").start()
+        threading.Thread(
+            target=_read, args=(parent, self._inbox), daemon=True, name="exhibit-prepare-reader"
+        ).start()
 
     def submit(self, job: Job) -> None:
         """Queued; the worker starts at the first results() (after the kiosk's first frame:
@@ -331,8 +346,12 @@ class ProcessPreparer:
                 self._in_flight = None
                 out.append(item)
                 self._send()
-        if self._in_flight is None and not self._queue and self._process is not None \
-                and not self._leaving:
+        if (
+            self._in_flight is None
+            and not self._queue
+            and self._process is not None
+            and not self._leaving
+        ):
             self._leaving = True  # nothing left: the worker's memory back
             assert self._connection is not None  # set with the process
             try:
@@ -356,15 +375,17 @@ class ProcessPreparer:
             return []
         self._leaving = False
         code = process.exitcode
-        log.error("the preparing process died (exit code %s) while preparing %s", code,
-                  job.scene if job else "nothing")
+        log.error(
+            "the preparing process died (exit code %s) while preparing %s",
+            code,
+            job.scene if job else "nothing",
+        )
         self._restarts += 1
         failed = [job] if job is not None else []
         if self._restarts > WORKER_RESTARTS:
             failed += self._queue
             self._queue = []
-        return [Prepared(j, error=f"the preparing process died (exit code {code})")
-                for j in failed]
+        return [Prepared(j, error=f"the preparing process died (exit code {code})") for j in failed]
 
     def close(self) -> None:
         """Stop the worker: at once when it is busy (a half-built mesh is not worth waiting

@@ -101,8 +101,11 @@ def read_timeline(path: str | Path) -> Timeline:
     """A timeline file, or an ExhibitError that says in one line why not."""
     path = Path(path)
     if not path.is_file():
-        raise ExhibitError(f"--timeline: {path} is not a file" if path.exists()
-                           else f"--timeline: {path} does not exist")
+        raise ExhibitError(
+            f"--timeline: {path} is not a file"
+            if path.exists()
+            else f"--timeline: {path} does not exist"
+        )
     try:
         return load_timeline(path)
     except ConfigError as exc:
@@ -148,8 +151,11 @@ def keyboard_only(devices_config: Path | None, out: Path) -> Path:
         if binds:
             break
     lines = ["[devices.keyboard]", 'url = "keyboard://"', "[mapping]"]
-    lines += [f"{k} = {_toml(v)}" for k, v in mapping.items()
-              if not isinstance(v, (dict, list)) or k == "home_angles"]
+    lines += [
+        f"{k} = {_toml(v)}"
+        for k, v in mapping.items()
+        if not isinstance(v, (dict, list)) or k == "home_angles"
+    ]
     for bind in binds:
         lines.append("[[mapping.bind]]")
         lines += [f"{k} = {_toml(v)}" for k, v in bind.items()]
@@ -161,8 +167,9 @@ def base_config(path: str | Path | None = None) -> KioskConfig:
     """The kiosk config a review starts from: ``path`` over the shipped defaults (else the
     shipped defaults alone, not /etc/exhibit: a review is of what ships unless told)."""
     try:
-        return load_kiosk_config(path if path is not None else shipped("configs", "kiosk.toml"),
-                                 check_linked=False)
+        return load_kiosk_config(
+            path if path is not None else shipped("configs", "kiosk.toml"), check_linked=False
+        )
     except ConfigError as exc:
         first = exc.problems[0] if exc.problems else str(exc)
         more = f" (and {len(exc.problems) - 1} more)" if len(exc.problems) > 1 else ""
@@ -178,8 +185,9 @@ def check_language(config: KioskConfig, language: str | None) -> tuple[str, Path
     folder = config.catalogues_dir or shipped("configs", "languages")
     known = sorted({SOURCE, *(p.stem for p in Path(folder).glob("*.toml"))})
     if language not in known:
-        raise ExhibitError(f"--language: no catalogue for {language!r} in {folder} "
-                           f"(languages: {', '.join(known)})")
+        raise ExhibitError(
+            f"--language: no catalogue for {language!r} in {folder} (languages: {', '.join(known)})"
+        )
     try:
         load_catalogues(folder, [language])
     except ConfigError as exc:
@@ -193,9 +201,15 @@ class KioskPlayer:
     ``size``, in ``language``, on a fake clock. ``headless`` (an exhibit.render.Headless) is
     used if given, else made and released by :meth:`close`."""
 
-    def __init__(self, size: tuple[int, int], timeline: str | Path | None = None,
-                 scene: str | None = None, language: str | None = None,
-                 config: KioskConfig | None = None, headless=None):
+    def __init__(
+        self,
+        size: tuple[int, int],
+        timeline: str | Path | None = None,
+        scene: str | None = None,
+        language: str | None = None,
+        config: KioskConfig | None = None,
+        headless=None,
+    ):
         from exhibit.kiosk import app
         from exhibit.render.target import HeadlessTarget
 
@@ -217,14 +231,22 @@ class KioskPlayer:
                 shutil.copyfile(timeline, attract / Path(timeline).name)
             languages = (self.language, *(c for c in config.languages if c != self.language))
             config = dataclasses.replace(
-                config, size=(int(size[0]), int(size[1])), fullscreen=False,
-                scenes=(self.scene,), start_scene=self.scene, attract_dir=attract,
+                config,
+                size=(int(size[0]), int(size[1])),
+                fullscreen=False,
+                scenes=(self.scene,),
+                start_scene=self.scene,
+                attract_dir=attract,
                 devices_config=keyboard_only(config.devices_config, self._tmp / "devices.toml"),
-                quality=QualityConfig(level=LEVEL), languages=languages,
-                catalogues_dir=catalogues, language_switch_s=0.0)
+                quality=QualityConfig(level=LEVEL),
+                languages=languages,
+                catalogues_dir=catalogues,
+                language_switch_s=0.0,
+            )
             self.config = config
             if headless is None:
                 from exhibit.render import Headless
+
                 headless = Headless()
             self.headless = headless
             self.clock = FakeClock(0.0)
@@ -239,8 +261,9 @@ class KioskPlayer:
             finally:
                 logger.setLevel(level)
             if self.kiosk.state is None:
-                raise ExhibitError(f"the kiosk could not prepare {self.scene}: "
-                                   + "; ".join(self.kiosk.problems))
+                raise ExhibitError(
+                    f"the kiosk could not prepare {self.scene}: " + "; ".join(self.kiosk.problems)
+                )
             translate = self.kiosk.translate
             if self.language in translate.order:  # shown first already; select it all the same
                 translate.index = translate.order.index(self.language)
@@ -279,9 +302,15 @@ class KioskPlayer:
         assert state is not None  # __init__ refused a kiosk without one
         assert image is not None  # step_to drew a frame
         frame = state.frame
-        return ReviewFrame(self.clock.t, image.copy(),
-                           self.kiosk.translate(frame.caption), frame.caption,
-                           self.kiosk.translate.language, frame.mode, frame.scene)
+        return ReviewFrame(
+            self.clock.t,
+            image.copy(),
+            self.kiosk.translate(frame.caption),
+            frame.caption,
+            self.kiosk.translate.language,
+            frame.mode,
+            frame.scene,
+        )
 
     def key(self, name: str, pressed: bool) -> None:
         """A key on the kiosk's keyboard device, now."""
@@ -309,8 +338,14 @@ class KioskPlayer:
                 shown.t = t
                 yield shown
 
-    def takeover(self, after: float, fps: float = 10.0, attract_s: float = ATTRACT_S,
-                 key: str = TAKEOVER_KEY, hold_s: float = HOLD_S) -> ReviewFrame:
+    def takeover(
+        self,
+        after: float,
+        fps: float = 10.0,
+        attract_s: float = ATTRACT_S,
+        key: str = TAKEOVER_KEY,
+        hold_s: float = HOLD_S,
+    ) -> ReviewFrame:
         """What a visitor sees ``after`` seconds after taking over: attract plays
         ``attract_s`` seconds, then ``key`` is pressed for ``hold_s`` seconds and let go."""
         self.run_to(attract_s, fps)

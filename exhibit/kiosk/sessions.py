@@ -61,9 +61,22 @@ from exhibit.schema.types import Integer, fail, text_check
 
 log = logging.getLogger("exhibit.kiosk.sessions")
 
-__all__ = ["DB_FILE", "SessionsSection", "SessionsConfig", "sessions_config", "Session",
-           "SessionStore", "SessionWriter", "SessionLog", "SessionsError", "input_name",
-           "read_sessions", "default_db_path", "candidate_paths", "open_session_log"]
+__all__ = [
+    "DB_FILE",
+    "SessionsSection",
+    "SessionsConfig",
+    "sessions_config",
+    "Session",
+    "SessionStore",
+    "SessionWriter",
+    "SessionLog",
+    "SessionsError",
+    "input_name",
+    "read_sessions",
+    "default_db_path",
+    "candidate_paths",
+    "open_session_log",
+]
 
 DB_FILE = "sessions.db"
 SCHEMA_VERSION = 1
@@ -98,14 +111,24 @@ CREATE TABLE IF NOT EXISTS sessions (
 );
 CREATE INDEX IF NOT EXISTS sessions_start ON sessions (start);
 """
-_COLUMNS = ("id", "start", "end", "duration_s", "active_s", "utc_offset_s", "language",
-            "scenes", "inputs")
+_COLUMNS = (
+    "id",
+    "start",
+    "end",
+    "duration_s",
+    "active_s",
+    "utc_offset_s",
+    "language",
+    "scenes",
+    "inputs",
+)
 
 
 # ---------------------------------------------------------------------- [sessions] in kiosk.toml
 
+
 def _db_path(value: Any) -> str:
-    """"" (the state folder) or an absolute path to a file: a relative one would land beside
+    """ "" (the state folder) or an absolute path to a file: a relative one would land beside
     the site config in /etc, which the kiosk must not write."""
     value = text_check(4096, empty_ok=True)(value)
     if value and not os.path.isabs(value):
@@ -138,8 +161,12 @@ class SessionsConfig:
 
 
 def sessions_config(section: SessionsSection) -> SessionsConfig:
-    return SessionsConfig(section.enabled, Path(section.path) if section.path else None,
-                          section.keep_days, section.max_sessions)
+    return SessionsConfig(
+        section.enabled,
+        Path(section.path) if section.path else None,
+        section.keep_days,
+        section.max_sessions,
+    )
 
 
 def default_db_path() -> Path:
@@ -158,6 +185,7 @@ def candidate_paths() -> list[Path]:
 
 # ---------------------------------------------------------------------- one session
 
+
 @dataclass
 class Session:
     """One visitor session, as stored."""
@@ -172,9 +200,16 @@ class Session:
     inputs: list[str] = field(default_factory=list)
 
     def row(self) -> tuple:
-        return (self.start, self.end, self.duration_s, self.active_s, self.utc_offset_s,
-                self.language, json.dumps(self.scenes[:MAX_ITEMS]),
-                json.dumps(self.inputs[:MAX_ITEMS]))
+        return (
+            self.start,
+            self.end,
+            self.duration_s,
+            self.active_s,
+            self.utc_offset_s,
+            self.language,
+            json.dumps(self.scenes[:MAX_ITEMS]),
+            json.dumps(self.inputs[:MAX_ITEMS]),
+        )
 
     @property
     def local_start(self) -> float:
@@ -194,6 +229,7 @@ def input_name(event: Event) -> str | None:
 
 
 # ---------------------------------------------------------------------- the database
+
 
 class SessionsError(ExhibitError):
     """The sessions database cannot be read (for `exhibit stats`): the message says why."""
@@ -215,8 +251,13 @@ class SessionStore:
     ``open`` recovers from a broken file by moving it aside and rotates. ``add`` is one
     transaction per session."""
 
-    def __init__(self, path: str | os.PathLike, keep_days: float = 400, max_sessions: int = 200_000,
-                 wall: Callable[[], float] = time.time):
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        keep_days: float = 400,
+        max_sessions: int = 200_000,
+        wall: Callable[[], float] = time.time,
+    ):
         self.path = Path(path)
         self.keep_days = keep_days
         self.max_sessions = max_sessions
@@ -275,8 +316,9 @@ class SessionStore:
         return None
 
     def _connect(self) -> None:
-        self.db = sqlite3.connect(self.path, timeout=5.0, isolation_level=None,
-                                  check_same_thread=False)
+        self.db = sqlite3.connect(
+            self.path, timeout=5.0, isolation_level=None, check_same_thread=False
+        )
         self.db.execute("PRAGMA auto_vacuum = INCREMENTAL")  # takes effect on a new file only
         mode = self.db.execute("PRAGMA journal_mode = WAL").fetchone()[0]
         if mode.lower() != "wal":
@@ -291,8 +333,9 @@ class SessionStore:
         if [r[0] for r in result] != ["ok"]:
             return "quick_check: " + "; ".join(str(r[0]) for r in result[:3])
         version = self.db.execute("PRAGMA user_version").fetchone()[0]
-        tables = {r[0] for r in self.db.execute(
-            "SELECT name FROM sqlite_master WHERE type = 'table'")}
+        tables = {
+            r[0] for r in self.db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")
+        }
         if version > SCHEMA_VERSION:
             return f"schema version {version}, newer than this exhibit's {SCHEMA_VERSION}"
         if tables and "sessions" not in tables:
@@ -301,8 +344,9 @@ class SessionStore:
             columns = tuple(r[1] for r in self.db.execute("PRAGMA table_info(sessions)"))
             if columns != _COLUMNS:
                 return f"unexpected columns {columns}"
-        self.db.executescript("BEGIN;" + _SCHEMA + f"PRAGMA user_version = {SCHEMA_VERSION};"
-                              "COMMIT;")
+        self.db.executescript(
+            "BEGIN;" + _SCHEMA + f"PRAGMA user_version = {SCHEMA_VERSION};COMMIT;"
+        )
         return None
 
     def _move_aside(self, reason: str) -> None:
@@ -317,10 +361,17 @@ class SessionStore:
         if os.path.lexists(shm):
             os.unlink(shm)
         self.moved_aside.append(target)
-        log.warning("sessions database %s unusable (%s): moved aside to %s, starting a fresh one",
-                    self.path, reason, target.name)
-        asides = sorted(p for p in self.path.parent.glob(f"{self.path.name}.corrupt-*")
-                        if not p.name.endswith(("-wal", "-journal")))  # oldest first, by name
+        log.warning(
+            "sessions database %s unusable (%s): moved aside to %s, starting a fresh one",
+            self.path,
+            reason,
+            target.name,
+        )
+        asides = sorted(
+            p
+            for p in self.path.parent.glob(f"{self.path.name}.corrupt-*")
+            if not p.name.endswith(("-wal", "-journal"))
+        )  # oldest first, by name
         old = asides[:-KEEP_ASIDE]
         for p in old:
             for q in (p, Path(f"{p}-wal"), Path(f"{p}-journal")):
@@ -337,7 +388,9 @@ class SessionStore:
         with _transaction(self.db):
             cursor = self.db.execute(
                 "INSERT INTO sessions (start, end, duration_s, active_s, utc_offset_s, "
-                "language, scenes, inputs) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", session.row())
+                "language, scenes, inputs) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+                session.row(),
+            )
         rowid = cursor.lastrowid
         assert rowid is not None  # set by the INSERT
         return int(rowid)
@@ -351,13 +404,20 @@ class SessionStore:
             old = self.db.execute("DELETE FROM sessions WHERE start < ?", (cutoff,)).rowcount
             extra = self.db.execute(
                 "DELETE FROM sessions WHERE id <= (SELECT id FROM sessions ORDER BY id DESC "
-                "LIMIT 1 OFFSET ?)", (self.max_sessions,)).rowcount
+                "LIMIT 1 OFFSET ?)",
+                (self.max_sessions,),
+            ).rowcount
         if old + extra:
             # executescript steps it to the end (execute() would free one page only)
             self.db.executescript("PRAGMA incremental_vacuum;")
             self.db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
-            log.info("sessions: %d older than %g days and %d beyond the newest %d deleted",
-                     old, self.keep_days, extra, self.max_sessions)
+            log.info(
+                "sessions: %d older than %g days and %d beyond the newest %d deleted",
+                old,
+                self.keep_days,
+                extra,
+                self.max_sessions,
+            )
         return old + extra
 
     def count(self) -> int:
@@ -393,7 +453,8 @@ def _is_corrupt(exc: sqlite3.Error) -> bool:
     """The file is broken (not a database, malformed), as opposed to unreachable or busy."""
     name = getattr(exc, "sqlite_errorname", "")
     return name.startswith(("SQLITE_CORRUPT", "SQLITE_NOTADB")) or (
-        not name and any(w in str(exc) for w in ("malformed", "not a database")))
+        not name and any(w in str(exc) for w in ("malformed", "not a database"))
+    )
 
 
 # ---------------------------------------------------------------------- the writer thread
@@ -407,17 +468,22 @@ class SessionWriter:
     ``submit`` never blocks (a full queue drops the session and counts it in ``dropped``).
     ``on_commit(session, row_id)``, if given, is called after each commit (tests)."""
 
-    def __init__(self, path: str | os.PathLike, keep_days: float = 400,
-                 max_sessions: int = 200_000, wall: Callable[[], float] = time.time,
-                 queue_size: int = QUEUE_SIZE,
-                 on_commit: Callable[[Session, int], None] | None = None):
+    def __init__(
+        self,
+        path: str | os.PathLike,
+        keep_days: float = 400,
+        max_sessions: int = 200_000,
+        wall: Callable[[], float] = time.time,
+        queue_size: int = QUEUE_SIZE,
+        on_commit: Callable[[Session, int], None] | None = None,
+    ):
         self.store = SessionStore(path, keep_days, max_sessions, wall)
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.on_commit = on_commit
-        self.dropped = 0      # the queue was full
-        self.failed = 0       # the database refused the write
+        self.dropped = 0  # the queue was full
+        self.failed = 0  # the database refused the write
         self.written = 0
-        self.ready = threading.Event()   # set once the database is open (or given up)
+        self.ready = threading.Event()  # set once the database is open (or given up)
         self.usable = False
         #: Why sessions are not recorded (None while they are): for the health file.
         self.reason: str | None = None
@@ -451,10 +517,12 @@ class SessionWriter:
             self.store.open()
             self.usable = True
         except (OSError, sqlite3.Error) as exc:
-            self.reason = (f"cannot open {self.store.path} "
-                           f"({getattr(exc, 'strerror', None) or exc})")
-            log.warning("sessions: cannot open %s (%s): visitor sessions are not recorded",
-                        self.store.path, getattr(exc, "strerror", None) or exc)
+            self.reason = f"cannot open {self.store.path} ({getattr(exc, 'strerror', None) or exc})"
+            log.warning(
+                "sessions: cannot open %s (%s): visitor sessions are not recorded",
+                self.store.path,
+                getattr(exc, "strerror", None) or exc,
+            )
         finally:
             self.ready.set()
         last_rotate, since_rotate = time.monotonic(), 0
@@ -500,13 +568,15 @@ class SessionWriter:
                         self.reason = f"cannot reopen {self.store.path} ({again})"
                 self.failed += 1
                 if self.failed & (self.failed - 1) == 0:
-                    log.warning("sessions: a session was not written (%s; %d so far)", error,
-                                self.failed)
+                    log.warning(
+                        "sessions: a session was not written (%s; %d so far)", error, self.failed
+                    )
                 return None
         return None
 
 
 # ---------------------------------------------------------------------- the recorder
+
 
 class SessionLog:
     """What the kiosk calls, on the frame thread: cheap, never raises, never blocks.
@@ -518,8 +588,12 @@ class SessionLog:
     changes: exhibit.kiosk.language).
     """
 
-    def __init__(self, writer: SessionWriter | None, wall: Callable[[], float] = time.time,
-                 language: str = "en"):
+    def __init__(
+        self,
+        writer: SessionWriter | None,
+        wall: Callable[[], float] = time.time,
+        language: str = "en",
+    ):
         self.writer = writer
         self.wall = wall
         self.language = language
@@ -553,8 +627,14 @@ class SessionLog:
     def started(self, now: float, scene: str) -> None:
         wall = self.wall()
         offset = int(time.localtime(wall).tm_gmtoff) if math.isfinite(wall) else 0
-        self.current = Session(start=wall, end=wall, duration_s=0.0, active_s=0.0,
-                               utc_offset_s=offset, language=self.language)
+        self.current = Session(
+            start=wall,
+            end=wall,
+            duration_s=0.0,
+            active_s=0.0,
+            utc_offset_s=offset,
+            language=self.language,
+        )
         self._start = self._last_input = now
         self.scene(scene)
 
@@ -608,8 +688,10 @@ class SessionLog:
                 self.ended(now)
         except Exception:  # noqa: BLE001 - statistics are never worth a frame
             self._broken = True
-            log.exception("sessions: the recorder failed; visitor sessions are no longer "
-                          "recorded until the kiosk restarts")
+            log.exception(
+                "sessions: the recorder failed; visitor sessions are no longer "
+                "recorded until the kiosk restarts"
+            )
 
     def close(self, now: float, timeout: float = 5.0) -> None:
         """End an open session (the kiosk is stopping) and let the writer finish."""
@@ -632,8 +714,10 @@ def open_session_log(config: SessionsConfig) -> SessionLog | None:
 
 # ---------------------------------------------------------------------- reading (exhibit stats)
 
-def read_sessions(path: str | os.PathLike, since_local: float | None = None,
-                  skipped: Counter | None = None) -> list[Session]:
+
+def read_sessions(
+    path: str | os.PathLike, since_local: float | None = None, skipped: Counter | None = None
+) -> list[Session]:
     """Every stored session (starting at or after ``since_local``, in the kiosk's local seconds
     since 1970, when given), oldest first. Read-only: never creates, rotates or repairs.
     SessionsError says, in one line, why a file cannot be read. A row whose values are out of
@@ -650,8 +734,9 @@ def read_sessions(path: str | os.PathLike, since_local: float | None = None,
     if stat.S_ISDIR(st.st_mode):
         raise SessionsError(f"{path} is a folder, not a sessions database")
     if not stat.S_ISREG(st.st_mode):
-        raise SessionsError(f"{path} is not a regular file (a FIFO or a device?), not a "
-                            "sessions database")
+        raise SessionsError(
+            f"{path} is not a regular file (a FIFO or a device?), not a sessions database"
+        )
     if not os.access(path, os.R_OK):
         raise SessionsError(f"{path}: permission denied")
     try:
@@ -659,13 +744,14 @@ def read_sessions(path: str | os.PathLike, since_local: float | None = None,
     except sqlite3.Error as exc:
         raise SessionsError(f"{path}: cannot open: {exc}") from None
     try:
-        tables = {r[0] for r in db.execute(
-            "SELECT name FROM sqlite_master WHERE type = 'table'")}
+        tables = {r[0] for r in db.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
         if "sessions" not in tables:
             raise SessionsError(f"{path}: a SQLite database, but not a sessions database")
-        query = (f"SELECT {', '.join(_COLUMNS[1:])} FROM sessions"
-                 + (" WHERE start + utc_offset_s >= ?" if since_local is not None else "")
-                 + " ORDER BY start, id")
+        query = (
+            f"SELECT {', '.join(_COLUMNS[1:])} FROM sessions"
+            + (" WHERE start + utc_offset_s >= ?" if since_local is not None else "")
+            + " ORDER BY start, id"
+        )
         rows = db.execute(query, () if since_local is None else (since_local,)).fetchall()
     except sqlite3.DatabaseError as exc:
         what = "not a sessions database" if _is_corrupt(exc) else "cannot read it"
@@ -686,8 +772,8 @@ def read_sessions(path: str | os.PathLike, since_local: float | None = None,
 #: `exhibit stats` says how many and why): sessions that start (in local time) within these years,
 #: last at most MAX_SESSION_S, with a UTC offset of at most a day and short name lists.
 FIRST_YEAR, LAST_YEAR = 2000, 2200
-_FIRST_S = 946684800.0   # 2000-01-01 00:00
-_END_S = 7289654400.0    # 2201-01-01 00:00
+_FIRST_S = 946684800.0  # 2000-01-01 00:00
+_END_S = 7289654400.0  # 2201-01-01 00:00
 MAX_SESSION_S = 7 * 86400.0
 MAX_OFFSET_S = 86400
 #: The most JSON text a scenes or inputs cell may hold (the kiosk writes MAX_ITEMS short names).
@@ -707,8 +793,7 @@ def _real(value: Any, what: str) -> float:
     return value
 
 
-def _session_from_row(start, end, duration, active, offset, language, scenes,
-                      inputs) -> Session:
+def _session_from_row(start, end, duration, active, offset, language, scenes, inputs) -> Session:
     """The Session a stored row describes; ValueError with a short reason (the same for every
     row with that problem, so they can be counted) when any value is out of bounds."""
     start, end = _real(start, "start"), _real(end, "end")
@@ -723,8 +808,16 @@ def _session_from_row(start, end, duration, active, offset, language, scenes,
         raise ValueError(f"active time outside 0..{MAX_SESSION_S:.0f} s")
     if not isinstance(language, str) or len(language) > MAX_LANGUAGE:
         raise ValueError(f"language is not a text of at most {MAX_LANGUAGE} characters")
-    return Session(start, end, duration, active, offset, language, _names(scenes, "scenes"),
-                   _names(inputs, "inputs"))
+    return Session(
+        start,
+        end,
+        duration,
+        active,
+        offset,
+        language,
+        _names(scenes, "scenes"),
+        _names(inputs, "inputs"),
+    )
 
 
 def _names(text: Any, what: str = "list") -> list[str]:
@@ -734,8 +827,14 @@ def _names(text: Any, what: str = "list") -> list[str]:
         value = loads_json(text, max_bytes=MAX_LIST_TEXT, max_depth=2)
     except ValueError as exc:
         reason = str(exc)
-        raise ValueError(f"{what}: " + ("too long or too deep" if "limit" in reason
-                                        or "nested" in reason else "not a JSON list")) from None
+        raise ValueError(
+            f"{what}: "
+            + (
+                "too long or too deep"
+                if "limit" in reason or "nested" in reason
+                else "not a JSON list"
+            )
+        ) from None
     if not isinstance(value, list):
         raise ValueError(f"{what}: not a JSON list")
     return [v for v in value if isinstance(v, str)][:MAX_ITEMS]

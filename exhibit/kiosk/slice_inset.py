@@ -22,16 +22,15 @@ class SliceInset:
     def __init__(self, rect: Rect, upload: Callable):
         self.rect = rect
         self.upload = upload
-        self._mesh: tuple | None = None   # (key, gpu mesh)
-        self._view: tuple | None = None   # (key, view)
+        self._mesh: tuple | None = None  # (key, gpu mesh)
+        self._view: tuple | None = None  # (key, view)
 
     def for_frame(self, frame, mesh) -> Inset | None:
         """The inset for ``frame`` (``mesh``: the 4D scene's, for its extent in time), or None
         when the frame does not slice such a scene."""
         view = frame.view
         scene = scenes.get(frame.scene)
-        if (view.slice_axis is None or scene.world_at is None
-                or scene.slice_axis != view.slice_axis):
+        if view.slice_axis is None or scene.world_at is None or scene.slice_axis != view.slice_axis:
             return None
         key = (frame.scene, frame.params, round(view.slice_at, 4))
         if self._mesh is None or self._mesh[0] != key:
@@ -42,22 +41,32 @@ class SliceInset:
         r = self.rect
         size = (int(r.width), int(r.height))
         label = inset_label(scene.axes[view.slice_axis], view.slice_at)
-        return Inset(self._mesh[1], self._framed(frame, scene, mesh, size),
-                     (r.x0, r.y0, r.width, r.height), label)
+        return Inset(
+            self._mesh[1],
+            self._framed(frame, scene, mesh, size),
+            (r.x0, r.y0, r.width, r.height),
+            label,
+        )
 
     def _framed(self, frame, scene, mesh, size):
         """Framed once for the worlds of the moments at the ends and middle of the scene's
         extent along its time axis, so the frame holds still as time moves."""
         view = frame.view
-        key = (frame.scene, frame.params, view.eye_azimuth, view.eye_incidence, view.twist,
-               view.eye_r)
+        key = (
+            frame.scene,
+            frame.params,
+            view.eye_azimuth,
+            view.eye_incidence,
+            view.twist,
+            view.eye_r,
+        )
         if self._view is None or self._view[0] != key:
-            low, high = (mesh.bounds() if mesh is not None else (np.full(4, -1.0),
-                                                                  np.full(4, 1.0)))
+            low, high = mesh.bounds() if mesh is not None else (np.full(4, -1.0), np.full(4, 1.0))
             axis = view.slice_axis
             moments = (low[axis], 0.5 * (low[axis] + high[axis]), high[axis])
-            points = np.concatenate([mesh_points(scene.world_at(dict(frame.params), c))
-                                     for c in moments])
+            points = np.concatenate(
+                [mesh_points(scene.world_at(dict(frame.params), c)) for c in moments]
+            )
             self._view = (key, inset_view(view, points, size))
         return self._view[1]
 

@@ -27,7 +27,7 @@ class StartViews:
         self.framer = framer
         self.content = content
         self._framed: OrderedDict[tuple, object] = OrderedDict()
-        self._samples: dict[tuple, object] = {}   # (scene, params) -> its mesh_sample
+        self._samples: dict[tuple, object] = {}  # (scene, params) -> its mesh_sample
 
     def __call__(self, name: str, params, view):
         key = (name, tuple(params), view)

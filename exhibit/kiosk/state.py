@@ -65,12 +65,14 @@ def _blend(a: ViewState, b: ViewState, u: float) -> ViewState:
     def mix(x, y):
         return x + (y - x) * u
 
-    return b.replace(angles=tuple(angle(x, y) for x, y in zip(a.angles, b.angles)),
-                     sensor_r=mix(a.sensor_r, b.sensor_r),
-                     eye_azimuth=angle(a.eye_azimuth, b.eye_azimuth),
-                     eye_incidence=angle(a.eye_incidence, b.eye_incidence),
-                     half_height=mix(a.half_height, b.half_height),
-                     center=(mix(a.center[0], b.center[0]), mix(a.center[1], b.center[1])))
+    return b.replace(
+        angles=tuple(angle(x, y) for x, y in zip(a.angles, b.angles)),
+        sensor_r=mix(a.sensor_r, b.sensor_r),
+        eye_azimuth=angle(a.eye_azimuth, b.eye_azimuth),
+        eye_incidence=angle(a.eye_incidence, b.eye_incidence),
+        half_height=mix(a.half_height, b.half_height),
+        center=(mix(a.center[0], b.center[0]), mix(a.center[1], b.center[1])),
+    )
 
 
 def _camera(view: ViewState) -> ViewState:
@@ -84,9 +86,17 @@ def unframed(scene_name: str, params, view: ViewState) -> ViewState:
 
 
 class KioskState:
-    def __init__(self, playlist: Playlist, mapper: Mapper, content: tuple[str, ...],
-                 idle_timeout_s: float, blend_s: float, now: float, framer=unframed,
-                 reduced_motion: bool = False):
+    def __init__(
+        self,
+        playlist: Playlist,
+        mapper: Mapper,
+        content: tuple[str, ...],
+        idle_timeout_s: float,
+        blend_s: float,
+        now: float,
+        framer=unframed,
+        reduced_motion: bool = False,
+    ):
         """``framer(scene name, params, view) -> view`` frames a scene's start view for the
         screen (zoom and lens shift only). ``reduced_motion``: no glides of the camera but a
         visitor's own (the module docstring)."""
@@ -147,9 +157,11 @@ class KioskState:
         target = self.framer(self.frame.scene, self.frame.params, view)
         if (target.half_height, target.center) != (view.half_height, view.center):
             self._jumped = self.reduced_motion
-            self._reframe = ((view.half_height, view.center),
-                             (target.half_height, target.center),
-                             now - REFRAME_S if self.reduced_motion else now)
+            self._reframe = (
+                (view.half_height, view.center),
+                (target.half_height, target.center),
+                now - REFRAME_S if self.reduced_motion else now,
+            )
 
     def _reframing(self, view: ViewState, now: float) -> ViewState:
         """``view`` with the zoom and lens shift of the glide under way, if any."""
@@ -164,14 +176,16 @@ class KioskState:
         u = u * u * (3 - 2 * u)
         # the zoom eases in proportion (log space), so growing and shrinking look alike
         half = h0 * (h1 / h0) ** u if h0 > 0 and h1 > 0 else h0 + (h1 - h0) * u
-        return view.replace(half_height=half, center=(c0[0] + (c1[0] - c0[0]) * u,
-                                                      c0[1] + (c1[1] - c0[1]) * u))
+        return view.replace(
+            half_height=half, center=(c0[0] + (c1[0] - c0[0]) * u, c0[1] + (c1[1] - c0[1]) * u)
+        )
 
     def reframe(self) -> None:
         """The scene on screen has just been prepared (a visitor chose it before its mesh
         was there): its view, unframed until now, framed for the screen at once."""
         self.frame = dataclasses.replace(
-            self.frame, view=self.framer(self.frame.scene, self.frame.params, self.frame.view))
+            self.frame, view=self.framer(self.frame.scene, self.frame.params, self.frame.view)
+        )
 
     def drop(self, name: str, now: float) -> None:
         """Scene ``name`` cannot be shown (its preparation failed): out of the content list;
@@ -193,9 +207,18 @@ class KioskState:
     def _home_pressed(self, events: list[Event]) -> bool:
         """A press of a button bound to "home" (the mapping's own home sets fixed angles; the
         kiosk returns to the scene's start view instead)."""
-        return any(e.kind is Kind.BUTTON and e.value > 0 and any(
-            b.action == "home" and b.device == e.device and b.kind is e.kind
-            and b.index == e.index for b in self.mapper.config.bindings) for e in events)
+        return any(
+            e.kind is Kind.BUTTON
+            and e.value > 0
+            and any(
+                b.action == "home"
+                and b.device == e.device
+                and b.kind is e.kind
+                and b.index == e.index
+                for b in self.mapper.config.bindings
+            )
+            for e in events
+        )
 
     def start_view(self, scene_name: str, params) -> ViewState:
         """Where a scene starts, and where "home" returns: its own view, framed."""
@@ -225,12 +248,16 @@ class KioskState:
             position = self._playlist_position(now)
             cut = frame.timeline != previous.timeline or position < self._position
             self._position = position
-        elif frame.mode == ATTRACT:   # back from a visitor: a glide when the scene is the same
+        elif frame.mode == ATTRACT:  # back from a visitor: a glide when the scene is the same
             self._position = self._playlist_position(now)
             cut = frame.scene != previous.scene or frame.params != previous.params
         else:
-            cut = (frame.scene != previous.scene or frame.params != previous.params
-                   or self._home_pressed(events) or self._jumped)
+            cut = (
+                frame.scene != previous.scene
+                or frame.params != previous.params
+                or self._home_pressed(events)
+                or self._jumped
+            )
         if self.reduced_motion and frame.mode == ATTRACT:
             # The camera only ever jumps (to the next keyframe's pose, into the timeline from a
             # visitor's view, a step of the turn): each jump is crossfaded.

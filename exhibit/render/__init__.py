@@ -8,5 +8,15 @@ from exhibit.render.offscreen import Headless, Offscreen, save_png
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo, Renderer
 
-__all__ = ["GpuMesh", "Headless", "HudInfo", "Offscreen", "RenderOptions", "RenderUnavailable",
-           "Renderer", "describe", "headless_context", "save_png"]
+__all__ = [
+    "GpuMesh",
+    "Headless",
+    "HudInfo",
+    "Offscreen",
+    "RenderOptions",
+    "RenderUnavailable",
+    "Renderer",
+    "describe",
+    "headless_context",
+    "save_png",
+]

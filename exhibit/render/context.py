@@ -20,12 +20,17 @@ def headless_context() -> moderngl.Context:
     try:
         # moderngl's stubs type each **settings value as Dict[str, Any]; it is glcontext's
         # keyword arguments, and backend is a str
-        ctx = moderngl.create_context(standalone=True, backend="egl",  # type: ignore[arg-type]
-                                      require=REQUIRED_VERSION)
-    except Exception as exc:  # moderngl/glcontext raise plain Exception with the EGL reason
+        ctx = moderngl.create_context(
+            standalone=True,
+            backend="egl",  # type: ignore[arg-type]
+            require=REQUIRED_VERSION,
+        )
+    except Exception as exc:  # noqa: BLE001 - moderngl/glcontext raise plain Exception (EGL's)
+        major, minor = REQUIRED_VERSION // 100, REQUIRED_VERSION % 100 // 10
         raise RenderUnavailable(
-            f"cannot create a headless OpenGL {REQUIRED_VERSION // 100}.{REQUIRED_VERSION % 100 // 10}"
-            f" context with EGL ({exc}); on Debian install libegl1 libgl1-mesa-dri") from None
+            f"cannot create a headless OpenGL {major}.{minor}"
+            f" context with EGL ({exc}); on Debian install libegl1 libgl1-mesa-dri"
+        ) from None
     return ctx
 
 

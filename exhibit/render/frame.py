@@ -57,8 +57,9 @@ class SceneTarget:
     pixel's sheet and depth plane to (the intersection curves' input, intersect.glsl), bound
     only in ``sheet_framebuffer``."""
 
-    def __init__(self, ctx: moderngl.Context, size: tuple[int, int], samples: int,
-                 sheets: bool = False):
+    def __init__(
+        self, ctx: moderngl.Context, size: tuple[int, int], samples: int, sheets: bool = False
+    ):
         self.ctx, self.size, self.samples = ctx, size, samples
         self.sheet_texture = self.sheet_framebuffer = None
         self.gate_texture = self.gate_framebuffer = None
@@ -78,11 +79,12 @@ class SceneTarget:
             self.framebuffer = ctx.framebuffer([self.texture], self._depth)
         if sheets:
             self.sheet_texture = ctx.texture(size, 4, dtype="f4", samples=samples or 0)
-            if not samples:   # a multisampled texture has no filter (read with texelFetch)
+            if not samples:  # a multisampled texture has no filter (read with texelFetch)
                 self.sheet_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
             self.sheet_framebuffer = ctx.framebuffer(
-                [self._color if samples else self.texture, self.sheet_texture], self._depth)
-            if not samples:   # the intersection pass's gate: one texel per 4 x 4 pixels
+                [self._color if samples else self.texture, self.sheet_texture], self._depth
+            )
+            if not samples:  # the intersection pass's gate: one texel per 4 x 4 pixels
                 self.gate_size = (-(-size[0] // TILE), -(-size[1] // TILE))
                 self.gate_texture = ctx.texture(self.gate_size, 1)
                 self.gate_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
@@ -97,9 +99,17 @@ class SceneTarget:
             self.ctx.copy_framebuffer(self._resolved, self.framebuffer)
 
     def release(self) -> None:
-        for obj in (self.sheet_framebuffer, self.framebuffer, self._resolved, self._color,
-                    self._depth, self.texture, self.sheet_texture, self.gate_framebuffer,
-                    self.gate_texture):
+        for obj in (
+            self.sheet_framebuffer,
+            self.framebuffer,
+            self._resolved,
+            self._color,
+            self._depth,
+            self.texture,
+            self.sheet_texture,
+            self.gate_framebuffer,
+            self.gate_texture,
+        ):
             if obj is not None:
                 obj.release()
 
@@ -125,8 +135,9 @@ class FramePipeline:
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
         #: The outgoing frame of a crossfade: (texture, framebuffer, depth), kept at the screen
         #: size.
-        self._snapshot: tuple[moderngl.Texture, moderngl.Framebuffer,
-                              moderngl.Renderbuffer] | None = None
+        self._snapshot: (
+            tuple[moderngl.Texture, moderngl.Framebuffer, moderngl.Renderbuffer] | None
+        ) = None
         #: The outgoing frame's words (gpu, view, options, hud), faded out on their own.
         self._leaving: tuple | None = None
         #: The latest frame's inset label (exhibit.render.hud.TextMark), for the contrast checks;
@@ -141,8 +152,9 @@ class FramePipeline:
         if found is not None:
             self._targets.move_to_end(key)
             return found
-        target = self._targets[key] = SceneTarget(self.ctx, (width, height), samples,
-                                                  sheets=kind == "sheets")
+        target = self._targets[key] = SceneTarget(
+            self.ctx, (width, height), samples, sheets=kind == "sheets"
+        )
         while len(self._targets) > MAX_TARGETS:
             self._targets.popitem(last=False)[1].release()
         return target
@@ -151,8 +163,15 @@ class FramePipeline:
     def scene_size(size: tuple[int, int], scale: float) -> tuple[int, int]:
         return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
 
-    def capture(self, gpu, view, size: tuple[int, int], options: RenderOptions,
-                hud: HudInfo | None, quality: Quality) -> None:
+    def capture(
+        self,
+        gpu,
+        view,
+        size: tuple[int, int],
+        options: RenderOptions,
+        hud: HudInfo | None,
+        quality: Quality,
+    ) -> None:
         """Draw the picture a crossfade starts from: the last frame of what is leaving the
         screen (drawn again, so nothing has to be read back), without its words, which
         draw() fades out on their own (``hud`` is kept for that)."""
@@ -174,9 +193,18 @@ class FramePipeline:
             self._snapshot = None
         self._leaving = None
 
-    def draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
-             options: RenderOptions, hud: HudInfo | None, quality: Quality,
-             fade: float = 0.0, inset: Inset | None = None) -> None:
+    def draw(
+        self,
+        gpu,
+        view,
+        destination: moderngl.Framebuffer,
+        size: tuple[int, int],
+        options: RenderOptions,
+        hud: HudInfo | None,
+        quality: Quality,
+        fade: float = 0.0,
+        inset: Inset | None = None,
+    ) -> None:
         """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``);
         with ``fade`` > 0 the captured picture is laid over it with that opacity; ``inset``
         (the time-slice inset, exhibit.render.inset) is drawn over the picture in its corner.
@@ -197,7 +225,7 @@ class FramePipeline:
             ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
             ctx.enable(moderngl.BLEND)
             ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
-            assert self._snapshot is not None   # fading needs it
+            assert self._snapshot is not None  # fading needs it
             self._snapshot[0].use(0)
             prog = self.programs["fade"]
             prog["u_snapshot"] = 0
@@ -216,11 +244,18 @@ class FramePipeline:
         if options.hud and hud is not None:
             destination.use()
             self.ctx.viewport = (0, 0, *size)
-            self.renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text,
-                                     alpha)
+            self.renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text, alpha)
 
-    def _draw(self, gpu, view, destination: moderngl.Framebuffer, size: tuple[int, int],
-              options: RenderOptions, hud: HudInfo | None, quality: Quality) -> None:
+    def _draw(
+        self,
+        gpu,
+        view,
+        destination: moderngl.Framebuffer,
+        size: tuple[int, int],
+        options: RenderOptions,
+        hud: HudInfo | None,
+        quality: Quality,
+    ) -> None:
         ctx, renderer = self.ctx, self.renderer
         options = options.at_quality(quality)
         size = (int(size[0]), int(size[1]))
@@ -232,8 +267,9 @@ class FramePipeline:
         if aa == "none" and scene_size == size and not inked:
             renderer.render(gpu, view, destination, options, hud, size=size)
             return
-        target = self.target(scene_size, self.samples if aa == "msaa" else 0,
-                             "sheets" if inked else "scene")
+        target = self.target(
+            scene_size, self.samples if aa == "msaa" else 0, "sheets" if inked else "scene"
+        )
         target.framebuffer.use()
         ctx.viewport = (0, 0, *scene_size)
         ctx.fbo.depth_mask = True
@@ -268,27 +304,43 @@ class FramePipeline:
         ctx.enable(moderngl.BLEND)
         viewport = (float(size[0]), float(size[1]))
         # the framebuffer's rows run bottom to top: the texel rectangle is flipped
-        renderer._quads("image", target.texture, (w, h),
-                        [(x, y, w, h, 0, h, w, -h, 1.0, 1.0, 1.0, 1.0)], viewport)
+        renderer._quads(
+            "image",
+            target.texture,
+            (w, h),
+            [(x, y, w, h, 0, h, w, -h, 1.0, 1.0, 1.0, 1.0)],
+            viewport,
+        )
         rows: list = []
         edge = max(1, round(h / 180))
-        for bx, by, bw, bh in ((x, y, w, edge), (x, y + h - edge, w, edge), (x, y, edge, h),
-                               (x + w - edge, y, edge, h)):
+        for bx, by, bw, bh in (
+            (x, y, w, edge),
+            (x, y + h - edge, w, edge),
+            (x, y, edge, h),
+            (x + w - edge, y, edge, h),
+        ):
             renderer._panel_row(bx, by, bw, bh, inset_look.BORDER, rows)
         if inset.label:
             px = max(10, round(0.085 * h))
             # on a dark tab in the corner: the inset's picture may be light behind it
             glyphs: list = []
-            box = renderer._glyph_rows(inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px,
-                                       inset_look.LABEL, glyphs)
-            renderer._panel_row(x + edge, y + edge, box[2] + 0.4 * px - x - edge,
-                                box[3] + 0.3 * px - y - edge, inset_look.TAB, rows)
+            box = renderer._glyph_rows(
+                inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px, inset_look.LABEL, glyphs
+            )
+            renderer._panel_row(
+                x + edge,
+                y + edge,
+                box[2] + 0.4 * px - x - edge,
+                box[3] + 0.3 * px - y - edge,
+                inset_look.TAB,
+                rows,
+            )
             if renderer.hud.ink:
                 rows += glyphs
-            self.texts.append(TextMark("inset label", inset.label, Rect(*box),
-                                       inset_look.LABEL))
-        renderer._quads("glyphs", renderer.atlas.texture, (renderer.atlas.size,) * 2, rows,
-                        viewport)
+            self.texts.append(TextMark("inset label", inset.label, Rect(*box), inset_look.LABEL))
+        renderer._quads(
+            "glyphs", renderer.atlas.texture, (renderer.atlas.size,) * 2, rows, viewport
+        )
         ctx.disable(moderngl.BLEND)
 
     def _pass(self, key: str, source, destination, size, options: RenderOptions) -> None:
@@ -297,8 +349,12 @@ class FramePipeline:
         prog = self.programs[key]
         top, bottom = options.background
         source.use(0)
-        for name, value in (("u_scene", 0), ("u_size", (float(size[0]), float(size[1]))),
-                            ("u_top", tuple(top)), ("u_bottom", tuple(bottom))):
+        for name, value in (
+            ("u_scene", 0),
+            ("u_size", (float(size[0]), float(size[1]))),
+            ("u_top", tuple(top)),
+            ("u_bottom", tuple(bottom)),
+        ):
             if name in prog:
                 prog[name] = value
         self._vaos[key].render(moderngl.TRIANGLES, vertices=3)

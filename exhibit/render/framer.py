@@ -27,10 +27,16 @@ class Framer:
     one per language), and the picture is kept clear of the panels of them all, so a visitor
     who changes the language never finds the longer German caption over the surface."""
 
-    def __init__(self, size: tuple[int, int], sizes: TextSizes = TextSizes(),
-                 drift: float = 0.0, hud: bool = True, extra: tuple[Rect, ...] = (),
-                 versions: Callable[[str], tuple[str, ...]] = _as_shown,
-                 words: tuple[tuple[tuple[str, str], ...], ...] = ((),)):
+    def __init__(
+        self,
+        size: tuple[int, int],
+        sizes: TextSizes = TextSizes(),
+        drift: float = 0.0,
+        hud: bool = True,
+        extra: tuple[Rect, ...] = (),
+        versions: Callable[[str], tuple[str, ...]] = _as_shown,
+        words: tuple[tuple[tuple[str, str], ...], ...] = ((),),
+    ):
         self.size = (int(size[0]), int(size[1]))
         self.sizes = sizes
         self.drift = float(drift)
@@ -47,14 +53,15 @@ class Framer:
         out: list[Rect] = list(self.extra)
         if not self.hud:
             return out
-        titles = self.versions(title)   # one per language, "" included
+        titles = self.versions(title)  # one per language, "" included
         for paragraphs in captions or [("",)]:
             shown = [self.versions(p) for p in paragraphs]
             for i, heading in enumerate(titles):
                 words = tuple(p[i] if i < len(p) else p[0] for p in shown)
                 hud_words = self.words[i] if i < len(self.words) else self.words[0]
-                out += hud_layout(self.size, heading, words, self.sizes, self.drift,
-                                  hud_words).panels
+                out += hud_layout(
+                    self.size, heading, words, self.sizes, self.drift, hud_words
+                ).panels
         return out
 
     def areas(self, title: str, captions) -> list[Rect]:
@@ -62,16 +69,22 @@ class Framer:
         layout = hud_layout(self.size, title, ("",), self.sizes, self.drift)
         return free_rectangles(self.size, self.panels(title, captions), layout.margin)
 
-    def view(self, mesh, view: ViewState, title: str, captions, poses=(),
-             points=None) -> ViewState:
+    def view(self, mesh, view: ViewState, title: str, captions, poses=(), points=None) -> ViewState:
         """``view`` zoomed and shifted so ``mesh`` (at ``view`` and every pose of ``poses``)
         lies in the free area."""
         if points is None:
             points = mesh_sample(mesh)
         return frame(view, points, self.size, self.areas(title, captions), poses)
 
-    def scene_view(self, scene, mesh, view: ViewState | None = None, note: str = "",
-                   fit: bool = True, points=None) -> ViewState:
+    def scene_view(
+        self,
+        scene,
+        mesh,
+        view: ViewState | None = None,
+        note: str = "",
+        fit: bool = True,
+        points=None,
+    ) -> ViewState:
         """A scene's start view (or ``view``, e.g. a preset's, or a visitor's pose), framed
         for the scene's own title and caption unless the scene or the caller opts out;
         ``points``: the mesh's sample, when the caller keeps it."""

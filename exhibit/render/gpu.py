@@ -22,9 +22,10 @@ MARKER_OUTLINE = (0.05, 0.05, 0.07)
 
 def surface_vertices(surface: Surface) -> np.ndarray:
     """(V, 12) float32: position, n1, n2 — the per-vertex data of the Lemma 1(c) pipeline."""
-    return np.ascontiguousarray(np.concatenate(
-        [surface.positions, surface.normals[:, 0], surface.normals[:, 1]], axis=1),
-        dtype=np.float32)
+    return np.ascontiguousarray(
+        np.concatenate([surface.positions, surface.normals[:, 0], surface.normals[:, 1]], axis=1),
+        dtype=np.float32,
+    )
 
 
 def unique_edges(triangles: np.ndarray) -> np.ndarray:
@@ -42,8 +43,7 @@ CURVE_ATTRIBUTES = ("in_p0", "in_p1", "in_style", "in_layer")
 def _segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
     """One instance row per segment: p0 (4), p1 (4), rgb and width, depth layer."""
     n = len(starts)
-    style = np.tile(np.array([*color, width, min(layer, LAYERS - 1)], dtype=np.float64),
-                    (n, 1))
+    style = np.tile(np.array([*color, width, min(layer, LAYERS - 1)], dtype=np.float64), (n, 1))
     return np.concatenate([starts, ends, style], axis=1)
 
 
@@ -111,26 +111,48 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         if surface.material.style == "wire":
             edges = unique_edges(surface.triangles)
             p = surface.positions
-            rows.append(_segment_rows(p[edges[:, 0]], p[edges[:, 1]], surface.material.color,
-                                      surface.material.line_width, len(rows)))
+            rows.append(
+                _segment_rows(
+                    p[edges[:, 0]],
+                    p[edges[:, 1]],
+                    surface.material.color,
+                    surface.material.line_width,
+                    len(rows),
+                )
+            )
             continue
         if len(surface.triangles) == 0:
             continue
         vbo = ctx.buffer(surface_vertices(surface).tobytes())
         ibo = ctx.buffer(np.ascontiguousarray(surface.triangles, dtype=np.int32).tobytes())
         gpu = GpuSurface(surface.name, surface.material.color, vbo, ibo, len(surface.triangles))
-        for key in ("surface", "surface_depth", "surface_sheets", "surface_depth_sheets",
-                    "silhouette", "ids", "floor"):
+        for key in (
+            "surface",
+            "surface_depth",
+            "surface_sheets",
+            "surface_depth_sheets",
+            "silhouette",
+            "ids",
+            "floor",
+        ):
             prog = programs[key]
             fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
-            gpu.vaos[key] = ctx.vertex_array(prog, [(vbo, fmt, *used)], index_buffer=ibo,
-                                             index_element_size=4)
+            gpu.vaos[key] = ctx.vertex_array(
+                prog, [(vbo, fmt, *used)], index_buffer=ibo, index_element_size=4
+            )
         surfaces.append(gpu)
     for curve in mesh.curves:
         segments = curve.segments()
         if len(segments):
-            rows.append(_segment_rows(segments[:, 0], segments[:, 1], curve.material.color,
-                                      curve.material.line_width, len(rows)))
+            rows.append(
+                _segment_rows(
+                    segments[:, 0],
+                    segments[:, 1],
+                    curve.material.color,
+                    curve.material.line_width,
+                    len(rows),
+                )
+            )
     lines = markers = None
     vaos = {}
     line_count = marker_count = 0
@@ -139,7 +161,8 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         lines = ctx.buffer(data.tobytes())
         line_count = len(data)
         vaos["lines"] = ctx.vertex_array(
-            programs["curves"], [(lines, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)])
+            programs["curves"], [(lines, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
+        )
     if mesh.markers:
         marker_rows = []
         for m in mesh.markers:
@@ -151,8 +174,12 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         markers = ctx.buffer(data.tobytes())
         marker_count = len(data)
         vaos["markers"] = ctx.vertex_array(
-            programs["curves"], [(markers, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)])
-    arrays = ([s.positions for s in mesh.surfaces] + [c.points for c in mesh.curves]
-              + [m.position[None] for m in mesh.markers])
+            programs["curves"], [(markers, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
+        )
+    arrays = (
+        [s.positions for s in mesh.surfaces]
+        + [c.points for c in mesh.curves]
+        + [m.position[None] for m in mesh.markers]
+    )
     radius = max([float(np.linalg.norm(a, axis=1).max()) for a in arrays if len(a)] + [1e-6])
     return GpuMesh(mesh, surfaces, lines, line_count, markers, marker_count, vaos, radius)

@@ -25,9 +25,17 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
-from exhibit.render.layout import (HudLayout, Rect, TextSizes, free_rectangles,
-                                   gizmo_caption_rect, gizmo_labels, gizmo_tips, hud_layout,
-                                   status_lines)
+from exhibit.render.layout import (
+    HudLayout,
+    Rect,
+    TextSizes,
+    free_rectangles,
+    gizmo_caption_rect,
+    gizmo_labels,
+    gizmo_tips,
+    hud_layout,
+    status_lines,
+)
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 from exhibit.scenes import palette
 from exhibit.scenes.colours import luminance
@@ -110,8 +118,9 @@ class Hud:
         key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
         layout = self._layouts.get(key)
         if layout is None:
-            layout = self._layouts[key] = hud_layout(size, hud.title, (hud.caption, hud.note),
-                                                     sizes, words=hud.words)
+            layout = self._layouts[key] = hud_layout(
+                size, hud.title, (hud.caption, hud.note), sizes, words=hud.words
+            )
             while len(self._layouts) > self.CACHED:
                 self._layouts.popitem(last=False)
         self._layouts.move_to_end(key)
@@ -120,15 +129,20 @@ class Hud:
 
     def warm(self, size, huds, sizes: TextSizes) -> None:
         """Lay out and rasterise these HUDs' panels ahead of time (the kiosk's start-up)."""
-        for hud in list(huds)[-self.CACHED:]:
+        for hud in list(huds)[-self.CACHED :]:
             self._title_block(self.layout_for(size, hud, sizes))
 
     def _title_block(self, layout: HudLayout):
         """The title and caption panel as one cached texture, rewrapped and redrawn only when
         the words or the screen size change: (texture, width, height, lines), texture None
         when there is nothing to show; ``lines`` are (kind, text, Rect in the block, rgba)."""
-        key = (layout.title_lines, layout.caption_lines, layout.title_px, layout.body_px,
-               layout.pad)
+        key = (
+            layout.title_lines,
+            layout.caption_lines,
+            layout.title_px,
+            layout.body_px,
+            layout.pad,
+        )
         block = self._blocks.get(key)
         if block is None:
             block = self._blocks[key] = self._rasterise(layout)
@@ -154,13 +168,27 @@ class Hud:
         boxes, y = [], layout.pad
         for text, style, px, rgba in lines:
             x1 = min(layout.pad + math.ceil(text_width(text, style, px)), w - layout.pad)
-            boxes.append(("title" if style == "bold" else "caption", text,
-                          Rect(layout.pad, y, x1, y + line_height(style, px)), rgba))
+            boxes.append(
+                (
+                    "title" if style == "bold" else "caption",
+                    text,
+                    Rect(layout.pad, y, x1, y + line_height(style, px)),
+                    rgba,
+                )
+            )
             y += line_height(style, px)
         return (texture, w, h, tuple(boxes))
 
-    def draw(self, gpu, view, hud, size, drift=(0.0, 0.0), sizes: TextSizes | None = None,
-             alpha: float = 1.0):
+    def draw(
+        self,
+        gpu,
+        view,
+        hud,
+        size,
+        drift=(0.0, 0.0),
+        sizes: TextSizes | None = None,
+        alpha: float = 1.0,
+    ):
         """The whole HUD over the current framebuffer; ``alpha`` < 1 fades all of it alike
         (a crossfade shows the outgoing words fading out, then the new ones fading in)."""
         r = self.renderer
@@ -181,20 +209,29 @@ class Hud:
         texture, block_w, block_h, block_lines = self._title_block(layout)
         if texture is not None:
             block = layout.title_block
-            assert block is not None   # a texture means lines, and lines a title block
+            assert block is not None  # a texture means lines, and lines a title block
             x, y = round(block.x0 + dx), round(block.y0 + dy)
             if self.ink:
-                r._quads("image", texture, (block_w, block_h),
-                         [(x, y, block_w, block_h, 0, 0, block_w, block_h,
-                           1.0, 1.0, 1.0, alpha)], viewport)
-            else:   # the panel alone, as the block draws it under its words
+                r._quads(
+                    "image",
+                    texture,
+                    (block_w, block_h),
+                    [(x, y, block_w, block_h, 0, 0, block_w, block_h, 1.0, 1.0, 1.0, alpha)],
+                    viewport,
+                )
+            else:  # the panel alone, as the block draws it under its words
                 panel: list[tuple] = []
                 r._panel_row(x, y, block_w, block_h, (*PANEL[:3], PANEL[3] * alpha), panel)
-                r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), panel,
-                         viewport)
-            self.texts += [TextMark(kind, text, Rect(x + b.x0, y + b.y0, x + b.x1, y + b.y1),
-                                    (*rgba[:3], rgba[3] * alpha))
-                           for kind, text, b, rgba in block_lines]
+                r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), panel, viewport)
+            self.texts += [
+                TextMark(
+                    kind,
+                    text,
+                    Rect(x + b.x0, y + b.y0, x + b.x1, y + b.y1),
+                    (*rgba[:3], rgba[3] * alpha),
+                )
+                for kind, text, b, rgba in block_lines
+            ]
 
         rows: list[tuple] = []
         status = layout.status_block
@@ -204,28 +241,39 @@ class Hud:
         if not has_greek():
             lines = [t.replace("θ", "t").replace("∞", "inf").replace("°", "") for t in lines]
         for i, text in enumerate(lines):
-            self._text("numbers", text, "mono", body, status.x0 + dx + pad,
-                       status.y0 - dy + pad + i * mono_h, INK, rows)
+            self._text(
+                "numbers",
+                text,
+                "mono",
+                body,
+                status.x0 + dx + pad,
+                status.y0 - dy + pad + i * mono_h,
+                INK,
+                rows,
+            )
 
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         items += self._marker_labels(gpu, view, size, layout, rows, hud.word)
         if alpha < 1.0:
             rows = [(*row[:11], row[11] * alpha) for row in rows]
             items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in items]
-            self.texts = [t if t.kind in ("title", "caption")
-                          else t._replace(rgba=(*t.rgba[:3], t.rgba[3] * alpha))
-                          for t in self.texts]
+            self.texts = [
+                t
+                if t.kind in ("title", "caption")
+                else t._replace(rgba=(*t.rgba[:3], t.rgba[3] * alpha))
+                for t in self.texts
+            ]
         r._overlay(items, viewport)
         r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
         r.ctx.disable(moderngl.BLEND)
 
-    def _gizmo(self, view, axes, layout: HudLayout, rows: list,
-               axes_label: str = "4D axes") -> list[tuple]:
+    def _gizmo(
+        self, view, axes, layout: HudLayout, rows: list, axes_label: str = "4D axes"
+    ) -> list[tuple]:
         """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
         pointing towards the sensor (out of the 3D image, into the 4th dimension). Returns its
         capsules; its letters (placed apart: exhibit.render.layout.gizmo_labels) go to
         ``rows``, and to ``gizmo_labels`` for checks."""
-        r = self.renderer
         body = layout.body_px
         radius = layout.gizmo_radius
         cx, cy = layout.gizmo_center
@@ -236,21 +284,25 @@ class Hud:
         for i in np.argsort(rot[2]):  # back to front along the eye's z
             rgba = (*AXIS_COLORS[i], 1.0)
             items.append(((cx, cy), tips[i], rgba, max(1.5, 0.036 * radius)))
-            items.append((tips[i], tips[i], rgba,
-                          max(3.0, 0.16 * radius * (1.0 + 0.7 * rot[3, i]))))
+            items.append(
+                (tips[i], tips[i], rgba, max(3.0, 0.16 * radius * (1.0 + 0.7 * rot[3, i])))
+            )
             label, rect = self.gizmo_labels[i]
             # on a halo: a letter may sit over another axis' line (w pointing at the sensor)
-            self._halo_text("axis letter", label, "bold", body, rect.x0, rect.y0,
-                            (*AXIS_LETTERS[i], 1.0), rows)
+            self._halo_text(
+                "axis letter", label, "bold", body, rect.x0, rect.y0, (*AXIS_LETTERS[i], 1.0), rows
+            )
         # As large as the caption: every word on screen meets the size rule. It hangs below
         # the disc, so it has a halo of its own for a picture behind it.
         caption = gizmo_caption_rect(axes_label, layout)
-        self._halo_text("axes caption", axes_label, "sans", body, caption.x0, caption.y0,
-                        AXES_CAPTION, rows)
+        self._halo_text(
+            "axes caption", axes_label, "sans", body, caption.x0, caption.y0, AXES_CAPTION, rows
+        )
         return items
 
-    def _marker_labels(self, gpu, view, size, layout: HudLayout, rows: list,
-                       word=lambda english: english) -> list[tuple]:
+    def _marker_labels(
+        self, gpu, view, size, layout: HudLayout, rows: list, word=lambda english: english
+    ) -> list[tuple]:
         """Labelled markers above the surfaces, labels placed on screen and off the panels;
         ``word`` translates their words (HudInfo.word)."""
         self.labels = []
@@ -282,10 +334,11 @@ class Hud:
                 items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
             items.append(((x, y), (x, y), HALO, disc + max(4.0, 4.0 * scale)))
             items.append(((x, y), (x, y), color, disc))
-            if covered:   # behind a sheet: a ring, the halo showing through its middle
+            if covered:  # behind a sheet: a ring, the halo showing through its middle
                 items.append(((x, y), (x, y), HALO, 0.5 * disc))
-            self._halo_text("marker label", text, "bold", body, label.x0 + 0.25 * body,
-                            label.y0, color, rows)
+            self._halo_text(
+                "marker label", text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows
+            )
             self.labels.append((text, label, (float(x), float(y)), bool(covered)))
         return items
 
@@ -328,8 +381,9 @@ def marker_text(label: str, word) -> str:
     return word(words) + comma + formula
 
 
-def place_label(text: str, point: tuple[float, float], px: int, layout: HudLayout,
-                taken: list[Rect]) -> Rect:
+def place_label(
+    text: str, point: tuple[float, float], px: int, layout: HudLayout, taken: list[Rect]
+) -> Rect:
     """Where a marker's label goes: the first of a few places around the point, nearest first,
     that lies on the screen (inside the margin) and clear of every rectangle in ``taken``
     (panels, other labels); else the place in the free area nearest the point."""
@@ -341,9 +395,14 @@ def place_label(text: str, point: tuple[float, float], px: int, layout: HudLayou
     candidates = []
     for d in (0.6, 2.0, 4.0, 7.0):
         gap = d * px
-        candidates += [(x + gap, y - h - 0.3 * gap), (x + gap, y + 0.3 * gap),
-                       (x - gap - w, y - h - 0.3 * gap), (x - gap - w, y + 0.3 * gap),
-                       (x - w / 2, y - h - gap), (x - w / 2, y + gap)]
+        candidates += [
+            (x + gap, y - h - 0.3 * gap),
+            (x + gap, y + 0.3 * gap),
+            (x - gap - w, y - h - 0.3 * gap),
+            (x - gap - w, y + 0.3 * gap),
+            (x - w / 2, y - h - gap),
+            (x - w / 2, y + gap),
+        ]
     for cx, cy in candidates:
         rect = Rect(cx, cy, cx + w, cy + h)
         if screen.contains(rect) and not any(rect.overlaps(t) for t in taken):

@@ -26,8 +26,12 @@ HEIGHT = 0.36
 ASPECT = 4.0 / 3.0
 #: Its own picture: a background a shade lighter than the screen's, so it reads as a window;
 #: no HUD. Its border (rgba).
-OPTIONS = RenderOptions(hud=False, pinch_points=False, intersections=False,
-                        background=((0.22, 0.24, 0.30), (0.10, 0.11, 0.15)))
+OPTIONS = RenderOptions(
+    hud=False,
+    pinch_points=False,
+    intersections=False,
+    background=((0.22, 0.24, 0.30), (0.10, 0.11, 0.15)),
+)
 BORDER = (0.80, 0.82, 0.88, 1.0)
 #: The label's colour and the dark tab it sits on in the corner (a light picture may lie behind
 #: it): at least 7:1 over white (tests/golden/test_contrast.py).
@@ -49,17 +53,22 @@ def _last_axis(points: np.ndarray, axis: int) -> np.ndarray:
     return points[..., order]
 
 
-def inset_mesh(scene, params: dict, mesh: Mesh4D, axis: int, at: float,
-               stats: RefineStats | None = None) -> Mesh4D:
+def inset_mesh(
+    scene, params: dict, mesh: Mesh4D, axis: int, at: float, stats: RefineStats | None = None
+) -> Mesh4D:
     """The 3D world at the slice: Scene.world_at's when the scene has one for this axis (with
     its own touching curve: the collision's in closed form, cheap enough for every frame of a
     kiosk); else the slice curves alone, traced and refined on the mesh."""
     if scene.world_at is not None and scene.slice_axis == axis:
-        return scene.world_at(params, at)   # with the touching curve, in closed form
-    curves = [Curve(c.name, c.points, SLICE_MATERIAL, c.closed)
-              for surface in mesh.surfaces for c in slice_curves(surface, axis, at, stats)]
-    return Mesh4D([], [Curve(c.name, _last_axis(c.points, axis), c.material, c.closed)
-                       for c in curves])
+        return scene.world_at(params, at)  # with the touching curve, in closed form
+    curves = [
+        Curve(c.name, c.points, SLICE_MATERIAL, c.closed)
+        for surface in mesh.surfaces
+        for c in slice_curves(surface, axis, at, stats)
+    ]
+    return Mesh4D(
+        [], [Curve(c.name, _last_axis(c.points, axis), c.material, c.closed) for c in curves]
+    )
 
 
 def inset_label(axis_name: str, at: float) -> str:
@@ -72,8 +81,13 @@ def inset_view(main: ViewState, mesh: Mesh4D | np.ndarray, size: tuple[int, int]
     seen undistorted), the main view's eye, framed into the inset with a margin. ``mesh`` may
     be points instead: the worlds of several moments, so the frame holds still while time
     moves (the kiosk)."""
-    view = ViewState(eye_azimuth=main.eye_azimuth, eye_incidence=main.eye_incidence,
-                     twist=main.twist, eye_r=main.eye_r, lights=main.lights)
+    view = ViewState(
+        eye_azimuth=main.eye_azimuth,
+        eye_incidence=main.eye_incidence,
+        twist=main.twist,
+        eye_r=main.eye_r,
+        lights=main.lights,
+    )
     points = mesh if isinstance(mesh, np.ndarray) else mesh_points(mesh)
     if len(points) == 0:
         return view

@@ -22,8 +22,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from exhibit.render.text import (ellipsize, font, line_height, text_width, units,
-                                 wrap_balanced)
+from exhibit.render.text import ellipsize, font, line_height, text_width, units, wrap_balanced
 
 #: The smallest caption cap height the exhibit allows, as a fraction of the screen height.
 MIN_CAPTION_CAP = 1.0 / 45.0
@@ -47,11 +46,15 @@ class TextSizes:
 
     def __post_init__(self) -> None:
         if not (MIN_CAPTION_CAP - 1e-9 <= self.caption_cap <= 0.1):
-            raise ValueError(f"caption cap height {self.caption_cap:g} must lie in "
-                             f"[1/45, 0.1] of the screen height")
+            raise ValueError(
+                f"caption cap height {self.caption_cap:g} must lie in "
+                f"[1/45, 0.1] of the screen height"
+            )
         if not self.caption_cap < self.title_cap <= 0.15:
-            raise ValueError(f"title cap height {self.title_cap:g} must be larger than the "
-                             f"caption's ({self.caption_cap:g}) and at most 0.15")
+            raise ValueError(
+                f"title cap height {self.title_cap:g} must be larger than the "
+                f"caption's ({self.caption_cap:g}) and at most 0.15"
+            )
         if not (1.0 <= self.infinity_beyond <= 1e6):
             raise ValueError(f"infinity_beyond {self.infinity_beyond:g} must lie in [1, 1e6]")
 
@@ -94,12 +97,17 @@ class Rect(NamedTuple):
         return Rect(self.x0 - by, self.y0 - by, self.x1 + by, self.y1 + by)
 
     def overlaps(self, other: "Rect") -> bool:
-        return (self.x0 < other.x1 and other.x0 < self.x1 and self.y0 < other.y1
-                and other.y0 < self.y1)
+        return (
+            self.x0 < other.x1 and other.x0 < self.x1 and self.y0 < other.y1 and other.y0 < self.y1
+        )
 
     def contains(self, other: "Rect") -> bool:
-        return (self.x0 <= other.x0 and self.y0 <= other.y0 and other.x1 <= self.x1
-                and other.y1 <= self.y1)
+        return (
+            self.x0 <= other.x0
+            and self.y0 <= other.y0
+            and other.x1 <= self.x1
+            and other.y1 <= self.y1
+        )
 
 
 def format_distance(distance: float, beyond: float = INFINITY_BEYOND) -> str:
@@ -117,17 +125,20 @@ def format_angle(radians: float) -> str:
     return f"{degrees:6.1f}°"
 
 
-def status_lines(view, beyond: float = INFINITY_BEYOND,
-                 words: tuple[tuple[str, str], ...] = ()) -> list[str]:
+def status_lines(
+    view, beyond: float = INFINITY_BEYOND, words: tuple[tuple[str, str], ...] = ()
+) -> list[str]:
     """The numbers panel: six angles on two lines and the two distances, every field of fixed
     width so nothing jitters while a knob turns. θ with plain digits: subscripts are too small
     to read from a distance. ``words``: (English, shown) pairs for "sensor", "eye", "fov"."""
     a = [format_angle(x) for x in view.angles]
     eye = format_distance(view.eye_distance, beyond).strip()
     fov = None if view.eye_r == 0 else view.field_of_view
-    return [_angles_line(a[:3], 1), _angles_line(a[3:], 4),
-            _distances_line(dict(words), format_distance(view.sensor_distance, beyond), eye,
-                            fov)]
+    return [
+        _angles_line(a[:3], 1),
+        _angles_line(a[3:], 4),
+        _distances_line(dict(words), format_distance(view.sensor_distance, beyond), eye, fov),
+    ]
 
 
 def _angles_line(angles: list[str], first: int) -> str:
@@ -137,6 +148,7 @@ def _angles_line(angles: list[str], first: int) -> str:
 def _distances_line(words: dict, sensor: str, eye: str, fov: float | None) -> str:
     """The sensor's and the eye's distance and the eye's field of view, labelled in the
     language on screen."""
+
     def word(english: str) -> str:
         return words.get(english, english)
 
@@ -144,14 +156,17 @@ def _distances_line(words: dict, sensor: str, eye: str, fov: float | None) -> st
     return f"{word('sensor')} {sensor}   {word('eye')} {eye:>5}{fov_text}"
 
 
-def widest_status(words: tuple[tuple[str, str], ...] = (),
-                  beyond: float = INFINITY_BEYOND) -> list[str]:
+def widest_status(
+    words: tuple[tuple[str, str], ...] = (), beyond: float = INFINITY_BEYOND
+) -> list[str]:
     """The widest lines the numbers panel can show in the language of ``words``, with
     distances up to ``beyond`` (farther is ∞): the panel is this wide whatever the numbers, so
     it never jitters while a knob turns."""
     farthest = format_distance(beyond, beyond)
-    return [_angles_line(["-179.9°"] * 3, 1),
-            _distances_line(dict(words), farthest, farthest.strip(), 180.0)]
+    return [
+        _angles_line(["-179.9°"] * 3, 1),
+        _distances_line(dict(words), farthest, farthest.strip(), 180.0),
+    ]
 
 
 def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[str]:
@@ -190,14 +205,17 @@ class HudLayout:
         boxes = [self.status_block, self.gizmo_block]
         if self.title_block is not None:
             boxes.insert(0, self.title_block)
-        return [Rect(b.x0, b.y0, b.x1 + self.drift, b.y1 + self.drift)
-                if b is not self.status_block
-                else Rect(b.x0, b.y0 - self.drift, b.x1 + self.drift, b.y1)
-                for b in boxes]
+        return [
+            Rect(b.x0, b.y0, b.x1 + self.drift, b.y1 + self.drift)
+            if b is not self.status_block
+            else Rect(b.x0, b.y0 - self.drift, b.x1 + self.drift, b.y1)
+            for b in boxes
+        ]
 
 
-def _clip(lines: list[tuple[str, str, int]], room_h: float, room_w: float
-          ) -> list[tuple[str, str, int]]:
+def _clip(
+    lines: list[tuple[str, str, int]], room_h: float, room_w: float
+) -> list[tuple[str, str, int]]:
     """The first lines that fit ``room_h`` pixels, the last of them ending in "…" when some
     are left out (at least one line)."""
     kept: list[tuple[str, str, int]] = []
@@ -213,9 +231,15 @@ def _clip(lines: list[tuple[str, str, int]], room_h: float, room_w: float
     return kept
 
 
-def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...] = ("",),
-               sizes: TextSizes = TextSizes(), drift: float = 0.0,
-               words: tuple[tuple[str, str], ...] = (), clip: bool = True) -> HudLayout:
+def hud_layout(
+    size: tuple[int, int],
+    title: str = "",
+    captions: tuple[str, ...] = ("",),
+    sizes: TextSizes = TextSizes(),
+    drift: float = 0.0,
+    words: tuple[tuple[str, str], ...] = (),
+    clip: bool = True,
+) -> HudLayout:
     """The panels for ``title`` and the caption paragraphs ``captions`` (the caption and a
     note, each wrapped on its own) on a ``size`` screen; ``words``: the numbers panel's words
     in the language on screen (HudInfo.words), which set its width.
@@ -234,14 +258,19 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     radius = max(14.0, 0.09 * height)
     extent = radius + body_px
     cx, cy = width - margin - extent, margin + extent
-    gizmo = Rect(cx - extent, margin, width - margin,
-                 max(cy + extent, cy + radius + 0.1 * body_px + line_height("sans", body_px)))
+    gizmo = Rect(
+        cx - extent,
+        margin,
+        width - margin,
+        max(cy + extent, cy + radius + 0.1 * body_px + line_height("sans", body_px)),
+    )
 
     # Title and caption, top left, short of the gizmo; captions a little narrower (a measure of
     # about 45 characters reads best).
     room = gizmo.x0 - 2 * margin - 2 * pad - margin
-    title_lines = (tuple(wrap_balanced(title, "bold", title_px, room, break_words=True))
-                   if title else ())
+    title_lines = (
+        tuple(wrap_balanced(title, "bold", title_px, room, break_words=True)) if title else ()
+    )
     # The panel is at least as wide as the title: a caption uses that width before it wraps
     # into a column narrower than the heading above it.
     heading = max((text_width(t, "bold", title_px) for t in title_lines), default=0.0)
@@ -250,10 +279,11 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     for paragraph in captions:
         if paragraph:
             caption_lines += caption_wrap(paragraph, body_px, measure, room)
-    lines = [(t, "bold", title_px) for t in title_lines] + \
-            [(t, "sans", body_px) for t in caption_lines]
+    lines = [(t, "bold", title_px) for t in title_lines] + [
+        (t, "sans", body_px) for t in caption_lines
+    ]
     status_h = 3 * line_height("mono", body_px) + 2 * pad
-    if clip:   # never over the numbers panel
+    if clip:  # never over the numbers panel
         lines = _clip(lines, height - 3 * margin - status_h - 2 * pad, room)
         title_lines = tuple(t for t, s, _ in lines if s == "bold")
         caption_lines = [t for t, s, _ in lines if s == "sans"]
@@ -269,8 +299,21 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
     status_w = max(len(t) for t in widest) * advance + 2 + 2 * pad
     status_h = 3 * line_height("mono", body_px) + 2 * pad
     status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
-    return HudLayout((width, height), margin, title_px, body_px, pad, title_lines,
-                     tuple(caption_lines), block, status, (cx, cy), radius, gizmo, drift)
+    return HudLayout(
+        (width, height),
+        margin,
+        title_px,
+        body_px,
+        pad,
+        title_lines,
+        tuple(caption_lines),
+        block,
+        status,
+        (cx, cy),
+        radius,
+        gizmo,
+        drift,
+    )
 
 
 # ---------------------------------------------------------------------- for check-config
@@ -280,44 +323,67 @@ def hud_layout(size: tuple[int, int], title: str = "", captions: tuple[str, ...]
 CHECK_SIZE = (1280, 720)
 
 
-def text_problems(kind: str, text: str, sizes: TextSizes = TextSizes(),
-                  size: tuple[int, int] = CHECK_SIZE, word: str = "sensor") -> list[str]:
+def text_problems(
+    kind: str,
+    text: str,
+    sizes: TextSizes = TextSizes(),
+    size: tuple[int, int] = CHECK_SIZE,
+    word: str = "sensor",
+) -> list[str]:
     """Why ``text`` cannot be laid out in its place on a ``size`` screen (empty when it can):
     ``kind`` is "title", "caption", "gizmo" (the line under the 4D axes), "numbers" (``word``
     of the numbers panel: "sensor", "eye" or "fov", the others in English) or "label" (a
     marker label's words)."""
     width, height = size
     if kind in ("title", "caption"):
-        layout = hud_layout(size, text if kind == "title" else "",
-                            ("",) if kind == "title" else (text,), sizes, clip=False)
+        layout = hud_layout(
+            size,
+            text if kind == "title" else "",
+            ("",) if kind == "title" else (text,),
+            sizes,
+            clip=False,
+        )
         style, px = ("bold", layout.title_px) if kind == "title" else ("sans", layout.body_px)
         room = layout.gizmo_block.x0 - 2 * layout.margin - 2 * layout.pad - layout.margin
         out = []
         widest = max((text_width(u, style, px) for u in units(text)), default=0.0)
         if widest > room:
             word = max(units(text), key=lambda u: text_width(u, style, px))
-            out.append(f"the word {_short(word)} is {widest:.0f} px wide at {width}x{height}, "
-                       f"wider than the panel's {room:.0f} px")
+            out.append(
+                f"the word {_short(word)} is {widest:.0f} px wide at {width}x{height}, "
+                f"wider than the panel's {room:.0f} px"
+            )
         block = layout.title_block
         if block is not None and block.height > PANEL_LIMIT * height:
-            out.append(f"makes the {kind} panel {block.height:.0f} px tall at {width}x{height}"
-                       f" ({len(layout.title_lines) + len(layout.caption_lines)} lines), more "
-                       f"than {PANEL_LIMIT:.0%} of the screen")
+            out.append(
+                f"makes the {kind} panel {block.height:.0f} px tall at {width}x{height}"
+                f" ({len(layout.title_lines) + len(layout.caption_lines)} lines), more "
+                f"than {PANEL_LIMIT:.0%} of the screen"
+            )
         return out
     layout = hud_layout(size, sizes=sizes)
     if kind == "gizmo":
         w = text_width(text, "sans", layout.body_px)
         if w > layout.gizmo_block.width:
-            return [f"is {w:.0f} px wide at {width}x{height}, wider than the 4D axes' "
-                    f"{layout.gizmo_block.width:.0f} px"]
+            return [
+                f"is {w:.0f} px wide at {width}x{height}, wider than the 4D axes' "
+                f"{layout.gizmo_block.width:.0f} px"
+            ]
         return []
     if kind == "numbers":
-        panel = hud_layout(size, sizes=sizes, words=tuple(
-            (english, text if english == word else english)
-            for english in ("sensor", "eye", "fov"))).status_block
+        panel = hud_layout(
+            size,
+            sizes=sizes,
+            words=tuple(
+                (english, text if english == word else english)
+                for english in ("sensor", "eye", "fov")
+            ),
+        ).status_block
         if panel.width > NUMBERS_LIMIT * width:
-            return [f"makes the numbers panel {panel.width:.0f} px wide at {width}x{height}, "
-                    f"more than {NUMBERS_LIMIT:.0%} of the screen"]
+            return [
+                f"makes the numbers panel {panel.width:.0f} px wide at {width}x{height}, "
+                f"more than {NUMBERS_LIMIT:.0%} of the screen"
+            ]
         return []
     w = text_width(text, "bold", layout.body_px)
     if w > width / 2:
@@ -352,8 +418,9 @@ def gizmo_caption_rect(caption: str, layout: HudLayout) -> Rect:
     return Rect(cx - w / 2, top, cx + w / 2, top + line_height("sans", px))
 
 
-def gizmo_labels(rotation: np.ndarray, axes, layout: HudLayout,
-                 caption: str = "4D axes") -> list[tuple[str, Rect]]:
+def gizmo_labels(
+    rotation: np.ndarray, axes, layout: HudLayout, caption: str = "4D axes"
+) -> list[tuple[str, Rect]]:
     """Where each axis' letter goes: (letter, rectangle in whole pixels), in axis order.
 
     Letters placed beside their tips collide whenever two axes point the same way on screen
@@ -375,8 +442,9 @@ def gizmo_labels(rotation: np.ndarray, axes, layout: HudLayout,
     return [out[i] for i in range(4)]
 
 
-def _free_label_spot(label: str, tip: tuple[float, float], layout: HudLayout,
-                     taken: list[Rect]) -> Rect:
+def _free_label_spot(
+    label: str, tip: tuple[float, float], layout: HudLayout, taken: list[Rect]
+) -> Rect:
     """The candidate rectangle for ``label`` nearest the ideal spot (just beyond ``tip``, away
     from the centre) that is clear of ``taken``: around the tip within the disc, then within
     the block, then anywhere on a grid over the block; the ideal spot itself if the block is
@@ -395,22 +463,29 @@ def _free_label_spot(label: str, tip: tuple[float, float], layout: HudLayout,
     block, disc = layout.gizmo_block, layout.gizmo_radius + px
 
     def in_disc(rect: Rect) -> bool:
-        return all(math.hypot(x - cx, y - cy) <= disc
-                   for x in (rect.x0, rect.x1) for y in (rect.y0, rect.y1))
+        return all(
+            math.hypot(x - cx, y - cy) <= disc
+            for x in (rect.x0, rect.x1)
+            for y in (rect.y0, rect.y1)
+        )
 
     def grid() -> np.ndarray:
         step = max(1.0, px / 4)
-        xs, ys = np.meshgrid(np.arange(block.x0 + w / 2, block.x1 - w / 2 + 1, step),
-                             np.arange(block.y0 + h / 2, block.y1 - h / 2 + 1, step))
+        xs, ys = np.meshgrid(
+            np.arange(block.x0 + w / 2, block.x1 - w / 2 + 1, step),
+            np.arange(block.y0 + h / 2, block.y1 - h / 2 + 1, step),
+        )
         return np.stack([xs.ravel(), ys.ravel()], axis=-1)
 
-    for centres, inside in ((lambda: around, in_disc), (lambda: around, block.contains),
-                            (grid, block.contains)):
+    for centres, inside in (
+        (lambda: around, in_disc),
+        (lambda: around, block.contains),
+        (grid, block.contains),
+    ):
         points = centres()
         for x, y in points[np.argsort(np.hypot(*(points - ideal).T), kind="stable")]:
             rect = _pixel_rect(x - w / 2, y - h / 2, w, h)
-            if block.contains(rect) and inside(rect) and not any(rect.overlaps(t)
-                                                                 for t in taken):
+            if block.contains(rect) and inside(rect) and not any(rect.overlaps(t) for t in taken):
                 return rect
     return _pixel_rect(ideal[0] - w / 2, ideal[1] - h / 2, w, h)
 
@@ -429,18 +504,28 @@ def free_rectangles(size: tuple[int, int], panels: list[Rect], margin: float) ->
     width, height = size
     screen = Rect(margin, margin, width - margin, height - margin)
     blocks = [p.grow(margin) for p in panels]
-    xs = sorted({screen.x0, screen.x1, *[v for b in blocks for v in (b.x0, b.x1)
-                                         if screen.x0 < v < screen.x1]})
-    ys = sorted({screen.y0, screen.y1, *[v for b in blocks for v in (b.y0, b.y1)
-                                         if screen.y0 < v < screen.y1]})
+    xs = sorted(
+        {
+            screen.x0,
+            screen.x1,
+            *[v for b in blocks for v in (b.x0, b.x1) if screen.x0 < v < screen.x1],
+        }
+    )
+    ys = sorted(
+        {
+            screen.y0,
+            screen.y1,
+            *[v for b in blocks for v in (b.y0, b.y1) if screen.y0 < v < screen.y1],
+        }
+    )
     found: list[Rect] = []
     for i, x0 in enumerate(xs):
-        for x1 in xs[i + 1:]:
+        for x1 in xs[i + 1 :]:
             for j, y0 in enumerate(ys):
-                for y1 in ys[j + 1:]:
+                for y1 in ys[j + 1 :]:
                     r = Rect(x0, y0, x1, y1)
                     if any(r.overlaps(b) for b in blocks):
-                        break   # a taller one overlaps too
+                        break  # a taller one overlaps too
                     found.append(r)
     maximal = [r for r in found if not any(o != r and o.contains(r) for o in found)]
     return sorted(maximal, key=lambda r: -r.width * r.height)

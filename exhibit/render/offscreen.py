@@ -25,8 +25,9 @@ DEFAULT_SAMPLES = 4
 class Offscreen:
     """A colour + depth framebuffer of one size (multisampled, resolved on read)."""
 
-    def __init__(self, ctx: moderngl.Context, size: tuple[int, int],
-                 samples: int = DEFAULT_SAMPLES):
+    def __init__(
+        self, ctx: moderngl.Context, size: tuple[int, int], samples: int = DEFAULT_SAMPLES
+    ):
         width, height = size
         if width < 1 or height < 1:
             raise ValueError(f"image size must be positive, got {width}x{height}")
@@ -77,9 +78,11 @@ class Headless:
             self._targets[key] = Offscreen(self.ctx, size, samples)
         return self._targets[key]
 
-    def image(self, gpu, view, size, options=None, hud=None,
-              samples: int = DEFAULT_SAMPLES) -> np.ndarray:
+    def image(
+        self, gpu, view, size, options=None, hud=None, samples: int = DEFAULT_SAMPLES
+    ) -> np.ndarray:
         from exhibit.render.options import RenderOptions
+
         self.activate()
         target = self.target(size, samples)
         self.renderer.render(gpu, view, target.framebuffer, options or RenderOptions(), hud)
@@ -90,29 +93,42 @@ class Headless:
         """The kiosk's frame pipeline on this context (exhibit.render.frame.FramePipeline)."""
         if self._pipeline is None:
             from exhibit.render.frame import FramePipeline
+
             self._pipeline = FramePipeline(self.ctx, self.renderer, DEFAULT_SAMPLES)
         return self._pipeline
 
-    def draw_frame(self, gpu, view, size, options=None, hud=None, quality=None,
-                   inset=None) -> Offscreen:
+    def draw_frame(
+        self, gpu, view, size, options=None, hud=None, quality=None, inset=None
+    ) -> Offscreen:
         """A whole kiosk frame at a quality level (default: FXAA at full scale) into a
         single-sampled target, as a window's screen gets it (with the time-slice ``inset``,
         exhibit.render.frame.Inset, when given); read() it for the picture."""
         from exhibit.render.options import RenderOptions
         from exhibit.render.quality import LADDER
+
         self.activate()
         target = self.target(size, 0)
-        self.pipeline.draw(gpu, view, target.framebuffer, target.size,
-                           options or RenderOptions(), hud, quality or LADDER[1], inset=inset)
+        self.pipeline.draw(
+            gpu,
+            view,
+            target.framebuffer,
+            target.size,
+            options or RenderOptions(),
+            hud,
+            quality or LADDER[1],
+            inset=inset,
+        )
         return target
 
-    def frame(self, gpu, view, size, options=None, hud=None, quality=None,
-              inset=None) -> np.ndarray:
+    def frame(
+        self, gpu, view, size, options=None, hud=None, quality=None, inset=None
+    ) -> np.ndarray:
         """draw_frame()'s picture: (height, width, 3) uint8, top row first."""
         return self.draw_frame(gpu, view, size, options, hud, quality, inset).read()
 
-    def still(self, gpu, view, size, options=None, hud=None,
-              samples: int = DEFAULT_SAMPLES, inset=None) -> np.ndarray:
+    def still(
+        self, gpu, view, size, options=None, hud=None, samples: int = DEFAULT_SAMPLES, inset=None
+    ) -> np.ndarray:
         """A picture through the kiosk's frame pipeline at full quality (MSAA with ``samples``,
         else no antialiasing), so `exhibit render` shows what the kiosk shows, intersection
         curves included."""
@@ -120,6 +136,7 @@ class Headless:
 
         from exhibit.render.frame import FramePipeline
         from exhibit.render.quality import LADDER
+
         self.activate()
         wanted = samples if samples > 1 else 0
         if self._pipeline is None or self._pipeline.samples != min(wanted, self.ctx.max_samples):

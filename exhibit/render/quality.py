@@ -65,8 +65,10 @@ class Quality:
         return self.effects == "full"
 
     def describe(self) -> str:
-        return (f"{self.name}: {self.antialiasing}, mesh x{MESH_FACTORS[self.mesh]:g}, "
-                f"{self.effects} effects, scale {self.scale:g}")
+        return (
+            f"{self.name}: {self.antialiasing}, mesh x{MESH_FACTORS[self.mesh]:g}, "
+            f"{self.effects} effects, scale {self.scale:g}"
+        )
 
 
 #: The governor's ladder, best first. Each step gives up one thing, in the module's order.
@@ -83,17 +85,24 @@ LADDER = (
 LEVEL_NAMES = tuple(q.name for q in LADDER)
 
 
-def ladder(antialiasing: str | None = None, mesh: int | None = None, effects: str | None = None,
-           scale: float | None = None, levels: tuple[Quality, ...] = LADDER
-           ) -> tuple[Quality, ...]:
+def ladder(
+    antialiasing: str | None = None,
+    mesh: int | None = None,
+    effects: str | None = None,
+    scale: float | None = None,
+    levels: tuple[Quality, ...] = LADDER,
+) -> tuple[Quality, ...]:
     """The ladder with some settings pinned (None: the governor's choice): every level takes
     the pinned values, and levels that became the same as the one before are dropped."""
     out: list[Quality] = []
     for q in levels:
-        pinned = replace(q, antialiasing=antialiasing or q.antialiasing,
-                         mesh=q.mesh if mesh is None else mesh,
-                         effects=effects or q.effects,
-                         scale=q.scale if scale is None else scale)
+        pinned = replace(
+            q,
+            antialiasing=antialiasing or q.antialiasing,
+            mesh=q.mesh if mesh is None else mesh,
+            effects=effects or q.effects,
+            scale=q.scale if scale is None else scale,
+        )
         if not out or out[-1].settings != pinned.settings:
             out.append(pinned)
     return tuple(out)
@@ -109,5 +118,15 @@ def software_renderer(renderer: str) -> bool:
     swrast, SwiftShader, Microsoft's GDI/WARP): there, multisampling costs a full-screen resolve
     and the post-process antialiasing is the better deal."""
     text = renderer.lower()
-    return any(word in text for word in ("llvmpipe", "softpipe", "swrast", "swiftshader",
-                                         "software", "gdi generic", "basic render"))
+    return any(
+        word in text
+        for word in (
+            "llvmpipe",
+            "softpipe",
+            "swrast",
+            "swiftshader",
+            "software",
+            "gdi generic",
+            "basic render",
+        )
+    )

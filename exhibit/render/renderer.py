@@ -30,11 +30,15 @@ GL_CLIP_DISTANCE1 = 0x3001
 #: slope-scaled polygon offset), so a curve lying on a surface is not half-buried in it.
 LINE_BIAS = 2e-4
 OVERLAY_FLOATS = 9  # a (2), b (2), rgba (4), width (1)
-GLYPH_FLOATS = 12   # rect (4), texel rect (4), rgba (4)
+GLYPH_FLOATS = 12  # rect (4), texel rect (4), rgba (4)
 #: Blending for everything drawn over the scene: straight alpha in, premultiplied out, so an
 #: offscreen scene cleared to transparent composites correctly over the background later.
-BLEND_OVER = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE,
-              moderngl.ONE_MINUS_SRC_ALPHA)
+BLEND_OVER = (
+    moderngl.SRC_ALPHA,
+    moderngl.ONE_MINUS_SRC_ALPHA,
+    moderngl.ONE,
+    moderngl.ONE_MINUS_SRC_ALPHA,
+)
 BLEND_PREMULTIPLIED = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
 #: Intersection curves (intersect.glsl): two front pixels belong to different sheets when their
 #: 4D depths differ by more than SHEET_GAP x the mesh's radius (different parts are offset by
@@ -81,8 +85,7 @@ def _mat(m: np.ndarray) -> bytes:
     return np.ascontiguousarray(np.asarray(m, dtype=np.float32).T).tobytes()
 
 
-def darker(color: tuple[float, float, float], factor: float = 0.32
-           ) -> tuple[float, float, float]:
+def darker(color: tuple[float, float, float], factor: float = 0.32) -> tuple[float, float, float]:
     r, g, b = color
     return (float(r) * factor, float(g) * factor, float(b) * factor)
 
@@ -90,6 +93,7 @@ def darker(color: tuple[float, float, float], factor: float = 0.32
 def pipeline_uniforms(ct, view: ViewState, size: tuple[int, int]) -> dict:
     """The values of shaders/pipeline.glsl's uniforms for a clip transform (tests check that
     each name here is declared there)."""
+
     def vector(v):
         return tuple(float(x) for x in v)
 
@@ -132,18 +136,23 @@ class Renderer:
             "background": p(ctx, "background.glsl"),
             "floor": p(ctx, "floor.glsl"),
         }
-        self._empty = {name: ctx.vertex_array(self.programs[name], [])
-                       for name in ("text", "background", "intersect", "intersect_gate",
-                                   "intersect_ms")}
+        self._empty = {
+            name: ctx.vertex_array(self.programs[name], [])
+            for name in ("text", "background", "intersect", "intersect_gate", "intersect_ms")
+        }
         self._overlay_buffer = ctx.buffer(reserve=64 * OVERLAY_FLOATS * 4, dynamic=True)
         self._overlay_vao = ctx.vertex_array(
             self.programs["overlay"],
-            [(self._overlay_buffer, "2f 2f 4f 1f/i", "in_a", "in_b", "in_color", "in_width")])
+            [(self._overlay_buffer, "2f 2f 4f 1f/i", "in_a", "in_b", "in_color", "in_width")],
+        )
         self._glyph_buffer = ctx.buffer(reserve=256 * GLYPH_FLOATS * 4, dynamic=True)
         self._glyph_vaos = {
-            name: ctx.vertex_array(self.programs[name], [
-                (self._glyph_buffer, "4f 4f 4f/i", "in_rect", "in_uv", "in_color")])
-            for name in ("glyphs", "image")}
+            name: ctx.vertex_array(
+                self.programs[name],
+                [(self._glyph_buffer, "4f 4f 4f/i", "in_rect", "in_uv", "in_color")],
+            )
+            for name in ("glyphs", "image")
+        }
         self.text = TextCache(ctx)
         self.atlas = GlyphAtlas(ctx)
         #: The HUD's cached panels and layout (exhibit.render.hud).
@@ -164,29 +173,44 @@ class Renderer:
         """exhibit.geometry.clip_transform for this view and size, computed once per frame (the
         surfaces, silhouettes, curves and marker labels all use it)."""
         aspect = size[0] / size[1]
-        if (self._ct_key is None or self._ct_key[1] != aspect
-                or not (self._ct_key[0] is view or self._ct_key[0] == view)):
+        if (
+            self._ct_key is None
+            or self._ct_key[1] != aspect
+            or not (self._ct_key[0] is view or self._ct_key[0] == view)
+        ):
             self._ct_key, self._ct = (view, aspect), clip_transform(view, aspect)
-        assert self._ct is not None   # set together with _ct_key
+        assert self._ct is not None  # set together with _ct_key
         return self._ct
 
-    def set_pipeline(self, program: moderngl.Program, view: ViewState, size: tuple[int, int]
-                     ) -> ClipTransform:
+    def set_pipeline(
+        self, program: moderngl.Program, view: ViewState, size: tuple[int, int]
+    ) -> ClipTransform:
         """Upload the view's 4x5 clip map, pose, clip planes and centres to one program (those
         of pipeline.glsl's uniforms that the program's own source declares)."""
         ct = self.clip_transform(view, size)
         declared = (program.extra or {}).get("uniforms", ())
-        shaders.set_uniforms(program, {name: value for name, value
-                                       in pipeline_uniforms(ct, view, size).items()
-                                       if name in declared})
+        shaders.set_uniforms(
+            program,
+            {
+                name: value
+                for name, value in pipeline_uniforms(ct, view, size).items()
+                if name in declared
+            },
+        )
         return ct
 
     def _set(self, program, **values) -> None:
         shaders.set_uniforms(program, values)
 
-    def render(self, gpu: GpuMesh, view: ViewState, framebuffer: moderngl.Framebuffer,
-               options: RenderOptions = RenderOptions(), hud: HudInfo | None = None,
-               size: tuple[int, int] | None = None) -> None:
+    def render(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        framebuffer: moderngl.Framebuffer,
+        options: RenderOptions = RenderOptions(),
+        hud: HudInfo | None = None,
+        size: tuple[int, int] | None = None,
+    ) -> None:
         """Draw one frame of gpu in view into framebuffer; size overrides the framebuffer's own
         (a window's default framebuffer changes size with the window). The direct path: the
         background is a pass of its own and antialiasing is the framebuffer's multisampling
@@ -203,7 +227,7 @@ class Renderer:
         # depth writes: docs/PERFORMANCE.md).
         ctx.disable(moderngl.BLEND | moderngl.CULL_FACE)
         ctx.enable(moderngl.DEPTH_TEST)
-        ctx.depth_func = "1"   # GL_ALWAYS
+        ctx.depth_func = "1"  # GL_ALWAYS
         ctx.fbo.depth_mask = True
         top, bottom = options.background
         self._set(self.programs["background"], u_top=tuple(top), u_bottom=tuple(bottom))
@@ -213,8 +237,14 @@ class Renderer:
         if options.hud and hud is not None:
             self.render_hud(gpu, view, hud, size, options.hud_drift, options.text)
 
-    def render_scene(self, gpu: GpuMesh, view: ViewState, size: tuple[int, int],
-                     options: RenderOptions = RenderOptions(), sheets=None) -> None:
+    def render_scene(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions = RenderOptions(),
+        sheets=None,
+    ) -> None:
         """Surfaces, live silhouettes, curves and markers into the current framebuffer (its
         viewport set, colour and depth cleared): everything that lives in the 4D scene.
 
@@ -270,8 +300,14 @@ class Renderer:
             if sliced:
                 axis[view.slice_axis] = 1.0
             pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
-            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale, u_pass=1,
-                      u_slice_axis=tuple(axis), u_slice_at=view.slice_at)
+            self._set(
+                prog,
+                u_line_bias=LINE_BIAS,
+                u_width_scale=scale,
+                u_pass=1,
+                u_slice_axis=tuple(axis),
+                u_slice_at=view.slice_at,
+            )
             ctx.fbo.depth_mask = False
             # Two passes over the same triangles: the ink, then the marks that must lie on top
             # of it (the slice and the Lemma 2 discs). With no depth writes, what a later
@@ -282,8 +318,11 @@ class Renderer:
             if sliced or pinch > 0:
                 passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
             for ink_width, slice_width, pinch_size in passes:
-                self._set(prog, u_pinch=(1.0, 0.93, 0.2, pinch_size),
-                          u_slice_style=(*SLICE_COLOR, slice_width))
+                self._set(
+                    prog,
+                    u_pinch=(1.0, 0.93, 0.2, pinch_size),
+                    u_slice_style=(*SLICE_COLOR, slice_width),
+                )
                 for surface in gpu.surfaces:
                     prog["u_ink"] = (*darker(surface.color), ink_width)
                     surface.vaos["silhouette"].render(moderngl.TRIANGLES)
@@ -301,7 +340,7 @@ class Renderer:
         if sample is None:
             points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
             sample = np.concatenate(points) if points else np.zeros((1, 4))
-            sample = gpu.sample = sample[::max(1, len(sample) // DEPTH_SAMPLE)]
+            sample = gpu.sample = sample[:: max(1, len(sample) // DEPTH_SAMPLE)]
         width, height = size
         ndc, ok = self.clip_transform(view, size).to_ndc(sample)
         if ok.sum() < 2:
@@ -319,8 +358,9 @@ class Renderer:
         depth = span[2] * 0.5
         return (float(pixels / depth) if depth > 1e-12 else 1.0), box
 
-    def draw_intersections(self, gpu: GpuMesh, sheets, size, options: RenderOptions,
-                           view: ViewState | None = None) -> None:
+    def draw_intersections(
+        self, gpu: GpuMesh, sheets, size, options: RenderOptions, view: ViewState | None = None
+    ) -> None:
         """Ink where sheets of the 3D image cross, over ``sheets.framebuffer`` (colour only; the
         surfaces were drawn with ``sheets=True`` into ``sheets.sheet_framebuffer``): a gate pass
         at one texel per tile, then one point per marked tile (a multisampled target: one
@@ -331,11 +371,16 @@ class Renderer:
         sheets.sheet_texture.use(0)
         half = 0.5 * options.intersection_width * options.width_scale(size[1])
         scale, box = self._screen_extent(gpu, view, size) if view is not None else (1.0, None)
-        self._set(prog, u_geometry=0, u_size=(float(size[0]), float(size[1])),
-                  u_depth_scale=scale,
-                  u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
-                  u_sheet_gap=SHEET_GAP * gpu.radius, u_min_angle=MIN_CROSSING,
-                  u_ink=INTERSECTION_INK)
+        self._set(
+            prog,
+            u_geometry=0,
+            u_size=(float(size[0]), float(size[1])),
+            u_depth_scale=scale,
+            u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
+            u_sheet_gap=SHEET_GAP * gpu.radius,
+            u_min_angle=MIN_CROSSING,
+            u_ink=INTERSECTION_INK,
+        )
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         if sheets.samples:
             ctx.enable(moderngl.BLEND)
@@ -347,9 +392,14 @@ class Renderer:
             # found two sheets: the ink's 9 taps run on the tiles along the crossings alone.
             framebuffer = sheets.framebuffer
             gate = self.programs["intersect_gate"]
-            self._set(gate, u_geometry=0, u_size=(float(size[0]), float(size[1])),
-                      u_sheet_gap=SHEET_GAP * gpu.radius, u_depth_scale=scale,
-                      u_min_angle=MIN_CROSSING)
+            self._set(
+                gate,
+                u_geometry=0,
+                u_size=(float(size[0]), float(size[1])),
+                u_sheet_gap=SHEET_GAP * gpu.radius,
+                u_depth_scale=scale,
+                u_min_angle=MIN_CROSSING,
+            )
             sheets.gate_framebuffer.use()
             ctx.viewport = (0, 0, *sheets.gate_size)
             self._empty["intersect_gate"].render(moderngl.TRIANGLES, vertices=3)
@@ -360,15 +410,23 @@ class Renderer:
             ctx.enable(moderngl.BLEND | moderngl.PROGRAM_POINT_SIZE)
             ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
             ctx.scissor = box
-            self._empty[key].render(moderngl.POINTS,
-                                    vertices=sheets.gate_size[0] * sheets.gate_size[1])
+            self._empty[key].render(
+                moderngl.POINTS, vertices=sheets.gate_size[0] * sheets.gate_size[1]
+            )
             ctx.disable(moderngl.PROGRAM_POINT_SIZE)
         ctx.scissor = None
         ctx.disable(moderngl.BLEND)
         ctx.enable(moderngl.DEPTH_TEST)
 
-    def draw_surfaces(self, gpu: GpuMesh, view: ViewState, size, depth_colour: bool = False,
-                      key: str | None = None, sheets: bool = False) -> None:
+    def draw_surfaces(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size,
+        depth_colour: bool = False,
+        key: str | None = None,
+        sheets: bool = False,
+    ) -> None:
         """The surface pass alone (depth test on, current framebuffer): also what the benchmark
         times against its CPU baseline and its pass-through floor (key="floor"). With
         ``sheets`` the current framebuffer has a second, float attachment for each pixel's sheet
@@ -380,10 +438,10 @@ class Renderer:
         prog = self.programs[key]
         self.set_pipeline(prog, view, size)
         if "u_lights" in prog:
-            lights = np.zeros((2, 3), dtype=np.float32)   # key and fill light; more are ignored
-            lights[:len(view.lights[:2])] = view.lights[:2]
+            lights = np.zeros((2, 3), dtype=np.float32)  # key and fill light; more are ignored
+            lights[: len(view.lights[:2])] = view.lights[:2]
             shaders.uniform(prog, "u_lights").write(lights.tobytes())
-        lit = key != "floor"   # the floor: one matrix and a flat colour, no clipping
+        lit = key != "floor"  # the floor: one matrix and a flat colour, no clipping
         if lit:
             w0 = view.offset[3]
             self._set(prog, u_w_range=(w0 - gpu.radius, w0 + gpu.radius))
@@ -391,8 +449,7 @@ class Renderer:
         ctx.polygon_offset = (1.0, 1.0)
         for i, surface in enumerate(gpu.surfaces):
             if lit:
-                self._set(prog, u_color=tuple(surface.color),
-                          u_sheet=SHEET_OFFSET * i * gpu.radius)
+                self._set(prog, u_color=tuple(surface.color), u_sheet=SHEET_OFFSET * i * gpu.radius)
             surface.vaos[key].render(moderngl.TRIANGLES)
         ctx.polygon_offset = (0.0, 0.0)
         self.clip_distances(False)
@@ -427,8 +484,9 @@ class Renderer:
 
     # ------------------------------------------------------------------ HUD
 
-    def notice(self, lines: list[str], size: tuple[int, int],
-               drift: tuple[float, float] = (0.0, 0.0)) -> None:
+    def notice(
+        self, lines: list[str], size: tuple[int, int], drift: tuple[float, float] = (0.0, 0.0)
+    ) -> None:
         """Lines of text centred on a dark screen, into the current framebuffer: what the kiosk
         shows when it has nothing else, so the screen says what is wrong instead of staying
         black. ``drift`` moves the text (burn-in care: it may stay up for weeks)."""
@@ -442,8 +500,9 @@ class Renderer:
         y = (height - step * len(lines)) / 2 + drift[1]
         for line in lines:
             x = (width - text_width(line, "sans", px)) / 2 + drift[0]
-            self._text(line, "sans", px, x, y, (0.85, 0.85, 0.82, 1.0),
-                       (float(width), float(height)))
+            self._text(
+                line, "sans", px, x, y, (0.85, 0.85, 0.82, 1.0), (float(width), float(height))
+            )
             y += step
         ctx.disable(moderngl.BLEND)
 
@@ -467,8 +526,13 @@ class Renderer:
         """Draw 2D capsules (a, b, rgba, width) given in pixels from the top-left."""
         if not items:
             return
-        rows = np.array([(ax, viewport[1] - ay, bx, viewport[1] - by, *rgba, width)
-                         for (ax, ay), (bx, by), rgba, width in items], dtype=np.float32)
+        rows = np.array(
+            [
+                (ax, viewport[1] - ay, bx, viewport[1] - by, *rgba, width)
+                for (ax, ay), (bx, by), rgba, width in items
+            ],
+            dtype=np.float32,
+        )
         data = rows.tobytes()
         if len(data) > self._overlay_buffer.size:
             self._overlay_buffer.orphan(len(data))
@@ -493,11 +557,11 @@ class Renderer:
         prog["u_viewport"] = viewport
         prog["u_texture_size"] = tuple(float(v) for v in texture_size)
         self.ctx.blend_func = BLEND_PREMULTIPLIED
-        self._glyph_vaos[program].render(moderngl.TRIANGLE_STRIP, vertices=4,
-                                         instances=len(rows))
+        self._glyph_vaos[program].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
 
-    def _glyph_rows(self, text: str, style: str, px: int, x: float, y: float, color,
-                    rows: list) -> tuple[int, int, int, int]:
+    def _glyph_rows(
+        self, text: str, style: str, px: int, x: float, y: float, color, rows: list
+    ) -> tuple[int, int, int, int]:
         """Instances for one line of text whose top-left corner is at (x, y); returns the box
         its glyph images cover, (x0, y0, x1, y1) in pixels (empty at (x, y) for no glyphs)."""
         x, y = round(x), round(y)
@@ -511,12 +575,20 @@ class Renderer:
 
     def _panel_row(self, x, y, w, h, color, rows: list) -> None:
         g = self.atlas.solid
-        rows.append((round(x), round(y), round(w), round(h), g.u + 0.5, g.v + 0.5, 1.0, 1.0,
-                     *color))
+        rows.append(
+            (round(x), round(y), round(w), round(h), g.u + 0.5, g.v + 0.5, 1.0, 1.0, *color)
+        )
 
-    def render_hud(self, gpu: GpuMesh, view: ViewState, hud: HudInfo, size,
-                   drift: tuple[float, float] = (0.0, 0.0), sizes=None,
-                   alpha: float = 1.0) -> None:
+    def render_hud(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        hud: HudInfo,
+        size,
+        drift: tuple[float, float] = (0.0, 0.0),
+        sizes=None,
+        alpha: float = 1.0,
+    ) -> None:
         """The HUD over the current framebuffer at its full resolution (exhibit.render.hud);
         ``sizes``: exhibit.render.layout.TextSizes (None: the defaults); ``alpha`` fades it."""
         self.hud.draw(gpu, view, hud, size, drift, sizes, alpha)

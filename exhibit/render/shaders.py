@@ -19,8 +19,11 @@ import moderngl
 log = logging.getLogger(__name__)
 
 VERSION = "#version 330 core"
-STAGES = {"vertex_shader": "VERTEX_SHADER", "geometry_shader": "GEOMETRY_SHADER",
-          "fragment_shader": "FRAGMENT_SHADER"}
+STAGES = {
+    "vertex_shader": "VERTEX_SHADER",
+    "geometry_shader": "GEOMETRY_SHADER",
+    "fragment_shader": "FRAGMENT_SHADER",
+}
 _INCLUDE = re.compile(r'^\s*#include\s+"([^"]+)"\s*$', re.MULTILINE)
 _COMMENT = re.compile(r"//[^\n]*|/\*.*?\*/", re.DOTALL)
 _UNIFORM = re.compile(r"\buniform\s+(?:(?:lowp|mediump|highp)\s+)?\w+\s+([^;{]+);")
@@ -66,9 +69,11 @@ def program(ctx: moderngl.Context, name: str, defines: tuple[str, ...] = ()) -> 
     for keyword, macro in STAGES.items():
         if macro in text:
             stages[keyword] = f"{VERSION}\n#define {macro}\n{extra}#line 1\n{text}"
-    prog = ctx.program(vertex_shader=stages.get("vertex_shader"),
-                       geometry_shader=stages.get("geometry_shader"),
-                       fragment_shader=stages.get("fragment_shader"))
+    prog = ctx.program(
+        vertex_shader=stages.get("vertex_shader"),
+        geometry_shader=stages.get("geometry_shader"),
+        fragment_shader=stages.get("fragment_shader"),
+    )
     prog.extra = {"file": name, "uniforms": declared_uniforms(name)}
     return prog
 
@@ -81,8 +86,10 @@ def uniform(prog: moderngl.Program, name: str) -> moderngl.Uniform:
     could be uniform blocks; the renderer's programs declare none)."""
     member = prog[name]
     if not isinstance(member, moderngl.Uniform):
-        raise UniformError(f"shader {(prog.extra or {}).get('file', '?')}: {name!r} is a "
-                           f"{type(member).__name__}, not a uniform")
+        raise UniformError(
+            f"shader {(prog.extra or {}).get('file', '?')}: {name!r} is a "
+            f"{type(member).__name__}, not a uniform"
+        )
     return member
 
 
@@ -96,13 +103,15 @@ def set_uniforms(prog: moderngl.Program, values: dict[str, Any]) -> None:
             if isinstance(value, bytes):
                 uniform(prog, name).write(value)
             else:
-                prog[name] = value   # Program.__setitem__: the member's .value
+                prog[name] = value  # Program.__setitem__: the member's .value
             continue
         info = prog.extra or {}
         if name in info.get("uniforms", ()):
             continue
-        message = (f"shader {info.get('file', '?')}: no uniform {name!r} is declared "
-                   f"(it declares {', '.join(sorted(info.get('uniforms', ()))) or 'none'})")
+        message = (
+            f"shader {info.get('file', '?')}: no uniform {name!r} is declared "
+            f"(it declares {', '.join(sorted(info.get('uniforms', ()))) or 'none'})"
+        )
         if os.environ.get(STRICT_ENV) == "1":
             raise UniformError(message)
         key = (str(info.get("file")), name)

@@ -16,8 +16,8 @@ def _gaussian(size: int = 11, sigma: float = 1.5) -> np.ndarray:
 def _filter(image: np.ndarray, kernel: np.ndarray) -> np.ndarray:
     """Separable 'valid' convolution along both axes."""
     k = len(kernel)
-    rows = sum(kernel[i] * image[i:image.shape[0] - k + 1 + i] for i in range(k))
-    return sum(kernel[i] * rows[:, i:rows.shape[1] - k + 1 + i] for i in range(k))
+    rows = sum(kernel[i] * image[i : image.shape[0] - k + 1 + i] for i in range(k))
+    return sum(kernel[i] * rows[:, i : rows.shape[1] - k + 1 + i] for i in range(k))
 
 
 def luma(image: np.ndarray) -> np.ndarray:
@@ -27,14 +27,15 @@ def luma(image: np.ndarray) -> np.ndarray:
     return image
 
 
-def ssim(a: np.ndarray, b: np.ndarray, data_range: float = 255.0,
-         mask: np.ndarray | None = None) -> float:
+def ssim(
+    a: np.ndarray, b: np.ndarray, data_range: float = 255.0, mask: np.ndarray | None = None
+) -> float:
     """Mean SSIM of two pictures of the same shape ((h, w) grey or (h, w, 3) RGB); with a
     boolean ``mask`` of that (h, w), the mean over the windows centred on its pixels only."""
     values = ssim_map(a, b, data_range)
     if mask is not None:
         values = values[_valid(mask)]
-    return float(values.mean()) if values.size else 1.0   # an empty mask: nothing differs
+    return float(values.mean()) if values.size else 1.0  # an empty mask: nothing differs
 
 
 def _valid(mask: np.ndarray) -> np.ndarray:

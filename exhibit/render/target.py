@@ -30,8 +30,15 @@ if TYPE_CHECKING:
     from exhibit.render.frame import FrameTimer
     from exhibit.render.offscreen import Headless
 
-__all__ = ["Key", "Focus", "CloseRequest", "InputEvent", "RenderTarget", "HeadlessTarget",
-           "MODIFIERS"]
+__all__ = [
+    "Key",
+    "Focus",
+    "CloseRequest",
+    "InputEvent",
+    "RenderTarget",
+    "HeadlessTarget",
+    "MODIFIERS",
+]
 
 #: Modifier names as keys and quit combinations use them.
 MODIFIERS = ("ctrl", "alt", "shift", "super")
@@ -79,8 +86,15 @@ class RenderTarget(Protocol):
     @property
     def should_close(self) -> bool: ...
 
-    def draw(self, gpu, view, options: RenderOptions = RenderOptions(), hud=None,
-             fade: float = 0.0, inset=None) -> None: ...
+    def draw(
+        self,
+        gpu,
+        view,
+        options: RenderOptions = RenderOptions(),
+        hud=None,
+        fade: float = 0.0,
+        inset=None,
+    ) -> None: ...
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None: ...
 
@@ -103,8 +117,7 @@ class HeadlessTarget:
     as a window system delivers what arrived between two frames. ``headless`` is an
     exhibit.render.Headless; ``image`` is the latest frame (top row first)."""
 
-    def __init__(self, headless: Headless, size: tuple[int, int],
-                 refresh_hz: float | None = 60.0):
+    def __init__(self, headless: Headless, size: tuple[int, int], refresh_hz: float | None = 60.0):
         self.headless = headless
         self.ctx, self.renderer = headless.ctx, headless.renderer
         # current from the start, as a window's context is: the kiosk uploads its meshes before
@@ -140,18 +153,35 @@ class HeadlessTarget:
         self.headless.activate()
         return self.headless.target(self._size, 0)
 
-    def draw(self, gpu, view, options: RenderOptions = RenderOptions(), hud=None,
-             fade: float = 0.0, inset=None) -> None:
+    def draw(
+        self,
+        gpu,
+        view,
+        options: RenderOptions = RenderOptions(),
+        hud=None,
+        fade: float = 0.0,
+        inset=None,
+    ) -> None:
         target = self._target()
         if options.quality is None:
             self.renderer.render(gpu, view, target.framebuffer, options, hud)
         else:
             if self._timer is None:
                 from exhibit.render.frame import FrameTimer
+
                 self._timer = FrameTimer(self.ctx)
             self._timer.begin()  # as the window measures, for the frame governor
-            self.headless.pipeline.draw(gpu, view, target.framebuffer, self._size, options, hud,
-                                        options.quality, fade, inset)
+            self.headless.pipeline.draw(
+                gpu,
+                view,
+                target.framebuffer,
+                self._size,
+                options,
+                hud,
+                options.quality,
+                fade,
+                inset,
+            )
             self.frame_ms = self._timer.end()
         self.image = target.read()
         self.drawn = (gpu, view, options, hud)
@@ -168,8 +198,17 @@ class HeadlessTarget:
         if options.quality is None:
             self.renderer.render(gpu, view, target.framebuffer, options, hud)
         else:
-            self.headless.pipeline.draw(gpu, view, target.framebuffer, self._size, options, hud,
-                                        options.quality, fade, inset)
+            self.headless.pipeline.draw(
+                gpu,
+                view,
+                target.framebuffer,
+                self._size,
+                options,
+                hud,
+                options.quality,
+                fade,
+                inset,
+            )
         return target.read()
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:

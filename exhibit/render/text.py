@@ -29,9 +29,10 @@ def font(style: str, size: int) -> ImageFont.FreeTypeFont:
         if path.exists():
             return ImageFont.truetype(str(path), size)
     default = ImageFont.load_default(size)
-    if not isinstance(default, ImageFont.FreeTypeFont):   # a Pillow built without FreeType
-        raise RenderUnavailable("no scalable font: install fonts-dejavu-core, or a Pillow with "
-                                "FreeType")
+    if not isinstance(default, ImageFont.FreeTypeFont):  # a Pillow built without FreeType
+        raise RenderUnavailable(
+            "no scalable font: install fonts-dejavu-core, or a Pillow with FreeType"
+        )
     return default
 
 
@@ -86,7 +87,7 @@ def split_word(word: str, style: str, size: int, width: float) -> list[str]:
         return [word]
     pieces = []
     while word:
-        low, high = 1, len(word)   # the longest prefix that fits, by bisection
+        low, high = 1, len(word)  # the longest prefix that fits, by bisection
         while low < high:
             middle = (low + high + 1) // 2
             if text_width(word[:middle], style, size) <= width:
@@ -111,12 +112,11 @@ def ellipsize(text: str, style: str, size: int, width: float) -> str:
     return text + "…"
 
 
-def wrap(text: str, style: str, size: int, width: float, break_words: bool = False
-         ) -> list[str]:
+def wrap(text: str, style: str, size: int, width: float, break_words: bool = False) -> list[str]:
     """Greedy word wrap to a pixel width, never starting a line with a dash; with
     ``break_words`` a word wider than the width is broken by characters (else it overhangs)."""
     lines, current = [], ""
-    for unit in (fitted_units(text, style, size, width) if break_words else units(text)):
+    for unit in fitted_units(text, style, size, width) if break_words else units(text):
         trial = f"{current} {unit}".strip()
         if current and text_width(trial, style, size) > width:
             lines.append(current)
@@ -128,8 +128,9 @@ def wrap(text: str, style: str, size: int, width: float, break_words: bool = Fal
     return lines
 
 
-def wrap_balanced(text: str, style: str, size: int, width: float, break_words: bool = False
-                  ) -> list[str]:
+def wrap_balanced(
+    text: str, style: str, size: int, width: float, break_words: bool = False
+) -> list[str]:
     """Word wrap to a pixel width in as few lines as greedy wrapping needs, with the lines as
     even as possible and never one word alone on the last line (an orphan reads as an
     afterthought, and a ragged panel wastes the screen the picture needs).
@@ -199,8 +200,10 @@ class TextCache:
 
 # ---------------------------------------------------------------------- cached blocks and glyphs
 
-def block_image(lines: list[tuple[str, str, int, tuple]], pad: int,
-                panel: tuple[float, float, float, float]) -> np.ndarray:
+
+def block_image(
+    lines: list[tuple[str, str, int, tuple]], pad: int, panel: tuple[float, float, float, float]
+) -> np.ndarray:
     """A text panel as one premultiplied RGBA image (h, w, 4) uint8, top row first: the panel
     colour under every line's coverage in its own colour, composited exactly as drawing the panel
     and then each line with "over" blending would. ``lines``: (text, style, size, rgba)."""
@@ -216,8 +219,9 @@ def block_image(lines: list[tuple[str, str, int, tuple]], pad: int,
         w = min(w, width - pad)
         cover = cover[:, :w]
         region = (slice(y, y + h), slice(pad, pad + w))
-        color[region] = (np.asarray(rgba[:3], dtype=np.float32) * cover[..., None]
-                         + color[region] * (1.0 - cover[..., None]))
+        color[region] = np.asarray(rgba[:3], dtype=np.float32) * cover[..., None] + color[
+            region
+        ] * (1.0 - cover[..., None])
         alpha[region] = cover + alpha[region] * (1.0 - cover)
         y += line_height(style, px)
     out = np.concatenate([color, alpha[..., None]], axis=-1)
@@ -287,8 +291,11 @@ class GlyphAtlas:
             self.resets += 1
             self._clear()
         glyph = Glyph(self._x, self._y, width, height, left)
-        self.texture.write(np.ascontiguousarray(np.asarray(image)).tobytes(),
-                           viewport=(glyph.u, glyph.v, width, height), alignment=1)
+        self.texture.write(
+            np.ascontiguousarray(np.asarray(image)).tobytes(),
+            viewport=(glyph.u, glyph.v, width, height),
+            alignment=1,
+        )
         self._x += width + 1
         self._shelf = max(self._shelf, height)
         self._glyphs[key] = glyph

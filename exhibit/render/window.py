@@ -1,6 +1,7 @@
 """The window target: a GLFW window (fullscreen on the kiosk) whose context gets the same Renderer
 as the headless target, behind the interface of exhibit.render.target (GLFW's key codes and
-callbacks become toolkit-neutral Key, Focus and CloseRequest events here, and nowhere else). One process uses one kind of target: with Mesa, once EGL (the headless
+callbacks become toolkit-neutral Key, Focus and CloseRequest events here, and nowhere else).
+One process uses one kind of target: with Mesa, once EGL (the headless
 target) has been initialised, GLX refuses to make a window context current (BadAccess). The
 kiosk owns the loop, and so does the staff viewer (`exhibit render SCENE --window`,
 exhibit.commands._viewer), with the kiosk's own keys.
@@ -57,8 +58,9 @@ class GlfwErrors:
                     self._seen[message] = [0, now]
                     log.warning("GLFW error %s", message)
             elif now - seen[1] >= self.every:
-                log.warning("GLFW error %s (%d more times in %.0f s)", message, seen[0] + 1,
-                            now - seen[1])
+                log.warning(
+                    "GLFW error %s (%d more times in %.0f s)", message, seen[0] + 1, now - seen[1]
+                )
                 seen[:] = [0, now]
             else:
                 seen[0] += 1
@@ -69,9 +71,17 @@ class GlfwErrors:
 class Window:
     """A GLFW window with an OpenGL 3.3 core context and a Renderer on it."""
 
-    def __init__(self, size: tuple[int, int] = (1280, 720), title: str = "exhibit",
-                 fullscreen: bool = False, samples: int = 4, visible: bool = True,
-                 vsync: bool = True, monitor: int = 0, msaa_samples: int = 4):
+    def __init__(
+        self,
+        size: tuple[int, int] = (1280, 720),
+        title: str = "exhibit",
+        fullscreen: bool = False,
+        samples: int = 4,
+        visible: bool = True,
+        vsync: bool = True,
+        monitor: int = 0,
+        msaa_samples: int = 4,
+    ):
         """``samples``: the window's own multisampling (the direct path); ``msaa_samples``:
         the offscreen multisampling of kiosk frames at an "msaa" quality level."""
         import glfw
@@ -82,8 +92,10 @@ class Window:
         self.errors = GlfwErrors()
         glfw.set_error_callback(self.errors)
         if not glfw.init():
-            raise RenderUnavailable(f"cannot start GLFW ({self.errors.last or 'no display?'}); "
-                                    "is DISPLAY set? Or use the headless target")
+            raise RenderUnavailable(
+                f"cannot start GLFW ({self.errors.last or 'no display?'}); "
+                "is DISPLAY set? Or use the headless target"
+            )
         glfw.window_hint(glfw.CONTEXT_VERSION_MAJOR, REQUIRED_VERSION // 100)
         glfw.window_hint(glfw.CONTEXT_VERSION_MINOR, REQUIRED_VERSION % 100 // 10)
         glfw.window_hint(glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE)
@@ -132,8 +144,12 @@ class Window:
 
     def _install_callbacks(self) -> None:
         glfw, handle = self._glfw, self._window
-        modifiers = (("ctrl", glfw.MOD_CONTROL), ("alt", glfw.MOD_ALT),
-                     ("shift", glfw.MOD_SHIFT), ("super", glfw.MOD_SUPER))
+        modifiers = (
+            ("ctrl", glfw.MOD_CONTROL),
+            ("alt", glfw.MOD_ALT),
+            ("shift", glfw.MOD_SHIFT),
+            ("super", glfw.MOD_SUPER),
+        )
 
         def on_key(_window, key, _scancode, action, mods):
             name = key_name(glfw, key)
@@ -180,13 +196,21 @@ class Window:
 
     def _kiosk_pipeline(self) -> FramePipeline:
         from exhibit.render.frame import FramePipeline, FrameTimer
+
         if self._pipeline is None:
             self._pipeline = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
             self._timer = FrameTimer(self.ctx)
         return self._pipeline
 
-    def draw(self, gpu, view, options: RenderOptions = RenderOptions(),
-             hud: HudInfo | None = None, fade: float = 0.0, inset=None) -> None:
+    def draw(
+        self,
+        gpu,
+        view,
+        options: RenderOptions = RenderOptions(),
+        hud: HudInfo | None = None,
+        fade: float = 0.0,
+        inset=None,
+    ) -> None:
         """Render one frame into the back buffer (call swap() to show it). With
         ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
         timed into ``frame_ms``, with the captured frame laid over it at opacity ``fade``
@@ -197,10 +221,11 @@ class Window:
             return
         pipeline = self._kiosk_pipeline()
         timer = self._timer
-        assert timer is not None   # made with the pipeline
+        assert timer is not None  # made with the pipeline
         timer.begin()
-        pipeline.draw(gpu, view, self.ctx.screen, self.size, options, hud, options.quality,
-                      fade, inset)
+        pipeline.draw(
+            gpu, view, self.ctx.screen, self.size, options, hud, options.quality, fade, inset
+        )
         self.frame_ms = timer.end()
 
     def capture(self, gpu, view, options: RenderOptions, hud: HudInfo | None = None) -> None:

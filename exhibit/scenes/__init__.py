@@ -39,8 +39,11 @@ def get(name: str) -> Scene:
     try:
         return _REGISTRY[name]
     except KeyError:
-        failed = [message.replace("\n", "; ") for path, message in LOAD_ERRORS
-                  if _names_scene(Path(path), name)]
+        failed = [
+            message.replace("\n", "; ")
+            for path, message in LOAD_ERRORS
+            if _names_scene(Path(path), name)
+        ]
         if failed:
             raise ExhibitError(f"scene {name!r} failed to load: {'; '.join(failed)}") from None
         raise ExhibitError(f"no scene named {name!r} (scenes: {', '.join(names())})") from None
@@ -91,8 +94,15 @@ def scene_dirs() -> list[Path]:
     return [BUILTIN_SCENE_DIR] + extra
 
 
-_BUILTIN = (hopf.SCENE, offsets.PARABOLA, offsets.CUSP, offsets.TRACED, collision.SCENE,
-            gallery.CLIFFORD, gallery.COMPLEX_SQUARE)
+_BUILTIN = (
+    hopf.SCENE,
+    offsets.PARABOLA,
+    offsets.CUSP,
+    offsets.TRACED,
+    collision.SCENE,
+    gallery.CLIFFORD,
+    gallery.COMPLEX_SQUARE,
+)
 _REGISTRY.update((scene.name, scene) for scene in _BUILTIN)
 _loaded = False
 
@@ -123,14 +133,16 @@ def load(reload: bool = False) -> tuple[dict[str, Scene], list[tuple[str, str]]]
             try:
                 scene = load_scene_file(path)
                 if scene.name in _REGISTRY:
-                    raise ExhibitError(f"{path}: name: a scene called {scene.name!r} exists "
-                                       "already")
+                    raise ExhibitError(
+                        f"{path}: name: a scene called {scene.name!r} exists already"
+                    )
                 register(scene)
             except ExhibitError as exc:
                 LOAD_ERRORS.append((str(path), str(exc)))
             except Exception as exc:  # noqa: BLE001 - one curator's file never stops the rest
-                LOAD_ERRORS.append((str(path), f"{path}: cannot load: {type(exc).__name__}: "
-                                               f"{str(exc)[:200]}"))
+                LOAD_ERRORS.append(
+                    (str(path), f"{path}: cannot load: {type(exc).__name__}: {str(exc)[:200]}")
+                )
     checked.save()
     _loaded = True
     return dict(_REGISTRY), list(LOAD_ERRORS)
@@ -142,5 +154,17 @@ def problems() -> list[tuple[str, str]]:
     return list(LOAD_ERRORS)
 
 
-__all__ = ["FIGURES", "LOAD_ERRORS", "Parameter", "Preset", "Scene", "figure", "get", "load",
-           "names", "problems", "register", "load_scene_file"]
+__all__ = [
+    "FIGURES",
+    "LOAD_ERRORS",
+    "Parameter",
+    "Preset",
+    "Scene",
+    "figure",
+    "get",
+    "load",
+    "names",
+    "problems",
+    "register",
+    "load_scene_file",
+]

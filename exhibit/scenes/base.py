@@ -25,8 +25,14 @@ class Parameter:
     def to_json(self) -> dict:
         def finite(v):
             return v if math.isfinite(v) else None
-        return {"name": self.name, "default": self.default, "minimum": finite(self.minimum),
-                "maximum": finite(self.maximum), "help": self.help}
+
+        return {
+            "name": self.name,
+            "default": self.default,
+            "minimum": finite(self.minimum),
+            "maximum": finite(self.maximum),
+            "help": self.help,
+        }
 
 
 @dataclass(frozen=True)
@@ -51,7 +57,8 @@ class Scene:
     build_mesh: Callable[[dict, int], Mesh4D]
     view: ViewState = field(default_factory=ViewState)
     presets: tuple[Preset, ...] = ()
-    #: Names of the four coordinates (e.g. x, y, u, v for the offset pipes; x, y, z, t for collisions).
+    #: Names of the four coordinates (e.g. x, y, u, v for the offset pipes; x, y, z, t for
+    #: collisions).
     axes: tuple[str, str, str, str] = ("x", "y", "z", "w")
     default_resolution: int = 64
     #: Changes whenever the scene's definition changes outside the code (e.g. its TOML file's
@@ -79,19 +86,23 @@ class Scene:
         for key, raw in (overrides or {}).items():
             if key not in known:
                 names = ", ".join(known) or "none"
-                raise ExhibitError(f"scene {self.name!r} has no parameter {key!r} "
-                                   f"(parameters: {names})")
+                raise ExhibitError(
+                    f"scene {self.name!r} has no parameter {key!r} (parameters: {names})"
+                )
             try:
                 if isinstance(raw, bool):  # true is not 1.0 to a curator
                     raise TypeError
                 value = float(raw)
             except (TypeError, ValueError, OverflowError):
-                raise ExhibitError(f"parameter {key}={raw!r} of scene {self.name!r} "
-                                   "is not a number") from None
+                raise ExhibitError(
+                    f"parameter {key}={raw!r} of scene {self.name!r} is not a number"
+                ) from None
             p = known[key]
             if not (math.isfinite(value) and p.minimum <= value <= p.maximum):
-                raise ExhibitError(f"parameter {key}={raw} of scene {self.name!r} must lie in "
-                                   f"[{p.minimum}, {p.maximum}]")
+                raise ExhibitError(
+                    f"parameter {key}={raw} of scene {self.name!r} must lie in "
+                    f"[{p.minimum}, {p.maximum}]"
+                )
             values[key] = value
         reason = self.check(values) if self.check is not None else None
         if reason:
@@ -105,19 +116,25 @@ class Scene:
         names = ", ".join(p.name for p in self.presets) or "none"
         raise ExhibitError(f"scene {self.name!r} has no preset {name!r} (presets: {names})")
 
-    def build(self, overrides: Mapping[str, object] | None = None,
-              resolution: int | None = None) -> Mesh4D:
+    def build(
+        self, overrides: Mapping[str, object] | None = None, resolution: int | None = None
+    ) -> Mesh4D:
         resolution = int(resolution or self.default_resolution)
         if not MIN_RESOLUTION <= resolution <= MAX_RESOLUTION:
-            raise ExhibitError(f"resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], "
-                               f"got {resolution}")
+            raise ExhibitError(
+                f"resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], got {resolution}"
+            )
         return self.build_mesh(self.resolve(overrides), resolution)
 
     def to_json(self) -> dict:
-        return {"name": self.name, "title": self.title, "caption": self.caption,
-                "axes": list(self.axes),
-                "parameters": [p.to_json() for p in self.parameters],
-                "presets": [p.name for p in self.presets]}
+        return {
+            "name": self.name,
+            "title": self.title,
+            "caption": self.caption,
+            "axes": list(self.axes),
+            "parameters": [p.to_json() for p in self.parameters],
+            "presets": [p.name for p in self.presets],
+        }
 
 
 def parse_overrides(items: list[str] | None) -> dict[str, str]:
@@ -141,8 +158,9 @@ def parse_resolution(text) -> int | None:
     except (TypeError, ValueError):
         raise ExhibitError(f"--resolution must be a whole number, got {text!r}") from None
     if not MIN_RESOLUTION <= value <= MAX_RESOLUTION:
-        raise ExhibitError(f"--resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], "
-                           f"got {value}")
+        raise ExhibitError(
+            f"--resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], got {value}"
+        )
     return value
 
 
@@ -160,6 +178,7 @@ def build_from_arguments(scene: "Scene", args) -> Mesh4D:
 def add_scene_arguments(parser) -> None:
     """The scene, --param and --resolution options every scene command shares."""
     parser.add_argument("scene", help="scene name (see `exhibit scenes`)")
-    parser.add_argument("--param", action="append", default=[], metavar="K=V",
-                        help="scene parameter (repeatable)")
+    parser.add_argument(
+        "--param", action="append", default=[], metavar="K=V", help="scene parameter (repeatable)"
+    )
     parser.add_argument("--resolution", metavar="N", help="mesh resolution (default: the scene's)")

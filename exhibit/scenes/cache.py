@@ -57,15 +57,25 @@ def code_version() -> str:
 
 
 def cache_key(scene: Scene, params: Mapping[str, float], resolution: int) -> str:
-    description = json.dumps({"scene": scene.name, "params": dict(sorted(params.items())),
-                              "resolution": resolution, "scene_version": scene.version,
-                              "code": code_version()}, sort_keys=True)
+    description = json.dumps(
+        {
+            "scene": scene.name,
+            "params": dict(sorted(params.items())),
+            "resolution": resolution,
+            "scene_version": scene.version,
+            "code": code_version(),
+        },
+        sort_keys=True,
+    )
     return hashlib.sha256(description.encode()).hexdigest()[:24]
 
 
-def build_cached(scene: Scene, overrides: Mapping[str, object] | None = None,
-                 resolution: int | None = None, directory: Path | None = None
-                 ) -> tuple[Mesh4D, bool]:
+def build_cached(
+    scene: Scene,
+    overrides: Mapping[str, object] | None = None,
+    resolution: int | None = None,
+    directory: Path | None = None,
+) -> tuple[Mesh4D, bool]:
     """The scene's mesh from the cache if present and valid, else built and stored.
 
     Returns (mesh, hit). A bad entry or a cache that cannot be written (read-only disk) only
@@ -135,7 +145,7 @@ def store(folder: Path, path: Path, data: bytes) -> None:
         try:
             view = memoryview(data)
             while view:
-                view = view[os.write(fd, view):]
+                view = view[os.write(fd, view) :]
             os.fsync(fd)  # the rename must not reach the disk before the data (power cuts)
         finally:
             os.close(fd)
@@ -155,8 +165,11 @@ def _sweep(folder: Path) -> None:
     with os.scandir(folder) as entries:
         for entry in entries:
             try:
-                if (entry.name.endswith(".tmp") and not entry.is_dir(follow_symlinks=False)
-                        and entry.stat(follow_symlinks=False).st_mtime < cutoff):
+                if (
+                    entry.name.endswith(".tmp")
+                    and not entry.is_dir(follow_symlinks=False)
+                    and entry.stat(follow_symlinks=False).st_mtime < cutoff
+                ):
                     os.unlink(entry.path)
             except OSError:
                 pass  # gone already, or not ours to remove

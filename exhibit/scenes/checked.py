@@ -28,8 +28,9 @@ _new: set[str] = set()
 
 
 def _key(text: str, variables: Sequence[str], parameters: Mapping[str, float], box) -> str:
-    description = json.dumps([text, list(variables), sorted(parameters.items()),
-                              [list(b) for b in box], code_version()])
+    description = json.dumps(
+        [text, list(variables), sorted(parameters.items()), [list(b) for b in box], code_version()]
+    )
     return hashlib.sha256(description.encode()).hexdigest()
 
 

@@ -28,8 +28,10 @@ SURFACE_COLOR, SILHOUETTE_COLOR, WIRE_COLOR = palette.ORANGE, palette.BLUE, pale
 def check(params: dict) -> str | None:
     """Why these parameters give no collision surface (None: they give one)."""
     if params["vc"] == 0 and params["vs"] == 0:
-        return ("vc and vs cannot both be 0: with no motion the cylinder and sphere never "
-                "move, so there is no collision surface")
+        return (
+            "vc and vs cannot both be 0: with no motion the cylinder and sphere never "
+            "move, so there is no collision surface"
+        )
     return None
 
 
@@ -66,8 +68,12 @@ def refine_colliding_point(part, start: np.ndarray) -> np.ndarray | None:
 
     def residual(z):
         p = z[None, :4]
-        return np.concatenate([z[4] * f.gradient(p)[0] + z[5] * g.gradient(p)[0] - [0, 0, 0, 1],
-                               [f.value(p)[0], g.value(p)[0]]])
+        return np.concatenate(
+            [
+                z[4] * f.gradient(p)[0] + z[5] * g.gradient(p)[0] - [0, 0, 0, 1],
+                [f.value(p)[0], g.value(p)[0]],
+            ]
+        )
 
     for _ in range(50):
         r = residual(x)
@@ -104,8 +110,12 @@ def cylinder_at_rest(params: dict, length: float) -> list[Curve]:
         ring = np.stack([np.full_like(phi, x), rc * np.cos(phi), rc * np.sin(phi), 0 * phi], -1)
         curves.append(Curve(f"cylinder ring {i + 1}", ring, wire, closed=True))
     for i, angle in enumerate(np.linspace(0, 2 * math.pi, 12, endpoint=False)):
-        line = np.array([[-length, rc * math.cos(angle), rc * math.sin(angle), 0.0],
-                         [length, rc * math.cos(angle), rc * math.sin(angle), 0.0]])
+        line = np.array(
+            [
+                [-length, rc * math.cos(angle), rc * math.sin(angle), 0.0],
+                [length, rc * math.cos(angle), rc * math.sin(angle), 0.0],
+            ]
+        )
         curves.append(Curve(f"cylinder line {i + 1}", line, wire))
     return curves
 
@@ -124,20 +134,43 @@ def world_at(params: dict, c: float) -> Mesh4D:
         pipe.append(Curve(curve.name, points, curve.material, curve.closed))
 
     def ball(theta, phi):
-        return np.stack([rs * np.sin(theta) * np.cos(phi), rs * np.sin(theta) * np.sin(phi),
-                         -vs * c + rs * np.cos(theta), np.full_like(theta, c)], axis=-1)
+        return np.stack(
+            [
+                rs * np.sin(theta) * np.cos(phi),
+                rs * np.sin(theta) * np.sin(phi),
+                -vs * c + rs * np.cos(theta),
+                np.full_like(theta, c),
+            ],
+            axis=-1,
+        )
 
     def tangents(theta, phi):
         zero = np.zeros_like(theta)
-        d_theta = np.stack([rs * np.cos(theta) * np.cos(phi), rs * np.cos(theta) * np.sin(phi),
-                            -rs * np.sin(theta), zero], axis=-1)
-        d_phi = np.stack([-rs * np.sin(theta) * np.sin(phi), rs * np.sin(theta) * np.cos(phi),
-                          zero, zero], axis=-1)
+        d_theta = np.stack(
+            [
+                rs * np.cos(theta) * np.cos(phi),
+                rs * np.cos(theta) * np.sin(phi),
+                -rs * np.sin(theta),
+                zero,
+            ],
+            axis=-1,
+        )
+        d_phi = np.stack(
+            [-rs * np.sin(theta) * np.sin(phi), rs * np.sin(theta) * np.cos(phi), zero, zero],
+            axis=-1,
+        )
         return d_theta, d_phi
 
-    sphere = tessellate("ball", ball, Interval(1e-3, math.pi - 1e-3),
-                        Interval(0.0, 2 * math.pi, periodic=True), (24, 48), tangents,
-                        Material(color=(0.75, 0.78, 0.85)), adaptive=False)
+    sphere = tessellate(
+        "ball",
+        ball,
+        Interval(1e-3, math.pi - 1e-3),
+        Interval(0.0, 2 * math.pi, periodic=True),
+        (24, 48),
+        tangents,
+        Material(color=(0.75, 0.78, 0.85)),
+        adaptive=False,
+    )
     return Mesh4D([sphere], pipe + touching_curves(params, c))
 
 
@@ -172,8 +205,15 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
         return rs * rs - y * y - (z + vs * c) ** 2
 
     def point(phi, sign):
-        return np.stack([sign * np.sqrt(np.maximum(g(phi), 0.0)), vc * c + rc * np.cos(phi),
-                         rc * np.sin(phi), np.full_like(phi, c)], axis=-1)
+        return np.stack(
+            [
+                sign * np.sqrt(np.maximum(g(phi), 0.0)),
+                vc * c + rc * np.cos(phi),
+                rc * np.sin(phi),
+                np.full_like(phi, c),
+            ],
+            axis=-1,
+        )
 
     phi = np.linspace(0.0, 2 * math.pi, samples, endpoint=False)
     values = g(phi)
@@ -185,8 +225,10 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
     if not inside.any():
         return []
     if inside.all():
-        return [Curve(f"slice {i + 1}" if i else "slice", point(phi, sign), SLICE_MATERIAL, True)
-                for i, sign in enumerate((1.0, -1.0))]
+        return [
+            Curve(f"slice {i + 1}" if i else "slice", point(phi, sign), SLICE_MATERIAL, True)
+            for i, sign in enumerate((1.0, -1.0))
+        ]
     curves: list[Curve] = []
     start = int(np.argmin(inside))  # an index outside: arcs do not wrap past it
     order = np.roll(np.arange(samples), -start)
@@ -202,30 +244,43 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
         a, b = phi[order[i]], phi[order[j]]
         # the arc's ends, where g crosses 0 between the last sample outside and the first in
         end_a, end_b = _zero(g, a - step, a), _zero(g, b + step, b)
-        arc = np.unwrap(np.concatenate([[end_a], phi[order[i:j + 1]], [end_b]]))
+        arc = np.unwrap(np.concatenate([[end_a], phi[order[i : j + 1]], [end_b]]))
         loop = np.concatenate([point(arc, 1.0), point(arc[-2:0:-1], -1.0)])
-        curves.append(Curve(f"slice {len(curves) + 1}" if curves else "slice", loop,
-                            SLICE_MATERIAL, True))
+        curves.append(
+            Curve(f"slice {len(curves) + 1}" if curves else "slice", loop, SLICE_MATERIAL, True)
+        )
         i = j + 1
     return curves
 
 
 def build_part(params: dict, resolution: int, progress=None):
     lo, hi = box(params)
-    return mesh_implicit("collision surface", CYLINDER, SPHERE, AXES, params, lo, hi, resolution,
-                         Material(color=SURFACE_COLOR), progress)
+    return mesh_implicit(
+        "collision surface",
+        CYLINDER,
+        SPHERE,
+        AXES,
+        params,
+        lo,
+        hi,
+        resolution,
+        Material(color=SURFACE_COLOR),
+        progress,
+    )
 
 
 def build(params: dict, resolution: int) -> Mesh4D:
     part = build_part(params, resolution)
     mesh = Mesh4D([part.surface])
-    mesh.curves += fixed_silhouette(part, (0, 1), "silhouette along x and y",
-                                    Material(color=SILHOUETTE_COLOR, line_width=3.0))
+    mesh.curves += fixed_silhouette(
+        part, (0, 1), "silhouette along x and y", Material(color=SILHOUETTE_COLOR, line_width=3.0)
+    )
     mesh.curves += cylinder_at_rest(params, 1.3 * max(params["rs"], params["rc"]))
     point = colliding_point(part)
     if point is not None:
-        mesh.markers.append(Marker("initial colliding point", point,
-                                   label=f"first contact, t = {point[3]:.3f}"))
+        mesh.markers.append(
+            Marker("initial colliding point", point, label=f"first contact, t = {point[3]:.3f}")
+        )
     return mesh
 
 
@@ -233,8 +288,14 @@ def _view(**changes) -> ViewState:
     # "The sensor's position is just a little off the t axis": θ2, θ3 tilt it slightly. The eye
     # looks down from above the pipe, rolled (twist = π) so that z points up on the screen: the
     # ball moves along -z, so it falls on screen, in the inset (which keeps this eye) too.
-    base = ViewState(angles=(0.0, -0.12, -0.1, 0.0, 0.0, 0.0), eye_azimuth=0.6,
-                     eye_incidence=-1.15, half_height=2.0, eye_r=1 / 10, twist=math.pi)
+    base = ViewState(
+        angles=(0.0, -0.12, -0.1, 0.0, 0.0, 0.0),
+        eye_azimuth=0.6,
+        eye_incidence=-1.15,
+        half_height=2.0,
+        eye_r=1 / 10,
+        twist=math.pi,
+    )
     return base.replace(**changes)
 
 
@@ -247,9 +308,11 @@ FIGURE_PARAMS = {
 SCENE = Scene(
     name="collision",
     title="When a ball meets a pipe",
-    caption=("A ball falls through a pipe. Stack every moment of the motion along a fourth "
-             "direction, time, and the places where they touch form this surface. Its earliest "
-             "point, marked, is the very first touch."),
+    caption=(
+        "A ball falls through a pipe. Stack every moment of the motion along a fourth "
+        "direction, time, and the places where they touch form this surface. Its earliest "
+        "point, marked, is the very first touch."
+    ),
     parameters=(
         Parameter("rc", 1.0, 0.1, 5.0, "cylinder radius"),
         Parameter("rs", 1.2, 0.1, 5.0, "sphere radius"),
@@ -258,11 +321,14 @@ SCENE = Scene(
     ),
     build_mesh=build,
     view=_view(),
-    presets=tuple(Preset(f"figure-{n}", _view(), params, caption)
-                  for n, params, caption in (
-                      (15, FIGURE_PARAMS[15], "Equal radii, only the sphere moves."),
-                      (16, FIGURE_PARAMS[16], "A smaller sphere: two separate pieces."),
-                      (17, FIGURE_PARAMS[17], "A larger sphere: one piece with a hole."))),
+    presets=tuple(
+        Preset(f"figure-{n}", _view(), params, caption)
+        for n, params, caption in (
+            (15, FIGURE_PARAMS[15], "Equal radii, only the sphere moves."),
+            (16, FIGURE_PARAMS[16], "A smaller sphere: two separate pieces."),
+            (17, FIGURE_PARAMS[17], "A larger sphere: one piece with a hole."),
+        )
+    ),
     axes=AXES,
     default_resolution=48,
     slice_axis=3,

@@ -32,8 +32,12 @@ SAME = 15.0
 #: How a lit surface looks at half light (lighting.glsl: 0.22 + 0.78 x diffuse).
 MID_TONE = 0.22 + 0.78 * 0.5
 #: The visions checked, with colorspacious' name for each deficiency (None: normal vision).
-VISIONS = {"normal vision": None, "protanopia": "protanomaly",
-           "deuteranopia": "deuteranomaly", "tritanopia": "tritanomaly"}
+VISIONS = {
+    "normal vision": None,
+    "protanopia": "protanomaly",
+    "deuteranopia": "deuteranomaly",
+    "tritanopia": "tritanomaly",
+}
 #: Resolution at which a scene is built to read its colours (its materials, not its shape).
 PROBE_RESOLUTION = 6
 
@@ -64,8 +68,11 @@ class Clash:
     def describe(self) -> str:
         def show(p: Part) -> str:
             return f"{p.name!r} {[round(c, 3) for c in p.color]}"
-        return (f"{show(self.a)} and {show(self.b)} are ΔE {self.delta_e:.1f} apart under "
-                f"{self.vision} (at least {LIMIT:g} is needed to tell them apart)")
+
+        return (
+            f"{show(self.a)} and {show(self.b)} are ΔE {self.delta_e:.1f} apart under "
+            f"{self.vision} (at least {LIMIT:g} is needed to tell them apart)"
+        )
 
 
 def luminance(rgb):
@@ -110,8 +117,7 @@ def delta_e(a: Part, b: Part, vision: str = "normal vision") -> float:
     same light, a line against a surface at every light."""
     deficiency = VISIONS[vision]
     ta, tb = a.tones(), b.tones()
-    pairs = list(zip(ta, tb)) if a.kind == b.kind == "surface" else list(
-        itertools.product(ta, tb))
+    pairs = list(zip(ta, tb)) if a.kind == b.kind == "surface" else list(itertools.product(ta, tb))
     ua = _ucs(np.array([p for p, _ in pairs]), deficiency)
     ub = _ucs(np.array([q for _, q in pairs]), deficiency)
     return float(np.min(np.linalg.norm(ua - ub, axis=-1)))

@@ -24,15 +24,31 @@ def _clifford(params: dict, resolution: int) -> Mesh4D:
 
     def tangents(a, b):
         zero = np.zeros_like(a)
-        return (r * np.stack([-np.sin(a), np.cos(a), zero, zero], -1),
-                r * np.stack([zero, zero, -np.sin(b), np.cos(b)], -1))
+        return (
+            r * np.stack([-np.sin(a), np.cos(a), zero, zero], -1),
+            r * np.stack([zero, zero, -np.sin(b), np.cos(b)], -1),
+        )
 
-    surface = tessellate("Clifford torus", point, FULL, FULL, (resolution, resolution), tangents,
-                         Material(color=(0.9, 0.6, 0.2)), adaptive=False)
+    surface = tessellate(
+        "Clifford torus",
+        point,
+        FULL,
+        FULL,
+        (resolution, resolution),
+        tangents,
+        Material(color=(0.9, 0.6, 0.2)),
+        adaptive=False,
+    )
     a = np.linspace(0, 2 * math.pi, 4 * resolution, endpoint=False)
-    circles = [Curve(f"circle b = {k}π/2", point(a, np.full_like(a, k * math.pi / 2)),
-                     Material(color=palette.BLUE, line_width=2.5), closed=True)
-               for k in range(4)]
+    circles = [
+        Curve(
+            f"circle b = {k}π/2",
+            point(a, np.full_like(a, k * math.pi / 2)),
+            Material(color=palette.BLUE, line_width=2.5),
+            closed=True,
+        )
+        for k in range(4)
+    ]
     return Mesh4D([surface], circles)
 
 
@@ -49,42 +65,74 @@ def _complex_square(params: dict, resolution: int) -> Mesh4D:
         return (np.stack([one, zero, 2 * x, 2 * y], -1), np.stack([zero, one, -2 * y, 2 * x], -1))
 
     side = Interval(-size, size)
-    surface = tessellate("w = z²", point, side, side, (resolution, resolution), tangents,
-                         Material(color=palette.TEAL))
+    surface = tessellate(
+        "w = z²",
+        point,
+        side,
+        side,
+        (resolution, resolution),
+        tangents,
+        Material(color=palette.TEAL),
+    )
     x = np.linspace(-size, size, 4 * resolution)
-    real = Curve("real numbers: w = x²", point(x, np.zeros_like(x)),
-                 Material(color=palette.RED, line_width=3.0))
-    imaginary = Curve("imaginary numbers: w = -y²", point(np.zeros_like(x), x),
-                      Material(color=palette.BLUE, line_width=3.0))
+    real = Curve(
+        "real numbers: w = x²",
+        point(x, np.zeros_like(x)),
+        Material(color=palette.RED, line_width=3.0),
+    )
+    imaginary = Curve(
+        "imaginary numbers: w = -y²",
+        point(np.zeros_like(x), x),
+        Material(color=palette.BLUE, line_width=3.0),
+    )
     return Mesh4D([surface], [real, imaginary])
 
 
 CLIFFORD = Scene(
     name="clifford-torus",
     title="The flat doughnut",
-    caption=("In 3D every doughnut is curved. In 4D there is one that is perfectly flat, like a "
-             "sheet of paper rolled up twice, and it lies on a 4D ball. Turn the knobs: it never "
-             "stretches, it only looks as if it does."),
+    caption=(
+        "In 3D every doughnut is curved. In 4D there is one that is perfectly flat, like a "
+        "sheet of paper rolled up twice, and it lies on a 4D ball. Turn the knobs: it never "
+        "stretches, it only looks as if it does."
+    ),
     parameters=(Parameter("radius", 1.0, 0.2, 3.0, "radius of the 3-sphere it lies on"),),
     build_mesh=_clifford,
-    view=ViewState(angles=(0.4, -0.7, -0.9, 0, 0, 0), eye_azimuth=0.3, eye_incidence=-1.0,
-                   sensor_r=1 / 3, half_height=1.4),
-    presets=(Preset("perspective", ViewState(angles=(0.4, -0.7, -0.9, 0, 0, 0), eye_azimuth=0.3,
-                                             eye_incidence=-1.0, sensor_r=1 / 3,
-                                             half_height=1.4)),),
+    view=ViewState(
+        angles=(0.4, -0.7, -0.9, 0, 0, 0),
+        eye_azimuth=0.3,
+        eye_incidence=-1.0,
+        sensor_r=1 / 3,
+        half_height=1.4,
+    ),
+    presets=(
+        Preset(
+            "perspective",
+            ViewState(
+                angles=(0.4, -0.7, -0.9, 0, 0, 0),
+                eye_azimuth=0.3,
+                eye_incidence=-1.0,
+                sensor_r=1 / 3,
+                half_height=1.4,
+            ),
+        ),
+    ),
     default_resolution=64,
 )
 
 COMPLEX_SQUARE = Scene(
     name="complex-square",
     title="Squaring, as a shape",
-    caption=("Squaring a complex number turns a plane into a plane, wrapping it twice around. "
-             "Both planes together need four dimensions; this surface is every number paired "
-             "with its square. Its shadows cross themselves; the surface itself never does."),
+    caption=(
+        "Squaring a complex number turns a plane into a plane, wrapping it twice around. "
+        "Both planes together need four dimensions; this surface is every number paired "
+        "with its square. Its shadows cross themselves; the surface itself never does."
+    ),
     parameters=(Parameter("radius", 1.2, 0.2, 3.0, "largest |Re z| and |Im z| shown"),),
     build_mesh=_complex_square,
-    view=ViewState(angles=(0.3, -0.9, -0.6, 0, 0, 0), eye_azimuth=0.5, eye_incidence=-1.1,
-                   half_height=1.8),
+    view=ViewState(
+        angles=(0.3, -0.9, -0.6, 0, 0, 0), eye_azimuth=0.5, eye_incidence=-1.1, half_height=1.8
+    ),
     axes=("x", "y", "u", "v"),
     default_resolution=64,
 )

@@ -33,19 +33,35 @@ def seed_for(name: str) -> int:
     return int.from_bytes(hashlib.sha256(name.encode()).digest()[:4], "little")
 
 
-def mesh_implicit(name: str, f1_text: str, f2_text: str, axes, params: dict, lo, hi,
-                  resolution: int, material: Material, progress=None) -> ImplicitPart:
+def mesh_implicit(
+    name: str,
+    f1_text: str,
+    f2_text: str,
+    axes,
+    params: dict,
+    lo,
+    hi,
+    resolution: int,
+    material: Material,
+    progress=None,
+) -> ImplicitPart:
     f1 = compile_field(f1_text, axes, params)
     f2 = compile_field(f2_text, axes, params)
-    result = polygonize(name, f1, f2, lo, hi, resolution, material, seed=seed_for(name),
-                        progress=progress)
+    result = polygonize(
+        name, f1, f2, lo, hi, resolution, material, seed=seed_for(name), progress=progress
+    )
     part = ImplicitPart(result, f1, f2)
     result.surface.exact = part
     return part
 
 
-def fixed_silhouette(part: ImplicitPart, along: tuple[int, int], name: str,
-                     material: Material, stats: RefineStats | None = None) -> list[Curve]:
+def fixed_silhouette(
+    part: ImplicitPart,
+    along: tuple[int, int],
+    name: str,
+    material: Material,
+    stats: RefineStats | None = None,
+) -> list[Curve]:
     """Silhouette curves for the orthographic projection along two coordinate axes (Lemma 3(c)).
 
     Traced as the zero set of s = (n1·e_a)(n2·e_b) - (n1·e_b)(n2·e_a), n1 = ∇f1, n2 = ∇f2, on the
@@ -60,15 +76,17 @@ def fixed_silhouette(part: ImplicitPart, along: tuple[int, int], name: str,
     e = np.eye(4)
     p = surface.positions
     with np.errstate(all="ignore"):
-        values = silhouette_function(part.f1.gradient(p), part.f2.gradient(p), e[along[0]],
-                                     e[along[1]])
+        values = silhouette_function(
+            part.f1.gradient(p), part.f2.gradient(p), e[along[0]], e[along[1]]
+        )
     # A vertex where a gradient is not finite gets a sign change around it; refinement decides.
     values = np.where(np.isfinite(values), values, 0.0)
     curves = zero_set_curves(surface, values, name, material)
     system = SilhouetteSystem(part.f1, part.f2, along)
     edge = cell_size(part)
-    refined, counts = refine_curves(system, curves, 2.0 * edge, part.result.singular_positions,
-                                    exclusion_radius(part))
+    refined, counts = refine_curves(
+        system, curves, 2.0 * edge, part.result.singular_positions, exclusion_radius(part)
+    )
     if stats is not None:
         stats.add(counts)
     for i, curve in enumerate(refined):

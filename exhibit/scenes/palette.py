@@ -6,15 +6,15 @@ after). The names are what the captions call them: a bluish green and a vermilli
 and "red" to every eye (the Okabe-Ito families), where the old pure green and red were one
 colour to a protanope (ΔE 6.8) and the magenta and blue fibres too (ΔE 5.3)."""
 
-GREEN = (0.0, 0.74, 0.57)       # the green doughnut (Figures 6-8)
-GREY = (0.92, 0.92, 0.92)       # the neutral doughnut between them
-RED = (0.78, 0.14, 0.02)        # the red doughnut, the offset curves, the x axis
-PURPLE = (0.69, 0.36, 0.70)     # a Hopf fibre (was magenta)
-BLUE = (0.05, 0.13, 0.72)       # the other fibre, silhouettes, the w axis
-AMBER = (0.9, 0.76, 0.19)       # the y axis
-MINT = (0.11, 0.88, 0.61)       # the z axis, lighter than the green doughnut it crosses
-WIRE = (0.3, 0.85, 0.75)        # the collision's pipe, a wire frame
-ORANGE = (0.85, 0.55, 0.25)     # the collision surface
-SKY = (0.55, 0.7, 0.9)          # the offset pipes
-YELLOW = (0.95, 0.8, 0.1)       # singular points
-TEAL = (0.35, 0.75, 0.75)       # the complex square
+GREEN = (0.0, 0.74, 0.57)  # the green doughnut (Figures 6-8)
+GREY = (0.92, 0.92, 0.92)  # the neutral doughnut between them
+RED = (0.78, 0.14, 0.02)  # the red doughnut, the offset curves, the x axis
+PURPLE = (0.69, 0.36, 0.70)  # a Hopf fibre (was magenta)
+BLUE = (0.05, 0.13, 0.72)  # the other fibre, silhouettes, the w axis
+AMBER = (0.9, 0.76, 0.19)  # the y axis
+MINT = (0.11, 0.88, 0.61)  # the z axis, lighter than the green doughnut it crosses
+WIRE = (0.3, 0.85, 0.75)  # the collision's pipe, a wire frame
+ORANGE = (0.85, 0.55, 0.25)  # the collision surface
+SKY = (0.55, 0.7, 0.9)  # the offset pipes
+YELLOW = (0.95, 0.8, 0.1)  # singular points
+TEAL = (0.35, 0.75, 0.75)  # the complex square

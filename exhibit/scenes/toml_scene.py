@@ -49,12 +49,29 @@ from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Scene
 from exhibit.scenes.implicit_scene import mesh_implicit
 from exhibit.schema import Model, read_bytes, read_toml, validate
-from exhibit.schema.types import (MAX_COORDINATE, Angle, Caption, Distance, HalfHeight, Name,
-                                  Number, Numbers, Resolution, Text, distance_to_r, fail,
-                                  numbers_check, text_check)
+from exhibit.schema.types import (
+    MAX_COORDINATE,
+    Angle,
+    Caption,
+    Distance,
+    HalfHeight,
+    Name,
+    Number,
+    Numbers,
+    Resolution,
+    Text,
+    distance_to_r,
+    fail,
+    numbers_check,
+    text_check,
+)
 from exhibit.scenes import checked
-from exhibit.surfaces.expressions import MAX_LENGTH, ExpressionError, check_expression, \
-    compile_field
+from exhibit.surfaces.expressions import (
+    MAX_LENGTH,
+    ExpressionError,
+    check_expression,
+    compile_field,
+)
 from exhibit.surfaces.mesh import Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 
@@ -70,8 +87,12 @@ def _scene_name(value: Any) -> str:
 
 
 def _axes(value: Any) -> tuple[str, str, str, str]:
-    if (not isinstance(value, list) or len(value) != 4 or len(set(value)) != 4
-            or not all(isinstance(a, str) and a.isidentifier() and len(a) <= 16 for a in value)):
+    if (
+        not isinstance(value, list)
+        or len(value) != 4
+        or len(set(value)) != 4
+        or not all(isinstance(a, str) and a.isidentifier() and len(a) <= 16 for a in value)
+    ):
         raise fail("must be four different names", value)
     x, y, z, w = value
     return (x, y, z, w)
@@ -88,7 +109,7 @@ BoxPair = Annotated[tuple[float, float], PlainValidator(_box_pair)]
 
 
 def _interval(value: Any) -> Interval:
-    if (not isinstance(value, list) or len(value) != 3 or not isinstance(value[2], bool)):
+    if not isinstance(value, list) or len(value) != 3 or not isinstance(value[2], bool):
         raise fail("must be [start, stop, periodic] with periodic true or false", value)
     start, stop = numbers_check(2, -MAX_COORDINATE, MAX_COORDINATE)(value[:2])
     if stop <= start:
@@ -163,8 +184,9 @@ def load_scene_file(path: Path) -> Scene:
         if not pname.isidentifier() or pname in spec.axes or len(pname) > 32:
             problem(f"parameters.{pname}", "must be a name that is not an axis")
         elif not p.min <= p.default <= p.max:
-            problem(f"parameters.{pname}.default", f"{p.default:g} is outside "
-                                                  f"[{p.min:g}, {p.max:g}]")
+            problem(
+                f"parameters.{pname}.default", f"{p.default:g} is outside [{p.min:g}, {p.max:g}]"
+            )
         else:
             parameters.append(Parameter(pname, p.default, p.min, p.max, p.help))
     if not spec.surface:
@@ -185,14 +207,24 @@ def load_scene_file(path: Path) -> Scene:
             try:
                 mesh.surfaces.append(make(params, resolution))
             except ExpressionError as exc:  # e.g. x/(a-1) with a = 1: checked at the defaults
-                raise ExhibitError(f"{path}: surface[{index}]: cannot be built with "
-                                   f"{params}: {exc}") from None
+                raise ExhibitError(
+                    f"{path}: surface[{index}]: cannot be built with {params}: {exc}"
+                ) from None
         return mesh
 
-    return Scene(name=spec.name, title=spec.title, caption=spec.caption,
-                 parameters=tuple(parameters), build_mesh=build, view=_view(path, spec.view),
-                 axes=spec.axes, default_resolution=spec.resolution, fit=spec.view.fit,
-                 version=hashlib.sha256(read_bytes(path)).hexdigest()[:16], source=path)
+    return Scene(
+        name=spec.name,
+        title=spec.title,
+        caption=spec.caption,
+        parameters=tuple(parameters),
+        build_mesh=build,
+        view=_view(path, spec.view),
+        axes=spec.axes,
+        default_resolution=spec.resolution,
+        fit=spec.view.fit,
+        version=hashlib.sha256(read_bytes(path)).hexdigest()[:16],
+        source=path,
+    )
 
 
 def _check(path, key, text, variables, defaults, box) -> str:
@@ -213,11 +245,11 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
     implicit = surface.f1 is not None or surface.f2 is not None or surface.box is not None
     parametric = surface.point is not None or surface.s is not None or surface.t is not None
     if implicit == parametric:
-        raise ConfigError(f"{path}: {where}: give either f1, f2 and box (implicit) or point, s "
-                          "and t (parametric)")
+        raise ConfigError(
+            f"{path}: {where}: give either f1, f2 and box (implicit) or point, s and t (parametric)"
+        )
     needed = ("f1", "f2", "box") if implicit else ("point", "s", "t")
-    missing = [f"{path}: {where}.{key}: missing" for key in needed
-               if getattr(surface, key) is None]
+    missing = [f"{path}: {where}.{key}: missing" for key in needed if getattr(surface, key) is None]
     if missing:
         raise ConfigError(missing)
     if implicit:
@@ -229,14 +261,17 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
 
         def build_implicit(params, resolution):
             return mesh_implicit(name, f1, f2, axes, params, lo, hi, resolution, material).surface
+
         return build_implicit
 
     s_range, t_range, formulas = surface.s, surface.t, surface.point
     assert s_range is not None and t_range is not None and formulas is not None  # not missing
     intervals = (s_range, t_range)
     box = [(i.start, i.stop) for i in intervals]
-    point = [_check(path, f"{where}.point[{k}]", text, ("s", "t"), defaults, box)
-             for k, text in enumerate(formulas)]
+    point = [
+        _check(path, f"{where}.point[{k}]", text, ("s", "t"), defaults, box)
+        for k, text in enumerate(formulas)
+    ]
 
     def build_parametric(params, resolution):
         fields = [compile_field(text, ("s", "t"), params) for text in point]
@@ -248,11 +283,15 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
         def tangents(s, t):
             grid = np.stack([s, t], -1)
             gradients = [f.gradient(grid) for f in fields]  # each (..., 2)
-            return (np.stack([g[..., 0] for g in gradients], -1),
-                    np.stack([g[..., 1] for g in gradients], -1))
+            return (
+                np.stack([g[..., 0] for g in gradients], -1),
+                np.stack([g[..., 1] for g in gradients], -1),
+            )
 
-        return tessellate(name, position, intervals[0], intervals[1], (resolution, resolution),
-                          tangents, material)
+        return tessellate(
+            name, position, intervals[0], intervals[1], (resolution, resolution), tangents, material
+        )
+
     return build_parametric
 
 

@@ -8,8 +8,17 @@ checked here, by the same field types, so `exhibit check-config` and the running
 """
 
 from exhibit.schema.files import MAX_CONFIG_BYTES, check_file_ref, read_bytes, read_text, read_toml
-from exhibit.schema.types import (MAX_RESOLUTION, MIN_DISTANCE, Model)
+from exhibit.schema.types import MAX_RESOLUTION, MIN_DISTANCE, Model
 from exhibit.schema.validate import validate
 
-__all__ = ["MAX_CONFIG_BYTES", "MAX_RESOLUTION", "MIN_DISTANCE", "Model", "check_file_ref",
-           "read_bytes", "read_text", "read_toml", "validate"]
+__all__ = [
+    "MAX_CONFIG_BYTES",
+    "MAX_RESOLUTION",
+    "MIN_DISTANCE",
+    "Model",
+    "check_file_ref",
+    "read_bytes",
+    "read_text",
+    "read_toml",
+    "validate",
+]

@@ -27,9 +27,13 @@ MAX_CONFIG_BYTES = 1 << 20
 
 
 def _kind(mode: int) -> str:
-    for test, name in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a FIFO"),
-                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-                       (stat.S_ISSOCK, "a socket")):
+    for test, name in (
+        (stat.S_ISDIR, "a folder"),
+        (stat.S_ISFIFO, "a FIFO"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
         if test(mode):
             return name
     return "a special file"
@@ -47,8 +51,9 @@ def read_bytes(path: str | Path, limit: int = MAX_CONFIG_BYTES) -> bytes:
         if not stat.S_ISREG(info.st_mode):
             raise ConfigError(f"{path}: cannot read: {_kind(info.st_mode)}, not a file")
         if info.st_size > limit:
-            raise ConfigError(f"{path}: cannot read: {info.st_size} bytes is over the "
-                              f"{limit}-byte limit")
+            raise ConfigError(
+                f"{path}: cannot read: {info.st_size} bytes is over the {limit}-byte limit"
+            )
         chunks, size = [], 0
         while size <= limit:
             chunk = os.read(fd, min(1 << 16, limit + 1 - size))
@@ -95,8 +100,9 @@ def check_file_ref(path: Path, want_dir: bool = False, limit: int = MAX_CONFIG_B
             return f"{what} {path} does not exist"
         return f"{what} {path}: {exc.strerror or exc}"
     if want_dir:
-        return None if stat.S_ISDIR(info.st_mode) else f"{path} is {_kind(info.st_mode)}, " \
-                                                       "not a folder"
+        return (
+            None if stat.S_ISDIR(info.st_mode) else f"{path} is {_kind(info.st_mode)}, not a folder"
+        )
     if not stat.S_ISREG(info.st_mode):
         return f"{path} is {_kind(info.st_mode)}, not a file"
     if info.st_size > limit:
@@ -152,8 +158,7 @@ def json_depth(text: str) -> int:
     return deepest
 
 
-def loads_json(text: Any, max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH
-               ) -> Any:
+def loads_json(text: Any, max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_JSON_DEPTH) -> Any:
     """``json.loads`` of a text of at most ``max_bytes`` characters nested at most ``max_depth``
     deep; ValueError otherwise (never RecursionError or MemoryError), with a short reason."""
     if isinstance(text, (bytes, bytearray)):
@@ -175,6 +180,7 @@ def loads_json(text: Any, max_bytes: int = MAX_JSON_BYTES, max_depth: int = MAX_
 
 # ---------------------------------------------------------------------- writing files
 
+
 class UnsafePath(OSError):
     """A path :func:`write_atomic` refuses; the message names the file or folder and why. An
     OSError, so callers that already report a folder they cannot write report this too."""
@@ -193,8 +199,9 @@ def split_target(path: str | os.PathLike) -> tuple[str, str]:
     return folder or ".", name
 
 
-def open_folder(folder: str | os.PathLike, root: str | os.PathLike | None = None,
-                create: bool = False) -> int:
+def open_folder(
+    folder: str | os.PathLike, root: str | os.PathLike | None = None, create: bool = False
+) -> int:
     """A descriptor of ``folder`` (O_DIRECTORY; close it). With ``root``, ``folder`` must lie
     below it, and each component below ``root`` is opened with O_NOFOLLOW (created with
     ``create``): a symlink there, even to a folder inside the root, is refused, so nothing is
@@ -211,7 +218,7 @@ def open_folder(folder: str | os.PathLike, root: str | os.PathLike | None = None
     fd = os.open(root_text, dflags)
     here = root_text
     try:
-        for part in ([] if rel == "." else rel.split("/")):
+        for part in [] if rel == "." else rel.split("/"):
             here = os.path.join(here, part)
             try:
                 info = os.stat(part, dir_fd=fd, follow_symlinks=False)
@@ -221,8 +228,10 @@ def open_folder(folder: str | os.PathLike, root: str | os.PathLike | None = None
                 os.mkdir(part, 0o755, dir_fd=fd)
                 info = os.stat(part, dir_fd=fd, follow_symlinks=False)
             if stat.S_ISLNK(info.st_mode):
-                raise UnsafePath(f"{here} is a symbolic link (to {os.readlink(part, dir_fd=fd)})"
-                                 f": refusing to write through it")
+                raise UnsafePath(
+                    f"{here} is a symbolic link (to {os.readlink(part, dir_fd=fd)})"
+                    f": refusing to write through it"
+                )
             if not stat.S_ISDIR(info.st_mode):
                 raise UnsafePath(f"{here} is {_kind(info.st_mode)}, not a folder")
             try:
@@ -253,14 +262,16 @@ def _check_at(dir_fd: int, name: str, shown: str) -> None:
             return  # dangling (or a loop): the rename replaces the link itself
         link = "a symbolic link to "
     if not stat.S_ISREG(info.st_mode):
-        raise UnsafePath(f"{shown} is {link}{_kind(info.st_mode)}, not a file: refusing to "
-                         "replace it")
+        raise UnsafePath(
+            f"{shown} is {link}{_kind(info.st_mode)}, not a file: refusing to replace it"
+        )
 
 
 def check_target(path: str | os.PathLike, root: str | os.PathLike | None = None) -> None:
     """What :func:`write_atomic` checks before writing, without writing or creating anything:
     UnsafePath for a bad name, a symlinked folder below ``root``, or something at ``path`` that
-    is not a regular file (nor a link to one). A folder that does not exist yet is fine (it would be created)."""
+    is not a regular file (nor a link to one). A folder that does not exist yet is fine (it
+    would be created)."""
     folder, name = split_target(path)
     try:
         fd = open_folder(folder, root)
@@ -272,15 +283,21 @@ def check_target(path: str | os.PathLike, root: str | os.PathLike | None = None)
         os.close(fd)
 
 
-def write_atomic(path: str | os.PathLike, data: bytes | str, mode: int = 0o644,
-                 root: str | os.PathLike | None = None, sync: bool = True,
-                 make_folder: bool = False) -> None:
+def write_atomic(
+    path: str | os.PathLike,
+    data: bytes | str,
+    mode: int = 0o644,
+    root: str | os.PathLike | None = None,
+    sync: bool = True,
+    make_folder: bool = False,
+) -> None:
     """Replace the file at ``path`` with ``data`` at once: a reader sees the old file or the new
     one, never a part. The one way exhibit writes a file.
 
     Refused with UnsafePath (an OSError naming the path): an empty or folder-like name, and
     anything at ``path`` that is not a regular file: a device such as /dev/null, a FIFO, a
-    folder, or a symlink to one (a symlink to a file is replaced, not followed). With ``root`` (exhibit install --root), the folders below it are walked
+    folder, or a symlink to one (a symlink to a file is replaced, not followed). With ``root``
+    (exhibit install --root), the folders below it are walked
     with O_NOFOLLOW (:func:`open_folder`), so a symlinked etc/ cannot lead outside. The data goes
     to a temporary ``.NAME.RANDOM.tmp`` in the same folder, created with O_EXCL|O_NOFOLLOW
     (nothing planted there is written through), given ``mode`` on the descriptor whatever the
@@ -311,7 +328,7 @@ def write_atomic(path: str | os.PathLike, data: bytes | str, mode: int = 0o644,
                 os.fchmod(out, mode)  # the service's UMask would make it private
                 view = memoryview(data)
                 while view:
-                    view = view[os.write(out, view):]
+                    view = view[os.write(out, view) :]
                 if sync:
                     os.fsync(out)
             finally:

@@ -29,7 +29,7 @@ def merge(layers: list[tuple[Path, dict]]) -> tuple[dict, dict[Key, Path]]:
             else:
                 into[key] = value
                 origin[where] = path
-                for stale in [k for k in origin if k[:len(where)] == where and k != where]:
+                for stale in [k for k in origin if k[: len(where)] == where and k != where]:
                     del origin[stale]  # a table replaced by a value
 
     for path, doc in layers:

@@ -47,20 +47,21 @@ def fail(reason: str, value: Any = None, show: bool = True) -> PydanticCustomErr
 
 def shorten(value: Any, width: int = 60) -> str:
     text = repr(value)
-    return text if len(text) <= width else text[:width - 5] + "…" + text[-4:]
+    return text if len(text) <= width else text[: width - 5] + "…" + text[-4:]
 
 
 def _g(x: float) -> str:
     return "inf" if math.isinf(x) else f"{x:g}"
 
 
-def number_check(low: float, high: float, integer: bool = False, inf_ok: bool = False
-                 ) -> Callable[[Any], float]:
+def number_check(
+    low: float, high: float, integer: bool = False, inf_ok: bool = False
+) -> Callable[[Any], float]:
     """A checker for a finite number in [low, high] (a whole number with ``integer``; also
     ``inf`` or "inf" with ``inf_ok``). Booleans, NaN and strings are refused."""
     noun = "a whole number" if integer else "a number"
     rng = f"[{_g(low)}, {_g(high)}]"
-    want = f"{noun} in {rng}" + (" or \"inf\"" if inf_ok else "")
+    want = f"{noun} in {rng}" + (' or "inf"' if inf_ok else "")
 
     def check(value: Any) -> float:
         if inf_ok and value == "inf":
@@ -76,6 +77,7 @@ def number_check(low: float, high: float, integer: bool = False, inf_ok: bool = 
         if not low <= value <= high:
             raise fail(f"must lie in {rng}", value)
         return int(value) if integer else float(value)
+
     return check
 
 
@@ -90,8 +92,9 @@ def Integer(low: int, high: int) -> PlainValidator:
     return PlainValidator(number_check(low, high, integer=True))
 
 
-def numbers_check(count: int, low: float = -1e9, high: float = 1e9, integer: bool = False
-                  ) -> Callable[[Any], tuple[float, ...]]:
+def numbers_check(
+    count: int, low: float = -1e9, high: float = 1e9, integer: bool = False
+) -> Callable[[Any], tuple[float, ...]]:
     """A checker for a list of exactly ``count`` finite numbers in [low, high]."""
     one = number_check(low, high, integer=integer)
     noun = "whole numbers" if integer else "numbers"
@@ -106,18 +109,21 @@ def numbers_check(count: int, low: float = -1e9, high: float = 1e9, integer: boo
             except PydanticCustomError as exc:
                 raise fail(f"item {i + 1} {exc.message()}", show=False) from None
         return tuple(out)
+
     return check
 
 
-def Numbers(count: int, low: float = -1e9, high: float = 1e9, *, integer: bool = False
-            ) -> PlainValidator:
+def Numbers(
+    count: int, low: float = -1e9, high: float = 1e9, *, integer: bool = False
+) -> PlainValidator:
     """A list of exactly ``count`` finite numbers in [low, high], as a tuple:
     ``Annotated[tuple[float, ...], Numbers(3, 0.0, 1.0)]``."""
     return PlainValidator(numbers_check(count, low, high, integer))
 
 
-def text_check(max_length: int, multiline: bool = False, empty_ok: bool = False
-               ) -> Callable[[Any], str]:
+def text_check(
+    max_length: int, multiline: bool = False, empty_ok: bool = False
+) -> Callable[[Any], str]:
     """Text shown to people: a string, not too long, no control characters (which would print
     as boxes or move a terminal's cursor)."""
 
@@ -133,11 +139,13 @@ def text_check(max_length: int, multiline: bool = False, empty_ok: bool = False
             if ch not in allowed and unicodedata.category(ch) in ("Cc", "Cs", "Co"):
                 raise fail(f"has a control character {ch!r} at {i + 1}", show=False)
         return value
+
     return check
 
 
-def Text(max_length: int = 200, *, multiline: bool = False, empty_ok: bool = False
-         ) -> PlainValidator:
+def Text(
+    max_length: int = 200, *, multiline: bool = False, empty_ok: bool = False
+) -> PlainValidator:
     """Text shown to people (see ``text_check``): ``Annotated[str, Text(100)]``."""
     return PlainValidator(text_check(max_length, multiline, empty_ok))
 
@@ -190,17 +198,23 @@ def _quit_keys(value: Any) -> tuple[str, ...]:
     """At least two distinct modifiers and one key, so no visitor presses it by chance; empty
     means no way to quit."""
     if not isinstance(value, str):
-        raise fail("must be a string like \"ctrl+alt+shift+q\"", value)
+        raise fail('must be a string like "ctrl+alt+shift+q"', value)
     if not value.strip():
         return ()
     combo = [k.strip().lower() for k in value.split("+")]
     mods = [k for k in combo if k in MODIFIERS]
     rest = [k for k in combo if k not in MODIFIERS]
-    if (len(set(mods)) < 2 or len(mods) != len(set(mods)) or len(rest) != 1
-            or not re.fullmatch(r"[a-z0-9]|f\d{1,2}|escape", rest[0])):
-        raise fail(f"must be at least two different modifiers of {'/'.join(MODIFIERS)} and "
-                   "one key, like \"ctrl+alt+shift+q\" (so no visitor can press it by chance)",
-                   value)
+    if (
+        len(set(mods)) < 2
+        or len(mods) != len(set(mods))
+        or len(rest) != 1
+        or not re.fullmatch(r"[a-z0-9]|f\d{1,2}|escape", rest[0])
+    ):
+        raise fail(
+            f"must be at least two different modifiers of {'/'.join(MODIFIERS)} and "
+            'one key, like "ctrl+alt+shift+q" (so no visitor can press it by chance)',
+            value,
+        )
     return tuple(combo)
 
 

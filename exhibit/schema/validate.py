@@ -73,10 +73,14 @@ def problems(exc: ValidationError, source, model: type[BaseModel]) -> list[str]:
             allowed = _allowed(model, loc[:-1])
             reason = "unknown key" + (f" (allowed: {', '.join(allowed)})" if allowed else "")
         elif kind in _PLAIN:
-            reason = _PLAIN[kind] + ("" if kind == "missing" else f", got {shorten(error['input'])}")
+            reason = _PLAIN[kind] + (
+                "" if kind == "missing" else f", got {shorten(error['input'])}"
+            )
         elif kind in ("too_short", "too_long"):
-            reason = f"must have {error['ctx'].get('min_length', error['ctx'].get('max_length'))}" \
-                     f" items, got {error['ctx'].get('actual_length')}"
+            reason = (
+                f"must have {error['ctx'].get('min_length', error['ctx'].get('max_length'))}"
+                f" items, got {error['ctx'].get('actual_length')}"
+            )
         elif kind == "literal_error":
             reason = f"must be {error['ctx']['expected']}, got {shorten(error['input'])}"
         elif kind == "value_error":
@@ -95,5 +99,6 @@ def validate(model: type[M], data: Any, source, context: dict | None = None) -> 
     try:
         return model.model_validate(data, context=context)
     except ValidationError as exc:
-        raise ConfigError(problems(exc, source if callable(source) else str(source), model)) \
-            from None
+        raise ConfigError(
+            problems(exc, source if callable(source) else str(source), model)
+        ) from None

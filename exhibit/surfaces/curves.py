@@ -1,4 +1,5 @@
-"""Curves traced on meshes: zero sets of per-vertex functions (silhouettes) joined into polylines."""
+"""Curves traced on meshes: zero sets of per-vertex functions (silhouettes) joined into
+polylines."""
 
 from __future__ import annotations
 
@@ -57,10 +58,13 @@ def chain_segments(segments: np.ndarray, tolerance: float = 1e-9) -> list[tuple[
     return polylines
 
 
-def zero_set_curves(surface: Surface, values: np.ndarray, name: str,
-                    material: Material) -> list[Curve]:
+def zero_set_curves(
+    surface: Surface, values: np.ndarray, name: str, material: Material
+) -> list[Curve]:
     """The zero set of per-vertex ``values`` on ``surface`` as Curves (e.g. a silhouette)."""
     segments = zero_set_segments(surface.positions, surface.triangles, values)
     scale = float(np.abs(surface.positions).max()) if len(surface.positions) else 1.0
-    return [Curve(f"{name} {i + 1}" if i else name, points, material, closed)
-            for i, (points, closed) in enumerate(chain_segments(segments, 1e-9 * max(scale, 1.0)))]
+    return [
+        Curve(f"{name} {i + 1}" if i else name, points, material, closed)
+        for i, (points, closed) in enumerate(chain_segments(segments, 1e-9 * max(scale, 1.0)))
+    ]

@@ -37,8 +37,9 @@ def dip_candidates(surface: Surface, values: np.ndarray, gradients: np.ndarray):
     """Edges (E, 2) on which |h| dips between two ends of the same sign, and the seed points
     (E, 4) where the linear interpolant of the edge derivative vanishes."""
     tris = np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)
-    edges = np.unique(np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]],
-                                              tris[:, [2, 0]]]), axis=1), axis=0)
+    edges = np.unique(
+        np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0
+    )
     p = surface.positions
     # h's derivative along the surface: a chord across a fold cuts below it, so the ambient
     # derivative of a linear h (the slice's t) along the chord would show no dip at all.
@@ -85,28 +86,43 @@ def double_zero_chains(surface: Surface, values, gradients, refine, normals, h_g
     points, keep = refine(seeds)
     scale = np.linalg.norm(surface_gradient(surface, gradients), axis=1).max()
     with np.errstate(all="ignore"):
-        keep &= tangential_part(normals(points), h_gradient(points)) <= \
-            TANGENTIAL_TOLERANCE * scale
+        keep &= tangential_part(normals(points), h_gradient(points)) <= TANGENTIAL_TOLERANCE * scale
     if not keep.any():
         return []
     index = {(int(a), int(b)): k for k, (a, b) in enumerate(edges) if keep[k]}
     segments = []
     for tri in np.asarray(surface.triangles, dtype=np.int64):
-        found = [index[key] for key in ((min(tri[i], tri[j]), max(tri[i], tri[j]))
-                                        for i, j in ((0, 1), (1, 2), (2, 0))) if key in index]
+        found = [
+            index[key]
+            for key in (
+                (min(tri[i], tri[j]), max(tri[i], tri[j])) for i, j in ((0, 1), (1, 2), (2, 0))
+            )
+            if key in index
+        ]
         if len(found) >= 2:
             segments.append(found[:2])
     if not segments:
         return []
     # chained by edge number (the same edge gives the same point in both of its triangles)
     ids = np.asarray(segments, dtype=float)[..., None]
-    return [(points[np.round(chain[:, 0]).astype(int)], closed)
-            for chain, closed in chain_segments(ids, 0.5)]
+    return [
+        (points[np.round(chain[:, 0]).astype(int)], closed)
+        for chain, closed in chain_segments(ids, 0.5)
+    ]
 
 
-def touching_silhouette(f1, f2, surface: Surface, along: tuple[int, int], cell: float,
-                        singular_points=None, exclusion_radius: float = 0.0, name: str = "",
-                        material=None, stats=None):
+def touching_silhouette(
+    f1,
+    f2,
+    surface: Surface,
+    along: tuple[int, int],
+    cell: float,
+    singular_points=None,
+    exclusion_radius: float = 0.0,
+    name: str = "",
+    material=None,
+    stats=None,
+):
     """The silhouette branches along ``along`` where s touches zero without changing sign,
     refined onto f1 = f2 = s = 0 like the traced ones (surfaces/exact_silhouette.py)."""
     from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
@@ -121,9 +137,14 @@ def touching_silhouette(f1, f2, surface: Surface, along: tuple[int, int], cell: 
         return x, keep
 
     with np.errstate(all="ignore"):
-        chains = double_zero_chains(surface, system.s.value(p), system.s.gradient(p), refine,
-                                    lambda x: [f1.gradient(x), f2.gradient(x)],
-                                    system.s.gradient)
+        chains = double_zero_chains(
+            surface,
+            system.s.value(p),
+            system.s.gradient(p),
+            refine,
+            lambda x: [f1.gradient(x), f2.gradient(x)],
+            system.s.gradient,
+        )
     out = []
     for points, closed in chains:
         if len(points) < 2:

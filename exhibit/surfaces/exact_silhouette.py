@@ -57,8 +57,12 @@ class RefineStats:
         self.max_residual = max(self.max_residual, other.max_residual)
 
     def to_json(self) -> dict:
-        return {"refined": int(self.refined), "dropped": int(self.dropped),
-                "excluded": int(self.excluded), "max_residual": float(self.max_residual)}
+        return {
+            "refined": int(self.refined),
+            "dropped": int(self.dropped),
+            "excluded": int(self.excluded),
+            "max_residual": float(self.max_residual),
+        }
 
 
 @np.errstate(all="ignore")
@@ -81,16 +85,24 @@ def min_norm_newton(fields, residual, points: np.ndarray) -> np.ndarray:
         active[idx[~finite]] = False
         if not finite.any():
             break
-        idx, xa, values, jac, gram = idx[finite], xa[finite], values[finite], \
-            jac[finite], gram[finite]
+        idx, xa, values, jac, gram = (
+            idx[finite],
+            xa[finite],
+            values[finite],
+            jac[finite],
+            gram[finite],
+        )
         done = residual(xa) <= NEWTON_TARGET
         active[idx[done]] = False
         go = ~done
         if not go.any():
             break
         g = gram[go]
-        g = g + 1e-15 * np.trace(g, axis1=1, axis2=2)[:, None, None] * np.eye(k) \
+        g = (
+            g
+            + 1e-15 * np.trace(g, axis1=1, axis2=2)[:, None, None] * np.eye(k)
             + 1e-300 * np.eye(k)
+        )
         solved = np.linalg.solve(g, values[go][..., None])[..., 0]
         x[idx[go]] = xa[go] - np.einsum("aki,ak->ai", jac[go], solved)
     return x
@@ -116,8 +128,14 @@ class SilhouetteSystem:
         points = np.asarray(points, dtype=float).reshape(-1, 4)
         g1 = np.linalg.norm(self.f1.gradient(points), axis=1)
         g2 = np.linalg.norm(self.f2.gradient(points), axis=1)
-        r = np.stack([np.abs(self.f1.value(points)) / g1, np.abs(self.f2.value(points)) / g2,
-                      np.abs(self.s.value(points)) / (g1 * g2)], 1)
+        r = np.stack(
+            [
+                np.abs(self.f1.value(points)) / g1,
+                np.abs(self.f2.value(points)) / g2,
+                np.abs(self.s.value(points)) / (g1 * g2),
+            ],
+            1,
+        )
         r = np.where(np.isnan(r), np.inf, r)
         return r.max(axis=1)
 
@@ -125,44 +143,60 @@ class SilhouetteSystem:
     def f1_f2_residual(self, points: np.ndarray) -> np.ndarray:
         """max(|f1|/|∇f1|, |f2|/|∇f2|): how far a point is from the surface, scale-free."""
         points = np.asarray(points, dtype=float).reshape(-1, 4)
-        r = np.stack([np.abs(f.value(points)) / np.linalg.norm(f.gradient(points), axis=1)
-                      for f in (self.f1, self.f2)], 1)
+        r = np.stack(
+            [
+                np.abs(f.value(points)) / np.linalg.norm(f.gradient(points), axis=1)
+                for f in (self.f1, self.f2)
+            ],
+            1,
+        )
         return np.where(np.isnan(r), np.inf, r).max(axis=1)
 
-    def excluded(self, points: np.ndarray, singular_points: np.ndarray | None = None,
-                 exclusion_radius: float = 0.0) -> np.ndarray:
+    def excluded(
+        self,
+        points: np.ndarray,
+        singular_points: np.ndarray | None = None,
+        exclusion_radius: float = 0.0,
+    ) -> np.ndarray:
         """True for points in the excluded neighbourhood of the singular set."""
         points = np.asarray(points, dtype=float).reshape(-1, 4)
         ratio = jacobian_ratio(self.f1, self.f2, points)
         near = ~(ratio >= EXCLUSION_RATIO)
         if singular_points is not None and len(singular_points) and exclusion_radius > 0:
             for start in range(0, len(points), 512):
-                chunk = points[start:start + 512]
+                chunk = points[start : start + 512]
                 d = np.linalg.norm(chunk[:, None] - singular_points[None], axis=-1).min(axis=1)
-                near[start:start + 512] |= d < exclusion_radius
+                near[start : start + 512] |= d < exclusion_radius
         return near
 
     def newton(self, points: np.ndarray) -> np.ndarray:
         return min_norm_newton((self.f1, self.f2, self.s), self.residual, points)
 
-    def refine(self, points: np.ndarray, max_move: float,
-               singular_points: np.ndarray | None = None,
-               exclusion_radius: float = 0.0) -> tuple[np.ndarray, np.ndarray, RefineStats]:
+    def refine(
+        self,
+        points: np.ndarray,
+        max_move: float,
+        singular_points: np.ndarray | None = None,
+        exclusion_radius: float = 0.0,
+    ) -> tuple[np.ndarray, np.ndarray, RefineStats]:
         """Refined points and which to keep; the rest are dropped (not converged) or excluded."""
         points = np.asarray(points, dtype=float).reshape(-1, 4)
         x = self.newton(points)
         residual = self.residual(x)
         moved = np.linalg.norm(x - points, axis=1)
-        converged = (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & \
-            np.isfinite(x).all(axis=1)
+        converged = (
+            (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & np.isfinite(x).all(axis=1)
+        )
         # Excluded first: a point pulled towards a singular set (where Newton slows down or
         # the residual's normalisation vanishes) is counted there, not as a failure to converge.
-        excluded = np.isfinite(x).all(axis=1) & self.excluded(x, singular_points,
-                                                              exclusion_radius)
+        excluded = np.isfinite(x).all(axis=1) & self.excluded(x, singular_points, exclusion_radius)
         keep = converged & ~excluded
-        stats = RefineStats(refined=int(keep.sum()), dropped=int((~converged & ~excluded).sum()),
-                            excluded=int(excluded.sum()),
-                            max_residual=float(residual[keep].max()) if keep.any() else 0.0)
+        stats = RefineStats(
+            refined=int(keep.sum()),
+            dropped=int((~converged & ~excluded).sum()),
+            excluded=int(excluded.sum()),
+            max_residual=float(residual[keep].max()) if keep.any() else 0.0,
+        )
         return x, keep, stats
 
 
@@ -188,9 +222,13 @@ def index_runs(keep: np.ndarray, closed: bool) -> list[tuple[np.ndarray, bool]]:
     return [(piece, False) for piece in pieces if len(piece) >= 2]
 
 
-def refine_curves(system: SilhouetteSystem, curves: list[Curve], max_move: float,
-                  singular_points: np.ndarray | None = None,
-                  exclusion_radius: float = 0.0) -> tuple[list[Curve], RefineStats]:
+def refine_curves(
+    system: SilhouetteSystem,
+    curves: list[Curve],
+    max_move: float,
+    singular_points: np.ndarray | None = None,
+    exclusion_radius: float = 0.0,
+) -> tuple[list[Curve], RefineStats]:
     """Each curve's points refined; curves split at dropped and excluded points; open ends
     continued along the exact curve up to the exclusion (``extend_end``); a run lying along
     another (a fragment the mesh traced twice) or shorter than a cell dropped, so no duplicate
@@ -243,20 +281,29 @@ def split_at_reversals(curve, points: np.ndarray, closed: bool, ends: tuple[bool
         cosine = np.einsum("ij,ij->i", step[1:], step[:-1]) / (length[1:] * length[:-1])
     # a fold, not a zigzag of one point refined out of order: the legs run back together
     candidates = [int(i) for i in np.flatnonzero(cosine < HAIRPIN_COSINE) + 1]
-    turns = [i for i in candidates if 2 <= i <= len(points) - 3 and np.linalg.norm(
-        points[i + 2] - points[i - 2]) < 0.5 * min(np.linalg.norm(points[i + 2] - points[i]),
-                                                   np.linalg.norm(points[i - 2] - points[i]))]
+    turns = [
+        i
+        for i in candidates
+        if 2 <= i <= len(points) - 3
+        and np.linalg.norm(points[i + 2] - points[i - 2])
+        < 0.5
+        * min(np.linalg.norm(points[i + 2] - points[i]), np.linalg.norm(points[i - 2] - points[i]))
+    ]
     if len(turns) == 0:
         return [(curve, points, closed, ends)]
     bounds = [0, *turns, len(points) - 1]
-    return [(curve, points[a:b + 1], False, (ends[0] or a > 0, ends[1] or b < len(points) - 1))
-            for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    return [
+        (curve, points[a : b + 1], False, (ends[0] or a > 0, ends[1] or b < len(points) - 1))
+        for a, b in zip(bounds[:-1], bounds[1:])
+        if b > a
+    ]
 
 
 def trim_end_zigzags(points: np.ndarray, legs: int = 4) -> np.ndarray:
     """An open run without a short leg that doubles back at either end (up to ``legs`` points
     refined out of order, or a fold too short to cut): otherwise the end's outward direction
     would point back along the run. The run then ends at the turn."""
+
     def turn(p):
         for i in range(1, min(legs, len(p) - 2) + 1):
             u, v = p[i] - p[i - 1], p[i + 1] - p[i]
@@ -264,9 +311,9 @@ def trim_end_zigzags(points: np.ndarray, legs: int = 4) -> np.ndarray:
                 return i
         return 0
 
-    points = points[turn(points):]
+    points = points[turn(points) :]
     tail = turn(points[::-1])
-    return points[:len(points) - tail] if tail else points
+    return points[: len(points) - tail] if tail else points
 
 
 def near(points: np.ndarray, others: np.ndarray, distance: float) -> np.ndarray:
@@ -275,8 +322,8 @@ def near(points: np.ndarray, others: np.ndarray, distance: float) -> np.ndarray:
     if len(others) == 0:
         return out
     for start in range(0, len(points), 256):
-        d = np.linalg.norm(points[start:start + 256, None] - others[None], axis=-1)
-        out[start:start + 256] = d.min(axis=1) < distance
+        d = np.linalg.norm(points[start : start + 256, None] - others[None], axis=-1)
+        out[start : start + 256] = d.min(axis=1) < distance
     return out
 
 
@@ -285,26 +332,45 @@ def polyline_length(points: np.ndarray, closed: bool) -> float:
     return float(np.linalg.norm(np.diff(p, axis=0), axis=1).sum())
 
 
-def extend_run(system: SilhouetteSystem, points: np.ndarray, cell: float,
-               others: np.ndarray, ends: tuple[bool, bool] = (True, True),
-               bounds=None) -> np.ndarray:
+def extend_run(
+    system: SilhouetteSystem,
+    points: np.ndarray,
+    cell: float,
+    others: np.ndarray,
+    ends: tuple[bool, bool] = (True, True),
+    bounds=None,
+) -> np.ndarray:
     """An open run with its ends continued (``extend_end``) where ``ends`` says so."""
     if len(points) < 2:
         return points
     none = np.zeros((0, 4))
-    tail = extend_end(system, points[-1], points[-1] - points[-2], cell, others,
-                      bounds=bounds) if ends[1] else none
-    head = extend_end(system, points[0], points[0] - points[1], cell, others,
-                      bounds=bounds) if ends[0] else none
+    tail = (
+        extend_end(system, points[-1], points[-1] - points[-2], cell, others, bounds=bounds)
+        if ends[1]
+        else none
+    )
+    head = (
+        extend_end(system, points[0], points[0] - points[1], cell, others, bounds=bounds)
+        if ends[0]
+        else none
+    )
     return np.concatenate([head[::-1], points, tail])
 
 
-def extend_end(system: SilhouetteSystem, end: np.ndarray, outward: np.ndarray, cell: float,
-               others: np.ndarray, reach: float = 8.0, bounds=None) -> np.ndarray:
+def extend_end(
+    system: SilhouetteSystem,
+    end: np.ndarray,
+    outward: np.ndarray,
+    cell: float,
+    others: np.ndarray,
+    reach: float = 8.0,
+    bounds=None,
+) -> np.ndarray:
     """Points continuing a silhouette curve beyond ``end`` (predictor along the curve's tangent,
     the null vector of the Jacobian of (f1, f2, s), corrector by the same Newton), for up to
     ``reach`` cells, until a point would be excluded (σ_min/σ_max of (∇f1, ∇f2) below
-    EXCLUSION_RATIO), runs onto ``others`` (another traced curve) or out of ``bounds``, or Newton fails even with a
+    EXCLUSION_RATIO), runs onto ``others`` (another traced curve) or out of ``bounds``, or
+    Newton fails even with a
     step of 1/64 cell. The traced curve stops where the mesh cannot follow it (near a singular
     point the mesh is torn, and points within half a cell of one are excluded); the exact curve
     goes on to the exclusion the ratio states."""
@@ -320,14 +386,19 @@ def extend_end(system: SilhouetteSystem, end: np.ndarray, outward: np.ndarray, c
             tangent *= np.sign(tangent @ direction) or 1.0
             guess = p + h * tangent
             q = system.newton(guess[None])[0]
-            ok = (np.isfinite(q).all() and system.residual(q[None])[0] <= RESIDUAL_TOLERANCE
-                  and np.linalg.norm(q - guess) <= 0.5 * h and (q - p) @ tangent > 0.25 * h
-                  and jacobian_ratio(system.f1, system.f2, q[None])[0] >= EXCLUSION_RATIO)
+            ok = (
+                np.isfinite(q).all()
+                and system.residual(q[None])[0] <= RESIDUAL_TOLERANCE
+                and np.linalg.norm(q - guess) <= 0.5 * h
+                and (q - p) @ tangent > 0.25 * h
+                and jacobian_ratio(system.f1, system.f2, q[None])[0] >= EXCLUSION_RATIO
+            )
             if not ok:
                 h /= 2
                 continue
             if near(q[None], others, 0.5 * cell)[0] or (
-                    bounds is not None and ((q < bounds[0]).any() or (q > bounds[1]).any())):
+                bounds is not None and ((q < bounds[0]).any() or (q > bounds[1]).any())
+            ):
                 break
             out.append(q)
             travelled += float(np.linalg.norm(q - p))
@@ -337,6 +408,7 @@ def extend_end(system: SilhouetteSystem, end: np.ndarray, outward: np.ndarray, c
 
 
 # ----------------------------------------------------------------------------- parametric X(s, t)
+
 
 class Span(Protocol):
     """A parameter's interval (exhibit.surfaces.parametric.Interval)."""
@@ -384,8 +456,12 @@ class ParametricExact:
         """Newton on g(s, t) = 0 with the minimum-norm step (one equation, two unknowns)."""
         st = np.asarray(st, dtype=float).reshape(-1, 2).copy()
         start_points = self.function(st[:, 0], st[:, 1])
-        spans = np.array([self.s_interval.stop - self.s_interval.start,
-                          self.t_interval.stop - self.t_interval.start])
+        spans = np.array(
+            [
+                self.s_interval.stop - self.s_interval.start,
+                self.t_interval.stop - self.t_interval.start,
+            ]
+        )
         h = 1e-6 * spans
         for _ in range(ITERATIONS):
             g, residual, _ = self.condition(st, along)
@@ -393,10 +469,12 @@ class ParametricExact:
             if not go.any():
                 break
             x = st[go]
-            gs = (self.condition(x + [h[0], 0], along)[0]
-                  - self.condition(x - [h[0], 0], along)[0]) / (2 * h[0])
-            gt = (self.condition(x + [0, h[1]], along)[0]
-                  - self.condition(x - [0, h[1]], along)[0]) / (2 * h[1])
+            gs = (
+                self.condition(x + [h[0], 0], along)[0] - self.condition(x - [h[0], 0], along)[0]
+            ) / (2 * h[0])
+            gt = (
+                self.condition(x + [0, h[1]], along)[0] - self.condition(x - [0, h[1]], along)[0]
+            ) / (2 * h[1])
             norm2 = gs**2 + gt**2
             step = np.where(norm2 > 0, g[go] / np.where(norm2 > 0, norm2, 1.0), 0.0)
             st[go] = x - step[:, None] * np.stack([gs, gt], 1)
@@ -408,18 +486,31 @@ class ParametricExact:
         points = self.function(st[:, 0], st[:, 1])
         _, residual, independence = self.condition(st, along)
         moved = np.linalg.norm(points - start_points, axis=1)
-        converged = (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & inside & \
-            np.isfinite(points).all(axis=1)
+        converged = (
+            (residual <= RESIDUAL_TOLERANCE)
+            & (moved <= max_move)
+            & inside
+            & np.isfinite(points).all(axis=1)
+        )
         excluded = np.isfinite(points).all(axis=1) & ~(independence >= EXCLUSION_RATIO)
         keep = converged & ~excluded
-        stats = RefineStats(refined=int(keep.sum()), dropped=int((~converged & ~excluded).sum()),
-                            excluded=int(excluded.sum()),
-                            max_residual=float(residual[keep].max()) if keep.any() else 0.0)
+        stats = RefineStats(
+            refined=int(keep.sum()),
+            dropped=int((~converged & ~excluded).sum()),
+            excluded=int(excluded.sum()),
+            max_residual=float(residual[keep].max()) if keep.any() else 0.0,
+        )
         return points, keep, stats
 
 
-def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int], name: str,
-                          material, stats: RefineStats | None = None) -> list[Curve]:
+def parametric_silhouette(
+    surface,
+    exact: ParametricExact,
+    along: tuple[int, int],
+    name: str,
+    material,
+    stats: RefineStats | None = None,
+) -> list[Curve]:
     """The silhouette along two axes of a parametric surface, refined in (s, t) onto
     det[X_s, X_t, e_a, e_b] = 0. Parameters are interpolated per triangle with periodic ones
     unwrapped, so a curve crossing a seam starts from the right (s, t)."""
@@ -428,13 +519,15 @@ def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int
     if len(surface.triangles) == 0:
         return []
     e = np.eye(4)
-    values = silhouette_function(surface.normals[:, 0], surface.normals[:, 1], e[along[0]],
-                                 e[along[1]])
+    values = silhouette_function(
+        surface.normals[:, 0], surface.normals[:, 1], e[along[0]], e[along[1]]
+    )
     chains = traced_with_parameters(surface, exact, values)
     if not chains:
         return []
-    edge = float(np.max(np.ptp(surface.positions, axis=0))) / max(np.sqrt(len(surface.positions)),
-                                                                  1.0)
+    edge = float(np.max(np.ptp(surface.positions, axis=0))) / max(
+        np.sqrt(len(surface.positions)), 1.0
+    )
     out: list[Curve] = []
     total = RefineStats()
     for points, st, closed in chains:
@@ -443,8 +536,9 @@ def parametric_silhouette(surface, exact: ParametricExact, along: tuple[int, int
         s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported
         total.add(s)
         for run, run_closed in runs:
-            out.append(Curve(name if not out else f"{name} {len(out) + 1}", run, material,
-                             run_closed))
+            out.append(
+                Curve(name if not out else f"{name} {len(out) + 1}", run, material, run_closed)
+            )
     if stats is not None:
         stats.add(total)
     return out
@@ -463,8 +557,9 @@ def traced_with_parameters(surface, exact: ParametricExact, values: np.ndarray):
         if interval.periodic:
             period = interval.stop - interval.start
             ref = params[:, :1, k]
-            params[:, :, k] = ref + (params[:, :, k] - ref
-                                     - period * np.round((params[:, :, k] - ref) / period))
+            params[:, :, k] = ref + (
+                params[:, :, k] - ref - period * np.round((params[:, :, k] - ref) / period)
+            )
     soup = np.concatenate([surface.positions[tris], params], axis=2).reshape(-1, 6)
     segments = zero_set_segments(soup, np.arange(len(soup)).reshape(-1, 3), values[tris].ravel())
     if len(segments) == 0:
@@ -473,6 +568,11 @@ def traced_with_parameters(surface, exact: ParametricExact, values: np.ndarray):
     scale = max(float(np.abs(surface.positions).max()), 1.0) * 1e-9
     for end in segments.reshape(-1, 6):
         lookup.setdefault(tuple(np.round(end[:4] / scale).astype(np.int64)), end[4:])
-    return [(points, np.array([lookup[tuple(np.round(p / scale).astype(np.int64))]
-                               for p in points]), closed)
-            for points, closed in chain_segments(segments[:, :, :4], scale)]
+    return [
+        (
+            points,
+            np.array([lookup[tuple(np.round(p / scale).astype(np.int64))] for p in points]),
+            closed,
+        )
+        for points, closed in chain_segments(segments[:, :, :4], scale)
+    ]

@@ -29,8 +29,22 @@ import numpy as np
 if TYPE_CHECKING:  # sympy is imported where it is used: it costs half a second
     import sympy
 
-FUNCTION_NAMES = ("sin", "cos", "tan", "exp", "log", "sqrt", "abs", "sign", "sinh", "cosh",
-                  "tanh", "atan", "min", "max")
+FUNCTION_NAMES = (
+    "sin",
+    "cos",
+    "tan",
+    "exp",
+    "log",
+    "sqrt",
+    "abs",
+    "sign",
+    "sinh",
+    "cosh",
+    "tanh",
+    "atan",
+    "min",
+    "max",
+)
 #: Functions of two or more arguments; the others take exactly one.
 VARIADIC = ("min", "max")
 CONSTANT_NAMES = ("pi", "e")
@@ -70,11 +84,13 @@ def _refusing(action: str):
     except ExpressionError:
         raise
     except Exception as exc:  # noqa: BLE001 - the public boundary: one exception type out
-        raise ExpressionError(f"the formula could not be {action}: "
-                              f"{type(exc).__name__}: {exc}"[:300]) from exc
+        raise ExpressionError(
+            f"the formula could not be {action}: {type(exc).__name__}: {exc}"[:300]
+        ) from exc
 
 
 # ---------------------------------------------------------------------------- parsing
+
 
 @dataclass(frozen=True, slots=True)
 class _Checked:
@@ -85,10 +101,22 @@ class _Checked:
     degree: float
 
 
-_MATH = {"sin": math.sin, "cos": math.cos, "tan": math.tan, "exp": math.exp, "log": math.log,
-         "sqrt": math.sqrt, "abs": abs, "sign": lambda v: math.copysign(v != 0, v),
-         "sinh": math.sinh, "cosh": math.cosh, "tanh": math.tanh, "atan": math.atan,
-         "min": min, "max": max}
+_MATH = {
+    "sin": math.sin,
+    "cos": math.cos,
+    "tan": math.tan,
+    "exp": math.exp,
+    "log": math.log,
+    "sqrt": math.sqrt,
+    "abs": abs,
+    "sign": lambda v: math.copysign(v != 0, v),
+    "sinh": math.sinh,
+    "cosh": math.cosh,
+    "tanh": math.tanh,
+    "atan": math.atan,
+    "min": min,
+    "max": max,
+}
 
 
 class _CheckAlgebra:
@@ -112,8 +140,10 @@ class _CheckAlgebra:
         products) the known ones are folded and checked even if others are not (10^60*x*10^60
         is refused: sympy would print 10^120 as an integer numpy cannot take)."""
         if degree > MAX_DEGREE:
-            raise _Refused(f"degree {degree:g} is above {MAX_DEGREE} (exponents multiply when "
-                           "powers are nested)")
+            raise _Refused(
+                f"degree {degree:g} is above {MAX_DEGREE} (exponents multiply when "
+                "powers are nested)"
+            )
         known = [p for p in parts if p.value is not None]
         if len(known) < len(parts):
             if partial and len(known) > 1:
@@ -137,8 +167,7 @@ class _CheckAlgebra:
         return self._result(lambda *v: math.fsum(v), terms, max(t.degree for t in terms), True)
 
     def mul(self, factors):
-        return self._result(lambda *v: math.prod(v), factors, sum(f.degree for f in factors),
-                            True)
+        return self._result(lambda *v: math.prod(v), factors, sum(f.degree for f in factors), True)
 
     def negate(self, part):
         return _Checked(None if part.value is None else -part.value, part.degree)
@@ -154,9 +183,12 @@ class _CheckAlgebra:
         return self._result(lambda b, x: b**x, [base, exponent], degree)
 
     def function(self, name, args):
-        degree = {"abs": args[0].degree, "sqrt": args[0].degree / 2,
-                  "min": max(a.degree for a in args), "max": max(a.degree for a in args)}.get(
-            name, 1.0 if any(a.value is None for a in args) else 0.0)
+        degree = {
+            "abs": args[0].degree,
+            "sqrt": args[0].degree / 2,
+            "min": max(a.degree for a in args),
+            "max": max(a.degree for a in args),
+        }.get(name, 1.0 if any(a.value is None for a in args) else 0.0)
         return self._result(_MATH[name], args, degree)
 
 
@@ -166,13 +198,25 @@ class _SympyAlgebra:
 
     def __init__(self, variables):
         import sympy
+
         self.sympy = sympy
         self.symbols = {name: sympy.Symbol(name, real=True) for name in variables}
-        self.functions = {"sin": sympy.sin, "cos": sympy.cos, "tan": sympy.tan,
-                          "exp": sympy.exp, "log": sympy.log, "sqrt": sympy.sqrt,
-                          "abs": sympy.Abs, "sign": sympy.sign, "sinh": sympy.sinh,
-                          "cosh": sympy.cosh, "tanh": sympy.tanh, "atan": sympy.atan,
-                          "min": sympy.Min, "max": sympy.Max}
+        self.functions = {
+            "sin": sympy.sin,
+            "cos": sympy.cos,
+            "tan": sympy.tan,
+            "exp": sympy.exp,
+            "log": sympy.log,
+            "sqrt": sympy.sqrt,
+            "abs": sympy.Abs,
+            "sign": sympy.sign,
+            "sinh": sympy.sinh,
+            "cosh": sympy.cosh,
+            "tanh": sympy.tanh,
+            "atan": sympy.atan,
+            "min": sympy.Min,
+            "max": sympy.Max,
+        }
         self.constants = {"pi": sympy.pi, "e": sympy.E}
 
     def number(self, value: float):
@@ -255,13 +299,15 @@ def _too_deep(tree: ast.Expression) -> ast.AST | None:
             depth += 1
         if depth > MAX_DEPTH:
             return node
-        stack.extend((child, depth, kind) for child in ast.iter_child_nodes(node)
-                     if isinstance(child, ast.expr))
+        stack.extend(
+            (child, depth, kind)
+            for child in ast.iter_child_nodes(node)
+            if isinstance(child, ast.expr)
+        )
     return None
 
 
-def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] | None,
-          algebra):
+def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] | None, algebra):
     parameters = dict(parameters or {})
     if not isinstance(text, str):
         raise ExpressionError(f"the formula must be text, not {type(text).__name__}")
@@ -281,8 +327,9 @@ def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] |
     try:
         tree = ast.parse(source.replace("^", "**"), mode="eval")
     except SyntaxError as exc:
-        raise ExpressionError(f"syntax error at column {column((exc.offset or 1) - 1)}: "
-                              f"{exc.msg}") from None
+        raise ExpressionError(
+            f"syntax error at column {column((exc.offset or 1) - 1)}: {exc.msg}"
+        ) from None
     except (RecursionError, MemoryError):
         raise ExpressionError("the formula is nested too deeply to read") from None
     except ValueError as exc:  # e.g. a NUL character
@@ -296,12 +343,15 @@ def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] |
 
     deep = _too_deep(tree)
     if deep is not None:
-        fail(deep, f"nested more than {MAX_DEPTH} levels deep (functions, powers, signs and "
-                   "brackets inside each other)")
+        fail(
+            deep,
+            f"nested more than {MAX_DEPTH} levels deep (functions, powers, signs and "
+            "brackets inside each other)",
+        )
 
     def snippet(node) -> str:
         """The node's text as the curator wrote it, shortened."""
-        part = text[column(node.col_offset) - 1:column(node.end_col_offset - 1)]
+        part = text[column(node.col_offset) - 1 : column(node.end_col_offset - 1)]
         return part if len(part) <= 40 else part[:37] + "..."
 
     def apply(node, operation, *args):
@@ -334,8 +384,10 @@ def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] |
             operand = visit(node.operand)
             return algebra.negate(operand) if isinstance(node.op, ast.USub) else operand
         if _kind(node) == "sum":
-            terms = [algebra.negate(visit(part)) if minus else visit(part)
-                     for part, minus in _operands(node)]
+            terms = [
+                algebra.negate(visit(part)) if minus else visit(part)
+                for part, minus in _operands(node)
+            ]
             return apply(node, algebra.add, terms)
         if _kind(node) == "product":
             factors = []
@@ -358,8 +410,9 @@ def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] |
         if isinstance(node, ast.Call):
             if not isinstance(node.func, ast.Name) or node.func.id not in FUNCTION_NAMES:
                 name = getattr(node.func, "id", "this")
-                fail(node, f"function {name!r} is not allowed "
-                           f"(allowed: {', '.join(FUNCTION_NAMES)})")
+                fail(
+                    node, f"function {name!r} is not allowed (allowed: {', '.join(FUNCTION_NAMES)})"
+                )
             name = node.func.id
             if name in VARIADIC:
                 if node.keywords or len(node.args) < 2:
@@ -372,9 +425,12 @@ def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] |
     return visit(tree.body)
 
 
-def check_expression(text: str, variables: Sequence[str],
-                     parameters: Mapping[str, float] | None = None,
-                     box: Sequence[tuple[float, float]] | None = None) -> None:
+def check_expression(
+    text: str,
+    variables: Sequence[str],
+    parameters: Mapping[str, float] | None = None,
+    box: Sequence[tuple[float, float]] | None = None,
+) -> None:
     """Raise ExpressionError (and nothing else) if ``text`` is not a formula the exhibit can draw.
 
     Without ``box`` the check is structural and needs no sympy (cheap at start-up): syntax,
@@ -395,10 +451,14 @@ def _sample(box, variables) -> np.ndarray:
         box = np.asarray(box, dtype=float)
     except (TypeError, ValueError):
         box = np.zeros(0)
-    if box.shape != (len(variables), 2) or not np.all(np.isfinite(box)) \
-            or np.any(box[:, 1] <= box[:, 0]):
-        raise ExpressionError(f"the box must be {len(variables)} finite (low, high) pairs "
-                              "with low < high")
+    if (
+        box.shape != (len(variables), 2)
+        or not np.all(np.isfinite(box))
+        or np.any(box[:, 1] <= box[:, 0])
+    ):
+        raise ExpressionError(
+            f"the box must be {len(variables)} finite (low, high) pairs with low < high"
+        )
     lo, hi = box.T
     corners = np.array(list(itertools.product((0.0, 1.0), repeat=len(lo))))
     inside = np.random.default_rng(0).random((SAMPLES, len(lo)))
@@ -413,13 +473,16 @@ def _check_sample(field: ScalarField, variables, box) -> None:
         first = int(np.argmax(bad))
         what = "value" if not np.isfinite(value[first]) else "gradient"
         where = ", ".join(f"{n} = {v:.3g}" for n, v in zip(variables, points[first]))
-        raise ExpressionError(f"not a finite real number on {bad.mean():.0%} of the box "
-                              f"(e.g. its {what} at {where}); at most {MAX_UNDEFINED:.0%} of "
-                              "it may be undefined")
+        raise ExpressionError(
+            f"not a finite real number on {bad.mean():.0%} of the box "
+            f"(e.g. its {what} at {where}); at most {MAX_UNDEFINED:.0%} of "
+            "it may be undefined"
+        )
 
 
-def parse_expression(text: str, variables: Sequence[str],
-                     parameters: Mapping[str, float] | None = None) -> "sympy.Expr":
+def parse_expression(
+    text: str, variables: Sequence[str], parameters: Mapping[str, float] | None = None
+) -> "sympy.Expr":
     """Translate ``text`` into a sympy expression in ``variables`` with parameters substituted.
 
     The cheap check runs first, so sympy never sees a formula that could exhaust it."""
@@ -433,6 +496,7 @@ def parse_expression(text: str, variables: Sequence[str],
 
 
 # ---------------------------------------------------------------------------- non-smooth functions
+
 
 @functools.cache
 def _kinks():
@@ -465,7 +529,7 @@ def _kinks():
 
         @classmethod
         def eval(cls, *args):
-            picks = args[len(args) // 2:]
+            picks = args[len(args) // 2 :]
             if all(d == picks[0] for d in picks):
                 return picks[0]
             return None
@@ -484,8 +548,12 @@ def _kinks():
         first = np.argmax(np.stack(arrays[:n]), axis=0)
         return np.take_along_axis(np.stack(arrays[n:]), first[None], axis=0)[0]
 
-    numpy = {"KinkSign": np.sign, "KinkAbs": np.abs, "KinkPick": pick,
-             "KinkMax": lambda *a: functools.reduce(np.maximum, a)}
+    numpy = {
+        "KinkSign": np.sign,
+        "KinkAbs": np.abs,
+        "KinkPick": pick,
+        "KinkMax": lambda *a: functools.reduce(np.maximum, a),
+    }
     return KinkSign, KinkAbs, KinkMax, KinkPick, numpy
 
 
@@ -494,9 +562,12 @@ def differentiable(expression: sympy.Expr) -> sympy.Expr:
     import sympy
 
     sign, absolute, maximum, _, _ = _kinks()
-    return (expression.replace(sympy.Abs, absolute).replace(sympy.sign, sign)
-            .replace(sympy.Max, maximum)
-            .replace(sympy.Min, lambda *args: -maximum(*[-a for a in args])))
+    return (
+        expression.replace(sympy.Abs, absolute)
+        .replace(sympy.sign, sign)
+        .replace(sympy.Max, maximum)
+        .replace(sympy.Min, lambda *args: -maximum(*[-a for a in args]))
+    )
 
 
 def lambdify(symbols, expression) -> Callable:
@@ -508,8 +579,13 @@ def lambdify(symbols, expression) -> Callable:
     # sympy keeps exact integers (10^12 to the 64th); numpy cannot take those beyond a float.
     # Floats are printed with 15 digits, which is not the double they stand for: 30 digits is.
     exact = {n: sympy.Float(n, 30) for n in expression.atoms(sympy.Float)}
-    exact.update({n: sympy.Float(n) for n in expression.atoms(sympy.Rational)
-                  if max(abs(n.p), n.q) > 2**1000})
+    exact.update(
+        {
+            n: sympy.Float(n)
+            for n in expression.atoms(sympy.Rational)
+            if max(abs(n.p), n.q) > 2**1000
+        }
+    )
     return sympy.lambdify(symbols, expression.xreplace(exact), modules=[_kinks()[-1], "numpy"])
 
 
@@ -600,8 +676,9 @@ def _abs(a):
     return low, np.maximum(np.abs(lo), np.abs(hi))
 
 
-def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], lo: np.ndarray,
-                    hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def interval_bounds(
+    expression: sympy.Expr, variables: Sequence[sympy.Symbol], lo: np.ndarray, hi: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Enclosure of expression over boxes [lo, hi] (shape (N, 4)): the natural interval extension.
 
     Every finite value the expression takes in a box lies within the returned bounds (never a
@@ -624,7 +701,7 @@ def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], l
         if e in index:
             result = (lo_columns[index[e]], hi_columns[index[e]])
         elif e.is_Number or e.is_NumberSymbol:  # constant parts are bounded operation by
-            value = np.float64(float(e))          # operation, as numpy rounds them
+            value = np.float64(float(e))  # operation, as numpy rounds them
             result = _outward(value, value)
         elif isinstance(e, sympy.Add):
             parts = [visit(arg) for arg in e.args]
@@ -643,8 +720,11 @@ def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], l
             elif exponent.is_Number:
                 p = float(exponent)
                 b = visit(base)
-                result = _monotone(lambda x: x**p, b, 0.0) if p > 0 else \
-                    _reciprocal(_monotone(lambda x: x ** (-p), b, 0.0))
+                result = (
+                    _monotone(lambda x: x**p, b, 0.0)
+                    if p > 0
+                    else _reciprocal(_monotone(lambda x: x ** (-p), b, 0.0))
+                )
             else:  # |x**y| = exp(y log|x|), in intervals (in sympy it folds back to x**y);
                 b = visit(base)  # numpy gives x < 0 a value (of either sign) at whole y
                 log_size = _monotone(np.log, _abs(b), 0.0)
@@ -667,12 +747,16 @@ def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], l
         elif isinstance(e, (sympy.Max, sympy.Min, maximum)):  # monotone in every argument
             extreme = np.minimum if isinstance(e, sympy.Min) else np.maximum
             parts = [visit(arg) for arg in e.args]
-            result = (functools.reduce(extreme, [p[0] for p in parts]),
-                      functools.reduce(extreme, [p[1] for p in parts]))
+            result = (
+                functools.reduce(extreme, [p[0] for p in parts]),
+                functools.reduce(extreme, [p[1] for p in parts]),
+            )
         elif isinstance(e, pick):  # one of its second half of arguments
-            parts = [visit(arg) for arg in e.args[len(e.args) // 2:]]
-            result = (functools.reduce(np.minimum, [p[0] for p in parts]),
-                      functools.reduce(np.maximum, [p[1] for p in parts]))
+            parts = [visit(arg) for arg in e.args[len(e.args) // 2 :]]
+            result = (
+                functools.reduce(np.minimum, [p[0] for p in parts]),
+                functools.reduce(np.maximum, [p[1] for p in parts]),
+            )
         elif isinstance(e, (sympy.sinh, sympy.tanh, sympy.atan)):
             function = {sympy.sinh: np.sinh, sympy.tanh: np.tanh, sympy.atan: np.arctan}[e.func]
             result = _monotone(function, visit(e.args[0]))
@@ -691,6 +775,7 @@ def interval_bounds(expression: sympy.Expr, variables: Sequence[sympy.Symbol], l
 
 
 # ---------------------------------------------------------------------------- compiled functions
+
 
 @dataclass
 class ScalarField:
@@ -726,8 +811,9 @@ class ScalarField:
         return interval_bounds(self.expression, self.symbols, lo, hi)
 
 
-def compile_field(text_or_expression, variables: Sequence[str],
-                  parameters: Mapping[str, float] | None = None) -> ScalarField:
+def compile_field(
+    text_or_expression, variables: Sequence[str], parameters: Mapping[str, float] | None = None
+) -> ScalarField:
     """A ScalarField from a formula string (parsed safely) or a sympy expression; any failure is
     an ExpressionError (parameter values that differ from the checked ones can still divide by
     zero, e.g. x/(a - 1) at a = 1)."""
@@ -738,6 +824,7 @@ def compile_field(text_or_expression, variables: Sequence[str],
             expression = parse_expression(text_or_expression, variables, parameters)
         else:
             expression = sympy.sympify(text_or_expression).subs(
-                {sympy.Symbol(k, real=True): v for k, v in (parameters or {}).items()})
+                {sympy.Symbol(k, real=True): v for k, v in (parameters or {}).items()}
+            )
         symbols = tuple(sympy.Symbol(name, real=True) for name in variables)
         return ScalarField(expression, symbols)

@@ -99,15 +99,22 @@ def _corner_values(f1, f2, origin, h, cells) -> tuple[np.ndarray, np.ndarray]:
     coordinate at a time (origin + integer * h, the same arithmetic as everywhere a grid vertex
     is made): contiguous arrays, where an (N, 16, 4) array's columns and an (N, 16, 2) result's
     reductions over the middle axis ran at half the speed."""
-    axes = [origin[d] + (cells[:, d, None] + _CHILD_OFFSETS[None, :, d]) * h[d]
-            for d in range(4)]
+    axes = [origin[d] + (cells[:, d, None] + _CHILD_OFFSETS[None, :, d]) * h[d] for d in range(4)]
     return f1.value_on_axes(axes), f2.value_on_axes(axes)
 
 
 #: Each plane's square corners v00, v10, v11, v01 as offsets from its base cell, (6, 4, 4).
-_RINGS = np.array([[np.eye(4, dtype=np.int64)[a] * 0, np.eye(4, dtype=np.int64)[a],
-                    np.eye(4, dtype=np.int64)[a] + np.eye(4, dtype=np.int64)[b],
-                    np.eye(4, dtype=np.int64)[b]] for a, b in _PAIRS])
+_RINGS = np.array(
+    [
+        [
+            np.eye(4, dtype=np.int64)[a] * 0,
+            np.eye(4, dtype=np.int64)[a],
+            np.eye(4, dtype=np.int64)[a] + np.eye(4, dtype=np.int64)[b],
+            np.eye(4, dtype=np.int64)[b],
+        ]
+        for a, b in _PAIRS
+    ]
+)
 #: Cells handled at a time from corner values to crossed squares: their arrays (16 corners,
 #: two fields) then stay in the cache, where whole-grid arrays at n = 128 (3.6M values each)
 #: made the last doubling of n cost 5.4x instead of 4x.
@@ -128,16 +135,15 @@ def _crossed_squares(f1, f2, origin, h, cells):
     corner * h, so a grid vertex gets the same value bit for bit wherever it is evaluated."""
     corner_index = {tuple(o): k for k, o in enumerate(_CHILD_OFFSETS.tolist())}
     index = [[corner_index[tuple(v)] for v in ring.tolist()] for ring in _RINGS]
-    found = [([], []) for _ in _PAIRS]   # per plane: bases, values, in cell order
+    found = [([], []) for _ in _PAIRS]  # per plane: bases, values, in cell order
     straddling_cells = 0
     for start in range(0, len(cells), CHUNK_CELLS):
-        chunk = cells[start:start + CHUNK_CELLS]
+        chunk = cells[start : start + CHUNK_CELLS]
         fields_at_corners = _corner_values(f1, f2, origin, h, chunk)
         straddling = np.ones(len(chunk), dtype=bool)
         for v in fields_at_corners:  # NaN propagates through max and min: such cells drop out
             high, low = v.max(axis=1), v.min(axis=1)
-            straddling &= (high > 0) & (low <= 0) & (high < LARGEST_VALUE) & \
-                (low > -LARGEST_VALUE)
+            straddling &= (high > 0) & (low <= 0) & (high < LARGEST_VALUE) & (low > -LARGEST_VALUE)
         chunk = chunk[straddling]
         straddling_cells += len(chunk)
         corner_values = np.stack([v[straddling] for v in fields_at_corners], axis=-1)
@@ -148,8 +154,9 @@ def _crossed_squares(f1, f2, origin, h, cells):
             found[p][1].append(square_values[keep])
     bases = np.concatenate([b for plane in found for b in plane[0]])
     values = np.concatenate([v for plane in found for v in plane[1]])
-    planes = np.concatenate([np.full(sum(len(b) for b in plane[0]), p, dtype=np.int64)
-                             for p, plane in enumerate(found)])
+    planes = np.concatenate(
+        [np.full(sum(len(b) for b in plane[0]), p, dtype=np.int64) for p, plane in enumerate(found)]
+    )
     return bases, planes, values, straddling_cells
 
 
@@ -235,8 +242,10 @@ def _solve_gram(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
         return np.linalg.solve(gram, rhs[..., None])[..., 0]
     a, b, c = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
     det = a * c - b * b
-    return np.stack([c * rhs[:, 0] - b * rhs[:, 1], a * rhs[:, 1] - b * rhs[:, 0]], axis=1) \
+    return (
+        np.stack([c * rhs[:, 0] - b * rhs[:, 1], a * rhs[:, 1] - b * rhs[:, 0]], axis=1)
         / det[:, None]
+    )
 
 
 @np.errstate(all="ignore")
@@ -264,8 +273,13 @@ def project_onto(fields, points: np.ndarray, max_move: float):
         finite = np.isfinite(values).all(axis=1) & np.isfinite(gram).all(axis=(1, 2))
         failed[idx[~finite]] = True
         active[idx[~finite]] = False
-        idx, xa, values, jac, gram = idx[finite], xa[finite], values[finite], jac[finite], \
-            gram[finite]
+        idx, xa, values, jac, gram = (
+            idx[finite],
+            xa[finite],
+            values[finite],
+            jac[finite],
+            gram[finite],
+        )
         smallest, largest = _extreme_eigenvalues(gram)
         ratio = np.sqrt(np.maximum(smallest, 0.0) / np.maximum(largest, 1e-300))
         is_singular = ratio < SINGULAR_RATIO
@@ -283,8 +297,9 @@ def project_onto(fields, points: np.ndarray, max_move: float):
     return x, singular, unconverged
 
 
-def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
-                       enough: float, rounds: int = 3) -> int:
+def reach_singular_set(
+    surface: Surface, traced: np.ndarray, radius: float, enough: float, rounds: int = 3
+) -> int:
     """Close the gap between the mesh and the traced singular set. Near a pinch or a cusp of the
     surface the grid cannot separate the sheets, and the dual mesh folds over short of the
     singular set. Each sample of the set claims its nearest vertex within ``radius``, and each
@@ -302,7 +317,7 @@ def reach_singular_set(surface: Surface, traced: np.ndarray, radius: float,
         if len(free) == 0:  # a singular set that covers the whole mesh
             break
         for start in range(0, len(todo), 64):
-            ks = todo[start:start + 64]
+            ks = todo[start : start + 64]
             d = np.linalg.norm(traced[ks][:, None] - positions[free][None], axis=-1)
             nearest = np.argmin(d, axis=1)
             for k, j, dist in zip(ks, nearest, d[np.arange(len(ks)), nearest]):
@@ -396,8 +411,9 @@ def _clip_to_box(fields, vertices, triangles, singular, lo, hi, cell):
             sel = (axis == k) & (bound == b)
             if not sel.any():
                 continue
-            moved, sing, unconv = project_onto(tuple(fields) + (CoordinatePlane(k, b),), start[sel],
-                                               2.0 * cell)
+            moved, sing, unconv = project_onto(
+                tuple(fields) + (CoordinatePlane(k, b),), start[sel], 2.0 * cell
+            )
             moved[:, k] = b
             new[sel] = moved
             failed[sel] = sing | unconv
@@ -405,33 +421,46 @@ def _clip_to_box(fields, vertices, triangles, singular, lo, hi, cell):
     # the index arrays were concatenated: split them back
     n1, n2 = len(one), len(two)
     ab1 = base + index[:n1]
-    ac1 = base + index[n1:2 * n1]
-    ba2 = base + index[2 * n1:2 * n1 + n2]
-    ca2 = base + index[2 * n1 + n2:]
-    pieces = [keep,
-              np.stack([one[:, 0], ab1, ac1], 1),
-              np.stack([ba2, two[:, 1], two[:, 2]], 1),
-              np.stack([ba2, two[:, 2], ca2], 1)]
+    ac1 = base + index[n1 : 2 * n1]
+    ba2 = base + index[2 * n1 : 2 * n1 + n2]
+    ca2 = base + index[2 * n1 + n2 :]
+    pieces = [
+        keep,
+        np.stack([one[:, 0], ab1, ac1], 1),
+        np.stack([ba2, two[:, 1], two[:, 2]], 1),
+        np.stack([ba2, two[:, 2], ca2], 1),
+    ]
     all_vertices = np.concatenate([vertices, new])
     all_singular = np.concatenate([singular, np.zeros(len(new), dtype=bool)])
-    used, triangles = keep_vertices(np.ones(len(all_vertices), dtype=bool),
-                                    np.concatenate(pieces).astype(np.int64))
+    used, triangles = keep_vertices(
+        np.ones(len(all_vertices), dtype=bool), np.concatenate(pieces).astype(np.int64)
+    )
     return all_vertices[used], triangles, all_singular[used], (len(new), int(failed.sum()))
 
 
 @np.errstate(all="ignore")
-def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi,
-               resolution: int, material: Material | None = None, seed: int = 0,
-               progress: Callable[[str], None] | None = None,
-               prune: bool = True) -> ImplicitResult:
+def polygonize(
+    name: str,
+    f1: ScalarField,
+    f2: ScalarField,
+    domain_lo,
+    domain_hi,
+    resolution: int,
+    material: Material | None = None,
+    seed: int = 0,
+    progress: Callable[[str], None] | None = None,
+    prune: bool = True,
+) -> ImplicitResult:
     """Mesh {f1 = f2 = 0} within the box [domain_lo, domain_hi] at ``resolution`` cells per axis.
 
     ``prune=False`` visits every cell of the grid (n⁴): the baseline the benchmark compares with.
     """
     started = time.perf_counter()
     if progress is None:
+
         def progress(message: str) -> None:
             progress_line.report(f"{name}: {message}")
+
     domain_lo = np.asarray(domain_lo, dtype=float)
     domain_hi = np.asarray(domain_hi, dtype=float)
     if domain_lo.shape != (4,) or domain_hi.shape != (4,) or np.any(domain_hi <= domain_lo):
@@ -447,15 +476,17 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     span = resolution + 2 * math.ceil(PAD) + 1
     size = 1 << math.ceil(math.log2(span))
     if prune:
-        cells = _prune(f1, f2, origin, h, size, domain_lo - PAD * h, domain_hi + PAD * h, stats,
-                       progress)
+        cells = _prune(
+            f1, f2, origin, h, size, domain_lo - PAD * h, domain_hi + PAD * h, stats, progress
+        )
     else:
         axes = [np.arange(span)] * 4
         cells = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 4).astype(np.int64)
         stats.boxes_tested = len(cells)
     stats.cells = len(cells)
-    empty = Surface(name, np.zeros((0, 4)), np.zeros((0, 2, 4)), np.zeros((0, 3)),
-                    material or Material())
+    empty = Surface(
+        name, np.zeros((0, 4)), np.zeros((0, 2, 4)), np.zeros((0, 3)), material or Material()
+    )
     if len(cells) == 0:
         stats.seconds = time.perf_counter() - started
         return ImplicitResult(empty, stats, np.zeros((0, 4)))
@@ -504,13 +535,16 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     ac = np.linalg.norm(vertices[a] - vertices[c], axis=1)
     bd = np.linalg.norm(vertices[b] - vertices[d], axis=1)
     use_ac = ac <= bd
-    triangles = np.concatenate([
-        np.where(use_ac[:, None], np.stack([a, b, c], 1), np.stack([a, b, d], 1)),
-        np.where(use_ac[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1)),
-    ])
+    triangles = np.concatenate(
+        [
+            np.where(use_ac[:, None], np.stack([a, b, c], 1), np.stack([a, b, d], 1)),
+            np.where(use_ac[:, None], np.stack([a, c, d], 1), np.stack([b, c, d], 1)),
+        ]
+    )
 
     vertices, triangles, singular, stats.box_cut = _clip_to_box(
-        (f1, f2), vertices, triangles, singular, domain_lo, domain_hi, float(h.max()))
+        (f1, f2), vertices, triangles, singular, domain_lo, domain_hi, float(h.max())
+    )
 
     # Drop vertices off the formulas' domain (with their triangles); positions are finite.
     at_vertices = _evaluate(f1, f2, vertices)
@@ -524,8 +558,9 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
     stats.max_residual = float(residual.max()) if len(residual) else 0.0
     if progress is not None:
         progress("searching for singular points")
-    singular_points = find_singular_points(f1, f2, vertices, float(h.max()),
-                                           float(np.max(domain_hi - domain_lo)))
+    singular_points = find_singular_points(
+        f1, f2, vertices, float(h.max()), float(np.max(domain_hi - domain_lo))
+    )
     if len(singular_points):
         if progress is not None:
             progress("tracing the singular set")
@@ -534,10 +569,16 @@ def polygonize(name: str, f1: ScalarField, f2: ScalarField, domain_lo, domain_hi
         stats.snapped = reach_singular_set(surface, singular_points, 1.5 * cell, cell / 8)
     stats.singular_points = len(singular_points)
     stats.seconds = time.perf_counter() - started
-    surface.info = {"kind": "implicit", "max_residual": stats.max_residual,
-                    "singular_points": stats.singular_points, "seconds": stats.seconds,
-                    "resolution": resolution, "cells": stats.cells,
-                    "box": [domain_lo.tolist(), domain_hi.tolist()],
-                    "cell_size": float(h.max()), "box_cut": list(stats.box_cut),
-                    "snapped_to_singular_set": stats.snapped}
+    surface.info = {
+        "kind": "implicit",
+        "max_residual": stats.max_residual,
+        "singular_points": stats.singular_points,
+        "seconds": stats.seconds,
+        "resolution": resolution,
+        "cells": stats.cells,
+        "box": [domain_lo.tolist(), domain_hi.tolist()],
+        "cell_size": float(h.max()),
+        "box_cut": list(stats.box_cut),
+        "snapped_to_singular_set": stats.snapped,
+    }
     return ImplicitResult(surface, stats, singular_points)

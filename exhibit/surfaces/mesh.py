@@ -66,10 +66,12 @@ class Surface:
         self.normals = np.ascontiguousarray(self.normals, dtype=np.float64).reshape(-1, 2, 4)
         self.triangles = np.ascontiguousarray(self.triangles, dtype=np.int32).reshape(-1, 3)
         if self.normals.shape[0] != self.positions.shape[0]:
-            raise ValueError(f"{self.name}: {len(self.normals)} normal pairs for "
-                             f"{len(self.positions)} vertices")
-        if len(self.triangles) and (self.triangles.min() < 0
-                                    or self.triangles.max() >= len(self.positions)):
+            raise ValueError(
+                f"{self.name}: {len(self.normals)} normal pairs for {len(self.positions)} vertices"
+            )
+        if len(self.triangles) and (
+            self.triangles.min() < 0 or self.triangles.max() >= len(self.positions)
+        ):
             raise ValueError(f"{self.name}: triangle index out of range")
         if self.singular is None:
             self.singular = ~np.any(self.normals[:, 0] != 0, axis=1)
@@ -80,15 +82,13 @@ class Surface:
         """From two normals per vertex (e.g. ∇f1, ∇f2); they are orthonormalised here."""
         t1, t2 = complement_plane(n1, n2)
         m1, m2 = complement_plane(t1, t2)
-        return cls(name, positions, np.stack([m1, m2], axis=1), triangles,
-                   material or Material())
+        return cls(name, positions, np.stack([m1, m2], axis=1), triangles, material or Material())
 
     @classmethod
     def from_tangents(cls, name, positions, t1, t2, triangles, material=None) -> "Surface":
         """From two tangents per vertex (parametric ∂/∂s, ∂/∂t), turned into normals with ⊗."""
         m1, m2 = complement_plane(t1, t2)
-        return cls(name, positions, np.stack([m1, m2], axis=1), triangles,
-                   material or Material())
+        return cls(name, positions, np.stack([m1, m2], axis=1), triangles, material or Material())
 
 
 @dataclass
@@ -152,8 +152,11 @@ class Mesh4D:
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Component-wise min and max over every point of every part."""
-        arrays = ([s.positions for s in self.surfaces] + [c.points for c in self.curves]
-                  + [m.position[None] for m in self.markers])
+        arrays = (
+            [s.positions for s in self.surfaces]
+            + [c.points for c in self.curves]
+            + [m.position[None] for m in self.markers]
+        )
         arrays = [a for a in arrays if len(a)]
         if not arrays:
             return np.zeros(4), np.zeros(4)
@@ -175,16 +178,13 @@ class Mesh4D:
             arrays[f"s{i}_triangles"] = s.triangles
             assert s.singular is not None  # __post_init__ sets it
             arrays[f"s{i}_singular"] = s.singular
-            surfaces.append({"name": s.name, "material": s.material.to_json(),
-                                         "info": s.info})
+            surfaces.append({"name": s.name, "material": s.material.to_json(), "info": s.info})
         for i, c in enumerate(self.curves):
             arrays[f"c{i}_points"] = c.points
-            curves.append({"name": c.name, "material": c.material.to_json(),
-                                       "closed": c.closed})
+            curves.append({"name": c.name, "material": c.material.to_json(), "closed": c.closed})
         for i, m in enumerate(self.markers):
             arrays[f"m{i}_position"] = m.position
-            markers.append({"name": m.name, "material": m.material.to_json(),
-                                        "label": m.label})
+            markers.append({"name": m.name, "material": m.material.to_json(), "label": m.label})
         arrays["manifest"] = np.frombuffer(json.dumps(manifest).encode(), dtype=np.uint8)
         buffer = io.BytesIO()
         np.savez_compressed(buffer, **arrays)  # type: ignore[arg-type]  # numpy's stub types
@@ -209,16 +209,35 @@ class Mesh4D:
                 triangles = _array(arrays, f"s{i}_triangles", "<i4", None, 3)
                 if triangles.size and (triangles.min() < 0 or triangles.max() >= n):
                     raise ValueError(f"s{i}_triangles: index outside 0..{n - 1}")
-                mesh.surfaces.append(Surface(
-                    s["name"], positions, _array(arrays, f"s{i}_normals", "<f8", n, 2, 4),
-                    triangles, _material(s["material"]),
-                    _array(arrays, f"s{i}_singular", "|b1", n), s["info"]))
+                mesh.surfaces.append(
+                    Surface(
+                        s["name"],
+                        positions,
+                        _array(arrays, f"s{i}_normals", "<f8", n, 2, 4),
+                        triangles,
+                        _material(s["material"]),
+                        _array(arrays, f"s{i}_singular", "|b1", n),
+                        s["info"],
+                    )
+                )
             for i, c in enumerate(manifest["curves"]):
-                mesh.curves.append(Curve(c["name"], _array(arrays, f"c{i}_points", "<f8", None, 4),
-                                         _material(c["material"]), c["closed"]))
+                mesh.curves.append(
+                    Curve(
+                        c["name"],
+                        _array(arrays, f"c{i}_points", "<f8", None, 4),
+                        _material(c["material"]),
+                        c["closed"],
+                    )
+                )
             for i, m in enumerate(manifest["markers"]):
-                mesh.markers.append(Marker(m["name"], _array(arrays, f"m{i}_position", "<f8", 4),
-                                           _material(m["material"]), m["label"]))
+                mesh.markers.append(
+                    Marker(
+                        m["name"],
+                        _array(arrays, f"m{i}_position", "<f8", 4),
+                        _material(m["material"]),
+                        m["label"],
+                    )
+                )
             return mesh
         except Exception as exc:  # noqa: BLE001 - whatever the bytes provoke means "not a mesh"
             raise ValueError(f"not a mesh archive: {str(exc) or type(exc).__name__}") from None
@@ -235,8 +254,11 @@ MAX_COORDINATE = 1e6
 #: Largest zip central directory (about 10,000 members): zipfile builds an object per entry
 #: before anything can be checked, so millions of tiny entries would exhaust memory.
 _MAX_DIRECTORY_BYTES = 1 << 20
-_PARTS = {"surfaces": ("positions", "normals", "triangles", "singular"),
-          "curves": ("points",), "markers": ("position",)}
+_PARTS = {
+    "surfaces": ("positions", "normals", "triangles", "singular"),
+    "curves": ("points",),
+    "markers": ("position",),
+}
 #: key -> type of each part's manifest entry, besides "name" (str) and "material" (dict).
 _PART_FIELDS = {"surfaces": ("info", dict), "curves": ("closed", bool), "markers": ("label", str)}
 
@@ -248,8 +270,9 @@ def _read_archive(data: bytes) -> tuple[dict, dict[str, np.ndarray]]:
         infos = archive.infolist()
         unpacked = sum(info.file_size for info in infos)
         if unpacked > MAX_UNPACKED_BYTES:
-            raise ValueError(f"members unpack to {unpacked} bytes, more than the "
-                             f"{MAX_UNPACKED_BYTES} allowed")
+            raise ValueError(
+                f"members unpack to {unpacked} bytes, more than the {MAX_UNPACKED_BYTES} allowed"
+            )
         arrays = {}
         for info in infos:
             # bz2/lzma inflate without an output bound (one 4 KB read can become gigabytes)
@@ -260,8 +283,12 @@ def _read_archive(data: bytes) -> tuple[dict, dict[str, np.ndarray]]:
                 raise ValueError(f"unexpected member {info.filename!r}")
             arrays[name] = _read_npy(archive, info)
     manifest = _manifest(_array(arrays, "manifest", "|u1", None))
-    expected = {"manifest"} | {f"{kind[0]}{i}_{array}" for kind, names in _PARTS.items()
-                               for i in range(len(manifest[kind])) for array in names}
+    expected = {"manifest"} | {
+        f"{kind[0]}{i}_{array}"
+        for kind, names in _PARTS.items()
+        for i in range(len(manifest[kind]))
+        for array in names
+    }
     if set(arrays) != expected:
         raise ValueError(f"members {sorted(set(arrays) ^ expected)} do not match the manifest")
     return manifest, arrays
@@ -272,9 +299,9 @@ def _check_directory(data: bytes) -> None:
     end = data.rfind(b"PK\x05\x06", max(0, len(data) - 22 - 0xFFFF))
     if end < 0 or len(data) < end + 22:
         raise ValueError("no zip directory")
-    if end >= 20 and data[end - 20:end - 16] == b"PK\x06\x07":
+    if end >= 20 and data[end - 20 : end - 16] == b"PK\x06\x07":
         raise ValueError("zip64 directory")  # numpy writes none below 65,535 members and 4 GB
-    if int.from_bytes(data[end + 12:end + 16], "little") > _MAX_DIRECTORY_BYTES:
+    if int.from_bytes(data[end + 12 : end + 16], "little") > _MAX_DIRECTORY_BYTES:
         raise ValueError("zip directory too large")
 
 
@@ -306,8 +333,11 @@ def _read_npy(archive: zipfile.ZipFile, info: zipfile.ZipInfo) -> np.ndarray:
 def _array(arrays: dict, key: str, dtype: str, *shape: int | None) -> np.ndarray:
     """arrays[key], checked for dtype, shape (None: any length) and finite, bounded floats."""
     a = arrays[key]
-    if (a.dtype != np.dtype(dtype) or a.ndim != len(shape)
-            or any(want not in (None, got) for want, got in zip(shape, a.shape))):
+    if (
+        a.dtype != np.dtype(dtype)
+        or a.ndim != len(shape)
+        or any(want not in (None, got) for want, got in zip(shape, a.shape))
+    ):
         raise ValueError(f"{key}: expected {dtype} of shape {shape}, got {a.dtype} {a.shape}")
     if a.dtype.kind == "f" and not np.all(np.abs(a) <= MAX_COORDINATE):  # NaN fails too
         raise ValueError(f"{key}: values not finite or beyond ±{MAX_COORDINATE:g}")
@@ -324,9 +354,12 @@ def _manifest(raw: np.ndarray) -> dict:
         if not isinstance(parts, list):
             raise ValueError(f"manifest {kind!r}: not a list")
         for part in parts:
-            if not (isinstance(part, dict) and isinstance(part.get("name"), str)
-                    and isinstance(part.get("material"), dict)
-                    and isinstance(part.get(key), kind_type)):
+            if not (
+                isinstance(part, dict)
+                and isinstance(part.get("name"), str)
+                and isinstance(part.get("material"), dict)
+                and isinstance(part.get(key), kind_type)
+            ):
                 raise ValueError(f"manifest {kind!r}: malformed entry")
     return manifest
 
@@ -335,8 +368,14 @@ def _material(d: dict) -> Material:
     """A Material from its JSON, numbers checked to be finite and in range."""
     color, width = d.get("color"), d.get("line_width")
     numbers = (color if isinstance(color, list) else []) + [width]
-    if (set(d) != {"color", "style", "line_width"} or not isinstance(color, list)
-            or not isinstance(width, (int, float)) or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                       and abs(x) <= MAX_COORDINATE for x in numbers)):
+    if (
+        set(d) != {"color", "style", "line_width"}
+        or not isinstance(color, list)
+        or not isinstance(width, (int, float))
+        or not all(
+            isinstance(x, (int, float)) and not isinstance(x, bool) and abs(x) <= MAX_COORDINATE
+            for x in numbers
+        )
+    ):
         raise ValueError(f"malformed material {d!r:.80}")
     return Material(tuple(color), d["style"], float(width))

@@ -38,17 +38,22 @@ def boundary_box_distance(positions, triangles, lo, hi) -> float:
 
 def _segment_distance(p, a, b):
     d = b - a
-    t = np.clip(np.einsum("ni,ni->n", p - a, d) / np.maximum(np.einsum("ni,ni->n", d, d),
-                                                                 1e-300), 0.0, 1.0)
+    t = np.clip(
+        np.einsum("ni,ni->n", p - a, d) / np.maximum(np.einsum("ni,ni->n", d, d), 1e-300), 0.0, 1.0
+    )
     return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
 
 
 def point_triangle_distance(p, a, b, c) -> np.ndarray:
     """Distances from points p to triangles (a, b, c), all (N, d), exactly."""
     e1, e2 = b - a, c - a
-    gram = np.stack([np.stack([np.einsum("ni,ni->n", e1, e1), np.einsum("ni,ni->n", e1, e2)], -1),
-                     np.stack([np.einsum("ni,ni->n", e2, e1), np.einsum("ni,ni->n", e2, e2)], -1)],
-                    -2)
+    gram = np.stack(
+        [
+            np.stack([np.einsum("ni,ni->n", e1, e1), np.einsum("ni,ni->n", e1, e2)], -1),
+            np.stack([np.einsum("ni,ni->n", e2, e1), np.einsum("ni,ni->n", e2, e2)], -1),
+        ],
+        -2,
+    )
     rhs = np.stack([np.einsum("ni,ni->n", p - a, e1), np.einsum("ni,ni->n", p - a, e2)], -1)
     det = gram[:, 0, 0] * gram[:, 1, 1] - gram[:, 0, 1] ** 2
     ok = det > 1e-300
@@ -57,8 +62,10 @@ def point_triangle_distance(p, a, b, c) -> np.ndarray:
     t = (gram[:, 0, 0] * rhs[:, 1] - gram[:, 0, 1] * rhs[:, 0]) / safe
     inside = ok & (s >= 0) & (t >= 0) & (s + t <= 1)
     plane = np.linalg.norm(p - (a + s[:, None] * e1 + t[:, None] * e2), axis=1)
-    edges = np.minimum(np.minimum(_segment_distance(p, a, b), _segment_distance(p, b, c)),
-                       _segment_distance(p, c, a))
+    edges = np.minimum(
+        np.minimum(_segment_distance(p, a, b), _segment_distance(p, b, c)),
+        _segment_distance(p, c, a),
+    )
     return np.where(inside, np.minimum(plane, edges), edges)
 
 
@@ -79,21 +86,25 @@ def distance_to_mesh(points, positions, triangles, candidates: int = 24) -> np.n
     out = np.empty(len(points))
     k = min(candidates, len(positions) - 1)
     for start in range(0, len(points), 64):
-        chunk = points[start:start + 64]
+        chunk = points[start : start + 64]
         d = np.linalg.norm(chunk[:, None] - positions[None], axis=-1)
-        nearest = np.argpartition(d, k, axis=1)[:, :candidates] if k > 0 else \
-            np.zeros((len(chunk), 1), dtype=np.int64)
+        nearest = (
+            np.argpartition(d, k, axis=1)[:, :candidates]
+            if k > 0
+            else np.zeros((len(chunk), 1), dtype=np.int64)
+        )
         # every (point, triangle at one of its nearest vertices) pair, at once
         v = nearest.ravel()
         count = ends[v] - starts[v]
         total = int(count.sum())
-        out[start:start + len(chunk)] = d.min(axis=1)  # a vertex is an upper bound
+        out[start : start + len(chunk)] = d.min(axis=1)  # a vertex is an upper bound
         if total == 0:
             continue
         which = np.repeat(np.repeat(np.arange(len(chunk)), nearest.shape[1]), count)
         first = np.repeat(starts[v] - (np.cumsum(count) - count), count) + np.arange(total)
         t = tris[owners[first]]
-        dist = point_triangle_distance(chunk[which], positions[t[:, 0]], positions[t[:, 1]],
-                                       positions[t[:, 2]])
+        dist = point_triangle_distance(
+            chunk[which], positions[t[:, 0]], positions[t[:, 1]], positions[t[:, 2]]
+        )
         np.minimum.at(out, start + which, dist)
     return out

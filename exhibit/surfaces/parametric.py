@@ -43,26 +43,33 @@ class Interval:
         return np.linspace(self.start, self.stop, count, endpoint=not self.periodic)
 
 
-def finite_difference_tangents(function: PointFunction, s_interval: Interval,
-                               t_interval: Interval) -> TangentFunction:
+def finite_difference_tangents(
+    function: PointFunction, s_interval: Interval, t_interval: Interval
+) -> TangentFunction:
     hs = FD_STEP * (s_interval.stop - s_interval.start)
     ht = FD_STEP * (t_interval.stop - t_interval.start)
 
     def tangents(s, t):
-        return ((function(s + hs, t) - function(s - hs, t)) / (2 * hs),
-                (function(s, t + ht) - function(s, t - ht)) / (2 * ht))
+        return (
+            (function(s + hs, t) - function(s - hs, t)) / (2 * hs),
+            (function(s, t + ht) - function(s, t - ht)) / (2 * ht),
+        )
+
     return tangents
 
 
 def _bend_density(points: np.ndarray, frames: np.ndarray, axis: int, periodic: bool) -> np.ndarray:
     """Weight of each pilot interval along ``axis``: its share of the arc length plus its share
     of the tangent plane's turning, each taken as the largest over the other parameter."""
+
     def step(a):
         if periodic:
             return np.roll(a, -1, axis=axis), a
         count = a.shape[axis]
-        return (np.take(a, np.arange(1, count), axis=axis),
-                np.take(a, np.arange(count - 1), axis=axis))
+        return (
+            np.take(a, np.arange(1, count), axis=axis),
+            np.take(a, np.arange(count - 1), axis=axis),
+        )
 
     nxt, cur = step(points)
     length = np.linalg.norm(nxt - cur, axis=-1)
@@ -118,15 +125,23 @@ def grid_triangles(rows: int, cols: int, periodic_rows: bool, periodic_cols: boo
     i, j = np.meshgrid(ri, cj, indexing="ij")
     i2, j2 = (i + 1) % rows, (j + 1) % cols
     a, b, c, d = i * cols + j, i2 * cols + j, i2 * cols + j2, i * cols + j2
-    tris = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3),
-                           np.stack([a, c, d], -1).reshape(-1, 3)])
+    tris = np.concatenate(
+        [np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)]
+    )
     return tris.astype(np.int32)
 
 
 @np.errstate(all="ignore")
-def tessellate(name: str, function: PointFunction, s_interval: Interval, t_interval: Interval,
-               resolution: tuple[int, int], tangents: TangentFunction | None = None,
-               material: Material | None = None, adaptive: bool = True) -> Surface:
+def tessellate(
+    name: str,
+    function: PointFunction,
+    s_interval: Interval,
+    t_interval: Interval,
+    resolution: tuple[int, int],
+    tangents: TangentFunction | None = None,
+    material: Material | None = None,
+    adaptive: bool = True,
+) -> Surface:
     """A Surface sampling X(s, t) on a rows x cols grid; tangents analytic when given.
 
     Samples where X is not finite are left out with their triangles (see the module's notes)."""
@@ -141,24 +156,31 @@ def tessellate(name: str, function: PointFunction, s_interval: Interval, t_inter
         S, T = np.meshgrid(s_pilot, t_pilot, indexing="ij")
         pilot_points = function(S, T)
         frames = np.stack(complement_plane(*map(finite_directions, tangents(S, T))), axis=-2)
-        s_samples = _equidistribute(s_pilot, _bend_density(pilot_points, frames, 0,
-                                                           s_interval.periodic), rows, s_interval)
-        t_samples = _equidistribute(t_pilot, _bend_density(pilot_points, frames, 1,
-                                                           t_interval.periodic), cols, t_interval)
+        s_samples = _equidistribute(
+            s_pilot, _bend_density(pilot_points, frames, 0, s_interval.periodic), rows, s_interval
+        )
+        t_samples = _equidistribute(
+            t_pilot, _bend_density(pilot_points, frames, 1, t_interval.periodic), cols, t_interval
+        )
     S, T = np.meshgrid(s_samples, t_samples, indexing="ij")
     positions = function(S, T).reshape(-1, 4)
     t1, t2 = (finite_directions(t).reshape(-1, 4) for t in tangents(S, T))
-    keep, triangles = keep_vertices(np.all(np.isfinite(positions), axis=1),
-                                    grid_triangles(rows, cols, s_interval.periodic,
-                                                   t_interval.periodic))
-    surface = Surface.from_tangents(name, positions[keep], t1[keep], t2[keep], triangles,
-                                    material)
+    keep, triangles = keep_vertices(
+        np.all(np.isfinite(positions), axis=1),
+        grid_triangles(rows, cols, s_interval.periodic, t_interval.periodic),
+    )
+    surface = Surface.from_tangents(name, positions[keep], t1[keep], t2[keep], triangles, material)
     assert surface.singular is not None  # __post_init__ sets it
-    surface.info = {"kind": "parametric", "max_residual": None, "singular_points":
-                    int(surface.singular.sum()), "seconds": time.perf_counter() - started,
-                    "resolution": [rows, cols]}
+    surface.info = {
+        "kind": "parametric",
+        "max_residual": None,
+        "singular_points": int(surface.singular.sum()),
+        "seconds": time.perf_counter() - started,
+        "resolution": [rows, cols],
+    }
     from exhibit.surfaces.exact_silhouette import ParametricExact
 
-    surface.exact = ParametricExact(function, tangents, s_interval, t_interval,
-                                    np.stack([S, T], -1).reshape(-1, 2)[keep])
+    surface.exact = ParametricExact(
+        function, tangents, s_interval, t_interval, np.stack([S, T], -1).reshape(-1, 2)[keep]
+    )
     return surface

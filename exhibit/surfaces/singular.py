@@ -31,8 +31,11 @@ def jacobian_ratio(f1: ScalarField, f2: ScalarField, points: np.ndarray) -> np.n
     gradient is not finite)."""
     g1, g2 = f1.gradient(points), f2.gradient(points)
     # Eigenvalues of the 2x2 Gram matrix JJᵀ in closed form (much cheaper than an SVD).
-    a, b, c = np.einsum("ni,ni->n", g1, g1), np.einsum("ni,ni->n", g1, g2), \
-        np.einsum("ni,ni->n", g2, g2)
+    a, b, c = (
+        np.einsum("ni,ni->n", g1, g1),
+        np.einsum("ni,ni->n", g1, g2),
+        np.einsum("ni,ni->n", g2, g2),
+    )
     mean, spread = (a + c) / 2, np.hypot((a - c) / 2, b)
     largest, smallest = mean + spread, np.maximum(mean - spread, 0.0)
     return np.where(largest > 0, np.sqrt(smallest / np.where(largest > 0, largest, 1.0)), 0.0)
@@ -59,8 +62,9 @@ class _SingularSystem:
 
 
 @np.errstate(all="ignore")
-def find_singular_points(f1: ScalarField, f2: ScalarField, vertices: np.ndarray,
-                         cell_size: float, box_size: float) -> np.ndarray:
+def find_singular_points(
+    f1: ScalarField, f2: ScalarField, vertices: np.ndarray, cell_size: float, box_size: float
+) -> np.ndarray:
     """Singular points near the given mesh vertices (deduplicated to cell_size/4), shape (K, 4)."""
     if len(vertices) == 0:
         return np.zeros((0, 4))
@@ -103,8 +107,11 @@ def _search_from(f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: flo
         x[going] -= delta
     r = system.residual(x)
     scale = 1.0 + np.abs(system.residual(seeds)).max(axis=1)
-    found = going & (np.abs(r).max(axis=1) <= TOLERANCE * scale) & \
-        (np.linalg.norm(x - seeds, axis=1) <= reach)
+    found = (
+        going
+        & (np.abs(r).max(axis=1) <= TOLERANCE * scale)
+        & (np.linalg.norm(x - seeds, axis=1) <= reach)
+    )
     return x[found]
 
 
@@ -112,14 +119,21 @@ def nearest_distance(a: np.ndarray, b: np.ndarray, chunk: int = 128) -> np.ndarr
     """For each point of a, the distance to the nearest point of b."""
     out = np.empty(len(a))
     for start in range(0, len(a), chunk):
-        d = np.linalg.norm(a[start:start + chunk, None] - b[None], axis=-1)
-        out[start:start + chunk] = d.min(axis=1)
+        d = np.linalg.norm(a[start : start + chunk, None] - b[None], axis=-1)
+        out[start : start + chunk] = d.min(axis=1)
     return out
 
 
-def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spacing: float,
-                       reach: float, rounds: int = 6, limit: int = 4000,
-                       max_pairs: int = 200_000) -> np.ndarray:
+def trace_singular_set(
+    f1: ScalarField,
+    f2: ScalarField,
+    points: np.ndarray,
+    spacing: float,
+    reach: float,
+    rounds: int = 6,
+    limit: int = 4000,
+    max_pairs: int = 200_000,
+) -> np.ndarray:
     """The singular set sampled every ``spacing`` along its curves: from the points the search
     found, new searches start at the midpoints of pairs closer than ``reach`` but farther apart
     than ``spacing``, round after round, so gaps along a singular curve fill in (an isolated
@@ -136,7 +150,7 @@ def trace_singular_set(f1: ScalarField, f2: ScalarField, points: np.ndarray, spa
         pieces: list[np.ndarray] = []
         pairs = 0
         for start in range(0, len(points), 256):
-            chunk = points[start:start + 256]
+            chunk = points[start : start + 256]
             d = np.linalg.norm(chunk[:, None] - points[None], axis=-1)
             i, j = np.nonzero((d > spacing) & (d < reach))
             i = i + start

@@ -23,9 +23,16 @@ import numpy as np
 
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.expressions import ScalarField
-from exhibit.surfaces.exact_silhouette import (ITERATIONS, NEWTON_TARGET, RESIDUAL_TOLERANCE,
-                                               ParametricExact, RefineStats, min_norm_newton,
-                                               split_runs, traced_with_parameters)
+from exhibit.surfaces.exact_silhouette import (
+    ITERATIONS,
+    NEWTON_TARGET,
+    RESIDUAL_TOLERANCE,
+    ParametricExact,
+    RefineStats,
+    min_norm_newton,
+    split_runs,
+    traced_with_parameters,
+)
 from exhibit.surfaces.implicit import CoordinatePlane
 from exhibit.surfaces.mesh import Curve, Material, Surface
 
@@ -48,29 +55,43 @@ class ImplicitSlice:
     @np.errstate(all="ignore")
     def residual(self, points: np.ndarray) -> np.ndarray:
         points = np.asarray(points, dtype=float).reshape(-1, 4)
-        r = np.stack([np.abs(f.value(points)) / np.linalg.norm(f.gradient(points), axis=1)
-                      for f in (self.f1, self.f2)]
-                     + [np.abs(points[:, self.axis] - self.at)], axis=1)
+        r = np.stack(
+            [
+                np.abs(f.value(points)) / np.linalg.norm(f.gradient(points), axis=1)
+                for f in (self.f1, self.f2)
+            ]
+            + [np.abs(points[:, self.axis] - self.at)],
+            axis=1,
+        )
         return np.where(np.isnan(r), np.inf, r).max(axis=1)
 
     def refine(self, points: np.ndarray, max_move: float):
         points = np.asarray(points, dtype=float).reshape(-1, 4)
-        x = min_norm_newton((self.f1, self.f2, CoordinatePlane(self.axis, self.at)),
-                            self.residual, points)
+        x = min_norm_newton(
+            (self.f1, self.f2, CoordinatePlane(self.axis, self.at)), self.residual, points
+        )
         x[:, self.axis] = np.where(np.isfinite(x[:, self.axis]), self.at, x[:, self.axis])
-        return x, *_judge(self.residual(x), np.linalg.norm(x - points, axis=1), max_move,
-                          np.isfinite(x).all(axis=1))
+        return x, *_judge(
+            self.residual(x),
+            np.linalg.norm(x - points, axis=1),
+            max_move,
+            np.isfinite(x).all(axis=1),
+        )
 
 
 def _judge(residual, moved, max_move, finite) -> tuple[np.ndarray, RefineStats]:
     keep = (residual <= RESIDUAL_TOLERANCE) & (moved <= max_move) & finite
-    return keep, RefineStats(refined=int(keep.sum()), dropped=int((~keep).sum()),
-                             max_residual=float(residual[keep].max()) if keep.any() else 0.0)
+    return keep, RefineStats(
+        refined=int(keep.sum()),
+        dropped=int((~keep).sum()),
+        max_residual=float(residual[keep].max()) if keep.any() else 0.0,
+    )
 
 
 @np.errstate(all="ignore")
-def _refine_parametric(exact: ParametricExact, st: np.ndarray, axis: int, at: float,
-                       max_move: float):
+def _refine_parametric(
+    exact: ParametricExact, st: np.ndarray, axis: int, at: float, max_move: float
+):
     """Newton on g(s, t) = X_a(s, t) - c with the minimum-norm step (one equation, two
     unknowns; ∇g = (X_s[a], X_t[a]) from the surface's own tangents)."""
     st = np.asarray(st, dtype=float).reshape(-1, 2).copy()
@@ -97,8 +118,12 @@ def _refine_parametric(exact: ParametricExact, st: np.ndarray, axis: int, at: fl
     points = exact.function(st[:, 0], st[:, 1])
     residual = np.abs(points[:, axis] - at)
     residual = np.where(np.isnan(residual), np.inf, residual)
-    return points, *_judge(residual, np.linalg.norm(points - start, axis=1), max_move,
-                           np.isfinite(points).all(axis=1) & inside)
+    return points, *_judge(
+        residual,
+        np.linalg.norm(points - start, axis=1),
+        max_move,
+        np.isfinite(points).all(axis=1) & inside,
+    )
 
 
 def mean_edge(surface: Surface) -> float:
@@ -109,17 +134,23 @@ def mean_edge(surface: Surface) -> float:
     return float(np.linalg.norm(p[tris[:, 0]] - p[tris[:, 1]], axis=1).mean())
 
 
-def traced_slice(surface: Surface, axis: int, at: float, name: str = "slice",
-                 material: Material | None = None) -> list[Curve]:
+def traced_slice(
+    surface: Surface, axis: int, at: float, name: str = "slice", material: Material | None = None
+) -> list[Curve]:
     """S ∩ {x_axis = at} on the mesh alone (marching triangles, chained), unrefined."""
     if len(surface.triangles) == 0:
         return []
-    return zero_set_curves(surface, surface.positions[:, axis] - at, name,
-                           material or Material())
+    return zero_set_curves(surface, surface.positions[:, axis] - at, name, material or Material())
 
 
-def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | None = None,
-                 name: str = "slice", material: Material | None = None) -> list[Curve]:
+def slice_curves(
+    surface: Surface,
+    axis: int,
+    at: float,
+    stats: RefineStats | None = None,
+    name: str = "slice",
+    material: Material | None = None,
+) -> list[Curve]:
     """The slice S ∩ {x_axis = at} as curves refined onto the exact surface (see the module's
     docstring). Without an exact surface behind the mesh (one loaded from the cache), nothing
     can be refined and every traced point counts as dropped."""
@@ -152,8 +183,7 @@ def slice_curves(surface: Surface, axis: int, at: float, stats: RefineStats | No
     if exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2") and st_free(chains):
         # Where the hyperplane is tangent to the surface along a curve, x_a - c touches zero
         # without changing sign and the mesh's zero set misses it (surfaces/double_zeros.py).
-        out += tangency_curves(surface, exact, axis, at, max_move, name, material, total,
-                               len(out))
+        out += tangency_curves(surface, exact, axis, at, max_move, name, material, total, len(out))
     if stats is not None:
         stats.add(total)
     return out
@@ -163,8 +193,17 @@ def st_free(chains) -> bool:
     return all(st is None for _, st, _ in chains)
 
 
-def tangency_curves(surface: Surface, exact, axis: int, at: float, max_move: float, name: str,
-                    material: Material, total: RefineStats, already: int) -> list[Curve]:
+def tangency_curves(
+    surface: Surface,
+    exact,
+    axis: int,
+    at: float,
+    max_move: float,
+    name: str,
+    material: Material,
+    total: RefineStats,
+    already: int,
+) -> list[Curve]:
     """The curves along which the hyperplane x_axis = at touches the surface, refined onto
     f1 = f2 = 0 and the hyperplane."""
     from exhibit.surfaces.double_zeros import double_zero_chains, join_ends
@@ -178,9 +217,14 @@ def tangency_curves(surface: Surface, exact, axis: int, at: float, max_move: flo
         return x, keep
 
     p = surface.positions
-    chains = double_zero_chains(surface, p[:, axis] - at, np.tile(e, (len(p), 1)), refine,
-                                lambda x: [exact.f1.gradient(x), exact.f2.gradient(x)],
-                                lambda x: np.tile(e, (len(x), 1)))
+    chains = double_zero_chains(
+        surface,
+        p[:, axis] - at,
+        np.tile(e, (len(p), 1)),
+        refine,
+        lambda x: [exact.f1.gradient(x), exact.f2.gradient(x)],
+        lambda x: np.tile(e, (len(x), 1)),
+    )
     edge = max_move / MAX_MOVE_EDGES
     chains = join_ends(chains, 4.0 * edge, refine, 0.5 * edge)
     out: list[Curve] = []

@@ -61,6 +61,11 @@ def analyse(triangles: np.ndarray, vertex_count: int | None = None) -> TopologyR
     labels = connected_components(count, edges)
     components = len(np.unique(labels[used]))
     return TopologyReport(
-        vertices=len(used), edges=len(edges), triangles=len(triangles), components=components,
+        vertices=len(used),
+        edges=len(edges),
+        triangles=len(triangles),
+        components=components,
         euler_characteristic=int(len(used) - len(edges) + len(triangles)),
-        boundary_edges=int(np.sum(counts == 1)), nonmanifold_edges=int(np.sum(counts > 2)))
+        boundary_edges=int(np.sum(counts == 1)),
+        nonmanifold_edges=int(np.sum(counts > 2)),
+    )

@@ -42,9 +42,11 @@ def whole_silhouette_components(surface: Surface, along: tuple[int, int]) -> lis
     count = int(labels.max()) + 1 if len(labels) else 0
     e = np.eye(4)
     with np.errstate(all="ignore"):
-        measure = np.abs(silhouette_function_normalized(surface.normals[:, 0],
-                                                        surface.normals[:, 1], e[along[0]],
-                                                        e[along[1]]))
+        measure = np.abs(
+            silhouette_function_normalized(
+                surface.normals[:, 0], surface.normals[:, 1], e[along[0]], e[along[1]]
+            )
+        )
     regular = np.linalg.norm(surface.normals.reshape(len(labels), -1), axis=1) > 0
     if surface.singular is not None:
         regular &= ~np.asarray(surface.singular, dtype=bool)
@@ -53,7 +55,12 @@ def whole_silhouette_components(surface: Surface, along: tuple[int, int]) -> lis
         mine = (labels == k) & regular & np.isfinite(measure)
         largest = float(measure[mine].max()) if mine.any() else float("nan")
         name = surface.name if count == 1 else f"{surface.name} (component {k + 1})"
-        out.append({"name": name, "component": k + 1,
-                    "whole_component": bool(mine.sum() >= 3 and largest <= WHOLE_TOLERANCE),
-                    "largest_measure": largest if mine.any() else None})
+        out.append(
+            {
+                "name": name,
+                "component": k + 1,
+                "whole_component": bool(mine.sum() >= 3 and largest <= WHOLE_TOLERANCE),
+                "largest_measure": largest if mine.any() else None,
+            }
+        )
     return out

@@ -32,9 +32,13 @@ def main() -> int:
     if not glfw.init():
         print("cannot start GLFW", file=sys.stderr)
         return 1
-    for hint, value in ((glfw.CONTEXT_VERSION_MAJOR, 3), (glfw.CONTEXT_VERSION_MINOR, 3),
-                        (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE),
-                        (glfw.OPENGL_FORWARD_COMPAT, True), (glfw.AUTO_ICONIFY, False)):
+    for hint, value in (
+        (glfw.CONTEXT_VERSION_MAJOR, 3),
+        (glfw.CONTEXT_VERSION_MINOR, 3),
+        (glfw.OPENGL_PROFILE, glfw.OPENGL_CORE_PROFILE),
+        (glfw.OPENGL_FORWARD_COMPAT, True),
+        (glfw.AUTO_ICONIFY, False),
+    ):
         glfw.window_hint(hint, value)
     monitor = glfw.get_primary_monitor()
     mode = glfw.get_video_mode(monitor)

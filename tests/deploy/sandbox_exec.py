@@ -43,8 +43,12 @@ def SCMP_ACT_ERRNO(code: int) -> int:
 
 
 class ArgCmp(ctypes.Structure):
-    _fields_ = [("arg", ctypes.c_uint), ("op", ctypes.c_int),
-                ("datum_a", ctypes.c_uint64), ("datum_b", ctypes.c_uint64)]
+    _fields_ = [
+        ("arg", ctypes.c_uint),
+        ("op", ctypes.c_int),
+        ("datum_a", ctypes.c_uint64),
+        ("datum_b", ctypes.c_uint64),
+    ]
 
 
 class Seccomp:
@@ -54,8 +58,13 @@ class Seccomp:
         lib.seccomp_init.restype = ctypes.c_void_p
         lib.seccomp_init.argtypes = [ctypes.c_uint32]
         lib.seccomp_syscall_resolve_name.argtypes = [ctypes.c_char_p]
-        lib.seccomp_rule_add_array.argtypes = [ctypes.c_void_p, ctypes.c_uint32, ctypes.c_int,
-                                               ctypes.c_uint, ctypes.POINTER(ArgCmp)]
+        lib.seccomp_rule_add_array.argtypes = [
+            ctypes.c_void_p,
+            ctypes.c_uint32,
+            ctypes.c_int,
+            ctypes.c_uint,
+            ctypes.POINTER(ArgCmp),
+        ]
         lib.seccomp_load.argtypes = [ctypes.c_void_p]
         lib.seccomp_release.argtypes = [ctypes.c_void_p]
         self.lib = lib
@@ -100,26 +109,37 @@ def main(argv: list[str]) -> int:
     sc = Seccomp()
     if args.families:
         allowed = {int(getattr(socket, f)) for f in args.families.split(",")}
-        rules = [(SCMP_ACT_ERRNO(errno.EAFNOSUPPORT), "socket", [(0, SCMP_CMP_EQ, af, 0)])
-                 for af in range(AF_MAX) if af not in allowed]
-        rules.append((SCMP_ACT_ERRNO(errno.EAFNOSUPPORT), "socket",
-                      [(0, SCMP_CMP_GE, AF_MAX, 0)]))
+        rules = [
+            (SCMP_ACT_ERRNO(errno.EAFNOSUPPORT), "socket", [(0, SCMP_CMP_EQ, af, 0)])
+            for af in range(AF_MAX)
+            if af not in allowed
+        ]
+        rules.append((SCMP_ACT_ERRNO(errno.EAFNOSUPPORT), "socket", [(0, SCMP_CMP_GE, AF_MAX, 0)]))
         sc.load(SCMP_ACT_ALLOW, rules)
     if args.mdwe:
         wx = PROT_WRITE | PROT_EXEC
         eperm = SCMP_ACT_ERRNO(errno.EPERM)
-        sc.load(SCMP_ACT_ALLOW, [
-            (eperm, "mmap", [(2, SCMP_CMP_MASKED_EQ, wx, wx)]),
-            (eperm, "mprotect", [(2, SCMP_CMP_MASKED_EQ, PROT_EXEC, PROT_EXEC)]),
-            (eperm, "pkey_mprotect", [(2, SCMP_CMP_MASKED_EQ, PROT_EXEC, PROT_EXEC)]),
-            (eperm, "shmat", [(2, SCMP_CMP_MASKED_EQ, SHM_EXEC, SHM_EXEC)]),
-        ])
+        sc.load(
+            SCMP_ACT_ALLOW,
+            [
+                (eperm, "mmap", [(2, SCMP_CMP_MASKED_EQ, wx, wx)]),
+                (eperm, "mprotect", [(2, SCMP_CMP_MASKED_EQ, PROT_EXEC, PROT_EXEC)]),
+                (eperm, "pkey_mprotect", [(2, SCMP_CMP_MASKED_EQ, PROT_EXEC, PROT_EXEC)]),
+                (eperm, "shmat", [(2, SCMP_CMP_MASKED_EQ, SHM_EXEC, SHM_EXEC)]),
+            ],
+        )
     # Last, as systemd does: the allow-list does not allow loading further filters.
     if args.syscalls:
-        names = [line.strip() for line in open(args.syscalls, encoding="ascii")
-                 if line.strip() and not line.startswith("#")]
-        deny = (SCMP_ACT_KILL_PROCESS if args.errno == "kill"
-                else SCMP_ACT_ERRNO(getattr(errno, args.errno)))
+        names = [
+            line.strip()
+            for line in open(args.syscalls, encoding="ascii")
+            if line.strip() and not line.startswith("#")
+        ]
+        deny = (
+            SCMP_ACT_KILL_PROCESS
+            if args.errno == "kill"
+            else SCMP_ACT_ERRNO(getattr(errno, args.errno))
+        )
         sc.load(deny, [(SCMP_ACT_ALLOW, name, []) for name in names])
     os.execvp(command[0], command)
 

@@ -41,23 +41,35 @@ def lock(name: str) -> dict[str, tuple[str, list[str]]]:
         match = re.fullmatch(r"([A-Za-z0-9._-]+)==(\S+)((?:\s+--hash=sha256:[0-9a-f]{64})+)", line)
         assert match, f"{name}.lock: not a hashed pin: {line[:80]}"
         pins[canonicalize_name(match.group(1))] = (
-            match.group(2), re.findall(r"sha256:([0-9a-f]{64})", match.group(3)))
+            match.group(2),
+            re.findall(r"sha256:([0-9a-f]{64})", match.group(3)),
+        )
     return pins
 
 
 def bootstrap_array(name: str) -> list[str]:
     text = (REPO / "bootstrap.sh").read_text()
     body = re.search(rf"^{name}=\(\n(.*?)^\)", text, flags=re.S | re.M).group(1)
-    return [w for line in body.splitlines() for w in line.split("#")[0].split()
-            if not w.startswith('"$')]
+    return [
+        w
+        for line in body.splitlines()
+        for w in line.split("#")[0].split()
+        if not w.startswith('"$')
+    ]
 
 
-@pytest.mark.parametrize("name, requirements", [
-    ("run", PYPROJECT["project"]["dependencies"]),
-    ("test", PYPROJECT["project"]["dependencies"]
-     + PYPROJECT["project"]["optional-dependencies"]["test"]),
-    ("build", PYPROJECT["build-system"]["requires"] + ["pip"]),
-])
+@pytest.mark.parametrize(
+    "name, requirements",
+    [
+        ("run", PYPROJECT["project"]["dependencies"]),
+        (
+            "test",
+            PYPROJECT["project"]["dependencies"]
+            + PYPROJECT["project"]["optional-dependencies"]["test"],
+        ),
+        ("build", PYPROJECT["build-system"]["requires"] + ["pip"]),
+    ],
+)
 def test_each_lock_pins_every_dependency_in_its_range_with_hashes(name, requirements):
     pins = lock(name)
     for text in requirements:
@@ -67,7 +79,8 @@ def test_each_lock_pins_every_dependency_in_its_range_with_hashes(name, requirem
         version, hashes = pins[key]
         assert requirement.specifier.contains(version, prereleases=True), (
             f"{name}.lock: {requirement.name}=={version} is outside pyproject's {text!r}: "
-            "./bootstrap.sh lock")
+            "./bootstrap.sh lock"
+        )
         assert hashes
 
 
@@ -89,6 +102,7 @@ def test_the_locks_agree_and_are_generated_by_the_documented_command():
 
 # ------------------------------------------------------------------ refused bundles, one line
 
+
 def fake_bundle(tmp_path: Path, python: str = "3.11") -> Path:
     """A bundle's skeleton: enough of the source for bootstrap.sh, a wheel and the manifest."""
     bundle = tmp_path / "bundle"
@@ -102,16 +116,25 @@ def fake_bundle(tmp_path: Path, python: str = "3.11") -> Path:
     (bundle / "wheels").mkdir()
     (bundle / "wheels/pyserial-3.5-py2.py3-none-any.whl").write_bytes(b"a wheel")
     (bundle / "bundle.env").write_text(f"version=0\npython={python}\nmachine=x86_64\ndebian=12\n")
-    subprocess.run("find . -type f -printf '%P\\0' | xargs -0 sha256sum > SHA256SUMS", shell=True,
-                   cwd=bundle, check=True)
+    subprocess.run(
+        "find . -type f -printf '%P\\0' | xargs -0 sha256sum > SHA256SUMS",
+        shell=True,
+        cwd=bundle,
+        check=True,
+    )
     return bundle
 
 
 def bootstrap(folder: Path, *args: str, **env: str) -> subprocess.CompletedProcess:
     environ = {k: v for k, v in os.environ.items() if k not in ("EXHIBIT_BUNDLE", "PYTHON")}
     environ.update(PYTHON=sys.executable, **env)
-    return subprocess.run([str(folder / "bootstrap.sh"), *args], capture_output=True, text=True,
-                          env=environ, timeout=120)
+    return subprocess.run(
+        [str(folder / "bootstrap.sh"), *args],
+        capture_output=True,
+        text=True,
+        env=environ,
+        timeout=120,
+    )
 
 
 def one_line(result: subprocess.CompletedProcess, message: str) -> None:
@@ -121,25 +144,34 @@ def one_line(result: subprocess.CompletedProcess, message: str) -> None:
 
 
 def test_a_missing_bundle_folder_is_one_line(tmp_path):
-    one_line(bootstrap(REPO, "run", "--version", EXHIBIT_BUNDLE=str(tmp_path / "usb")),
-             f"EXHIBIT_BUNDLE={tmp_path}/usb: no such folder")
-    one_line(bootstrap(REPO, "run", "--version", EXHIBIT_BUNDLE=str(tmp_path)),
-             "is not a bundle (no bundle.env")
+    one_line(
+        bootstrap(REPO, "run", "--version", EXHIBIT_BUNDLE=str(tmp_path / "usb")),
+        f"EXHIBIT_BUNDLE={tmp_path}/usb: no such folder",
+    )
+    one_line(
+        bootstrap(REPO, "run", "--version", EXHIBIT_BUNDLE=str(tmp_path)),
+        "is not a bundle (no bundle.env",
+    )
 
 
 def test_a_wheel_with_a_wrong_hash_is_refused_before_anything_is_installed(tmp_path):
     bundle = fake_bundle(tmp_path)
     with open(bundle / "wheels/pyserial-3.5-py2.py3-none-any.whl", "ab") as wheel:
         wheel.write(b"changed on the way")
-    one_line(bootstrap(bundle, "run", "--version"),
-             f"bundle {bundle} is damaged: wheels/pyserial-3.5-py2.py3-none-any.whl: FAILED")
+    one_line(
+        bootstrap(bundle, "run", "--version"),
+        f"bundle {bundle} is damaged: wheels/pyserial-3.5-py2.py3-none-any.whl: FAILED",
+    )
     assert not (bundle / ".venv").exists()
 
 
 def test_a_bundle_for_another_python_is_refused(tmp_path):
     bundle = fake_bundle(tmp_path, python="3.9")
-    one_line(bootstrap(bundle, "run", "--version"), "this bundle is for Python 3.9 on x86_64, "
-             f"but {sys.executable} is Python {sys.version_info[0]}.{sys.version_info[1]}")
+    one_line(
+        bootstrap(bundle, "run", "--version"),
+        "this bundle is for Python 3.9 on x86_64, "
+        f"but {sys.executable} is Python {sys.version_info[0]}.{sys.version_info[1]}",
+    )
     assert not (bundle / ".venv").exists()
 
 
@@ -149,6 +181,7 @@ def test_the_tests_are_not_run_from_a_bundle(tmp_path):
 
 # ------------------------------------------------------------------ the offline install
 
+
 def _offline_prefix() -> list[str]:
     """The command prefix that runs a command with no network: a new network namespace."""
     if shutil.which("unshare") is None:
@@ -156,8 +189,10 @@ def _offline_prefix() -> list[str]:
     prefix = ["unshare", "-n"] if os.geteuid() == 0 else ["unshare", "-r", "-n"]
     probe = subprocess.run([*prefix, "true"], capture_output=True, text=True)
     if probe.returncode != 0:
-        pytest.skip(f"`{' '.join(prefix)}` is not permitted here ({probe.stderr.strip()}): "
-                    "the offline test needs root or unprivileged user namespaces")
+        pytest.skip(
+            f"`{' '.join(prefix)}` is not permitted here ({probe.stderr.strip()}): "
+            "the offline test needs root or unprivileged user namespaces"
+        )
     return prefix
 
 
@@ -166,8 +201,11 @@ def _debian_12_with_python_311() -> str:
     if not release.exists() or 'VERSION_ID="12"' not in release.read_text():
         pytest.skip("bundles are made on and for Debian 12")
     python = "/usr/bin/python3"
-    check = subprocess.run([python, "-c", "import sys; print(sys.version_info[:2] == (3, 11))"],
-                           capture_output=True, text=True)
+    check = subprocess.run(
+        [python, "-c", "import sys; print(sys.version_info[:2] == (3, 11))"],
+        capture_output=True,
+        text=True,
+    )
     if check.stdout.strip() != "True":
         pytest.skip("the bundle is for Debian 12's Python 3.11 (/usr/bin/python3)")
     return python
@@ -180,28 +218,41 @@ def bundle(tmp_path_factory):
     if os.environ.get("EXHIBIT_TEST_BUNDLE"):
         return Path(os.environ["EXHIBIT_TEST_BUNDLE"])
     folder = tmp_path_factory.mktemp("bundle") / "exhibit-bundle"
-    result = subprocess.run([str(REPO / "bootstrap.sh"), "bundle", str(folder)],
-                            capture_output=True, text=True, timeout=900,
-                            env={k: v for k, v in os.environ.items() if k != "EXHIBIT_BUNDLE"})
+    result = subprocess.run(
+        [str(REPO / "bootstrap.sh"), "bundle", str(folder)],
+        capture_output=True,
+        text=True,
+        timeout=900,
+        env={k: v for k, v in os.environ.items() if k != "EXHIBIT_BUNDLE"},
+    )
     assert result.returncode == 0, result.stderr[-3000:]
     return folder
 
 
 @pytest.mark.slow
 def test_the_bundle_holds_every_wheel_of_the_lock_and_its_debs(bundle):
-    check = subprocess.run(["sha256sum", "--quiet", "--strict", "-c", "SHA256SUMS"], cwd=bundle,
-                           capture_output=True, text=True)
+    check = subprocess.run(
+        ["sha256sum", "--quiet", "--strict", "-c", "SHA256SUMS"],
+        cwd=bundle,
+        capture_output=True,
+        text=True,
+    )
     assert check.returncode == 0, check.stdout + check.stderr
-    wheels = {canonicalize_name(w.name.split("-")[0]): w.name
-              for w in (bundle / "wheels").glob("*.whl")}
+    wheels = {
+        canonicalize_name(w.name.split("-")[0]): w.name for w in (bundle / "wheels").glob("*.whl")
+    }
     for name, (version, hashes) in {**lock("run"), **lock("build")}.items():
         assert name in wheels, name
         assert f"-{version}-" in wheels[name], wheels[name]
-        assert re.search(r"-(cp311-cp311|cp311-abi3|py3-none|py2\.py3-none)-"
-                         r"(any|manylinux[_0-9]*x86_64)", wheels[name]), wheels[name]
+        assert re.search(
+            r"-(cp311-cp311|cp311-abi3|py3-none|py2\.py3-none)-"
+            r"(any|manylinux[_0-9]*x86_64)",
+            wheels[name],
+        ), wheels[name]
     assert "exhibit" in wheels and wheels["exhibit"].endswith("-py3-none-any.whl")
-    packages = set(re.findall(r"^Package: (\S+)$", (bundle / "debs/Packages").read_text(),
-                              flags=re.M))
+    packages = set(
+        re.findall(r"^Package: (\S+)$", (bundle / "debs/Packages").read_text(), flags=re.M)
+    )
     assert set(bootstrap_array("apt_run") + bootstrap_array("apt_kiosk")) <= packages
     assert {"libc6", "libllvm15", "python3.11"} <= packages  # the closure, not just the names
     for field in ("python=3.11", "machine=x86_64", "debian=12"):
@@ -216,15 +267,23 @@ def test_offline_the_run_command_installs_from_the_bundle_alone(bundle, tmp_path
     offline = _offline_prefix()
     usb = tmp_path / "usb"
     shutil.copytree(bundle, usb, symlinks=True, ignore=shutil.ignore_patterns(".venv"))
-    probe = ("import socket, sys\ntry: socket.create_connection(('151.101.0.223', 443), 5)\n"
-             "except OSError as exc: sys.exit(str(exc))")
+    probe = (
+        "import socket, sys\ntry: socket.create_connection(('151.101.0.223', 443), 5)\n"
+        "except OSError as exc: sys.exit(str(exc))"
+    )
     cut = subprocess.run([*offline, python, "-c", probe], capture_output=True, text=True)
     assert "Network is unreachable" in cut.stderr, cut.stderr  # really no network in there
 
     env = {k: v for k, v in os.environ.items() if not k.startswith(("EXHIBIT_", "PIP_"))}
     env.update(PYTHON=python, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"))
-    installed = subprocess.run([*offline, "./bootstrap.sh", "run", "--version"], cwd=usb,
-                               env=env, capture_output=True, text=True, timeout=600)
+    installed = subprocess.run(
+        [*offline, "./bootstrap.sh", "run", "--version"],
+        cwd=usb,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert installed.returncode == 0, installed.stderr[-3000:]
     assert installed.stdout.strip() == f"exhibit {bundle_version(bundle)}"
     assert "from the bundle" in installed.stderr
@@ -232,19 +291,46 @@ def test_offline_the_run_command_installs_from_the_bundle_alone(bundle, tmp_path
     elsewhere = tmp_path / "elsewhere"
     elsewhere.mkdir()
     venv = usb / ".venv/bin"
-    where = subprocess.run([*offline, str(venv / "python"), "-c",
-                            "import exhibit; print(exhibit.__file__)"], cwd=elsewhere, env=env,
-                           capture_output=True, text=True, timeout=60)
+    where = subprocess.run(
+        [*offline, str(venv / "python"), "-c", "import exhibit; print(exhibit.__file__)"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert where.stdout.startswith(str(usb / ".venv/lib/python3.11/site-packages/exhibit/")), (
-        where.stdout + where.stderr)  # the bundle's wheel, not this checkout
-    drawn = subprocess.run([*offline, str(venv / "exhibit"), "render", "--figure", "8", "--size",
-                            "320x240", "--out", "x.png"], cwd=elsewhere, env=env,
-                           capture_output=True, text=True, timeout=300)
+        where.stdout + where.stderr
+    )  # the bundle's wheel, not this checkout
+    drawn = subprocess.run(
+        [
+            *offline,
+            str(venv / "exhibit"),
+            "render",
+            "--figure",
+            "8",
+            "--size",
+            "320x240",
+            "--out",
+            "x.png",
+        ],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert drawn.returncode == 0, drawn.stderr
     assert (elsewhere / "x.png").stat().st_size > 5000
     # the same command again reuses the venv (the stamp), still offline
-    again = subprocess.run([*offline, "./bootstrap.sh", "run", "--version"], cwd=usb, env=env,
-                           capture_output=True, text=True, timeout=120)
+    again = subprocess.run(
+        [*offline, "./bootstrap.sh", "run", "--version"],
+        cwd=usb,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert again.returncode == 0 and "installing" not in again.stderr, again.stderr
 
 
@@ -264,21 +350,33 @@ def test_offline_apt_resolves_every_package_from_the_bundle(bundle, tmp_path, ma
     for folder in ("lists/partial", "parts", "cache/archives/partial"):
         (state / folder).mkdir(parents=True)
     (state / "sources.list").write_text(f"deb [trusted=yes] file:{bundle}/debs ./\n")
-    options = ["-o", f"Dir::Etc::SourceList={state}/sources.list",
-               "-o", f"Dir::Etc::SourceParts={state}/parts",
-               "-o", f"Dir::State::Lists={state}/lists", "-o", f"Dir::Cache={state}/cache",
-               "-o", "Debug::NoLocking=1"]
+    options = [
+        "-o",
+        f"Dir::Etc::SourceList={state}/sources.list",
+        "-o",
+        f"Dir::Etc::SourceParts={state}/parts",
+        "-o",
+        f"Dir::State::Lists={state}/lists",
+        "-o",
+        f"Dir::Cache={state}/cache",
+        "-o",
+        "Debug::NoLocking=1",
+    ]
     if machine == "nothing installed":
         (state / "status").write_text("")
         options += ["-o", f"Dir::State::status={state}/status"]
-    updated = subprocess.run([*offline, "apt-get", *options, "update"], capture_output=True,
-                             text=True, timeout=120)
+    updated = subprocess.run(
+        [*offline, "apt-get", *options, "update"], capture_output=True, text=True, timeout=120
+    )
     assert updated.returncode == 0, updated.stdout + updated.stderr
     assert "Err:" not in updated.stdout
     packages = bootstrap_array("apt_run") + bootstrap_array("apt_kiosk")
-    simulated = subprocess.run([*offline, "apt-get", *options, "-s", "install",
-                                "--no-install-recommends", *packages],
-                               capture_output=True, text=True, timeout=120)
+    simulated = subprocess.run(
+        [*offline, "apt-get", *options, "-s", "install", "--no-install-recommends", *packages],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert simulated.returncode == 0, simulated.stdout[-3000:] + simulated.stderr
     installs = re.findall(r"^Inst (\S+)", simulated.stdout, flags=re.M)
     if machine == "nothing installed":

@@ -48,11 +48,22 @@ from tests.deploy.unitfile import allowed_syscalls, environment, units, yes
 
 REPO = Path(__file__).resolve().parents[2]
 SANDBOX = Path(__file__).with_name("sandbox_exec.py")
-PROGRAMS = {"cage": "cage", "Xwayland": "xwayland", "grim": "grim", "unshare": "util-linux",
-            "useradd": "passwd", "userdel": "passwd", "systemd-analyze": "systemd"}
-LIBRARIES = {"wayland-client": "libwayland-client0", "wayland-egl": "libwayland-egl1",
-             "wayland-cursor": "libwayland-cursor0", "xkbcommon": "libxkbcommon0",
-             "seccomp": "libseccomp2"}
+PROGRAMS = {
+    "cage": "cage",
+    "Xwayland": "xwayland",
+    "grim": "grim",
+    "unshare": "util-linux",
+    "useradd": "passwd",
+    "userdel": "passwd",
+    "systemd-analyze": "systemd",
+}
+LIBRARIES = {
+    "wayland-client": "libwayland-client0",
+    "wayland-egl": "libwayland-egl1",
+    "wayland-cursor": "libwayland-cursor0",
+    "xkbcommon": "libxkbcommon0",
+    "seccomp": "libseccomp2",
+}
 CLIENT = Path(__file__).with_name("cage_client.py")
 #: How long the kiosk runs after its start-up (it exits by itself, as with --duration).
 RUN_S = 10
@@ -87,21 +98,38 @@ def unavailable(reason: str):
 def check_prerequisites() -> None:
     if os.geteuid() != 0:
         pytest.skip("needs root: it creates a temporary system user to run cage and the kiosk")
-    missing = sorted({pkg for exe, pkg in PROGRAMS.items() if shutil.which(exe) is None}
-                     | {pkg for lib, pkg in LIBRARIES.items()
-                        if ctypes.util.find_library(lib) is None})
+    missing = sorted(
+        {pkg for exe, pkg in PROGRAMS.items() if shutil.which(exe) is None}
+        | {pkg for lib, pkg in LIBRARIES.items() if ctypes.util.find_library(lib) is None}
+    )
     if missing:
-        unavailable(f"missing Debian packages: {' '.join(missing)} "
-                    f"(apt-get install {' '.join(missing)}, or ./bootstrap.sh test)")
+        unavailable(
+            f"missing Debian packages: {' '.join(missing)} "
+            f"(apt-get install {' '.join(missing)}, or ./bootstrap.sh test)"
+        )
 
 
 @contextlib.contextmanager
 def system_user():
     """A temporary system user like `exhibit install` makes; removed afterwards."""
     name = f"exhibit-ci-{secrets.token_hex(4)}"
-    subprocess.run(["useradd", "--system", "--user-group", "--no-create-home", "--home-dir",
-                    "/nonexistent", "--shell", "/usr/sbin/nologin", name], check=True,
-                   capture_output=True, text=True, timeout=30)
+    subprocess.run(
+        [
+            "useradd",
+            "--system",
+            "--user-group",
+            "--no-create-home",
+            "--home-dir",
+            "/nonexistent",
+            "--shell",
+            "/usr/sbin/nologin",
+            name,
+        ],
+        check=True,
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     try:
         yield pwd.getpwnam(name)
     finally:
@@ -116,13 +144,20 @@ class AsUser:
         self.user, self.env = user, env
 
     def kwargs(self, umask: int = 0o022, env: dict[str, str] | None = None) -> dict:
-        return {"user": self.user.pw_uid, "group": self.user.pw_gid, "extra_groups": [],
-                "umask": umask, "env": dict(self.env, **(env or {})), "cwd": "/",
-                "start_new_session": True}
+        return {
+            "user": self.user.pw_uid,
+            "group": self.user.pw_gid,
+            "extra_groups": [],
+            "umask": umask,
+            "env": dict(self.env, **(env or {})),
+            "cwd": "/",
+            "start_new_session": True,
+        }
 
     def run(self, argv: list[str], timeout: float = 60, **kw) -> subprocess.CompletedProcess:
-        return subprocess.run(argv, capture_output=True, text=True, timeout=timeout,
-                              **self.kwargs(**kw))
+        return subprocess.run(
+            argv, capture_output=True, text=True, timeout=timeout, **self.kwargs(**kw)
+        )
 
 
 def python_for(user: AsUser) -> tuple[list[str], dict[str, str]]:
@@ -146,8 +181,10 @@ def python_for(user: AsUser) -> tuple[list[str], dict[str, str]]:
         if result.returncode == 0:
             return argv, env
         reasons.append(f"{argv[0]}: {result.stderr.strip().splitlines()[-1:]}")
-    pytest.fail("no Python the test user can run with this checkout (is it world-readable?): "
-                + "; ".join(reasons))
+    pytest.fail(
+        "no Python the test user can run with this checkout (is it world-readable?): "
+        + "; ".join(reasons)
+    )
 
 
 def user_namespace(user: AsUser) -> list[str]:
@@ -161,8 +198,7 @@ def user_namespace(user: AsUser) -> list[str]:
     return argv
 
 
-def sandbox(python: list[str], service: dict[str, list[str]], folder: Path, name: str
-            ) -> list[str]:
+def sandbox(python: list[str], service: dict[str, list[str]], folder: Path, name: str) -> list[str]:
     """sandbox_exec.py arguments for the unit's seccomp settings."""
     argv = python + [str(SANDBOX)]
     calls = allowed_syscalls(service)
@@ -209,8 +245,9 @@ def programs_of(uid: int) -> set[str]:
     names = set()
     for status in Path("/proc").glob("[0-9]*/status"):
         try:
-            fields = dict(line.split(":", 1) for line in status.read_text().splitlines()
-                          if ":" in line)
+            fields = dict(
+                line.split(":", 1) for line in status.read_text().splitlines() if ":" in line
+            )
         except OSError:
             continue
         if fields.get("Uid", "").split()[:1] == [str(uid)]:
@@ -234,14 +271,16 @@ def staged(tmp_path_factory):
     with open(os.devnull, "w") as devnull, contextlib.redirect_stdout(devnull):
         assert main(["install", "--root", str(root)]) == 0
     system = root / "etc/systemd/system"
-    return (units(system / "exhibit-kiosk.service")["Service"],
-            units(system / "exhibit.service")["Service"])
+    return (
+        units(system / "exhibit-kiosk.service")["Service"],
+        units(system / "exhibit.service")["Service"],
+    )
 
 
 def shell_of(command: str) -> str:
     """The script of a unit's `/bin/sh -c '...'` command line, with systemd's $$ undone."""
     assert command.startswith("/bin/sh -c '") and command.endswith("'"), command
-    return command[len("/bin/sh -c '"):-1].replace("$$", "$")
+    return command[len("/bin/sh -c '") : -1].replace("$$", "$")
 
 
 def ppm(data: bytes) -> np.ndarray:
@@ -258,8 +297,14 @@ class Stage:
     checkout, and what it runs: cage as exhibit-kiosk.service runs it, clients, grim. Everything
     started here is stopped when the stage is left (see stage())."""
 
-    def __init__(self, user: pwd.struct_passwd, base: Path, kiosk_unit: dict,
-                 processes: list, logs: contextlib.ExitStack):
+    def __init__(
+        self,
+        user: pwd.struct_passwd,
+        base: Path,
+        kiosk_unit: dict,
+        processes: list,
+        logs: contextlib.ExitStack,
+    ):
         self.user, self.base, self.kiosk_unit = user, base, kiosk_unit
         self.processes, self.logs = processes, logs
         self.folders = {}
@@ -267,11 +312,19 @@ class Stage:
             self.folders[name] = base / name
             self.folders[name].mkdir(mode=mode)
             os.chown(self.folders[name], user.pw_uid, user.pw_gid)
-        self.as_user = AsUser(user, {"PATH": "/usr/sbin:/usr/bin:/sbin:/bin", "LANG": "C.UTF-8",
-                                     "HOME": str(self.folders["home"])})
+        self.as_user = AsUser(
+            user,
+            {
+                "PATH": "/usr/sbin:/usr/bin:/sbin:/bin",
+                "LANG": "C.UTF-8",
+                "HOME": str(self.folders["home"]),
+            },
+        )
         self.python, self.python_env = python_for(self.as_user)
-        self.display_env = {"XDG_RUNTIME_DIR": str(self.folders["run"]),
-                            "WAYLAND_DISPLAY": "wayland-0"}
+        self.display_env = {
+            "XDG_RUNTIME_DIR": str(self.folders["run"]),
+            "WAYLAND_DISPLAY": "wayland-0",
+        }
 
     def start_cage(self, turned: bool) -> tuple[subprocess.Popen, list[str]]:
         """cage from the unit's ExecStart= with its runtime folder moved here, under the unit's
@@ -282,22 +335,35 @@ class Stage:
         if turned:
             at = words.index("/usr/bin/cage") + 1
             words[at:at] = CI_TURN
-        env = dict(environment(unit), WLR_BACKENDS="headless", WLR_RENDERER="pixman",
-                   XDG_RUNTIME_DIR=str(self.folders["run"]), **self.python_env)
+        env = dict(
+            environment(unit),
+            WLR_BACKENDS="headless",
+            WLR_RENDERER="pixman",
+            XDG_RUNTIME_DIR=str(self.folders["run"]),
+            **self.python_env,
+        )
         argv = sandbox(self.python, unit, self.base, "kiosk") + words
         if yes(unit, "PrivateUsers"):
             argv = user_namespace(self.as_user) + argv
         log = self.logs.enter_context(open(self.base / f"cage-{len(self.processes)}.log", "w+"))
-        cage = subprocess.Popen(argv, stdout=log, stderr=subprocess.STDOUT,
-                                **self.as_user.kwargs(umask=int(unit["UMask"][0], 8), env=env))
+        cage = subprocess.Popen(
+            argv,
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            **self.as_user.kwargs(umask=int(unit["UMask"][0], 8), env=env),
+        )
         cage.log = log
         self.processes.append(cage)
         return cage, argv
 
     def grab(self) -> tuple[float, np.ndarray | None, str]:
         """grim's picture of the output (wlr-screencopy), and when it came (time.monotonic())."""
-        result = subprocess.run(["grim", "-t", "ppm", "-"], capture_output=True, timeout=30,
-                                **self.as_user.kwargs(env=self.display_env))
+        result = subprocess.run(
+            ["grim", "-t", "ppm", "-"],
+            capture_output=True,
+            timeout=30,
+            **self.as_user.kwargs(env=self.display_env),
+        )
         done = time.monotonic()
         if result.returncode != 0:
             return done, None, result.stderr.decode(errors="replace")
@@ -309,13 +375,21 @@ class Stage:
         $MAINPID), and then SIGTERM to whatever is left (KillMode=control-group). This test
         reaps cage as systemd would, which ExecStop='s wait for /proc/$MAINPID to go needs."""
         unit = self.kiosk_unit
-        argv = (sandbox(self.python, unit, self.base, "kiosk")
-                + ["/bin/sh", "-c", shell_of(unit["ExecStop"][0])])
+        argv = sandbox(self.python, unit, self.base, "kiosk") + [
+            "/bin/sh",
+            "-c",
+            shell_of(unit["ExecStop"][0]),
+        ]
         started = time.monotonic()
-        stopper = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                                   text=True, **self.as_user.kwargs(
-                                       umask=int(unit["UMask"][0], 8),
-                                       env=dict(self.python_env, MAINPID=str(cage.pid))))
+        stopper = subprocess.Popen(
+            argv,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            text=True,
+            **self.as_user.kwargs(
+                umask=int(unit["UMask"][0], 8), env=dict(self.python_env, MAINPID=str(cage.pid))
+            ),
+        )
         self.processes.append(stopper)
         try:
             code = cage.wait(10)
@@ -325,9 +399,14 @@ class Stage:
         output = stopper.communicate(timeout=15)[0]
         stop(cage)  # what systemd's SIGTERM would then reach (nothing, if ExecStop= worked)
         cage.log.seek(0)
-        return {"code": code if code is not None else cage.returncode, "by_exec_stop":
-                code is not None, "exec_stop": stopper.returncode, "output": output,
-                "took": took, "log": cage.log.read()}
+        return {
+            "code": code if code is not None else cage.returncode,
+            "by_exec_stop": code is not None,
+            "exec_stop": stopper.returncode,
+            "output": output,
+            "took": took,
+            "log": cage.log.read(),
+        }
 
 
 @contextlib.contextmanager
@@ -376,8 +455,12 @@ def changes(seen: list[tuple[float, str, bool]]) -> dict:
         return {"first": None, "longest": None, "changes": 0, "grabs": len(seen)}
     times = [shown[0][0]] + [t for (t, d), (_, before) in zip(shown[1:], shown) if d != before]
     ends = times + [seen[-1][0]]
-    return {"first": shown[0][0], "longest": max(b - a for a, b in zip(ends, ends[1:])),
-            "changes": len(times) - 1, "grabs": len(seen)}
+    return {
+        "first": shown[0][0],
+        "longest": max(b - a for a, b in zip(ends, ends[1:])),
+        "changes": len(times) - 1,
+        "grabs": len(seen),
+    }
 
 
 @pytest.fixture(scope="module")
@@ -393,13 +476,14 @@ def kiosk_on_cage(staged):
         (base / "attract").mkdir()
         shutil.copy(REPO / "configs/attract/01-hypersphere.toml", base / "attract")
         site = base / "kiosk.toml"
-        site.write_text('[content]\nscenes = ["hopf", "clifford-torus"]\n'
-                        'start_scene = "hopf"\n\n[attract]\ntimelines = "attract"\n')
+        site.write_text(
+            '[content]\nscenes = ["hopf", "clifford-torus"]\n'
+            'start_scene = "hopf"\n\n[attract]\ntimelines = "attract"\n'
+        )
         for path in (site, *base.joinpath("attract").iterdir()):
             path.chmod(0o644)
         base.joinpath("attract").chmod(0o755)
-        check = as_user.run(python + ["-m", "exhibit", "check-config", str(site)],
-                            env=python_env)
+        check = as_user.run(python + ["-m", "exhibit", "check-config", str(site)], env=python_env)
         assert check.returncode == 0, check.stdout + check.stderr
 
         t0 = time.monotonic()
@@ -407,12 +491,18 @@ def kiosk_on_cage(staged):
 
         # The app: its Environment= with the folders moved here, after its ExecStartPre=.
         env = environment(app_unit)
-        env.update(XDG_RUNTIME_DIR=str(folders["run"]), EXHIBIT_STATE_DIR=str(folders["state"]),
-                   EXHIBIT_CACHE_DIR=str(folders["cache"] / "meshes"),
-                   XDG_CACHE_HOME=str(folders["cache"]), EXHIBIT_CONFIG=str(site), **python_env)
+        env.update(
+            XDG_RUNTIME_DIR=str(folders["run"]),
+            EXHIBIT_STATE_DIR=str(folders["state"]),
+            EXHIBIT_CACHE_DIR=str(folders["cache"] / "meshes"),
+            XDG_CACHE_HOME=str(folders["cache"]),
+            EXHIBIT_CONFIG=str(site),
+            **python_env,
+        )
         assert env["WAYLAND_DISPLAY"] == st.display_env["WAYLAND_DISPLAY"]
-        waited = as_user.run(["/bin/sh", "-c", shell_of(app_unit["ExecStartPre"][0])],
-                             timeout=30, env=env)
+        waited = as_user.run(
+            ["/bin/sh", "-c", shell_of(app_unit["ExecStartPre"][0])], timeout=30, env=env
+        )
         t_socket = time.monotonic() - t0
         cage.log.seek(0)
         assert waited.returncode == 0, (waited.stderr, cage.log.read())
@@ -423,14 +513,21 @@ def kiosk_on_cage(staged):
         notify.settimeout(0.2)
         env["NOTIFY_SOCKET"] = str(base / "notify")
         assert app_unit["ExecStart"][0].endswith("/.venv/bin/exhibit run")
-        app_argv = sandbox(python, app_unit, base, "app") + python + [
-            "-m", "exhibit", "run", "--duration", str(RUN_S)]
+        app_argv = (
+            sandbox(python, app_unit, base, "app")
+            + python
+            + ["-m", "exhibit", "run", "--duration", str(RUN_S)]
+        )
         if yes(app_unit, "PrivateUsers"):
             app_argv = user_namespace(as_user) + app_argv
         app_log = st.logs.enter_context(open(base / "app.log", "w+"))
         t1 = time.monotonic()
-        app = subprocess.Popen(app_argv, stdout=app_log, stderr=subprocess.STDOUT,
-                               **as_user.kwargs(umask=int(app_unit["UMask"][0], 8), env=env))
+        app = subprocess.Popen(
+            app_argv,
+            stdout=app_log,
+            stderr=subprocess.STDOUT,
+            **as_user.kwargs(umask=int(app_unit["UMask"][0], 8), env=env),
+        )
         st.processes.append(app)
 
         messages: list[str] = []
@@ -439,6 +536,7 @@ def kiosk_on_cage(staged):
             with contextlib.suppress(TimeoutError):
                 messages.extend(notify.recv(4096).decode().splitlines())
             return "READY=1" in messages or app.poll() is not None
+
         wait_for(ready, 60, step=0)
         t_ready = time.monotonic()
         # The screen from READY=1 on, as a visitor would see it.
@@ -457,21 +555,36 @@ def kiosk_on_cage(staged):
         stopped = st.stop_cage(cage)
         app_log.seek(0)
         observed = {
-            "code": code, "log": app_log.read(), "cage_log": stopped["log"],
-            "cage_alive": cage_alive, "messages": messages, "health": health,
-            "last_health": last_health, "grim_error": watched["error"],
-            "picture": watched["first"], "seen": seen, "screen": changes(seen), "stopped": stopped,
-            "t_socket": t_socket, "t_ready": t_ready - t1, "pid": app.pid, "running": running,
+            "code": code,
+            "log": app_log.read(),
+            "cage_log": stopped["log"],
+            "cage_alive": cage_alive,
+            "messages": messages,
+            "health": health,
+            "last_health": last_health,
+            "grim_error": watched["error"],
+            "picture": watched["first"],
+            "seen": seen,
+            "screen": changes(seen),
+            "stopped": stopped,
+            "t_socket": t_socket,
+            "t_ready": t_ready - t1,
+            "pid": app.pid,
+            "running": running,
             "sandboxed": {"app": app_argv, "cage": cage_argv},
         }
     summary = {k: (last_health or {}).get(k) for k in ("fps", "frames", "frame_ms_p95")}
     screen = observed["screen"]
-    print(f"\ncage's socket after {t_socket:.2f} s; the kiosk's READY=1 (first frame) "
-          f"{t_ready - t1:.2f} s after its start; health: {json.dumps(summary)}")
-    print(f"the screen from READY=1 on, grabbed {screen['grabs']} times in {WATCH_S} s: the "
-          f"exhibit first after {fmt(screen['first'])} s, {screen['changes']} changes, at most "
-          f"{fmt(screen['longest'])} s without one; cage stopped by ExecStop= in "
-          f"{stopped['took']:.2f} s, exit status {stopped['code']}")
+    print(
+        f"\ncage's socket after {t_socket:.2f} s; the kiosk's READY=1 (first frame) "
+        f"{t_ready - t1:.2f} s after its start; health: {json.dumps(summary)}"
+    )
+    print(
+        f"the screen from READY=1 on, grabbed {screen['grabs']} times in {WATCH_S} s: the "
+        f"exhibit first after {fmt(screen['first'])} s, {screen['changes']} changes, at most "
+        f"{fmt(screen['longest'])} s without one; cage stopped by ExecStop= in "
+        f"{stopped['took']:.2f} s, exit status {stopped['code']}"
+    )
     yield observed
 
 
@@ -492,11 +605,20 @@ def client_on_cage(staged):
             assert not socket_path.exists(), "left behind by the cage before"
             cage, _ = st.start_cage(turned)
             assert wait_for(socket_path.exists, 20), cage.log.name
-            env = dict(st.display_env, XDG_SESSION_TYPE="wayland",
-                       PYGLFW_LIBRARY_VARIANT="wayland", **st.python_env)
-            client = subprocess.Popen(st.python + [str(CLIENT)], stdin=subprocess.PIPE,
-                                      stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                                      **st.as_user.kwargs(env=env))
+            env = dict(
+                st.display_env,
+                XDG_SESSION_TYPE="wayland",
+                PYGLFW_LIBRARY_VARIANT="wayland",
+                **st.python_env,
+            )
+            client = subprocess.Popen(
+                st.python + [str(CLIENT)],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+                **st.as_user.kwargs(env=env),
+            )
             st.processes.append(client)
             assert client.stdout.readline().startswith("ready"), client.stderr.read()
             grabs = []
@@ -510,8 +632,12 @@ def client_on_cage(staged):
                 grabs.append((colour, tuple(int(v) for v in middle), uniform(picture)))
             _, errors = client.communicate(timeout=30)  # its stdin closed: it exits
             client_code = client.returncode
-            observed[turned] = {"grabs": grabs, "client": client_code, "errors": errors,
-                                "stopped": st.stop_cage(cage)}
+            observed[turned] = {
+                "grabs": grabs,
+                "client": client_code,
+                "errors": errors,
+                "stopped": st.stop_cage(cage),
+            }
     for turned, label in ((False, "as the unit runs it"), (True, "turned (CI_TURN)")):
         seen = ", ".join(f"{asked} -> {got}" for asked, got, _ in observed[turned]["grabs"])
         print(f"\ncage_client.py on cage {label}: asked for -> grim saw: {seen}")
@@ -548,8 +674,7 @@ def test_the_compositor_shows_the_exhibit(kiosk_on_cage):
     picture = kiosk_on_cage["picture"]
     assert picture is not None, (kiosk_on_cage["grim_error"], kiosk_on_cage["seen"][:5])
     assert picture.shape == (OUTPUT[1], OUTPUT[0], 3)
-    colours = len(np.unique(picture.astype(np.uint32) @ np.array([1 << 16, 1 << 8, 1],
-                                                                  np.uint32)))
+    colours = len(np.unique(picture.astype(np.uint32) @ np.array([1 << 16, 1 << 8, 1], np.uint32)))
     assert colours > 500, f"only {colours} colours: not the exhibit's picture"
     top = picture[:4, :8].astype(float).mean()
     bottom = picture[-4:, :8].astype(float).mean()
@@ -592,8 +717,9 @@ def test_grim_sees_an_old_frame_of_a_scanned_out_client(client_on_cage):
         assert run["stopped"]["by_exec_stop"] and run["stopped"]["code"] == 0, run["stopped"]
     for asked, got, flat in turned["grabs"]:
         assert flat and np.abs(np.subtract(asked, got)).max() <= 2, turned["grabs"]
-    assert any(np.abs(np.subtract(asked, got)).max() > 2 for asked, got, _ in plain["grabs"]), \
+    assert any(np.abs(np.subtract(asked, got)).max() > 2 for asked, got, _ in plain["grabs"]), (
         plain["grabs"]
+    )
 
 
 def test_it_ran_under_the_units_sandbox(kiosk_on_cage, staged):

@@ -66,8 +66,9 @@ def bootstrap_packages(array: str) -> set[str]:
 
 
 def test_step_1_installs_what_ci_installs_for_the_cage_test():
-    install = [words for words in shell_lines(blocks("sh")[0]) if words[:2] == ["apt-get",
-                                                                                "install"]]
+    install = [
+        words for words in shell_lines(blocks("sh")[0]) if words[:2] == ["apt-get", "install"]
+    ]
     assert len(install) == 1
     doc = {w for w in install[0][2:] if not w.startswith("-")}
     assert {"cage", "xwayland", "libwayland-cursor0", "libgl1-mesa-dri"} <= doc
@@ -96,8 +97,13 @@ def test_the_example_site_config_holds_only_changes_and_passes_check_config(tmp_
     assert len(re.findall(r"^\w+ *=", example, flags=re.M)) <= 5  # a few keys, not a copy
     site = tmp_path / "kiosk.toml"
     site.write_text(example)
-    result = subprocess.run([sys.executable, "-m", "exhibit", "check-config", str(site)],
-                            capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    result = subprocess.run(
+        [sys.executable, "-m", "exhibit", "check-config", str(site)],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=120,
+    )
     assert result.returncode == 0, result.stdout + result.stderr
 
 
@@ -136,8 +142,14 @@ def test_the_hardening_described_is_what_the_units_say():
 
 def test_the_tried_on_line_names_what_ci_runs():
     tried = re.search(r"^\*\*Tried on:\*\* (.*?)\n\n", DOC, flags=re.S | re.M).group(1)
-    for what in ("Debian 12", "cage 0.1.4", "xwayland", "llvmpipe", "GLFW 3.4",
-                 "tests/deploy/test_cage_kiosk.py"):
+    for what in (
+        "Debian 12",
+        "cage 0.1.4",
+        "xwayland",
+        "llvmpipe",
+        "GLFW 3.4",
+        "tests/deploy/test_cage_kiosk.py",
+    ):
         assert what in tried, what
 
 
@@ -145,8 +157,12 @@ def test_every_bootstrap_command_shown_is_a_job_it_has():
     script = (REPO / "bootstrap.sh").read_text()
     jobs = set(re.search(r"^  ([a-z|]+)\) shift ;;$", script, flags=re.M).group(1).split("|"))
     assert jobs == {"run", "test", "lock", "bundle", "update"}
-    shown = [words for block in blocks("sh") for words in shell_lines(block)
-             if words[0].endswith("bootstrap.sh") or words[0].startswith("EXHIBIT_BUNDLE=")]
+    shown = [
+        words
+        for block in blocks("sh")
+        for words in shell_lines(block)
+        if words[0].endswith("bootstrap.sh") or words[0].startswith("EXHIBIT_BUNDLE=")
+    ]
     shown = [words[1:] if "=" in words[0] else words for words in shown]
     assert {words[1] for words in shown} == jobs - {"test"}  # test is the README's
     for words in shown:
@@ -160,7 +176,7 @@ def test_the_update_and_rollback_shown_are_what_the_code_does():
 
     updating = section("8. Updating")
     assert "/opt/exhibit/.venv/bin/exhibit rollback" in updating
-    assert f"/opt/exhibit{update.Kiosk().releases[len('/opt/exhibit'):]}/" in updating
+    assert f"/opt/exhibit{update.Kiosk().releases[len('/opt/exhibit') :]}/" in updating
     assert f"`{update.PREVIOUS}`" in updating
     assert f"`{' '.join(update.RESTART)}`" in updating
     assert "beyond three" in updating and update.KEEP == 3
@@ -175,6 +191,9 @@ def test_the_offline_numbers_match_the_locks():
     # every number comes from a command the section names
     wheels = re.search(r"`ls wheels \| wc -l` (\d+)", offline)
     assert wheels and int(wheels.group(1)) == len(locked) + 1  # and the project's own wheel
-    for command in ("`du -sh` of the bundle", "`ls debs/*.deb | wc -l`",
-                    "`time ./bootstrap.sh run --version`"):
+    for command in (
+        "`du -sh` of the bundle",
+        "`ls debs/*.deb | wc -l`",
+        "`time ./bootstrap.sh run --version`",
+    ):
         assert command in offline, command

@@ -38,8 +38,14 @@ def app_filter(tmp_path_factory):
 
 
 def sandboxed(*options: str, command: list[str], **kw) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, str(SANDBOX), *options, "--", *command],
-                          capture_output=True, text=True, timeout=120, cwd=REPO, **kw)
+    return subprocess.run(
+        [sys.executable, str(SANDBOX), *options, "--", *command],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=REPO,
+        **kw,
+    )
 
 
 def render(out: Path, *options: str) -> subprocess.CompletedProcess:
@@ -61,19 +67,27 @@ def test_the_filter_is_what_the_unit_says():
 
 
 def test_sandbox_exec_refuses_what_the_filter_leaves_out(app_filter):
-    probe = ("import os, socket, errno\n"
-             "socket.socket(socket.AF_UNIX).close()\n"
-             "for call in (lambda: socket.socket(socket.AF_INET), lambda: os.setpriority("
-             "os.PRIO_PROCESS, 0, 1), lambda: os.sched_setaffinity(0, {0})):\n"
-             "    try:\n"
-             "        call()\n"
-             "    except OSError as exc:\n"
-             "        print(errno.errorcode[exc.errno])\n"
-             "    else:\n"
-             "        print('allowed')\n")
-    result = sandboxed("--syscalls", str(app_filter), "--errno", "EPERM",
-                       "--families", "AF_UNIX,AF_NETLINK",
-                       command=[sys.executable, "-c", probe])
+    probe = (
+        "import os, socket, errno\n"
+        "socket.socket(socket.AF_UNIX).close()\n"
+        "for call in (lambda: socket.socket(socket.AF_INET), lambda: os.setpriority("
+        "os.PRIO_PROCESS, 0, 1), lambda: os.sched_setaffinity(0, {0})):\n"
+        "    try:\n"
+        "        call()\n"
+        "    except OSError as exc:\n"
+        "        print(errno.errorcode[exc.errno])\n"
+        "    else:\n"
+        "        print('allowed')\n"
+    )
+    result = sandboxed(
+        "--syscalls",
+        str(app_filter),
+        "--errno",
+        "EPERM",
+        "--families",
+        "AF_UNIX,AF_NETLINK",
+        command=[sys.executable, "-c", probe],
+    )
     assert result.returncode == 0, result.stderr
     assert result.stdout.split() == ["EAFNOSUPPORT", "EPERM", "EPERM"]
     unfiltered = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
@@ -86,8 +100,15 @@ def test_the_picture_is_the_same_under_the_units_system_call_filter(app_filter, 
     result = render(plain)
     if result.returncode != 0:
         unavailable(f"no headless OpenGL: {result.stderr.strip()[-300:]}")
-    result = render(filtered, "--syscalls", str(app_filter), "--errno", "EPERM",
-                    "--families", "AF_UNIX,AF_NETLINK")
+    result = render(
+        filtered,
+        "--syscalls",
+        str(app_filter),
+        "--errno",
+        "EPERM",
+        "--families",
+        "AF_UNIX,AF_NETLINK",
+    )
     assert result.returncode == 0, result.stderr[-2000:]
     assert filtered.read_bytes() == plain.read_bytes()
 
@@ -99,10 +120,20 @@ def test_memory_deny_write_execute_kills_llvmpipe(tmp_path):
     result = render(tmp_path / "plain.png")
     if result.returncode != 0:
         unavailable(f"no headless OpenGL: {result.stderr.strip()[-300:]}")
-    if "llvmpipe" not in subprocess.run(
-            [sys.executable, "-c", "from exhibit.render import Headless; h = Headless(); "
-             "print(h.ctx.info['GL_RENDERER'])"], capture_output=True, text=True,
-            cwd=REPO).stdout:
+    if (
+        "llvmpipe"
+        not in subprocess.run(
+            [
+                sys.executable,
+                "-c",
+                "from exhibit.render import Headless; h = Headless(); "
+                "print(h.ctx.info['GL_RENDERER'])",
+            ],
+            capture_output=True,
+            text=True,
+            cwd=REPO,
+        ).stdout
+    ):
         pytest.skip("the renderer here is not llvmpipe")
     result = render(tmp_path / "mdwe.png", "--mdwe")
     assert result.returncode == -signal.SIGSEGV, (result.returncode, result.stderr[-1000:])

@@ -18,7 +18,7 @@ from tests.deploy.unitfile import environment, units
 
 PREFIX = "/opt/exhibit"
 RELEASES = "/opt/exhibit-releases"
-SITE = '[display]\nmonitor = 1\n'
+SITE = "[display]\nmonitor = 1\n"
 
 
 class Runner:
@@ -48,7 +48,8 @@ def make_release(root, name, version="0.2.0", prepare=True, folder=None):
         (release / "exhibit/commands/prepare.py").write_text("")
     (release / "systemd").mkdir()
     (release / "systemd/exhibit.service").write_text(
-        (inst.SOURCE_DIR / "exhibit.service").read_text())
+        (inst.SOURCE_DIR / "exhibit.service").read_text()
+    )
     exe = release / ".venv/bin/exhibit"
     exe.parent.mkdir(parents=True)
     exe.write_text("#!/bin/sh\n")
@@ -65,14 +66,19 @@ def root(tmp_path):
     (root / "etc/exhibit/kiosk.toml").write_text(SITE)
     (root / "etc/exhibit/environment").write_text(
         "# site settings\nEXHIBIT_CONFIG=/etc/exhibit/kiosk.toml\nEXHIBIT_DEVICES_CONFIG="
-        "/etc/exhibit/devices.toml\n")
+        "/etc/exhibit/devices.toml\n"
+    )
     return root
 
 
 def kiosk(root, runner, lines=None, user=True):
-    return Kiosk(PREFIX, root=root, runner=runner,
-                 out=(lines.append if lines is not None else lambda line: None),
-                 user_exists=lambda name: user)
+    return Kiosk(
+        PREFIX,
+        root=root,
+        runner=runner,
+        out=(lines.append if lines is not None else lambda line: None),
+        user_exists=lambda name: user,
+    )
 
 
 def test_the_first_update_moves_the_checkout_aside_and_switches(root):
@@ -82,8 +88,9 @@ def test_the_first_update_moves_the_checkout_aside_and_switches(root):
 
     prefix = root / "opt/exhibit"
     assert prefix.is_symlink() and os.readlink(prefix) == "exhibit-releases/0.2.0-20250601T120000Z"
-    (moved,) = [p for p in (root / "opt/exhibit-releases").iterdir()
-                if p.name.startswith("0.1.0-checkout-")]
+    (moved,) = [
+        p for p in (root / "opt/exhibit-releases").iterdir() if p.name.startswith("0.1.0-checkout-")
+    ]
     assert (moved / ".venv/bin/exhibit").exists()
     assert os.readlink(root / "opt/exhibit-releases/previous") == moved.name
     # the site configuration is outside every release and untouched
@@ -117,11 +124,15 @@ def test_config_and_cache_come_first_as_the_service_user_then_switch_install_res
         assert "EXHIBIT_CONFIG=/etc/exhibit/kiosk.toml" in command
         assert "HOME=/var/lib/exhibit" in command
         # exactly: PATH, HOME, the unit's Environment= and the site's file; nothing of ours
-        env = dict(w.split("=", 1) for w in command[6:command.index(new)])
+        env = dict(w.split("=", 1) for w in command[6 : command.index(new)])
         unit = environment(units(inst.SOURCE_DIR / "exhibit.service")["Service"])
-        assert env == {"PATH": inst.SERVICE_PATH, "HOME": "/var/lib/exhibit", **unit,
-                       "EXHIBIT_CONFIG": "/etc/exhibit/kiosk.toml",
-                       "EXHIBIT_DEVICES_CONFIG": "/etc/exhibit/devices.toml"}
+        assert env == {
+            "PATH": inst.SERVICE_PATH,
+            "HOME": "/var/lib/exhibit",
+            **unit,
+            "EXHIBIT_CONFIG": "/etc/exhibit/kiosk.toml",
+            "EXHIBIT_DEVICES_CONFIG": "/etc/exhibit/devices.toml",
+        }
         assert seen[step].endswith("/opt/exhibit")  # not switched yet
     assert runner.commands[cache - 1][:2] == ["install", "-d"]  # the cache folder, for the user
     assert runner.commands[install][0] == f"{PREFIX}/.venv/bin/exhibit"
@@ -139,8 +150,9 @@ def test_rollback_switches_back_and_a_second_rollback_undoes_it(root):
     runner, lines = Runner(), []
     assert kiosk(root, runner, lines).rollback() == 0
     assert (k.current(), k.previous()) == ("a", "b")
-    assert runner.index("prepare") < runner.index("install", "--prefix") < runner.index(
-        "try-restart")
+    assert (
+        runner.index("prepare") < runner.index("install", "--prefix") < runner.index("try-restart")
+    )
     assert f"{RELEASES}/a/.venv/bin/exhibit" in runner.commands[runner.index("prepare")]
     assert lines[-1].endswith(f"{RELEASES}/b/.venv/bin/exhibit rollback")
     kiosk(root, Runner()).rollback()
@@ -157,15 +169,25 @@ def test_rolling_back_to_the_old_checkout_skips_a_prepare_it_does_not_have(root)
     assert not any("prepare" in c for c in runner.commands)
     assert any("has no `exhibit prepare`" in line for line in lines)
     assert os.path.realpath(root / "opt/exhibit").startswith(
-        str(root / "opt/exhibit-releases/0.1.0-checkout-"))
+        str(root / "opt/exhibit-releases/0.1.0-checkout-")
+    )
 
 
-@pytest.mark.parametrize("word, message", [
-    ("check-config", "the site configuration failed (kiosk.toml: display.monitor: bad); "
-                     "nothing was switched"),
-    ("prepare", "building the mesh cache failed (kiosk.toml: display.monitor: bad); nothing "
-                "was switched"),
-])
+@pytest.mark.parametrize(
+    "word, message",
+    [
+        (
+            "check-config",
+            "the site configuration failed (kiosk.toml: display.monitor: bad); "
+            "nothing was switched",
+        ),
+        (
+            "prepare",
+            "building the mesh cache failed (kiosk.toml: display.monitor: bad); nothing "
+            "was switched",
+        ),
+    ],
+)
 def test_a_refused_config_or_a_failed_cache_build_switches_nothing(root, word, message):
     make_release(root, "new")
     runner = Runner(fail={word: (2, "Traceback?\nkiosk.toml: display.monitor: bad\n")})
@@ -179,9 +201,12 @@ def test_a_refused_config_or_a_failed_cache_build_switches_nothing(root, word, m
 def test_a_failed_install_after_the_switch_says_how_to_go_back(root):
     make_release(root, "new")
     runner = Runner(fail={"--prefix": (1, "exhibit install: error: udevadm failed\n")})
-    with pytest.raises(ExhibitError, match=r"now new, but exhibit install failed: exhibit "
-                                           r"install: error: udevadm failed; .* "
-                                           r"/opt/exhibit/.venv/bin/exhibit rollback"):
+    with pytest.raises(
+        ExhibitError,
+        match=r"now new, but exhibit install failed: exhibit "
+        r"install: error: udevadm failed; .* "
+        r"/opt/exhibit/.venv/bin/exhibit rollback",
+    ):
         kiosk(root, runner).update(f"{RELEASES}/new")
 
 
@@ -208,16 +233,23 @@ def test_old_releases_are_pruned_but_never_the_current_or_previous(root):
         k.update(f"{RELEASES}/{name}", keep=3 if name != "r5" else 2)
         if name == "r4":  # r4, r3 and the newest other one (r2): not r1, not the checkout
             assert sorted(p.name for p in (root / "opt/exhibit-releases").iterdir()) == [
-                "previous", "r2", "r3", "r4"]
+                "previous",
+                "r2",
+                "r3",
+                "r4",
+            ]
     left = sorted(p.name for p in (root / "opt/exhibit-releases").iterdir())
     assert left == ["previous", "r3", "r5"]
 
 
-@pytest.mark.parametrize("release, message", [
-    ("/srv/elsewhere/new", "a release must be a folder in /opt/exhibit-releases/"),
-    (f"{RELEASES}/missing", "/opt/exhibit-releases/missing: no such folder"),
-    (f"{RELEASES}/previous", "a release must be a folder"),
-])
+@pytest.mark.parametrize(
+    "release, message",
+    [
+        ("/srv/elsewhere/new", "a release must be a folder in /opt/exhibit-releases/"),
+        (f"{RELEASES}/missing", "/opt/exhibit-releases/missing: no such folder"),
+        (f"{RELEASES}/previous", "a release must be a folder"),
+    ],
+)
 def test_bad_releases_are_refused_in_one_line(root, release, message):
     with pytest.raises(ExhibitError, match=message):
         kiosk(root, Runner()).update(release)
@@ -242,11 +274,14 @@ def test_rollback_without_releases_is_one_line(root):
         kiosk(root, Runner()).rollback()
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["update", "/x", "--keep", "1"], "--keep 1: keep at least 2"),
-    (["update", "/x", "--prefix", "/tmp/exhibit"], "cannot use /tmp"),
-    (["rollback", "--prefix", "opt"], "must be an absolute path"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["update", "/x", "--keep", "1"], "--keep 1: keep at least 2"),
+        (["update", "/x", "--prefix", "/tmp/exhibit"], "cannot use /tmp"),
+        (["rollback", "--prefix", "opt"], "must be an absolute path"),
+    ],
+)
 def test_cli_errors_are_one_line(capsys, argv, message):
     assert main(argv) == 2
     err = capsys.readouterr().err

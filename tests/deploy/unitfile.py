@@ -33,8 +33,9 @@ def units(path: Path) -> dict[str, dict[str, list[str]]]:
 
 def environment(service: dict[str, list[str]]) -> dict[str, str]:
     """The variables of every Environment= line (values without spaces, as ours are)."""
-    return dict(pair.split("=", 1) for line in service.get("Environment", [])
-                for pair in shlex.split(line))
+    return dict(
+        pair.split("=", 1) for line in service.get("Environment", []) for pair in shlex.split(line)
+    )
 
 
 def yes(service: dict[str, list[str]], key: str) -> bool:
@@ -47,8 +48,13 @@ def syscall_group(name: str) -> frozenset[str]:
     this machine's systemd knows them (`systemd-analyze syscall-filter`)."""
     if shutil.which("systemd-analyze") is None:
         raise FileNotFoundError("systemd-analyze")
-    out = subprocess.run(["systemd-analyze", "syscall-filter", "--no-pager", name],
-                         capture_output=True, text=True, check=True, timeout=60).stdout
+    out = subprocess.run(
+        ["systemd-analyze", "syscall-filter", "--no-pager", name],
+        capture_output=True,
+        text=True,
+        check=True,
+        timeout=60,
+    ).stdout
     calls: set[str] = set()
     for line in out.splitlines()[1:]:
         item = line.strip()

@@ -50,8 +50,10 @@ class Loop:
         start = self.clock.t
         while not pred():
             if self.clock.t - start > limit:
-                raise AssertionError(f"no {what} within {limit} s of simulated time; "
-                                     f"{[b.status() for b in self.backends]}")
+                raise AssertionError(
+                    f"no {what} within {limit} s of simulated time; "
+                    f"{[b.status() for b in self.backends]}"
+                )
             self.step(dt)
         return self.clock.t - start
 
@@ -63,8 +65,9 @@ def clock():
 
 @pytest.fixture
 def sim(clock, tmp_path):
-    s = SimController(tmp_path / "by-id" / "usb-Exhibit_Controller-if00", clock=clock, seed=1,
-                     sync=True)
+    s = SimController(
+        tmp_path / "by-id" / "usb-Exhibit_Controller-if00", clock=clock, seed=1, sync=True
+    )
     s.link.parent.mkdir()
     s.plug()
     yield s

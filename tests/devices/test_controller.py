@@ -47,7 +47,11 @@ def test_axes_and_buttons_become_events_on_change_only(loop, controller, sim):
     sim.set_buttons(0)
     loop.run(1.0)
     assert [(e.kind, e.index, e.value) for e in loop.events[4:]] == [
-        (Kind.ABS, 0, 0.0), (Kind.ABS, 5, 0.0), (Kind.BUTTON, 0, 0.0), (Kind.BUTTON, 2, 0.0)]
+        (Kind.ABS, 0, 0.0),
+        (Kind.ABS, 5, 0.0),
+        (Kind.BUTTON, 0, 0.0),
+        (Kind.BUTTON, 2, 0.0),
+    ]
 
 
 def test_device_clock_stamps_follow_the_device_not_arrival():
@@ -75,7 +79,9 @@ def test_unplug_releases_and_replug_resumes_within_2_s(loop, controller, sim, cl
     loop.step()
     assert controller.state is State.LOST
     assert [(e.kind, e.index, e.value) for e in loop.events[held:]] == [
-        (Kind.ABS, 1, 0.0), (Kind.BUTTON, 3, 0.0)]  # nothing keeps spinning the view
+        (Kind.ABS, 1, 0.0),
+        (Kind.BUTTON, 3, 0.0),
+    ]  # nothing keeps spinning the view
     assert controller._port is None  # no descriptor kept for a device that is gone
     loop.run(3.0)  # absent for a while: retried by name, nothing else stalls
     assert controller.state is State.LOST and "waiting for" in controller.detail
@@ -162,8 +168,12 @@ def test_watchdog_reset_is_a_restart_not_a_loss(loop, controller, sim):
 def test_calibrate_command_round_trip(loop, controller, sim):
     loop.until(connected(controller))
     controller.send(p.Calibrate())
-    loop.until(lambda: controller.calibration is not None
-               and controller.calibration.reason is p.CalibrationReason.HOST)
+    loop.until(
+        lambda: (
+            controller.calibration is not None
+            and controller.calibration.reason is p.CalibrationReason.HOST
+        )
+    )
     assert sim.rx_ok >= 2 and sim.rx_rejected == 0  # hello request and calibrate
 
 
@@ -197,13 +207,25 @@ def test_flood_at_full_baud_costs_each_poll_a_bounded_amount(loop, controller, s
     assert controller.state is State.CONNECTED
 
 
-garbage = st.one_of(st.just(b""), st.binary(min_size=1, max_size=60),
-                    st.binary(max_size=40).map(lambda b: b + b"\x00"))
+garbage = st.one_of(
+    st.just(b""),
+    st.binary(min_size=1, max_size=60),
+    st.binary(max_size=40).map(lambda b: b + b"\x00"),
+)
 
 
-@settings(max_examples=examples(40), deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
-@given(st.lists(st.tuples(garbage, st.lists(st.integers(-32767, 32767), min_size=6, max_size=6)),
-                min_size=1, max_size=12))
+@settings(
+    max_examples=examples(40),
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
+@given(
+    st.lists(
+        st.tuples(garbage, st.lists(st.integers(-32767, 32767), min_size=6, max_size=6)),
+        min_size=1,
+        max_size=12,
+    )
+)
 def test_every_frame_between_garbage_is_recovered_and_none_invented(tmp_path_factory, chunks):
     """Garbage before a frame destroys it only if it does not end in a delimiter; every other
     frame comes through unchanged, and nothing else does."""
@@ -221,8 +243,11 @@ def test_every_frame_between_garbage_is_recovered_and_none_invented(tmp_path_fac
             s.inject(junk + p.encode_frame(p.Axes(10 * i, tuple(axes), 0), i))
             if not junk or junk.endswith(b"\x00"):
                 expected.append(tuple(axes))
-        frames = [f for f in b.decoder.feed(b._port.read(1 << 16))
-                  if isinstance(f, p.Frame) and isinstance(f.message, p.Axes)]
+        frames = [
+            f
+            for f in b.decoder.feed(b._port.read(1 << 16))
+            if isinstance(f, p.Frame) and isinstance(f.message, p.Axes)
+        ]
         assert [f.message.axes for f in frames] == expected
     finally:
         b.close()

@@ -83,18 +83,37 @@ def test_controller_buttons_home_and_next_scene():
 
 
 def test_a_held_button_is_a_rate_until_its_release_stamp():
-    m = Mapper(parse_config({"mapping": {"bind": [
-        {"device": "d", "input": "button 3", "param": "sensor", "rate": 0.1},
-        {"device": "d", "input": "button 4", "param": "theta2", "rate": 30, "invert": True},
-    ]}}, "t.toml").mapping)
-    v = m.apply(ViewState(), [Event(10.0, "d", Kind.BUTTON, 2, 1.0),
-                              Event(10.0, "d", Kind.BUTTON, 3, 1.0)], 10.0)
+    m = Mapper(
+        parse_config(
+            {
+                "mapping": {
+                    "bind": [
+                        {"device": "d", "input": "button 3", "param": "sensor", "rate": 0.1},
+                        {
+                            "device": "d",
+                            "input": "button 4",
+                            "param": "theta2",
+                            "rate": 30,
+                            "invert": True,
+                        },
+                    ]
+                }
+            },
+            "t.toml",
+        ).mapping
+    )
+    v = m.apply(
+        ViewState(),
+        [Event(10.0, "d", Kind.BUTTON, 2, 1.0), Event(10.0, "d", Kind.BUTTON, 3, 1.0)],
+        10.0,
+    )
     for frame in range(1, 11):  # frames at 10 Hz for a second
         v = m.apply(v, [], 10.0 + frame / 10)
     assert v.sensor_r == pytest.approx(0.1) and v.angles[1] == pytest.approx(-30 * DEG)
     # released at 11.3 by its stamp, though the frame is at 11.4: 0.3 s more, no more
-    v = m.apply(v, [Event(11.3, "d", Kind.BUTTON, 2, 0.0), Event(11.3, "d", Kind.BUTTON, 3, 0.0)],
-                11.4)
+    v = m.apply(
+        v, [Event(11.3, "d", Kind.BUTTON, 2, 0.0), Event(11.3, "d", Kind.BUTTON, 3, 0.0)], 11.4
+    )
     assert v.sensor_r == pytest.approx(0.13) and v.angles[1] == pytest.approx(-39 * DEG)
     assert m.apply(v, [], 20.0) is v
     # a rate button is not a scene switch, a button bound to nothing is
@@ -102,21 +121,36 @@ def test_a_held_button_is_a_rate_until_its_release_stamp():
     assert m.switches_scene(Event(0, "d", Kind.BUTTON, 7, 1.0))
 
 
-@pytest.mark.parametrize("bind, fragment", [
-    ({"input": "button 1"}, "a button takes either action = \"home\" or \"next-scene\", or a param"),
-    ({"input": "button 1", "param": "sensor", "action": "home"}, "a button takes either"),
-    ({"input": "button 1", "param": "sensor", "step": 0.1},
-     "mapping.bind[0].step: only for deltas; a button takes rate"),
-    ({"input": "button 1", "param": "sensor", "curve": 2},
-     "mapping.bind[0].curve: only for axes; a button takes rate"),
-    ({"input": "button 1", "param": "sensor", "rate": 30},
-     "mapping.bind[0].rate: must lie in [0, 20] for sensor"),
-    ({"input": "delta 1", "action": "next-scene"}, "mapping.bind[0].action: only buttons"),
-    ({"input": "button 1", "action": "next"},
-     "mapping.bind[0].action: must be 'home', 'next-scene' or 'language'"),
-])
+@pytest.mark.parametrize(
+    "bind, fragment",
+    [
+        (
+            {"input": "button 1"},
+            'a button takes either action = "home" or "next-scene", or a param',
+        ),
+        ({"input": "button 1", "param": "sensor", "action": "home"}, "a button takes either"),
+        (
+            {"input": "button 1", "param": "sensor", "step": 0.1},
+            "mapping.bind[0].step: only for deltas; a button takes rate",
+        ),
+        (
+            {"input": "button 1", "param": "sensor", "curve": 2},
+            "mapping.bind[0].curve: only for axes; a button takes rate",
+        ),
+        (
+            {"input": "button 1", "param": "sensor", "rate": 30},
+            "mapping.bind[0].rate: must lie in [0, 20] for sensor",
+        ),
+        ({"input": "delta 1", "action": "next-scene"}, "mapping.bind[0].action: only buttons"),
+        (
+            {"input": "button 1", "action": "next"},
+            "mapping.bind[0].action: must be 'home', 'next-scene' or 'language'",
+        ),
+    ],
+)
 def test_bad_button_bindings_name_the_key(bind, fragment):
     from exhibit.devices.base import DeviceError
+
     with pytest.raises(DeviceError) as info:
         parse_config({"mapping": {"bind": [{"device": "d", **bind}]}}, "museum.toml")
     assert fragment in str(info.value), str(info.value)
@@ -152,6 +186,7 @@ def test_the_keyboard_reaches_every_parameter_with_the_shipped_mapping(clock):
 
 class FakeGlfw:
     """The few names key_name uses: printable keys have layout names, the rest codes."""
+
     KEY_SPACE, KEY_ESCAPE, KEY_UP, KEY_DOWN, KEY_LEFT, KEY_RIGHT = 32, 256, 265, 264, 263, 262
 
     @staticmethod
@@ -167,6 +202,7 @@ def test_window_key_names_match_the_keyboard_backend():
 
 # ---------------------------------------------------------------- the staff viewer's keys
 
+
 def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
     """A key sequence gives the same views in the viewer as through the kiosk's keyboard://."""
     from exhibit.commands._viewer import StaffControls
@@ -176,8 +212,16 @@ def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
     kb = KeyboardBackend(name="keyboard", clock=clock).open()
     kiosk = Mapper(only("keyboard"))
     a = b = home
-    for name, pressed in [("q", True), ("u", True), ("q", False), ("d", True), ("u", False),
-                          ("d", False), ("h", True), ("h", False)]:
+    for name, pressed in [
+        ("q", True),
+        ("u", True),
+        ("q", False),
+        ("d", True),
+        ("u", False),
+        ("d", False),
+        ("h", True),
+        ("h", False),
+    ]:
         staff.key(name, pressed)
         kb.key(name, pressed)
         a, b = staff.step(a, clock()), kiosk.apply(b, kb.poll(), clock())
@@ -187,7 +231,7 @@ def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
     assert a.sensor_r > 0 and not staff.depth_colour  # d turns theta3, it no longer colours
     staff.key("space", True)
     assert staff.step(a, clock()) == home  # home is the view the viewer opened with
-    staff.key("q", True, frozenset({"ctrl"}))   # a shortcut, not a knob
+    staff.key("q", True, frozenset({"ctrl"}))  # a shortcut, not a knob
     clock.advance(0.5)
     assert staff.step(home, clock()) == home
 
@@ -199,8 +243,13 @@ def test_the_staff_viewer_loop_takes_keys_from_the_window():
     from exhibit.render.target import Focus, Key
 
     drawn = []
-    script = {2: [Key("q", True)], 10: [Focus(False)], 12: [Key("q", True)],
-              20: [Key("q", False), Key("c", True)], 25: [Key("escape", True)]}
+    script = {
+        2: [Key("q", True)],
+        10: [Focus(False)],
+        12: [Key("q", True)],
+        20: [Key("q", False), Key("c", True)],
+        25: [Key("escape", True)],
+    }
 
     class FakeWindow:
         should_close, handler = False, None
@@ -227,6 +276,7 @@ def test_the_staff_viewer_loop_takes_keys_from_the_window():
 
 # ---------------------------------------------------------------- monitor shows the buttons
 
+
 def test_monitor_shows_button_presses_held_and_tapped(tmp_path, capsys):
     """A tap shorter than the gap between two lines still shows once; a held button shows on
     every line while held, with what the shipped mapping makes it do."""
@@ -235,13 +285,29 @@ def test_monitor_shows_button_presses_held_and_tapped(tmp_path, capsys):
     from exhibit.cli import main
 
     script = tmp_path / "buttons.txt"
-    script.write_text("wait 0.4\nbuttons 2\nwait 0.03\nbuttons\nwait 0.5\nbuttons 3\nwait 0.6\n"
-                      "buttons\n")
-    assert main(["monitor", "--device", f"controller=sim://controller?script={script}",
-                 "--json", "--duration", "2.2", "--rate", "5"]) == 0
+    script.write_text(
+        "wait 0.4\nbuttons 2\nwait 0.03\nbuttons\nwait 0.5\nbuttons 3\nwait 0.6\nbuttons\n"
+    )
+    assert (
+        main(
+            [
+                "monitor",
+                "--device",
+                f"controller=sim://controller?script={script}",
+                "--json",
+                "--duration",
+                "2.2",
+                "--rate",
+                "5",
+            ]
+        )
+        == 0
+    )
     lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
-    seen = [[(b["device"], b["button"], b["does"], b["held"]) for b in line["buttons"]]
-            for line in lines]
+    seen = [
+        [(b["device"], b["button"], b["does"], b["held"]) for b in line["buttons"]]
+        for line in lines
+    ]
     taps = [s for s in seen if any(b[:3] == ("controller", 2, "next-scene") for b in s)]
     assert len(taps) == 1, seen  # the 30 ms tap, between two lines: on exactly one
     held = [s for s in seen if any(b[:3] == ("controller", 3, "sensor +") for b in s)]
@@ -254,14 +320,20 @@ def test_monitor_shows_button_presses_held_and_tapped(tmp_path, capsys):
 def test_monitor_text_line_names_the_buttons():
     from exhibit.commands.monitor import text_line
 
-    s = {"angles_deg": [0.0] * 6, "sensor_r": 0.0, "sensor_distance": None, "idle_s": 0.5,
-         "devices": {"controller": "connected"},
-         "buttons": [{"device": "controller", "button": 1, "held": True, "does": "home"}]}
+    s = {
+        "angles_deg": [0.0] * 6,
+        "sensor_r": 0.0,
+        "sensor_distance": None,
+        "idle_s": 0.5,
+        "devices": {"controller": "connected"},
+        "buttons": [{"device": "controller", "button": 1, "held": True, "does": "home"}],
+    }
     assert text_line(s).endswith("| idle 0.5 s | controller button 1 (home, held)")
     assert text_line({**s, "buttons": []}).endswith("| idle 0.5 s")
 
 
 # ---------------------------------------------------------------- the kiosk's scene buttons
+
 
 def test_in_the_kiosk_only_the_next_scene_button_changes_scene(tmp_path):
     """With the shipped controller mapping: button 2 moves on, buttons 3 and 4 move the sensor
@@ -270,10 +342,17 @@ def test_in_the_kiosk_only_the_next_scene_button_changes_scene(tmp_path):
     from exhibit.kiosk.state import VISITOR, KioskState
 
     path = tmp_path / "t.toml"
-    path.write_text('scene = "hopf"\n[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\n'
-                    'angles = [90, 0, 0, 0, 0, 0]\n')
-    state = KioskState(Playlist([load_timeline(path)]), Mapper(only("controller")),
-                       ("hopf", "collision"), idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+    path.write_text(
+        'scene = "hopf"\n[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\nangles = [90, 0, 0, 0, 0, 0]\n'
+    )
+    state = KioskState(
+        Playlist([load_timeline(path)]),
+        Mapper(only("controller")),
+        ("hopf", "collision"),
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+    )
 
     def button(t, index, value=1.0):
         return Event(t, "controller", Kind.BUTTON, index, value)
@@ -296,16 +375,21 @@ def test_monitor_says_when_a_device_changes_state_or_detail():
     from exhibit.commands.monitor import device_changes
 
     seen = {}
-    line = {"devices": {"controller": "waiting"},
-            "details": {"controller": "waiting for /dev/ttyACM0: No such file or directory"}}
+    line = {
+        "devices": {"controller": "waiting"},
+        "details": {"controller": "waiting for /dev/ttyACM0: No such file or directory"},
+    }
     assert device_changes(line, seen) == [
-        "device controller: waiting (waiting for /dev/ttyACM0: No such file or directory)"]
-    assert device_changes(line, seen) == []     # nothing new: nothing said
-    line = {"devices": {"controller": "connected"},
-            "details": {"controller": "firmware 1.0.0 on /dev/ttyACM0"}}
+        "device controller: waiting (waiting for /dev/ttyACM0: No such file or directory)"
+    ]
+    assert device_changes(line, seen) == []  # nothing new: nothing said
+    line = {
+        "devices": {"controller": "connected"},
+        "details": {"controller": "firmware 1.0.0 on /dev/ttyACM0"},
+    }
     assert device_changes(line, seen) == [
-        "device controller: connected (firmware 1.0.0 on /dev/ttyACM0)"]
-
+        "device controller: connected (firmware 1.0.0 on /dev/ttyACM0)"
+    ]
 
 
 def test_the_knob_box_alone_reaches_every_parameter(clock):
@@ -316,8 +400,9 @@ def test_the_knob_box_alone_reaches_every_parameter(clock):
     from exhibit.devices.hub import DeviceSet
 
     config = load_config()
-    config = dataclasses.replace(config, devices={"knobs": config.devices["knobs"]},
-                                 mapping=only("knobs"))
+    config = dataclasses.replace(
+        config, devices={"knobs": config.devices["knobs"]}, mapping=only("knobs")
+    )
     layout = load_layouts()["knobbox"]
     dev = FakeHidDevice(0x2341, 0x8037, usage_page=0xFF00, clock=clock, layout=layout)
     devices = DeviceSet(config, clock=clock, hid_api=FakeHidBus([dev])).open()

@@ -11,8 +11,9 @@ import pytest
 from exhibit.cli import main
 from exhibit.devices import protocol as p
 
-VECTORS = json.loads((Path(__file__).resolve().parents[2] / "firmware" / "vectors" /
-                      "protocol.json").read_text())
+VECTORS = json.loads(
+    (Path(__file__).resolve().parents[2] / "firmware" / "vectors" / "protocol.json").read_text()
+)
 
 
 def decode(tmp_path, capsys, data: bytes, *extra):
@@ -25,8 +26,9 @@ def decode(tmp_path, capsys, data: bytes, *extra):
 @pytest.mark.parametrize("stream", VECTORS["streams"], ids=lambda s: s["name"])
 def test_vector_streams(tmp_path, capsys, stream):
     lines = decode(tmp_path, capsys, bytes.fromhex(stream["bytes"]))
-    assert lines[-1] == {"summary": {k: stream[k] for k in ("frames_ok", "rejected",
-                                                             "bytes_skipped")}}
+    assert lines[-1] == {
+        "summary": {k: stream[k] for k in ("frames_ok", "rejected", "bytes_skipped")}
+    }
     items = [line.get("type") or line.get("rejected") for line in lines[:-1]]
     assert items == stream["items"]
 
@@ -35,8 +37,13 @@ def test_frames_carry_their_fields(tmp_path, capsys):
     data = p.encode_frame(p.Axes(1234, (1, -2, 3, -4, 5, -32767), 0b1010), 77)
     data += p.encode_frame(p.Hello((1, 2, 3), reset_cause=p.ResetCause.WATCHDOG), 0)
     lines = decode(tmp_path, capsys, data)
-    assert lines[0] == {"type": "AXES", "seq": 77, "t_ms": 1234,
-                        "axes": [1, -2, 3, -4, 5, -32767], "buttons": 10}
+    assert lines[0] == {
+        "type": "AXES",
+        "seq": 77,
+        "t_ms": 1234,
+        "axes": [1, -2, 3, -4, 5, -32767],
+        "buttons": 10,
+    }
     assert lines[1]["type"] == "HELLO" and lines[1]["reset_cause"] == ["WATCHDOG"]
     assert lines[2] == {"summary": {"frames_ok": 2, "rejected": 0, "bytes_skipped": 0}}
 
@@ -59,8 +66,9 @@ def test_stdin(cli):
     import sys
 
     data = p.encode_frame(p.Heartbeat(5, 1, 2), 3) + b"\x02\x05\x00"
-    r = subprocess.run([sys.executable, "-m", "exhibit", "decode", "-"], input=data,
-                       capture_output=True)
+    r = subprocess.run(
+        [sys.executable, "-m", "exhibit", "decode", "-"], input=data, capture_output=True
+    )
     assert r.returncode == 0, r.stderr
     out = [json.loads(x) for x in r.stdout.decode().splitlines()]
     assert out[0]["type"] == "HEARTBEAT" and out[1]["rejected"] == "short"
@@ -70,5 +78,7 @@ def test_stdin(cli):
 def test_missing_file_is_one_line(cli, tmp_path):
     r = cli("decode", str(tmp_path / "nope.bin"))
     assert r.returncode == 2 and "Traceback" not in r.stderr
-    assert r.stderr.strip() == f"exhibit decode: error: cannot read {tmp_path / 'nope.bin'}: " \
-                               "No such file or directory"
+    assert (
+        r.stderr.strip() == f"exhibit decode: error: cannot read {tmp_path / 'nope.bin'}: "
+        "No such file or directory"
+    )

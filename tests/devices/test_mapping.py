@@ -25,9 +25,14 @@ def ev(t, kind, index, value, device="d"):
 
 
 def test_knob_detents_are_angle_steps_and_invert():
-    m = Mapper(cfg([{"device": "d", "input": "delta 1", "param": "theta1", "step": 5},
-                    {"device": "d", "input": "delta 2", "param": "theta4", "step": 2,
-                     "invert": True}]))
+    m = Mapper(
+        cfg(
+            [
+                {"device": "d", "input": "delta 1", "param": "theta1", "step": 5},
+                {"device": "d", "input": "delta 2", "param": "theta4", "step": 2, "invert": True},
+            ]
+        )
+    )
     v = m.apply(ViewState(), [ev(0, "rel", 0, 3), ev(0, "rel", 1, 2), ev(0, "rel", 0, -1)], 0.0)
     assert v.angles[0] == pytest.approx(10 * DEG) and v.angles[3] == pytest.approx(-4 * DEG)
     assert v.angles[1:3] == (0.0, 0.0)
@@ -52,8 +57,20 @@ def test_dead_zone_and_curve_shape_the_deflection():
     assert shape(0.55, 0.1, 1) == pytest.approx(0.5)
     assert shape(-0.55, 0.1, 2) == pytest.approx(-0.25)
     assert shape(1.0, 0.1, 3) == 1.0
-    m = Mapper(cfg([{"device": "d", "input": "axis 1", "param": "theta3", "rate": 100,
-                     "dead_zone": 0.2, "curve": 2}]))
+    m = Mapper(
+        cfg(
+            [
+                {
+                    "device": "d",
+                    "input": "axis 1",
+                    "param": "theta3",
+                    "rate": 100,
+                    "dead_zone": 0.2,
+                    "curve": 2,
+                }
+            ]
+        )
+    )
     v = m.apply(ViewState(), [ev(0, "abs", 0, -0.6)], 0.0)
     v = m.apply(v, [], 0.5)
     v = m.apply(v, [], 1.0)
@@ -63,9 +80,15 @@ def test_dead_zone_and_curve_shape_the_deflection():
 
 
 def test_angles_wrap_and_limits_hold_without_jumps():
-    m = Mapper(cfg([{"device": "d", "input": "delta 1", "param": "theta1", "step": 100},
-                    {"device": "d", "input": "delta 2", "param": "theta2", "step": 100}],
-                   limits={"theta2": [-180, 0]}))
+    m = Mapper(
+        cfg(
+            [
+                {"device": "d", "input": "delta 1", "param": "theta1", "step": 100},
+                {"device": "d", "input": "delta 2", "param": "theta2", "step": 100},
+            ],
+            limits={"theta2": [-180, 0]},
+        )
+    )
     v = m.apply(ViewState(), [ev(0, "rel", 0, 2), ev(0, "rel", 1, -3)], 0.0)
     assert v.angles[0] == pytest.approx(-160 * DEG)  # 200 degrees wraps
     assert v.angles[1] == pytest.approx(-180 * DEG)  # held at the limit
@@ -77,8 +100,12 @@ def test_angles_wrap_and_limits_hold_without_jumps():
 
 
 def test_sensor_moves_in_r_reaches_infinity_and_stops_at_the_minimum_distance():
-    m = Mapper(cfg([{"device": "k", "input": "delta 7", "param": "sensor", "step": 0.025}],
-                   sensor_min_distance=2.0))
+    m = Mapper(
+        cfg(
+            [{"device": "k", "input": "delta 7", "param": "sensor", "step": 0.025}],
+            sensor_min_distance=2.0,
+        )
+    )
     v = ViewState()
     v = m.apply(v, [ev(0, "rel", 6, 8, "k")], 0)
     assert v.sensor_r == pytest.approx(0.2) and v.sensor_distance == pytest.approx(5.0)
@@ -91,10 +118,17 @@ def test_sensor_moves_in_r_reaches_infinity_and_stops_at_the_minimum_distance():
 
 
 def test_several_devices_drive_one_parameter_and_home():
-    m = Mapper(cfg([{"device": "knobs", "input": "delta 1", "param": "theta1", "step": 10},
-                    {"device": "stick", "input": "axis 1", "param": "theta1", "rate": 10},
-                    {"device": "knobs", "input": "button 7", "action": "home"}],
-                   home_angles=[0, -90, 0, 0, 0, 0], home_sensor_distance=4))
+    m = Mapper(
+        cfg(
+            [
+                {"device": "knobs", "input": "delta 1", "param": "theta1", "step": 10},
+                {"device": "stick", "input": "axis 1", "param": "theta1", "rate": 10},
+                {"device": "knobs", "input": "button 7", "action": "home"},
+            ],
+            home_angles=[0, -90, 0, 0, 0, 0],
+            home_sensor_distance=4,
+        )
+    )
     v = m.apply(ViewState(), [ev(0, "rel", 0, 1, "knobs"), ev(0, "abs", 0, 1.0, "stick")], 0)
     v = m.apply(v, [], 0.5)
     v = m.apply(v, [], 1.0)
@@ -141,40 +175,111 @@ def test_default_config_binds_all_seven_parameters():
     assert c.mapping.sensor_min_distance == 2.0 and c.devices["knobs"] == "hidraw://2341:8037"
 
 
-@pytest.mark.parametrize("doc, fragment", [
-    ({"mapping": {"bind": [{"device": "d", "input": "delta 1", "param": "theta7"}]}},
-     "mapping.bind[0].param: must be 'theta1', 'theta2'"),
-    ({"mapping": {"bind": [{"device": "d", "input": "knob 1", "param": "theta1"}]}},
-     "mapping.bind[0].input: expected 'axis N', 'delta N' or 'button N'"),
-    ({"mapping": {"bind": [{"device": "d", "input": "delta 0", "param": "theta1"}]}},
-     "mapping.bind[0].input"),
-    ({"mapping": {"bind": [{"device": "d", "input": "delta 1", "param": "theta1", "rate": 3}]}},
-     "mapping.bind[0].rate: only for axes"),
-    ({"mapping": {"bind": [{"device": "d", "input": "axis 1", "param": "theta1",
-                            "dead_zone": 1.5}]}}, "mapping.bind[0].dead_zone: must lie in [0, 0.95]"),
-    ({"mapping": {"bind": [{"device": "d", "input": "axis 1", "param": "theta1",
-                            "invert": "yes"}]}}, "mapping.bind[0].invert: must be true or false"),
-    ({"mapping": {"sensor_min_distance": 0}}, "mapping.sensor_min_distance: must lie in [0.05"),
-    ({"mapping": {"limits": {"sensor": [0, 1]}}}, "mapping.limits.sensor"),
-    ({"mapping": {"limits": {"theta2": [0, -180]}}}, "mapping.limits.theta2: expected [low, high]"),
-    ({"devices": {"c": {"url": "serail:///dev/x"}}}, "devices.c.url: device URL 'serail:///dev/x': "
-                                                     "unknown scheme 'serail'"),
-    ({"devices": {"c": {"url": "serial:///dev/x?baud=fast"}}}, "baud='fast' is not a number"),
-    ({"devices": {"c": {"url": "keyboard://"}},
-      "mapping": {"bind": [{"device": "k", "input": "axis 1", "param": "theta1"}]}},
-     "mapping.bind[0].device: no device 'k' (configured: c)"),
-    ({"devices": {"c": {"uri": "keyboard://"}}}, "devices.c.uri: unknown key (allowed: url)"),
-    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "param": "theta1",
-                            "action": "home"}]}},
-     "a button takes either action = \"home\" or \"next-scene\", or a param"),
-    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "action": "home",
-                            "hold_s": 2}]}},
-     "mapping.bind[0].hold_s: only a \"language\" button waits to be held"),
-    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "action": "language",
-                            "hold_s": 0.1}]}}, "mapping.bind[0].hold_s: must lie in [0.5, 10]"),
-    ({"mapping": {"bind": [{"device": "d", "input": "button 1", "action": "language",
-                            "hold_s": float("nan")}]}}, "mapping.bind[0].hold_s"),
-])
+@pytest.mark.parametrize(
+    "doc, fragment",
+    [
+        (
+            {"mapping": {"bind": [{"device": "d", "input": "delta 1", "param": "theta7"}]}},
+            "mapping.bind[0].param: must be 'theta1', 'theta2'",
+        ),
+        (
+            {"mapping": {"bind": [{"device": "d", "input": "knob 1", "param": "theta1"}]}},
+            "mapping.bind[0].input: expected 'axis N', 'delta N' or 'button N'",
+        ),
+        (
+            {"mapping": {"bind": [{"device": "d", "input": "delta 0", "param": "theta1"}]}},
+            "mapping.bind[0].input",
+        ),
+        (
+            {
+                "mapping": {
+                    "bind": [{"device": "d", "input": "delta 1", "param": "theta1", "rate": 3}]
+                }
+            },
+            "mapping.bind[0].rate: only for axes",
+        ),
+        (
+            {
+                "mapping": {
+                    "bind": [
+                        {"device": "d", "input": "axis 1", "param": "theta1", "dead_zone": 1.5}
+                    ]
+                }
+            },
+            "mapping.bind[0].dead_zone: must lie in [0, 0.95]",
+        ),
+        (
+            {
+                "mapping": {
+                    "bind": [{"device": "d", "input": "axis 1", "param": "theta1", "invert": "yes"}]
+                }
+            },
+            "mapping.bind[0].invert: must be true or false",
+        ),
+        ({"mapping": {"sensor_min_distance": 0}}, "mapping.sensor_min_distance: must lie in [0.05"),
+        ({"mapping": {"limits": {"sensor": [0, 1]}}}, "mapping.limits.sensor"),
+        (
+            {"mapping": {"limits": {"theta2": [0, -180]}}},
+            "mapping.limits.theta2: expected [low, high]",
+        ),
+        (
+            {"devices": {"c": {"url": "serail:///dev/x"}}},
+            "devices.c.url: device URL 'serail:///dev/x': unknown scheme 'serail'",
+        ),
+        ({"devices": {"c": {"url": "serial:///dev/x?baud=fast"}}}, "baud='fast' is not a number"),
+        (
+            {
+                "devices": {"c": {"url": "keyboard://"}},
+                "mapping": {"bind": [{"device": "k", "input": "axis 1", "param": "theta1"}]},
+            },
+            "mapping.bind[0].device: no device 'k' (configured: c)",
+        ),
+        ({"devices": {"c": {"uri": "keyboard://"}}}, "devices.c.uri: unknown key (allowed: url)"),
+        (
+            {
+                "mapping": {
+                    "bind": [
+                        {"device": "d", "input": "button 1", "param": "theta1", "action": "home"}
+                    ]
+                }
+            },
+            'a button takes either action = "home" or "next-scene", or a param',
+        ),
+        (
+            {
+                "mapping": {
+                    "bind": [{"device": "d", "input": "button 1", "action": "home", "hold_s": 2}]
+                }
+            },
+            'mapping.bind[0].hold_s: only a "language" button waits to be held',
+        ),
+        (
+            {
+                "mapping": {
+                    "bind": [
+                        {"device": "d", "input": "button 1", "action": "language", "hold_s": 0.1}
+                    ]
+                }
+            },
+            "mapping.bind[0].hold_s: must lie in [0.5, 10]",
+        ),
+        (
+            {
+                "mapping": {
+                    "bind": [
+                        {
+                            "device": "d",
+                            "input": "button 1",
+                            "action": "language",
+                            "hold_s": float("nan"),
+                        }
+                    ]
+                }
+            },
+            "mapping.bind[0].hold_s",
+        ),
+    ],
+)
 def test_bad_configs_name_the_key(doc, fragment):
     with pytest.raises(DeviceError) as info:
         parse_config(doc, "museum.toml")
@@ -192,31 +297,40 @@ def test_bad_toml_file_names_the_file(tmp_path):
 
 def test_a_wrong_url_is_one_problem_not_one_per_binding():
     """The device is configured, only its URL is wrong: its bindings are not also 'no device'."""
-    doc = {"devices": {"k": {"url": "keyboard://"}, "c": {"url": "serail:///dev/x"}},
-           "mapping": {"bind": [{"device": "c", "input": "axis 1", "param": "theta1"}]}}
+    doc = {
+        "devices": {"k": {"url": "keyboard://"}, "c": {"url": "serail:///dev/x"}},
+        "mapping": {"bind": [{"device": "c", "input": "axis 1", "param": "theta1"}]},
+    }
     with pytest.raises(DeviceError) as info:
         parse_config(doc, "museum.toml")
     assert info.value.problems == [
         "museum.toml: devices.c.url: device URL 'serail:///dev/x': unknown scheme 'serail' "
-        "(one of serial://, hid://, hidraw://, sim://, replay://, keyboard://)"]
+        "(one of serial://, hid://, hidraw://, sim://, replay://, keyboard://)"
+    ]
 
 
 def test_a_long_press_fires_once_after_hold_s_and_a_press_at_once_still_works():
     """The controller's button 1: home when pressed, the next language once held for 2 s
     (once per press); let go earlier and no language changes."""
-    m = Mapper(cfg([{"device": "d", "input": "button 1", "action": "home"},
-                    {"device": "d", "input": "button 1", "action": "language", "hold_s": 2}]))
+    m = Mapper(
+        cfg(
+            [
+                {"device": "d", "input": "button 1", "action": "home"},
+                {"device": "d", "input": "button 1", "action": "language", "hold_s": 2},
+            ]
+        )
+    )
     view = ViewState(angles=(1.0,) * 6)
     down = [ev(10.0, "button", 0, 1.0)]
-    assert m.apply(view, down, 10.0).angles == (0.0,) * 6        # home at once
+    assert m.apply(view, down, 10.0).angles == (0.0,) * 6  # home at once
     assert not m.pressed(down, "language")
     fired = []
     for t in (10.5, 11.0, 11.99, 12.0, 12.5, 14.0):
         m.apply(view, [], t)
         fired.append(m.pressed([], "language"))
-    assert fired == [False, False, False, True, False, False]     # once, at 2 s
+    assert fired == [False, False, False, True, False, False]  # once, at 2 s
     m.apply(view, [ev(14.5, "button", 0, 0.0)], 14.5)
-    m.apply(view, [ev(15.0, "button", 0, 1.0)], 15.0)             # a short press
+    m.apply(view, [ev(15.0, "button", 0, 1.0)], 15.0)  # a short press
     m.apply(view, [ev(16.0, "button", 0, 0.0)], 16.0)
     assert not any(m.apply(view, [], t) and m.pressed([], "language") for t in (17.0, 20.0))
     assert m.button_role("d", 0) == "home, language (held 2 s)"
@@ -230,9 +344,27 @@ def test_the_shipped_controller_switches_language_on_a_long_press_of_home():
     assert m.pressed([], "language")
 
 
-@pytest.mark.parametrize("text", ["delta ²", "axis ①", "button ⑨", "delta ¹⁰", "axis ₁",
-                                  "axis ٣", "delta ۷", "axis ４", "axis +1", "axis -1", "axis 0",
-                                  "axis 257", "axis 1e1", "axis 0x1", "axis 1_0", "axis " + "9" * 30])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "delta ²",
+        "axis ①",
+        "button ⑨",
+        "delta ¹⁰",
+        "axis ₁",
+        "axis ٣",
+        "delta ۷",
+        "axis ４",
+        "axis +1",
+        "axis -1",
+        "axis 0",
+        "axis 257",
+        "axis 1e1",
+        "axis 0x1",
+        "axis 1_0",
+        "axis " + "9" * 30,
+    ],
+)
 def test_an_input_number_is_ascii_digits_in_range(text):
     """str.isdigit() accepts "²" and "①" (and int() then fails on them); int() accepts "٣"."""
     doc = {"mapping": {"bind": [{"device": "d", "input": text, "param": "theta1"}]}}
@@ -240,7 +372,8 @@ def test_an_input_number_is_ascii_digits_in_range(text):
         parse_config(doc, "museum.toml")
     assert info.value.problems == [
         f"museum.toml: mapping.bind[0].input: expected 'axis N', 'delta N' or 'button N' (N from "
-        f"1 to 256, in the digits 0-9), got {text!r}"]
+        f"1 to 256, in the digits 0-9), got {text!r}"
+    ]
 
 
 @pytest.mark.parametrize("text", ["delta ²", "axis ①", "axis ٣"])
@@ -248,12 +381,17 @@ def test_check_config_and_devices_name_a_unicode_digit_input(tmp_path, capsys, t
     from exhibit.cli import main
 
     devices = tmp_path / "devices.toml"
-    devices.write_text(f'[devices.c]\nurl = "keyboard://"\n[[mapping.bind]]\ndevice = "c"\n'
-                       f'input = "{text}"\nparam = "theta1"\n', encoding="utf-8")
+    devices.write_text(
+        f'[devices.c]\nurl = "keyboard://"\n[[mapping.bind]]\ndevice = "c"\n'
+        f'input = "{text}"\nparam = "theta1"\n',
+        encoding="utf-8",
+    )
     kiosk = tmp_path / "kiosk.toml"
     kiosk.write_text(f'[devices]\nconfig = "{devices}"\n', encoding="utf-8")
-    for argv in (["check-config", str(kiosk)], ["devices", "--devices-config", str(devices),
-                                                 "--only"]):
+    for argv in (
+        ["check-config", str(kiosk)],
+        ["devices", "--devices-config", str(devices), "--only"],
+    ):
         assert main(argv) == 2
         out, err = capsys.readouterr()
         assert "internal error" not in out + err and "Traceback" not in out + err
@@ -261,7 +399,13 @@ def test_check_config_and_devices_name_a_unicode_digit_input(tmp_path, capsys, t
 
 
 def test_input_numbers_at_the_ends_of_the_range_are_accepted():
-    doc = {"mapping": {"bind": [{"device": "d", "input": "axis 1", "param": "theta1"},
-                                {"device": "d", "input": "delta 256", "param": "theta2"}]}}
+    doc = {
+        "mapping": {
+            "bind": [
+                {"device": "d", "input": "axis 1", "param": "theta1"},
+                {"device": "d", "input": "delta 256", "param": "theta2"},
+            ]
+        }
+    }
     indexes = [b.index for b in parse_config(doc, "museum.toml").mapping.bindings]
     assert indexes == [0, 255]

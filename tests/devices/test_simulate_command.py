@@ -11,13 +11,16 @@ import pytest
 from exhibit.cli import main
 
 
-@pytest.mark.parametrize("where, fragment", [
-    ("missing/ctl", "does not exist"),
-    ("file/ctl", "is not a folder"),
-    ("folder", "something other than a symlink"),
-    ("fifo", "something other than a symlink"),
-    ("file", "something other than a symlink"),
-])
+@pytest.mark.parametrize(
+    "where, fragment",
+    [
+        ("missing/ctl", "does not exist"),
+        ("file/ctl", "is not a folder"),
+        ("folder", "something other than a symlink"),
+        ("fifo", "something other than a symlink"),
+        ("file", "something other than a symlink"),
+    ],
+)
 def test_a_link_that_cannot_be_made_is_one_line(tmp_path, capsys, where, fragment):
     (tmp_path / "file").write_text("keep")
     (tmp_path / "folder").mkdir()

@@ -130,8 +130,9 @@ def test_random_hid_reports_never_crash(reports, name):
     layout = LAYOUTS[name]
     vid, pid = layout.match[0]
     dev = FakeHidDevice(vid, pid, clock=clock, layout=layout)
-    b = HidBackend(name="h", clock=clock, layout=layout, vid=vid, pid=pid,
-                   api=FakeHidBus([dev])).open()
+    b = HidBackend(
+        name="h", clock=clock, layout=layout, vid=vid, pid=pid, api=FakeHidBus([dev])
+    ).open()
     dev.push(*[r for r in reports if r])
     events = b.poll()
     assert b.reports_ok + b.reports_unknown == len([r for r in reports if r])

@@ -36,8 +36,14 @@ def test_keyboard_pairs_of_keys_are_axes_drag_and_scroll_are_deltas(clock):
     kb.scroll(-2)
     kb.key("space", True)
     got = [(e.kind, e.index, e.value) for e in kb.poll()]
-    assert got == [(Kind.ABS, 0, 1.0), (Kind.ABS, 0, 0.0), (Kind.ABS, 0, -1.0),
-                   (Kind.REL, 0, 3.0), (Kind.REL, 2, -2.0), (Kind.BUTTON, 0, 1.0)]
+    assert got == [
+        (Kind.ABS, 0, 1.0),
+        (Kind.ABS, 0, 0.0),
+        (Kind.ABS, 0, -1.0),
+        (Kind.REL, 0, 3.0),
+        (Kind.REL, 2, -2.0),
+        (Kind.BUTTON, 0, 1.0),
+    ]
     kb.release_all()
     assert [(e.kind, e.value) for e in kb.poll()] == [(Kind.ABS, 0.0), (Kind.BUTTON, 0.0)]
     assert kb.poll() == [] and kb.capabilities.axes == 7
@@ -51,20 +57,27 @@ def test_keyboard_presses_with_ctrl_alt_or_super_are_shortcuts_not_knobs(clock):
         kb.key("q", False, mods=frozenset(mods))
         kb.key("space", False, mods=frozenset(mods))
     assert kb.poll() == []
-    kb.key("q", True, mods=frozenset({"shift"}))   # Shift+Q is still q
+    kb.key("q", True, mods=frozenset({"shift"}))  # Shift+Q is still q
     assert [(e.kind, e.value) for e in kb.poll()] == [(Kind.ABS, 1.0)]
-    kb.key("q", False, mods=frozenset({"ctrl"}))   # Ctrl went down while q was held
+    kb.key("q", False, mods=frozenset({"ctrl"}))  # Ctrl went down while q was held
     assert [(e.kind, e.value) for e in kb.poll()] == [(Kind.ABS, 0.0)]
 
 
 def session(clock):
     """A scripted knob box and keyboard through a DeviceSet, recorded as it goes."""
-    config = parse_config({
-        "devices": {"knobs": {"url": "hidraw://2341:8037"}, "kb": {"url": "keyboard://"}},
-        "mapping": {"bind": [
-            {"device": "knobs", "input": "delta 1", "param": "theta1", "step": 5},
-            {"device": "knobs", "input": "delta 7", "param": "sensor", "step": 0.05},
-            {"device": "kb", "input": "axis 2", "param": "theta2", "rate": 45}]}}, "s.toml")
+    config = parse_config(
+        {
+            "devices": {"knobs": {"url": "hidraw://2341:8037"}, "kb": {"url": "keyboard://"}},
+            "mapping": {
+                "bind": [
+                    {"device": "knobs", "input": "delta 1", "param": "theta1", "step": 5},
+                    {"device": "knobs", "input": "delta 7", "param": "sensor", "step": 0.05},
+                    {"device": "kb", "input": "axis 2", "param": "theta2", "rate": 45},
+                ]
+            },
+        },
+        "s.toml",
+    )
     layout = load_layouts()["knobbox"]
     dev = FakeHidDevice(0x2341, 0x8037, usage_page=0xFF00, clock=clock, layout=layout)
     devices = DeviceSet(config, clock=clock, hid_api=FakeHidBus([dev])).open()
@@ -116,22 +129,37 @@ def test_replay_at_double_speed_and_looping(clock, tmp_path):
     b = backend_for_url(f"replay://{f}?speed=2&loop=1", clock=clock).open()
     loop = Loop(clock, None, [b])
     loop.run(1.1)  # 2.2 recorded seconds: both events, then the loop releases the axis
-    assert [(e.kind, e.value) for e in loop.events] == [(Kind.REL, 1.0), (Kind.ABS, 0.5),
-                                                        (Kind.ABS, 0.0)]
+    assert [(e.kind, e.value) for e in loop.events] == [
+        (Kind.REL, 1.0),
+        (Kind.ABS, 0.5),
+        (Kind.ABS, 0.0),
+    ]
     loop.run(1.0)  # the second pass, released again at its end
-    assert [(e.kind, e.value) for e in loop.events[3:]] == [(Kind.REL, 1.0), (Kind.ABS, 0.5),
-                                                            (Kind.ABS, 0.0)]
+    assert [(e.kind, e.value) for e in loop.events[3:]] == [
+        (Kind.REL, 1.0),
+        (Kind.ABS, 0.5),
+        (Kind.ABS, 0.0),
+    ]
     assert loop.events[3].t == pytest.approx(loop.events[0].t + 1.001)
 
 
-@pytest.mark.parametrize("text, fragment", [
-    ("", "line 1: not an exhibit recording"),
-    ('{"exhibit_recording": 1}\n{"t": 1, "device": "k", "kind": "spin", "index": 0, "value": 1}\n',
-     "line 2: bad event"),
-    ('{"exhibit_recording": 1}\n{"t": -1, "device": "k", "kind": "rel", "index": 0, "value": 1}\n',
-     "line 2: bad event (time -1.0 is not in [0, 1e7] s)"),
-    ('{"exhibit_recording": 1}\nnot json\n', "line 2: bad event"),
-])
+@pytest.mark.parametrize(
+    "text, fragment",
+    [
+        ("", "line 1: not an exhibit recording"),
+        (
+            '{"exhibit_recording": 1}\n'
+            '{"t": 1, "device": "k", "kind": "spin", "index": 0, "value": 1}\n',
+            "line 2: bad event",
+        ),
+        (
+            '{"exhibit_recording": 1}\n'
+            '{"t": -1, "device": "k", "kind": "rel", "index": 0, "value": 1}\n',
+            "line 2: bad event (time -1.0 is not in [0, 1e7] s)",
+        ),
+        ('{"exhibit_recording": 1}\nnot json\n', "line 2: bad event"),
+    ],
+)
 def test_bad_recordings_name_the_line(tmp_path, text, fragment):
     f = tmp_path / "bad.jsonl"
     f.write_text(text)
@@ -139,24 +167,27 @@ def test_bad_recordings_name_the_line(tmp_path, text, fragment):
         read_recording(f)
 
 
-@pytest.mark.parametrize("url, fragment", [
-    ("/dev/ttyUSB0", "needs a scheme"),
-    ("serial://", "no port path"),
-    ("serial:///dev/x?speed=9600", "unknown option 'speed' (allowed: baud)"),
-    ("serial:///dev/x?baud=0", "option baud must lie in (0, 4e+06]"),
-    ("hid://2341", "expected VID:PID in hex"),
-    ("hid://zz41:8037", "expected VID:PID in hex"),
-    ("hid:///dev/hidraw0", "use hidraw:///dev/hidraw0"),
-    ("hid://1234:5678", "no layout matches 1234:5678"),
-    ("hidraw:///dev/hidraw0", "say which layout"),
-    ("hidraw://2341:8037?layout=nope", "no layout 'nope'"),
-    ("sim://teapot", "no simulated device 'teapot'"),
-    ("sim://controller?script=/nonexistent", "script /nonexistent: cannot read"),
-    ("keyboard://x", "takes no path"),
-    ("replay://", "no file"),
-    ("replay://a.jsonl?speed=-1", "option speed must lie in (0, 1000]"),
-    ("gopher://x", "unknown scheme 'gopher'"),
-])
+@pytest.mark.parametrize(
+    "url, fragment",
+    [
+        ("/dev/ttyUSB0", "needs a scheme"),
+        ("serial://", "no port path"),
+        ("serial:///dev/x?speed=9600", "unknown option 'speed' (allowed: baud)"),
+        ("serial:///dev/x?baud=0", "option baud must lie in (0, 4e+06]"),
+        ("hid://2341", "expected VID:PID in hex"),
+        ("hid://zz41:8037", "expected VID:PID in hex"),
+        ("hid:///dev/hidraw0", "use hidraw:///dev/hidraw0"),
+        ("hid://1234:5678", "no layout matches 1234:5678"),
+        ("hidraw:///dev/hidraw0", "say which layout"),
+        ("hidraw://2341:8037?layout=nope", "no layout 'nope'"),
+        ("sim://teapot", "no simulated device 'teapot'"),
+        ("sim://controller?script=/nonexistent", "script /nonexistent: cannot read"),
+        ("keyboard://x", "takes no path"),
+        ("replay://", "no file"),
+        ("replay://a.jsonl?speed=-1", "option speed must lie in (0, 1000]"),
+        ("gopher://x", "unknown scheme 'gopher'"),
+    ],
+)
 def test_bad_urls_are_one_clear_error(url, fragment):
     with pytest.raises(DeviceError, match=re.escape(fragment)):
         backend_for_url(url)
@@ -224,8 +255,22 @@ def test_a_backend_that_always_raises_is_logged_once_and_reopened(clock, caplog)
 def test_monitor_shows_a_simulated_controller_moving_the_view(tmp_path, capsys):
     script = tmp_path / "push.txt"
     script.write_text("wait 0.3\naxes 1 0 0 0 0 0\n")
-    assert main(["monitor", "--only", "--device", f"controller=sim://controller?script={script}",
-                 "--json", "--duration", "1.5", "--rate", "10"]) == 0
+    assert (
+        main(
+            [
+                "monitor",
+                "--only",
+                "--device",
+                f"controller=sim://controller?script={script}",
+                "--json",
+                "--duration",
+                "1.5",
+                "--rate",
+                "10",
+            ]
+        )
+        == 0
+    )
     lines = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
     assert lines[-1]["devices"] == {"controller": "connected"}
     assert lines[-1]["angles_deg"][0] > 5 and lines[-1]["idle_s"] is not None
@@ -233,8 +278,22 @@ def test_monitor_shows_a_simulated_controller_moving_the_view(tmp_path, capsys):
 
 
 def test_devices_lists_states(capsys):
-    assert main(["devices", "--only", "--device", "c=sim://controller", "--device",
-                 "k=sim://powermate", "--json", "--wait", "2"]) == 0
+    assert (
+        main(
+            [
+                "devices",
+                "--only",
+                "--device",
+                "c=sim://controller",
+                "--device",
+                "k=sim://powermate",
+                "--json",
+                "--wait",
+                "2",
+            ]
+        )
+        == 0
+    )
     report = json.loads(capsys.readouterr().out)
     states = {s["name"]: s["state"] for s in report["configured"]}
     assert states == {"c": "connected", "k": "connected"}
@@ -245,8 +304,20 @@ def test_record_then_decode_free_replay(tmp_path, capsys):
     out = tmp_path / "rec.jsonl"
     script = tmp_path / "k.txt"
     script.write_text("turn 1 2\nwait 0.1\nturn 1 -1\n")
-    assert main(["record", str(out), "--only", "--device", f"k=sim://knobbox?script={script}",
-                 "--duration", "0.4"]) == 0
+    assert (
+        main(
+            [
+                "record",
+                str(out),
+                "--only",
+                "--device",
+                f"k=sim://knobbox?script={script}",
+                "--duration",
+                "0.4",
+            ]
+        )
+        == 0
+    )
     header, events = read_recording(out)
     assert header["devices"] == {"k": f"sim://knobbox?script={script}"}
     assert [(e.kind, e.value) for e in events] == [(Kind.REL, 2.0), (Kind.REL, -1.0)]
@@ -260,9 +331,12 @@ def test_simulate_prints_the_tty_and_speaks_the_protocol(tmp_path):
 
     from exhibit.devices import protocol as p
 
-    proc = subprocess.Popen([sys.executable, "-m", "exhibit", "simulate", "controller",
-                             "--duration", "20"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "exhibit", "simulate", "controller", "--duration", "20"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         tty = proc.stdout.readline().strip()
         assert tty.startswith("/dev/pts/")

@@ -102,6 +102,7 @@ def test_a_device_absent_from_the_start_is_waiting_in_the_device_set(clock):
     config, layout, dev, _ = session(clock)
     dev.unplug()
     from exhibit.devices.fakehid import FakeHidBus
+
     devices = DeviceSet(config, clock=clock, hid_api=FakeHidBus([dev])).open()
     clock.advance(3)
     devices.poll()

@@ -16,17 +16,25 @@ class PolynomialSurface:
         return sum(c * s**i * t**j for c, (i, j) in zip(self.coefficients, self.POWERS))
 
     def tangents(self, s, t):
-        ds = sum(c * i * s ** (i - 1) * t**j for c, (i, j) in zip(self.coefficients, self.POWERS)
-                 if i > 0)
-        dt = sum(c * j * s**i * t ** (j - 1) for c, (i, j) in zip(self.coefficients, self.POWERS)
-                 if j > 0)
+        ds = sum(
+            c * i * s ** (i - 1) * t**j
+            for c, (i, j) in zip(self.coefficients, self.POWERS)
+            if i > 0
+        )
+        dt = sum(
+            c * j * s**i * t ** (j - 1)
+            for c, (i, j) in zip(self.coefficients, self.POWERS)
+            if j > 0
+        )
         return ds, dt
 
 
 def finite_difference_tangents(function, s, t, h=1e-5):
     """Central differences of function(s, t) in s and t."""
-    return ((function(s + h, t) - function(s - h, t)) / (2 * h),
-            (function(s, t + h) - function(s, t - h)) / (2 * h))
+    return (
+        (function(s + h, t) - function(s - h, t)) / (2 * h),
+        (function(s, t + h) - function(s, t - h)) / (2 * h),
+    )
 
 
 def parallel_error(a, b):

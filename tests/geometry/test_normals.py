@@ -24,8 +24,9 @@ cases = st.tuples(st.integers(0, 10_000), st.floats(-1, 1), st.floats(-1, 1), st
 
 def reference_normal(surface, s, t, r):
     """Normal of the projected surface v(S): cross product of finite-difference tangents of v∘X."""
-    ys, yt = finite_difference_tangents(lambda a, b: project_to_3d(surface.point(a, b), r).points,
-                                        s, t)
+    ys, yt = finite_difference_tangents(
+        lambda a, b: project_to_3d(surface.point(a, b), r).points, s, t
+    )
     return np.cross(ys, yt), ys, yt
 
 
@@ -85,7 +86,8 @@ def test_singular_points_give_zero_vectors_not_nan():
 
 
 def test_implicit_hopf_torus_normals_match_its_parametrisation():
-    """The torus x²+z² = a, y²+w² = b: Lemma 1(c) from ∇f1, ∇f2 equals Lemma 1(b) from ∂/∂α, ∂/∂β."""
+    """The torus x²+z² = a, y²+w² = b: Lemma 1(c) from ∇f1, ∇f2 equals Lemma 1(b) from ∂/∂α,
+    ∂/∂β."""
     from exhibit.geometry.hopf import hopf_torus, hopf_torus_tangents
 
     alpha, beta = np.meshgrid(np.linspace(0, 6, 9), np.linspace(0, 6, 9))

@@ -18,7 +18,9 @@ views = st.builds(
     reading=st.sampled_from(["screen", "object"]),
     sensor_r=st.floats(0, 0.4),
     offset=st.lists(st.floats(-1, 1), min_size=4, max_size=4),
-    eye_azimuth=st.floats(-3, 3), eye_incidence=st.floats(-3, 3), twist=st.floats(-3, 3),
+    eye_azimuth=st.floats(-3, 3),
+    eye_incidence=st.floats(-3, 3),
+    twist=st.floats(-3, 3),
     eye_r=st.floats(0, 0.25),
     half_height=st.floats(0.5, 4),
 )
@@ -33,8 +35,9 @@ def test_ndc_is_the_papers_two_centre_map(view, p, aspect):
     clip = transform.clip(p)
     assume(in_front and clip[3] > 1e-3)
     ndc = clip[:3] / clip[3]
-    np.testing.assert_allclose(ndc[0] * view.half_height * aspect, expected[0], rtol=1e-9,
-                               atol=1e-9)
+    np.testing.assert_allclose(
+        ndc[0] * view.half_height * aspect, expected[0], rtol=1e-9, atol=1e-9
+    )
     np.testing.assert_allclose(ndc[1] * view.half_height, expected[1], rtol=1e-9, atol=1e-9)
 
 
@@ -49,8 +52,9 @@ def test_clip_matrix_is_pose_then_sensor_then_eye(view, p):
     assume(w_eye > 1e-3)
     clip = clip_transform(view).clip(p)
     ndc = clip[:3] / clip[3]
-    np.testing.assert_allclose(ndc[:2], [x / w_eye / view.half_height, y / w_eye / view.half_height],
-                               rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(
+        ndc[:2], [x / w_eye / view.half_height, y / w_eye / view.half_height], rtol=1e-8, atol=1e-8
+    )
     # the sensor clip distance is the homogeneous depth 1 - r w
     distances = clip_transform(view).clip_distances(p)
     assert distances[0] == pytest.approx(1 - view.sensor_r * p_view[3], abs=1e-12)
@@ -98,8 +102,9 @@ def test_front_clipping_plane_with_pitch(pitch):
 
 def test_pixels_follow_image_convention():
     transform = clip_transform(ViewState(eye_r=0.0, half_height=2.0), aspect=2.0)
-    pixels, ok = transform.to_pixels(np.array([[0, 0, 0, 0], [4, 2, 0, 0], [-4, -2, 0, 0]]), 200,
-                                     100)
+    pixels, ok = transform.to_pixels(
+        np.array([[0, 0, 0, 0], [4, 2, 0, 0], [-4, -2, 0, 0]]), 200, 100
+    )
     np.testing.assert_allclose(pixels, [[100, 50], [200, 0], [0, 100]])
     assert ok.all()
 

@@ -24,12 +24,15 @@ def test_geometry_imports_only_numpy_and_pure_stdlib():
             for name in names:
                 top = name.split(".")[0]
                 assert top in ALLOWED or name.startswith("exhibit.geometry"), (
-                    f"{path.name} imports {name}")
+                    f"{path.name} imports {name}"
+                )
 
 
 def test_importing_geometry_loads_no_gl_or_device_modules():
-    code = ("import sys, exhibit.geometry; "
-            "print(sorted(m for m in ('moderngl', 'glfw', 'hid', 'hidraw', 'serial', 'PIL') "
-            "if m in sys.modules))")
+    code = (
+        "import sys, exhibit.geometry; "
+        "print(sorted(m for m in ('moderngl', 'glfw', 'hid', 'hidraw', 'serial', 'PIL') "
+        "if m in sys.modules))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"

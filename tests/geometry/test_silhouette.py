@@ -36,9 +36,12 @@ def rank_ratio(matrix):
 
 
 def projected_tangents_2d(p, t1, t2, r1, r2, h=1e-6):
-    """Derivative of the 4D -> 2D map along t1, t2, by central differences (independent of lemmas)."""
+    """Derivative of the 4D -> 2D map along t1, t2, by central differences (independent of
+    lemmas)."""
+
     def v(q):
         return project_to_2d(q, r1, r2).points
+
     return np.column_stack([(v(p + h * t) - v(p - h * t)) / (2 * h) for t in (t1, t2)])
 
 
@@ -78,8 +81,16 @@ def test_lemma2_measure_is_the_sine_of_the_ray_to_plane_angle(t1, t2, ray):
 
 
 @settings(max_examples=examples(200))
-@given(vec4, vec4, vec4, st.floats(0, 0.3), st.floats(0, 0.3),
-       st.floats(-2, 2), st.floats(-2, 2), st.sampled_from([0.0, 0.8]))
+@given(
+    vec4,
+    vec4,
+    vec4,
+    st.floats(0, 0.3),
+    st.floats(0, 0.3),
+    st.floats(-2, 2),
+    st.floats(-2, 2),
+    st.sampled_from([0.0, 0.8]),
+)
 def test_lemma3_agrees_with_the_rank_of_the_2d_image(p, u, w, r1, r2, a, b, mu):
     """t2 = a ρ1 + b ρ2 + μu: a silhouette of the 4D -> 2D map exactly when μ = 0."""
     assume(1 - r1 * p[3] - r2 * p[2] > 0.2)
@@ -112,7 +123,8 @@ def test_normal_and_tangent_forms_of_lemma3_measure_agree(t1, t2, ray1, ray2):
     assume(rank_ratio(np.column_stack([ray1, ray2])) > 1e-2)
     n1, n2 = normals_from_tangents(t1, t2)
     assert abs(silhouette_function_normalized(n1, n2, ray1, ray2)) == pytest.approx(
-        lemma3_measure_tangents(t1, t2, ray1, ray2), abs=1e-9)
+        lemma3_measure_tangents(t1, t2, ray1, ray2), abs=1e-9
+    )
 
 
 @given(vec4, vec4)
@@ -120,10 +132,12 @@ def test_silhouette_function_is_the_papers_conditions(n1, n2):
     e = np.eye(4)
     # Offsets, XYUV space: C is det(i, j, n1, n2) = 0, the orthographic view along u and v.
     assert silhouette_function(n1, n2, e[2], e[3]) == pytest.approx(
-        np.linalg.det(np.array([e[0], e[1], n1, n2])), abs=1e-12)
+        np.linalg.det(np.array([e[0], e[1], n1, n2])), abs=1e-12
+    )
     # Collision, XYZT space: C' is f_x g_y - f_y g_x = 0, the view along x and y.
     assert silhouette_function(n1, n2, e[0], e[1]) == pytest.approx(
-        n1[0] * n2[1] - n1[1] * n2[0], abs=1e-12)
+        n1[0] * n2[1] - n1[1] * n2[0], abs=1e-12
+    )
 
 
 def pipe_surface(curve, tangent, radius, taus, phis):
@@ -186,10 +200,13 @@ def test_zero_set_of_a_rotated_sphere_is_the_outline_of_its_image():
     image is an ellipse and the silhouette curve must map onto the ellipse's boundary."""
     rng = np.random.default_rng(5)
     q, _ = np.linalg.qr(rng.normal(size=(4, 4)))
-    theta, phi = np.meshgrid(np.linspace(0, math.pi, 91), np.linspace(0, 2 * math.pi, 181),
-                             indexing="ij")
-    sphere = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi),
-                       np.cos(theta), 0 * theta], axis=-1)
+    theta, phi = np.meshgrid(
+        np.linspace(0, math.pi, 91), np.linspace(0, 2 * math.pi, 181), indexing="ij"
+    )
+    sphere = np.stack(
+        [np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta), 0 * theta],
+        axis=-1,
+    )
     points = sphere @ q.T
     n1 = points  # radial direction within the sphere's 3-space
     n2 = np.broadcast_to(q[:, 3], points.shape)  # normal of that 3-space

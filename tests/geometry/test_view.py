@@ -72,17 +72,20 @@ def test_offset_translates_after_rotating():
     np.testing.assert_allclose(view.pose()[:4, 4], [0, 0, 0, 1])
 
 
-@pytest.mark.parametrize("changes, message", [
-    ({"angles": (1, 2, 3)}, "angles must be 6 numbers"),
-    ({"angles": (0, 0, 0, 0, 0, float("nan"))}, "finite"),
-    ({"reading": "sideways"}, "reading"),
-    ({"sensor_r": -0.1}, "sensor_r"),
-    ({"eye_r": float("inf")}, "eye_r"),
-    ({"half_height": 0}, "half_height"),
-    ({"front_distance": 20.0, "eye_r": 0.1}, "less than the eye distance"),
-    ({"lights": [(0, 0, 0)]}, "lights\\[0\\]"),
-    ({"offset": (1, 2)}, "offset"),
-])
+@pytest.mark.parametrize(
+    "changes, message",
+    [
+        ({"angles": (1, 2, 3)}, "angles must be 6 numbers"),
+        ({"angles": (0, 0, 0, 0, 0, float("nan"))}, "finite"),
+        ({"reading": "sideways"}, "reading"),
+        ({"sensor_r": -0.1}, "sensor_r"),
+        ({"eye_r": float("inf")}, "eye_r"),
+        ({"half_height": 0}, "half_height"),
+        ({"front_distance": 20.0, "eye_r": 0.1}, "less than the eye distance"),
+        ({"lights": [(0, 0, 0)]}, "lights\\[0\\]"),
+        ({"offset": (1, 2)}, "offset"),
+    ],
+)
 def test_invalid_views_name_the_field(changes, message):
     with pytest.raises(ValueError, match=message):
         ViewState(**changes)

@@ -38,12 +38,11 @@ class Measured:
     rect: tuple[int, int, int, int]
     ratio: float
     background: tuple[float, float, float]  # the worst pixel behind it, 0..1
-    pixels: int                              # background pixels measured
+    pixels: int  # background pixels measured
 
     def __str__(self) -> str:
         bg = "#" + "".join(f"{round(255 * c):02x}" for c in self.background)
-        return (f"{self.kind} {self.text!r} at {self.rect}: {self.ratio:.2f}:1 "
-                f"against {bg}")
+        return f"{self.kind} {self.text!r} at {self.rect}: {self.ratio:.2f}:1 against {bg}"
 
 
 def _grow(mask: np.ndarray) -> np.ndarray:
@@ -78,15 +77,26 @@ def measure(image: np.ndarray, background: np.ndarray, texts) -> list[Measured]:
         shown = alpha * rgb + (1.0 - alpha) * behind
         ratios = contrast_ratio(shown, behind)
         worst = int(np.argmin(ratios))
-        out.append(Measured(mark.kind, mark.text, (x0, y0, x1, y1), float(ratios[worst]),
-                            tuple(float(c) for c in behind[worst]), len(behind)))
+        out.append(
+            Measured(
+                mark.kind,
+                mark.text,
+                (x0, y0, x1, y1),
+                float(ratios[worst]),
+                tuple(float(c) for c in behind[worst]),
+                len(behind),
+            )
+        )
     return out
 
 
 def frame_texts(window) -> list:
     """The text of the latest frame drawn into ``window`` (a HeadlessTarget)."""
-    return [*window.headless.pipeline.texts, *window.renderer.hud.texts] \
-        if window.drawn[2].quality is not None else list(window.renderer.hud.texts)
+    return (
+        [*window.headless.pipeline.texts, *window.renderer.hud.texts]
+        if window.drawn[2].quality is not None
+        else list(window.renderer.hud.texts)
+    )
 
 
 def measure_window(window) -> list[Measured]:

@@ -31,7 +31,8 @@ GOLDEN_DIR = Path(__file__).resolve().parent
 #: worst 24x24 tile. Measured at 480x270 on Figures 6, 11 and 15 (tests/golden/README.md):
 #: the same frame again gives 1.0 and 1.0; Mesa-like noise (every edge pixel off by up to 6
 #: levels, every pixel by 1) 0.990 and 0.973 at worst (0.9498 in the tile of Figure 15 drawn
-#: z up, where the pipe's dense green grid lies on the dark background: TILE_SSIM 0.94); θ1 turned by 0.25 degrees 0.985-0.996
+#: z up, where the pipe's dense green grid lies on the dark background: TILE_SSIM 0.94); θ1
+#: turned by 0.25 degrees 0.985-0.996
 #: and 0.84-0.87; the zoom off by 1 % 0.88-0.98 and 0.12-0.48; the silhouettes gone 0.988-0.993
 #: and 0.60-0.81; the intersection curves gone 0.997 and 0.80-0.82; one word of the caption
 #: changed 0.989-0.992 and 0.60-0.66. The tile catches what the whole frame averages away.
@@ -39,9 +40,14 @@ GOLDEN_SSIM = 0.985
 TILE_SSIM = 0.94
 TILE = 24
 #: The surfaces alone, on black, for the panel check.
-SURFACES_ONLY = RenderOptions(hud=False, curves=False, silhouettes=False, pinch_points=False,
-                              intersections=False,
-                              background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+SURFACES_ONLY = RenderOptions(
+    hud=False,
+    curves=False,
+    silhouettes=False,
+    pinch_points=False,
+    intersections=False,
+    background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+)
 
 
 def load(path: Path) -> np.ndarray:
@@ -62,7 +68,7 @@ def worst_tile(a: np.ndarray, b: np.ndarray, tile: int = TILE) -> tuple[float, i
         h, w = values.shape
         for y in range(0, max(1, h - tile // 2), tile):
             for x in range(0, max(1, w - tile // 2), tile):
-                score = float(values[y:y + tile, x:x + tile].mean())
+                score = float(values[y : y + tile, x : x + tile].mean())
                 if score < worst[0]:
                     worst = (score, x + 5, y + 5)
     return worst
@@ -76,31 +82,39 @@ def compare(name: str, image: np.ndarray, update: bool, out: Path) -> None:
         Image.fromarray(image).save(path, optimize=True)
         return
     if not path.exists():
-        raise AssertionError(f"no golden image {path}: render it on purpose with "
-                             "`pytest tests/golden -m slow --update-golden`, then look at it")
+        raise AssertionError(
+            f"no golden image {path}: render it on purpose with "
+            "`pytest tests/golden -m slow --update-golden`, then look at it"
+        )
     golden = load(path)
     problems = []
     if golden.shape != image.shape:
-        problems.append(f"size {image.shape[1]}x{image.shape[0]}, the golden image is "
-                        f"{golden.shape[1]}x{golden.shape[0]}")
+        problems.append(
+            f"size {image.shape[1]}x{image.shape[0]}, the golden image is "
+            f"{golden.shape[1]}x{golden.shape[0]}"
+        )
     else:
         whole = channel_ssim(image, golden)
         if whole < GOLDEN_SSIM:
             problems.append(f"SSIM {whole:.4f} < {GOLDEN_SSIM}")
         tile, x, y = worst_tile(image, golden)
         if tile < TILE_SSIM:
-            problems.append(f"SSIM {tile:.4f} < {TILE_SSIM} in the {TILE}x{TILE} tile at "
-                            f"({x}, {y})")
+            problems.append(
+                f"SSIM {tile:.4f} < {TILE_SSIM} in the {TILE}x{TILE} tile at ({x}, {y})"
+            )
     if problems:
         out.mkdir(parents=True, exist_ok=True)
         Image.fromarray(image).save(out / f"{name}.png")
         if golden.shape == image.shape:
             diff = np.abs(image.astype(int) - golden.astype(int)).max(axis=-1)
             Image.fromarray(np.clip(diff * 4, 0, 255).astype(np.uint8)).save(
-                out / f"{name}-diff.png")
-        raise AssertionError(f"{name}: " + "; ".join(problems) + f" (this run: {out / name}.png,"
-                             f" difference x4: {out / name}-diff.png; if the change is meant, "
-                             "`pytest tests/golden -m slow --update-golden` and look)")
+                out / f"{name}-diff.png"
+            )
+        raise AssertionError(
+            f"{name}: " + "; ".join(problems) + f" (this run: {out / name}.png,"
+            f" difference x4: {out / name}-diff.png; if the change is meant, "
+            "`pytest tests/golden -m slow --update-golden` and look)"
+        )
 
 
 def surface_pixels_under_panels(surfaces: np.ndarray, panels: list[Rect]) -> list[str]:
@@ -125,10 +139,14 @@ def surface_pixels_in_the_margin(surfaces: np.ndarray, margin: float) -> list[st
     height, width = surfaces.shape[:2]
     edge = margin - 2
     box = (int(xs.min()), int(ys.min()), int(xs.max()), int(ys.max()))
-    inside = box[0] >= edge and box[1] >= edge and box[2] < width - edge and \
-        box[3] < height - edge
-    return [] if inside else [f"the surfaces span {box}, into the {margin:g} px margin of the "
-                              f"{width}x{height} screen"]
+    inside = box[0] >= edge and box[1] >= edge and box[2] < width - edge and box[3] < height - edge
+    return (
+        []
+        if inside
+        else [
+            f"the surfaces span {box}, into the {margin:g} px margin of the {width}x{height} screen"
+        ]
+    )
 
 
 def label_problems(image: np.ndarray, labels, color) -> list[str]:
@@ -139,10 +157,12 @@ def label_problems(image: np.ndarray, labels, color) -> list[str]:
     out = []
     for text, rect, _, _ in labels:
         if not (0 <= rect.x0 and rect.x1 <= width and 0 <= rect.y0 and rect.y1 <= height):
-            out.append(f"label {text!r} at {tuple(round(v) for v in rect)} is not inside the "
-                       f"{width}x{height} screen")
+            out.append(
+                f"label {text!r} at {tuple(round(v) for v in rect)} is not inside the "
+                f"{width}x{height} screen"
+            )
             continue
-        box = image[int(rect.y0):math.ceil(rect.y1), int(rect.x0):math.ceil(rect.x1)]
+        box = image[int(rect.y0) : math.ceil(rect.y1), int(rect.x0) : math.ceil(rect.x1)]
         ink = (np.abs(box.astype(float) - color).max(axis=-1) < 40).mean()
         if ink < 0.05:
             out.append(f"label {text!r}: only {ink:.1%} of its rectangle is in its colour")
@@ -158,11 +178,15 @@ def caption_cap_height(image: np.ndarray, layout: HudLayout, drift: tuple[float,
     block = layout.title_block
     assert block is not None and layout.caption_lines, "no caption drawn"
     dx, dy = drift
-    top = round(block.y0 + dy) + layout.pad + sum(line_height("bold", layout.title_px)
-                                                  for _ in layout.title_lines)
+    top = (
+        round(block.y0 + dy)
+        + layout.pad
+        + sum(line_height("bold", layout.title_px) for _ in layout.title_lines)
+    )
     left = round(block.x0 + dx) + layout.pad
-    band = luma(image[top:top + line_height("sans", layout.body_px),
-                      left - 1:left + 3 * layout.body_px])
+    band = luma(
+        image[top : top + line_height("sans", layout.body_px), left - 1 : left + 3 * layout.body_px]
+    )
     panel, ink = np.percentile(band, 5), band.max()
     on = band > (panel + ink) / 2
     columns = np.nonzero(on.any(axis=0))[0]
@@ -172,7 +196,7 @@ def caption_cap_height(image: np.ndarray, layout: HudLayout, drift: tuple[float,
         if c != first[-1] + 1:
             break
         first.append(c)
-    rows = np.nonzero(on[:, first[0]:first[-1] + 1].any(axis=1))[0]
+    rows = np.nonzero(on[:, first[0] : first[-1] + 1].any(axis=1))[0]
     return int(rows.max() - rows.min() + 1)
 
 

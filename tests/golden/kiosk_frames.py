@@ -60,8 +60,9 @@ class KioskRun:
     mapping as its only device, the shipped mesh resolutions, quality pinned (the governor would
     step on llvmpipe's timing, which no two runs share)."""
 
-    def __init__(self, headless, tmp: Path, size: tuple[int, int], timeline: str,
-                 idle_timeout_s: float = 5.0):
+    def __init__(
+        self, headless, tmp: Path, size: tuple[int, int], timeline: str, idle_timeout_s: float = 5.0
+    ):
         attract = tmp / "attract"
         attract.mkdir()
         (attract / timeline).write_text((SHIPPED / "attract" / timeline).read_text())
@@ -106,10 +107,20 @@ level = "fxaa"
         hud_state = self.headless.renderer.hud
         layout, labels = hud_state.layout, list(hud_state.labels)
         frame = self.kiosk.state.frame
-        surfaces = self.headless.frame(gpu, view, self.window.size, SURFACES_ONLY,
-                                       quality=options.quality)
-        return Shot(self.window.image.copy(), surfaces, layout, labels, options.hud_drift,
-                    hud.caption, frame.mode, frame.scene, dict(frame.params))
+        surfaces = self.headless.frame(
+            gpu, view, self.window.size, SURFACES_ONLY, quality=options.quality
+        )
+        return Shot(
+            self.window.image.copy(),
+            surfaces,
+            layout,
+            labels,
+            options.hud_drift,
+            hud.caption,
+            frame.mode,
+            frame.scene,
+            dict(frame.params),
+        )
 
     def close(self) -> None:
         self.kiosk.devices.close()

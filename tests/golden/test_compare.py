@@ -9,9 +9,16 @@ import pytest
 from exhibit import scenes
 from exhibit.render.layout import Rect, TextSizes, hud_layout
 from exhibit.render.text import line_height
-from tests.golden.images import (GOLDEN_DIR, caption_cap_height, compare, label_problems, load,
-                                 min_cap_height, surface_pixels_in_the_margin,
-                                 surface_pixels_under_panels)
+from tests.golden.images import (
+    GOLDEN_DIR,
+    caption_cap_height,
+    compare,
+    label_problems,
+    load,
+    min_cap_height,
+    surface_pixels_in_the_margin,
+    surface_pixels_under_panels,
+)
 
 NAME = "figure-15"
 
@@ -62,8 +69,9 @@ def test_updating_writes_the_golden_image(golden, tmp_path, monkeypatch):
 
 def figure_layout(number=15, size=(480, 270)):
     scene, preset = scenes.figure(number)
-    return hud_layout(size, scene.title, (scene.caption, f"Figure {number}. {preset.caption}"),
-                      TextSizes())
+    return hud_layout(
+        size, scene.title, (scene.caption, f"Figure {number}. {preset.caption}"), TextSizes()
+    )
 
 
 def test_caption_capitals_are_measured_on_the_pixels(golden):
@@ -73,7 +81,7 @@ def test_caption_capitals_are_measured_on_the_pixels(golden):
     # the top of the caption's first line painted over with the panel: shorter capitals
     cut = golden.copy()
     top = round(layout.title_block.y0) + layout.pad + line_height("bold", layout.title_px)
-    cut[top:top + 5, 8:200] = golden[top - 1, 8]
+    cut[top : top + 5, 8:200] = golden[top - 1, 8]
     assert caption_cap_height(cut, layout, (0.0, 0.0)) < min_cap_height(270)
 
 
@@ -82,11 +90,13 @@ def test_surface_under_a_panel_and_labels_off_screen_are_found():
     surfaces[100:120, 300:320] = 200
     panels = [Rect(6, 6, 200, 60), Rect(290, 110, 330, 115)]
     assert surface_pixels_under_panels(surfaces, panels) == [
-        "100 surface pixels under the panel (290, 110, 330, 115)"]
+        "100 surface pixels under the panel (290, 110, 330, 115)"
+    ]
     assert surface_pixels_in_the_margin(surfaces, 6) == []
     surfaces[262:268, 300:310] = 200
     assert surface_pixels_in_the_margin(surfaces, 6) == [
-        "the surfaces span (300, 100, 319, 267), into the 6 px margin of the 480x270 screen"]
+        "the surfaces span (300, 100, 319, 267), into the 6 px margin of the 480x270 screen"
+    ]
     assert surface_pixels_in_the_margin(surfaces * 0, 6) == ["no surface drawn"]
     image = np.zeros((270, 480, 3), np.uint8)
     image[250:262, 400:470] = (255, 255, 0)

@@ -46,8 +46,13 @@ def _hostile(window):
     before = inset_look.OPTIONS
     inset_look.OPTIONS = dataclasses.replace(before, background=WHITE)
     try:
-        window.draw(gpu, view.with_sensor_distance(2.0),
-                    dataclasses.replace(options, background=WHITE), hud, inset=inset)
+        window.draw(
+            gpu,
+            view.with_sensor_distance(2.0),
+            dataclasses.replace(options, background=WHITE),
+            hud,
+            inset=inset,
+        )
         return contrast.measure_window(window)
     finally:
         inset_look.OPTIONS = before
@@ -62,8 +67,9 @@ def _scene_cases():
 
 @pytest.mark.parametrize("scene, language", list(_scene_cases()))
 def test_start_view(headless, mesh_cache, scene, language):
-    with KioskPlayer(SIZE, scene=scene, language=language, config=CONFIG,
-                     headless=headless) as player:
+    with KioskPlayer(
+        SIZE, scene=scene, language=language, config=CONFIG, headless=headless
+    ) as player:
         player.step_to(0.0)
         measured = contrast.measure_window(player.window)
         _check(measured, f"{scene} start view")
@@ -81,8 +87,9 @@ def _timeline_cases():
 @pytest.mark.parametrize("timeline, language", list(_timeline_cases()))
 def test_attract_captions(headless, mesh_cache, timeline, language):
     path = shipped("configs", "attract", timeline)
-    with KioskPlayer(SIZE, timeline=path, language=language, config=CONFIG,
-                     headless=headless) as player:
+    with KioskPlayer(
+        SIZE, timeline=path, language=language, config=CONFIG, headless=headless
+    ) as player:
         spans = player.captions()
         assert spans
         labelled = inset = False
@@ -95,7 +102,7 @@ def test_attract_captions(headless, mesh_cache, timeline, language):
         hostile = _hostile(player.window)
         _check(hostile, f"{timeline}'s last caption, sensor at 2 on white")
         unfixed = _unfixed(player.window) if timeline == DEFAULT_TIMELINE else None
-    if unfixed is not None:   # the cases the default run stands for, and the measure itself
+    if unfixed is not None:  # the cases the default run stands for, and the measure itself
         assert labelled and inset
         assert {"marker label", "inset label"} <= {m.kind for m in hostile}
         worst = contrast.worst_by_kind(unfixed)

@@ -15,9 +15,16 @@ import pytest
 from exhibit import scenes
 from exhibit.cli import main
 from exhibit.render import Headless, RenderUnavailable
-from tests.golden.images import (SURFACES_ONLY, caption_cap_height, compare, label_problems,
-                                 load, min_cap_height, surface_pixels_in_the_margin,
-                                 surface_pixels_under_panels)
+from tests.golden.images import (
+    SURFACES_ONLY,
+    caption_cap_height,
+    compare,
+    label_problems,
+    load,
+    min_cap_height,
+    surface_pixels_in_the_margin,
+    surface_pixels_under_panels,
+)
 from tests.golden.kiosk_frames import KioskRun
 from tests.xvfb import unavailable
 
@@ -44,11 +51,14 @@ def _own_cache(cache, monkeypatch):
 
 
 def check_text(image, layout, drift, caption: str) -> None:
-    assert caption[:1] in CAPITALS, f"the caption starts with {caption[:1]!r}: pick a frame " \
-                                    "whose caption starts with a plain capital"
+    assert caption[:1] in CAPITALS, (
+        f"the caption starts with {caption[:1]!r}: pick a frame "
+        "whose caption starts with a plain capital"
+    )
     cap = caption_cap_height(image, layout, drift)
-    assert cap >= min_cap_height(image.shape[0]), \
+    assert cap >= min_cap_height(image.shape[0]), (
         f"caption capitals {cap} px tall on a {image.shape[0]} px screen (at least 1/45)"
+    )
 
 
 @pytest.mark.parametrize("number", sorted(scenes.FIGURES))
@@ -67,12 +77,13 @@ def test_figure(number, monkeypatch, tmp_path, update):
     monkeypatch.setattr(Headless, "still", spy)
     out = tmp_path / "figure.png"
     try:
-        code = main(["render", "--figure", str(number), "--size", f"{SIZE[0]}x{SIZE[1]}",
-                     "--out", str(out)])
+        code = main(
+            ["render", "--figure", str(number), "--size", f"{SIZE[0]}x{SIZE[1]}", "--out", str(out)]
+        )
     except RenderUnavailable as exc:
         unavailable(f"no headless OpenGL: {exc}")
     assert code == 0
-    (image, surfaces, layout, labels, options, hud), = shots
+    ((image, surfaces, layout, labels, options, hud),) = shots
     assert (load(out) == image).all()
     drift = options.hud_drift
     compare(f"figure-{number:02d}", image, update, tmp_path / "golden-out")
@@ -96,8 +107,7 @@ def kiosk_run(tmp_path_factory, cache, timeline: str) -> KioskRun:
         headless = Headless()
     except RenderUnavailable as exc:
         unavailable(f"no headless OpenGL: {exc}")
-    return KioskRun(headless, tmp_path_factory.mktemp("kiosk"), SIZE, timeline,
-                    idle_timeout_s=5.0)
+    return KioskRun(headless, tmp_path_factory.mktemp("kiosk"), SIZE, timeline, idle_timeout_s=5.0)
 
 
 @pytest.fixture(scope="module")
@@ -124,8 +134,9 @@ def kiosk_shots(tmp_path_factory, cache):
         run.headless.release()
 
 
-@pytest.mark.parametrize("name, mode", [("attract", "attract"), ("visitor", "visitor"),
-                                        ("glide", "attract")])
+@pytest.mark.parametrize(
+    "name, mode", [("attract", "attract"), ("visitor", "visitor"), ("glide", "attract")]
+)
 def test_kiosk_frame(kiosk_shots, name, mode, tmp_path, update):
     shot = kiosk_shots[name]
     assert shot.mode == mode and shot.scene == "collision"
@@ -172,8 +183,9 @@ def test_the_hypersphere_timeline_keeps_clear_of_the_panels(tmp_path_factory, ca
                 exempt += 1
                 continue
             checked += 1
-            found = surface_pixels_under_panels(shot.surfaces, shot.layout.panels) + \
-                surface_pixels_in_the_margin(shot.surfaces, shot.layout.margin)
+            found = surface_pixels_under_panels(
+                shot.surfaces, shot.layout.panels
+            ) + surface_pixels_in_the_margin(shot.surfaces, shot.layout.margin)
             problems += [f"t = {t} s ({shot.caption[:30]}...): {p}" for p in found]
     finally:
         run.close()

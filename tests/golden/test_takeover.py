@@ -7,7 +7,8 @@ no two letters of the 4D axes gizmo on each other, in English and in German.
 
 The shipped mesh resolutions and quality level fxaa, at 1280x720 and 1920x1080. The default run
 is 1280x720 in German (its captions are the longer: every case failing in English fails in
-German too; about 25 s on llvmpipe); English and 1920x1080 are marked slow. Before the takeover glide (exhibit.kiosk.state) 14 of the
+German too; about 25 s on llvmpipe); English and 1920x1080 are marked slow. Before the takeover
+glide (exhibit.kiosk.state) 14 of the
 36 cases failed: the scene's own caption is longer than the timeline's, and its panel covered
 the picture framed for the shorter one.
 """
@@ -26,19 +27,27 @@ LANGUAGES = ("en", "de")
 FPS = 5.0
 AFTER_S = 2.0
 
+
 def _cases():
     for size in ((1280, 720), (1920, 1080)):
         for scene in SCENES:
             for language in LANGUAGES:
                 marks = [pytest.mark.slow] if size[0] == 1920 or language == "en" else []
-                yield pytest.param(scene, size, language, marks=marks,
-                                   id=f"{scene}-{size[0]}x{size[1]}-{language}")
+                yield pytest.param(
+                    scene, size, language, marks=marks, id=f"{scene}-{size[0]}x{size[1]}-{language}"
+                )
 
 
 @pytest.mark.parametrize("scene, size, language", list(_cases()))
 def test_the_takeover_frame_is_readable(headless, mesh_cache, scene, size, language):
-    player = KioskPlayer(size, timeline=shipped_timeline(scene), scene=scene,
-                         language=language, config=CONFIG, headless=headless)
+    player = KioskPlayer(
+        size,
+        timeline=shipped_timeline(scene),
+        scene=scene,
+        language=language,
+        config=CONFIG,
+        headless=headless,
+    )
     try:
         frame = player.takeover(AFTER_S, FPS)
         view = capture(headless, player.window, frame.caption, frame.mode, frame.scene)
@@ -47,5 +56,6 @@ def test_the_takeover_frame_is_readable(headless, mesh_cache, scene, size, langu
     assert (frame.mode, frame.scene, frame.language) == ("visitor", scene, language)
     assert visitor_problems(view) == []
     letters = [rect for _, rect in headless.renderer.hud.gizmo_labels]
-    assert len(letters) == 4 and not any(a.overlaps(b) for i, a in enumerate(letters)
-                                         for b in letters[i + 1:])
+    assert len(letters) == 4 and not any(
+        a.overlaps(b) for i, a in enumerate(letters) for b in letters[i + 1 :]
+    )

@@ -38,12 +38,18 @@ def surfaces_alone(headless, window) -> np.ndarray:
     return headless.frame(gpu, view, window.size, SURFACES_ONLY, quality=options.quality)
 
 
-def capture(headless, window, caption: str = "", mode: str = "", scene: str = ""
-            ) -> VisitorView:
+def capture(headless, window, caption: str = "", mode: str = "", scene: str = "") -> VisitorView:
     """The latest frame of the kiosk drawing into ``window``, with its layout and labels."""
     hud = headless.renderer.hud
-    return VisitorView(window.image.copy(), surfaces_alone(headless, window), hud.layout,
-                       list(hud.labels), caption, mode, scene)
+    return VisitorView(
+        window.image.copy(),
+        surfaces_alone(headless, window),
+        hud.layout,
+        list(hud.labels),
+        caption,
+        mode,
+        scene,
+    )
 
 
 def _overlap(a: Rect, b: Rect) -> bool:
@@ -57,8 +63,7 @@ def label_problems(labels, layout: HudLayout, extra: tuple[Rect, ...] = ()) -> l
     out = []
     for text, rect, *_ in labels:
         if not (0 <= rect.x0 and rect.x1 <= width and 0 <= rect.y0 and rect.y1 <= height):
-            out.append(f"label {text!r} at {_box(rect)} is not inside the {width}x{height} "
-                       "screen")
+            out.append(f"label {text!r} at {_box(rect)} is not inside the {width}x{height} screen")
         for panel in [*layout.panels, *extra]:
             if _overlap(rect, panel):
                 out.append(f"label {text!r} at {_box(rect)} is on the panel {_box(panel)}")
@@ -70,8 +75,9 @@ def visitor_problems(view: VisitorView, extra: tuple[Rect, ...] = ()) -> list[st
     more rectangles that count as panels, e.g. the time-slice inset), labels off the screen or
     on a panel."""
     panels = [*view.layout.panels, *extra]
-    return (surface_pixels_under_panels(view.surfaces, panels)
-            + label_problems(view.labels, view.layout, extra))
+    return surface_pixels_under_panels(view.surfaces, panels) + label_problems(
+        view.labels, view.layout, extra
+    )
 
 
 def _box(rect: Rect) -> tuple[int, ...]:

@@ -27,8 +27,17 @@ def main() -> None:
     warm = {"rss_kb": _rss_kb(), "fds": _fd_count()}
     kiosk.run(max_frames=frames - frames // 5)
     end = {"rss_kb": _rss_kb(), "fds": _fd_count()}
-    print(json.dumps({"warm": warm, "end": end, "gl_errors": kiosk.stats.gl_errors,
-                      "simulated_s": clock(), "devices": kiosk.devices.statuses()}))
+    print(
+        json.dumps(
+            {
+                "warm": warm,
+                "end": end,
+                "gl_errors": kiosk.stats.gl_errors,
+                "simulated_s": clock(),
+                "devices": kiosk.devices.statuses(),
+            }
+        )
+    )
     window.close()
 
 

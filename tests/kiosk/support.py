@@ -27,8 +27,11 @@ def make_config(tmp: Path, script: str) -> Path:
     (configs / "controller.script").write_text(script)
     devices = configs / "devices" / "default.toml"
     text = devices.read_text()
-    text = re.sub(r'url = "serial://[^"]*"', f'url = "sim://controller?script='
-                  f'{configs / "controller.script"}"', text)
+    text = re.sub(
+        r'url = "serial://[^"]*"',
+        f'url = "sim://controller?script={configs / "controller.script"}"',
+        text,
+    )
     text = re.sub(r'url = "hidraw://[^"]*"', 'url = "keyboard://"', text, count=0)
     devices.write_text(text)
     for timeline in (configs / "attract").glob("*.toml"):
@@ -51,8 +54,9 @@ class FakeWindow:
     def __init__(self):
         self.close_allowed, self.handler = True, None
         self.ctx = SimpleNamespace(error="GL_NO_ERROR")
-        self.renderer = SimpleNamespace(upload=lambda mesh: mesh,
-                                        hud=SimpleNamespace(warm=lambda *a: None))
+        self.renderer = SimpleNamespace(
+            upload=lambda mesh: mesh, hud=SimpleNamespace(warm=lambda *a: None)
+        )
         self.size = (640, 360)
         self.fail = 0
         self.drawn, self.notices = [], 0
@@ -111,9 +115,15 @@ def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_mot
 
         def clock():
             return float(next(ticks))
+
     notifier = Notifier()
-    k = app.Kiosk(config, window if window is not None else FakeWindow(), clock=clock,
-                  notifier=notifier, health_path=tmp_path / "health.json")
+    k = app.Kiosk(
+        config,
+        window if window is not None else FakeWindow(),
+        clock=clock,
+        notifier=notifier,
+        health_path=tmp_path / "health.json",
+    )
     # the start-up warm-up drew every quality level once through a crossfade (not frames;
     # nothing when no scene could be prepared)
     warm = len(k.governor.levels) if k.state is not None else 0
@@ -166,8 +176,16 @@ def numbered(i: int, base: float | None = None) -> Session:
     """Session number i, rebuilt identically by the killed child and the test; ``base``
     (default: a day ago) is recent, so rotation by age keeps it."""
     base = float(int(time.time()) - 86400) if base is None else base
-    return Session(base + i, base + i + 60, 60.0, 30.0, 3600, "en",
-                   ["hopf", f"scene-{i % 7}"], [f"device-{i % 3}.knob"])
+    return Session(
+        base + i,
+        base + i + 60,
+        60.0,
+        30.0,
+        3600,
+        "en",
+        ["hopf", f"scene-{i % 7}"],
+        [f"device-{i % 3}.knob"],
+    )
 
 
 SIZE = (320, 180)
@@ -184,7 +202,8 @@ class HeadlessKiosk:
         (tmp / "attract" / "torus.toml").write_text(
             'name = "Torus"\nscene = "clifford-torus"\n'
             '[[keyframe]]\nt = 0\ncaption = "Closer still."\n'
-            '[[keyframe]]\nt = 30\nangles = [90, -40, 0, 0, 0, 0]\n')
+            "[[keyframe]]\nt = 30\nangles = [90, -40, 0, 0, 0, 0]\n"
+        )
         site = tmp / "kiosk.toml"
         site.write_text(f"""
 [display]

@@ -61,9 +61,16 @@ def test_playlist_loops(timeline):
 @pytest.fixture
 def state(timeline):
     import tomllib
+
     config = parse_config(tomllib.loads(DEVICES), "<test>")
-    return KioskState(Playlist([timeline]), Mapper(config.mapping), ("hopf", "collision"),
-                      idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+    return KioskState(
+        Playlist([timeline]),
+        Mapper(config.mapping),
+        ("hopf", "collision"),
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+    )
 
 
 def knob(t, steps=1.0):
@@ -113,6 +120,7 @@ def test_a_takeover_glides_the_picture_into_the_visitors_free_area(timeline):
     then stay while the visitor turns the knobs."""
     import tomllib
     from exhibit.kiosk.state import REFRAME_S
+
     config = parse_config(tomllib.loads(DEVICES), "<test>")
     asked = []
 
@@ -120,12 +128,19 @@ def test_a_takeover_glides_the_picture_into_the_visitors_free_area(timeline):
         asked.append(view.angles)
         return view.replace(half_height=4.0 * view.half_height, center=(0.5, -0.25))
 
-    state = KioskState(Playlist([timeline]), Mapper(config.mapping), ("hopf",),
-                       idle_timeout_s=30.0, blend_s=2.0, now=0.0, framer=framer)
+    state = KioskState(
+        Playlist([timeline]),
+        Mapper(config.mapping),
+        ("hopf",),
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+        framer=framer,
+    )
     before = state.update([], 5.0).view
     first = state.update([knob(5.0)], 5.0)
     assert first.mode == VISITOR and not first.cut
-    assert asked[-1] == pytest.approx(first.view.angles)      # framed at the pose taken over
+    assert asked[-1] == pytest.approx(first.view.angles)  # framed at the pose taken over
     assert first.view.half_height == pytest.approx(before.half_height)
     middle = state.update([], 5.0 + REFRAME_S / 2).view
     assert before.half_height < middle.half_height < 4.0 * before.half_height
@@ -133,7 +148,7 @@ def test_a_takeover_glides_the_picture_into_the_visitors_free_area(timeline):
     done = state.update([knob(5.0 + REFRAME_S, 2)], 5.0 + REFRAME_S).view
     assert done.half_height == pytest.approx(4.0 * before.half_height)
     assert done.center == (0.5, -0.25)
-    later = state.update([knob(9.0, 3)], 9.0).view   # turning keeps the new framing
+    later = state.update([knob(9.0, 3)], 9.0).view  # turning keeps the new framing
     assert later.half_height == done.half_height and later.center == done.center
     assert later.angles[0] != done.angles[0]
 
@@ -148,17 +163,25 @@ def test_home_returns_to_the_scenes_own_start_view_framed(timeline):
     the jump there is a cut, so the kiosk crossfades."""
     import tomllib
     from exhibit import scenes
+
     config = parse_config(tomllib.loads(DEVICES), "<test>")
 
     def framer(name, params, view):
         return view.replace(half_height=7.0, center=(0.5, -0.25))
 
-    state = KioskState(Playlist([timeline]), Mapper(config.mapping), ("hopf", "collision"),
-                       idle_timeout_s=30.0, blend_s=2.0, now=0.0, framer=framer)
+    state = KioskState(
+        Playlist([timeline]),
+        Mapper(config.mapping),
+        ("hopf", "collision"),
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+        framer=framer,
+    )
     frame = state.update([Event(1.0, "knobs", Kind.BUTTON, 5, 1.0)], 1.0)
     assert frame.scene == "collision" and frame.cut
     collision = scenes.get("collision").view
-    assert frame.view == framer("collision", (), collision)   # the next scene starts framed
+    assert frame.view == framer("collision", (), collision)  # the next scene starts framed
     turned = state.update([knob(2.0, 4)], 2.0)
     assert not turned.cut and turned.view.angles != collision.angles
     home = state.update([Event(3.0, "knobs", Kind.BUTTON, 0, 1.0)], 3.0)
@@ -171,22 +194,31 @@ def test_cuts_mark_every_discontinuity_and_nothing_else(tmp_path, timeline):
     """Timeline to timeline, the playlist looping, a scene switch: cut (crossfaded). Playing on,
     the visitor taking over, and a glide back into the same scene: not cut."""
     import tomllib
+
     other = tmp_path / "other.toml"
     other.write_text(TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"'))
     config = parse_config(tomllib.loads(DEVICES), "<test>")
-    state = KioskState(Playlist([timeline, load_timeline(other)]), Mapper(config.mapping),
-                       ("hopf", "collision"), idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+    state = KioskState(
+        Playlist([timeline, load_timeline(other)]),
+        Mapper(config.mapping),
+        ("hopf", "collision"),
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+    )
     cuts = [t for t in range(0, 81) if state.update([], float(t)).cut]
-    assert cuts == [21, 40, 61, 80]   # into the second timeline, the loop, again, again
+    assert cuts == [21, 40, 61, 80]  # into the second timeline, the loop, again, again
     taken = state.update([knob(81.5)], 81.5)
     assert taken.mode == VISITOR and not taken.cut
     assert not state.update([], 100.0).cut
-    back = state.update([], 112.0)   # idle: the playlist starts again, on hopf
+    back = state.update([], 112.0)  # idle: the playlist starts again, on hopf
     assert back.mode == ATTRACT and back.cut == (back.scene != taken.scene)
 
 
-@pytest.mark.parametrize("fit, zoomed, framed", [(None, False, True), (None, True, True),
-                                                  (True, True, True), (False, False, False)])
+@pytest.mark.parametrize(
+    "fit, zoomed, framed",
+    [(None, False, True), (None, True, True), (True, True, True), (False, False, False)],
+)
 def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, framed):
     """Framing by the picture (render.framer) replaces hand-set zooms too, keeping every sampled
     pose in the free area; only fit = false leaves a timeline as written."""
@@ -194,13 +226,16 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     from exhibit.geometry.framing import mesh_sample, pixel_bounds
     from exhibit.kiosk.framing import frame_timeline
     from exhibit.render.framer import Framer
+
     text = TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"').replace(
-        "sensor_distance = 2", "sensor_distance = 6")
+        "sensor_distance = 2", "sensor_distance = 6"
+    )
     if fit is not None:
-        text = text.replace('scene = "offset-cusp"',
-                            f'scene = "offset-cusp"\nfit = {str(fit).lower()}')
+        text = text.replace(
+            'scene = "offset-cusp"', f'scene = "offset-cusp"\nfit = {str(fit).lower()}'
+        )
     if zoomed:
-        text = text.replace("caption = \"near\"", "caption = \"near\"\nhalf_height = 3.0")
+        text = text.replace('caption = "near"', 'caption = "near"\nhalf_height = 3.0')
     path = tmp_path / "t.toml"
     path.write_text(text)
     timeline = load_timeline(path)
@@ -217,15 +252,17 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     for i, k in enumerate(result.keyframes):
         assert result.at(k.t)[0].center == pytest.approx(result.centers[i])
         assert result.at(k.t)[0].half_height == pytest.approx(k.half_height)
-    middle = result.at(15.0)[0].center   # linear easing from t = 10 to 20
-    assert middle == pytest.approx(tuple(0.5 * (a + b) for a, b in
-                                         zip(result.centers[1], result.centers[2])))
+    middle = result.at(15.0)[0].center  # linear easing from t = 10 to 20
+    assert middle == pytest.approx(
+        tuple(0.5 * (a + b) for a, b in zip(result.centers[1], result.centers[2]))
+    )
     areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
-    points = mesh_sample(mesh)[0]   # surfaces and markers: curves may reach out
+    points = mesh_sample(mesh)[0]  # surfaces and markers: curves may reach out
     for t in (0.0, 3.3, 10.0, 14.0, 20.0):
         x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
-        assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
-                   for a in areas), t
+        assert any(
+            a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1 for a in areas
+        ), t
 
 
 @pytest.mark.parametrize("size", [(1920, 1080), (1280, 720)])
@@ -237,6 +274,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     from exhibit.geometry.framing import mesh_sample, pixel_bounds
     from exhibit.kiosk.framing import frame_timeline
     from exhibit.render.framer import Framer
+
     framer = Framer(size, drift=12.0)
     unframed, following, filling = [], [], []
     for timeline in load_playlist(ATTRACT_DIR):
@@ -247,18 +285,20 @@ def test_shipped_timelines_stay_in_the_free_area(size):
             unframed.append(timeline.scene)
             continue
         if len({k.half_height for k in result.keyframes}) > 1:
-            following.append(timeline.name)   # framed keyframe by keyframe
+            following.append(timeline.name)  # framed keyframe by keyframe
         fills = result.fills
         filling += [(timeline.scene, k.t) for k, f in zip(result.keyframes, fills) if f]
         areas = framer.areas(scene.title, [(k.caption,) for k in timeline.keyframes])
-        points = mesh_sample(mesh)[0]   # surfaces and markers: curves may reach out
+        points = mesh_sample(mesh)[0]  # surfaces and markers: curves may reach out
         for t in np.arange(0.0, timeline.duration + 0.01, 0.25):
             i = result.index_at(t)
             if fills[i] or (i + 1 < len(fills) and fills[i + 1] and t != result.keyframes[i].t):
-                continue   # into, at or out of a moment that fills the world on purpose
+                continue  # into, at or out of a moment that fills the world on purpose
             x0, y0, x1, y1 = pixel_bounds(points, result.at(t)[0], size)
-            assert any(a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
-                       for a in areas), (timeline.name, t)
+            assert any(
+                a.x0 - 1 <= x0 and x1 <= a.x1 + 1 and a.y0 - 1 <= y0 and y1 <= a.y1 + 1
+                for a in areas
+            ), (timeline.name, t)
     assert unframed == []
     assert following, "no timeline was framed keyframe by keyframe"
     # Figure 8's moment in the hypersphere timeline (the sensor at distance 2) is kept as written.
@@ -291,25 +331,34 @@ def test_timelines_move_the_slice_along_the_scenes_time(tmp_path):
     path = tmp_path / "sliced.toml"
     path.write_text(SLICED)
     timeline = load_timeline(path)
-    assert timeline.slice_axis == 3   # the collision's t, the scene's own slice axis
-    assert timeline.at(2.0)[0].slice_axis is None          # no slice before the first
+    assert timeline.slice_axis == 3  # the collision's t, the scene's own slice axis
+    assert timeline.at(2.0)[0].slice_axis is None  # no slice before the first
     view = timeline.at(6.0)[0]
-    assert view.slice_axis == 3 and view.slice_at == pytest.approx(-1.0)   # linear, halfway
-    assert timeline.at(9.0)[0].slice_at == 0.0              # held
-    assert timeline.at(10.0)[0].slice_axis is None          # "off"
+    assert view.slice_axis == 3 and view.slice_at == pytest.approx(-1.0)  # linear, halfway
+    assert timeline.at(9.0)[0].slice_at == 0.0  # held
+    assert timeline.at(10.0)[0].slice_axis is None  # "off"
 
 
 PARAMS = "params = { rc = 1.0, rs = 1.2, vc = 0.0, vs = 1.0 }\n"
 
 
-@pytest.mark.parametrize("old, new, message", [
-    ('scene = "collision"', 'scene = "collision"\nslice_axis = "w"',
-     "slice_axis: 'w' is not an axis of collision (axes: x, y, z, t)"),
-    ('scene = "collision"\n' + PARAMS, 'scene = "hopf"\n',
-     "slice_axis: keyframes slice, but hopf has no time-like axis"),
-    ("slice = -2.0", "slice = nan", "keyframe[1].slice"),
-    ('slice = "off"', 'slice = "of"', "keyframe[3].slice"),
-])
+@pytest.mark.parametrize(
+    "old, new, message",
+    [
+        (
+            'scene = "collision"',
+            'scene = "collision"\nslice_axis = "w"',
+            "slice_axis: 'w' is not an axis of collision (axes: x, y, z, t)",
+        ),
+        (
+            'scene = "collision"\n' + PARAMS,
+            'scene = "hopf"\n',
+            "slice_axis: keyframes slice, but hopf has no time-like axis",
+        ),
+        ("slice = -2.0", "slice = nan", "keyframe[1].slice"),
+        ('slice = "off"', 'slice = "of"', "keyframe[3].slice"),
+    ],
+)
 def test_a_bad_slice_is_named_by_file_and_key(tmp_path, old, new, message):
     path = tmp_path / "sliced.toml"
     assert old in SLICED
@@ -321,20 +370,31 @@ def test_a_bad_slice_is_named_by_file_and_key(tmp_path, old, new, message):
 
 def test_a_scene_without_a_time_axis_can_name_one(tmp_path):
     path = tmp_path / "hopf.toml"
-    path.write_text('scene = "hopf"\nslice_axis = "w"\n[[keyframe]]\nt = 0\nslice = 0.3\n'
-                    '[[keyframe]]\nt = 2\n')
+    path.write_text(
+        'scene = "hopf"\nslice_axis = "w"\n[[keyframe]]\nt = 0\nslice = 0.3\n[[keyframe]]\nt = 2\n'
+    )
     view = load_timeline(path).at(1.0)[0]
     assert view.slice_axis == 3 and view.slice_at == 0.3
 
 
 # ---------------------------------------------------------------------- reduced motion
 
+
 def _reduced(timelines, framer=None, content=("hopf", "collision")):
     import tomllib
+
     config = parse_config(tomllib.loads(DEVICES), "<test>")
     extra = {} if framer is None else {"framer": framer}
-    return KioskState(Playlist(timelines), Mapper(config.mapping), content,
-                      idle_timeout_s=30.0, blend_s=2.0, now=0.0, reduced_motion=True, **extra)
+    return KioskState(
+        Playlist(timelines),
+        Mapper(config.mapping),
+        content,
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+        reduced_motion=True,
+        **extra,
+    )
 
 
 def test_stepped_timelines_hold_the_pose_and_keep_the_slice_moving(tmp_path):
@@ -342,19 +402,26 @@ def test_stepped_timelines_hold_the_pose_and_keep_the_slice_moving(tmp_path):
     the slice (the collision's moment: content, not camera) still moves; the last keyframe
     only ends the last stretch."""
     path = tmp_path / "sliced.toml"
-    path.write_text(SLICED.replace("slice = -2.0\n", "slice = -2.0\nangles = [0, 0, 0, 0, 0, 0]"
-                                   "\nsensor_distance = 4\neye = [10, 10]\nhalf_height = 2\n")
-                    .replace("slice = 0.0\n", "slice = 0.0\nangles = [60, 0, 0, 0, 0, 0]\n"
-                             "sensor_distance = 2\neye = [40, 20]\nhalf_height = 3\n"))
+    path.write_text(
+        SLICED.replace(
+            "slice = -2.0\n",
+            "slice = -2.0\nangles = [0, 0, 0, 0, 0, 0]"
+            "\nsensor_distance = 4\neye = [10, 10]\nhalf_height = 2\n",
+        ).replace(
+            "slice = 0.0\n",
+            "slice = 0.0\nangles = [60, 0, 0, 0, 0, 0]\n"
+            "sensor_distance = 2\neye = [40, 20]\nhalf_height = 3\n",
+        )
+    )
     timeline = load_timeline(path)
     start = timeline.at(4.0, stepped=True)[0]
     for t in (4.5, 5.0, 6.0, 7.9):
         view = timeline.at(t, stepped=True)[0]
         assert view.replace(slice_at=0.0) == start.replace(slice_at=0.0)
-        assert view.slice_at == pytest.approx(timeline.at(t)[0].slice_at)   # as without
-        assert view.angles != timeline.at(t)[0].angles                       # which glides
+        assert view.slice_at == pytest.approx(timeline.at(t)[0].slice_at)  # as without
+        assert view.angles != timeline.at(t)[0].angles  # which glides
     assert timeline.at(6.0, stepped=True)[0].slice_at == pytest.approx(-1.0)
-    assert timeline.at(8.0, stepped=True)[0] == timeline.at(8.0)[0]          # the next pose
+    assert timeline.at(8.0, stepped=True)[0] == timeline.at(8.0)[0]  # the next pose
     assert timeline.at(10.0, stepped=True) == timeline.at(9.0, stepped=True)  # not "off"'s
 
 
@@ -362,13 +429,13 @@ def test_reduced_motion_cuts_at_each_keyframe_and_the_loop(timeline):
     state = _reduced([timeline])
     frames = [state.update([], round(i * 0.1, 6)) for i in range(1, 401)]
     cuts = [round(i * 0.1, 6) for i, f in enumerate(frames, 1) if f.cut]
-    steps = timeline.step_times()            # slow steps of about STEP_S, keyframe 1 among them
+    steps = timeline.step_times()  # slow steps of about STEP_S, keyframe 1 among them
     assert steps == [5.0, 10.0, 15.0]
-    assert cuts == [5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0]   # and the loop, again
+    assert cuts == [5.0, 10.0, 15.0, 20.0, 25.0, 30.0, 35.0, 40.0]  # and the loop, again
     for a, b in zip(frames, frames[1:]):
         assert b.cut or b.view == a.view
     assert frames[0].view.angles == timeline.at(0)[0].angles
-    assert frames[150].view.angles == pytest.approx(timeline.at(15.0)[0].angles)   # a step
+    assert frames[150].view.angles == pytest.approx(timeline.at(15.0)[0].angles)  # a step
 
 
 def test_reduced_motion_returns_from_a_visitor_with_a_cut(timeline):
@@ -377,8 +444,8 @@ def test_reduced_motion_returns_from_a_visitor_with_a_cut(timeline):
     state.update([knob(2.0, 3)], 2.0)
     assert state.update([], 31.0).mode == VISITOR
     frame = state.update([], 32.5)
-    assert frame.mode == ATTRACT and frame.cut       # a crossfade, not a glide...
-    assert frame.view == state.playlist.at(32.5, stepped=True)[1]   # ...straight into it
+    assert frame.mode == ATTRACT and frame.cut  # a crossfade, not a glide...
+    assert frame.view == state.playlist.at(32.5, stepped=True)[1]  # ...straight into it
     assert not state.update([], 33.0).cut and state.frame.view == frame.view
 
 
@@ -389,11 +456,11 @@ def test_reduced_motion_takeover_reframes_at_once_and_knobs_turn_as_ever(timelin
     state = _reduced([timeline], framer, ("hopf",))
     before = state.update([], 5.0).view
     first = state.update([knob(5.0)], 5.0)
-    assert first.mode == VISITOR and first.cut       # the reframing jumps: crossfaded
+    assert first.mode == VISITOR and first.cut  # the reframing jumps: crossfaded
     assert first.view.half_height == pytest.approx(4.0 * before.half_height)
     assert first.view.center == (0.5, -0.25)
     assert first.view.angles[0] == pytest.approx(before.angles[0] + math.radians(5))
-    turned = state.update([knob(5.1, 2)], 5.1)       # the visitor's knob: one step at a time
+    turned = state.update([knob(5.1, 2)], 5.1)  # the visitor's knob: one step at a time
     assert not turned.cut
     assert turned.view.angles[0] == pytest.approx(first.view.angles[0] + math.radians(10))
     assert turned.view.half_height == first.view.half_height
@@ -401,6 +468,7 @@ def test_reduced_motion_takeover_reframes_at_once_and_knobs_turn_as_ever(timelin
 
 def test_reduced_motion_without_timelines_turns_in_held_steps():
     from exhibit.kiosk.state import TURN_S, TURN_STEPS
+
     state = _reduced([])
     step = TURN_S / TURN_STEPS
     frames = [(t, state.update([], t)) for t in np.arange(0.5, 2.5 * step, 0.5)]
@@ -409,4 +477,5 @@ def test_reduced_motion_without_timelines_turns_in_held_steps():
     for (_, a), (_, b) in zip(frames, frames[1:]):
         assert b.cut or b.view == a.view
     assert frames[-1][1].view.angles[0] == pytest.approx(
-        frames[0][1].view.angles[0] + 2 * math.tau / TURN_STEPS)
+        frames[0][1].view.angles[0] + 2 * math.tau / TURN_STEPS
+    )

@@ -95,12 +95,15 @@ t = 10
         f"{path}: keyframe[0].while.sensor_motion: the caption says 'farther', but the sensor "
         "moves closer at t = 0.0..5.0 s",
         f"{path}: keyframe[1].while.sensor_motion: the caption says the sensor moves closer, but "
-        "it stays at 3 all the while (t = 5..10 s)"]
-    path = write(tmp_path, text.replace("t = 10", "t = 10\nsensor_distance = 2")
-                 % ("closer", "still"))
+        "it stays at 3 all the while (t = 5..10 s)",
+    ]
+    path = write(
+        tmp_path, text.replace("t = 10", "t = 10\nsensor_distance = 2") % ("closer", "still")
+    )
     assert caption_problems(load_timeline(path)) == [
         f"{path}: keyframe[1].while.sensor_motion: the caption says 'still', but the sensor "
-        "moves at t = 5.0..10.0 s"]
+        "moves at t = 5.0..10.0 s"
+    ]
 
 
 def test_a_condition_belongs_to_its_caption(tmp_path):
@@ -130,36 +133,59 @@ t = 20
     assert [k.caption_from for k in timeline.keyframes] == [0, 0, 2, 3, 3]
     problems = caption_problems(timeline)
     # keyframe[0]'s condition holds over 0..5 and, carried, over 5..10, where the sensor moves
-    assert problems[0].startswith(f"{path}: keyframe[0].while.sensor_distance: the caption is "
-                                  "shown at t = 5.")
-    assert problems[1] == (f"{path}: keyframe[3].while.sensor_distance: the caption is shown at "
-                           "t = 15.0..20.0 s with the sensor at 2, outside [1, 1.5]")
+    assert problems[0].startswith(
+        f"{path}: keyframe[0].while.sensor_distance: the caption is shown at t = 5."
+    )
+    assert problems[1] == (
+        f"{path}: keyframe[3].while.sensor_distance: the caption is shown at "
+        "t = 15.0..20.0 s with the sensor at 2, outside [1, 1.5]"
+    )
     assert len(problems) == 2
 
 
-@pytest.mark.parametrize("condition, key, reason", [
-    ("{}", "keyframe[0].while",
-     "states no condition: give sensor_distance, sensor_motion or angles_within"),
-    ("{ angles_within = -1 }", "keyframe[0].while.angles_within", "must lie in [0, 180]"),
-    ("{ angles_within = \"start\" }", "keyframe[0].while.angles_within", "must be a number"),
-    ("{ sensor_distance = [3, 2] }", "keyframe[0].while.sensor_distance",
-     'must be "inf" or [low, high] distances with low <= high'),
-    ("{ sensor_distance = 2 }", "keyframe[0].while.sensor_distance", 'must be "inf" or [low'),
-    ("{ sensor_distance = [0, 2] }", "keyframe[0].while.sensor_distance",
-     "item 1 must lie in [0.05, 1e+06]"),
-    ("{ sensor_motion = \"nearer\" }", "keyframe[0].while.sensor_motion",
-     "must be 'closer', 'farther' or 'still'"),
-    ("{ sensor_distans = 2 }", "keyframe[0].while.sensor_distans",
-     "unknown key (allowed: angles_within, sensor_distance, sensor_motion)"),
-    ("3", "keyframe[0].while", "must be a table"),
-])
+@pytest.mark.parametrize(
+    "condition, key, reason",
+    [
+        (
+            "{}",
+            "keyframe[0].while",
+            "states no condition: give sensor_distance, sensor_motion or angles_within",
+        ),
+        ("{ angles_within = -1 }", "keyframe[0].while.angles_within", "must lie in [0, 180]"),
+        ('{ angles_within = "start" }', "keyframe[0].while.angles_within", "must be a number"),
+        (
+            "{ sensor_distance = [3, 2] }",
+            "keyframe[0].while.sensor_distance",
+            'must be "inf" or [low, high] distances with low <= high',
+        ),
+        ("{ sensor_distance = 2 }", "keyframe[0].while.sensor_distance", 'must be "inf" or [low'),
+        (
+            "{ sensor_distance = [0, 2] }",
+            "keyframe[0].while.sensor_distance",
+            "item 1 must lie in [0.05, 1e+06]",
+        ),
+        (
+            '{ sensor_motion = "nearer" }',
+            "keyframe[0].while.sensor_motion",
+            "must be 'closer', 'farther' or 'still'",
+        ),
+        (
+            "{ sensor_distans = 2 }",
+            "keyframe[0].while.sensor_distans",
+            "unknown key (allowed: angles_within, sensor_distance, sensor_motion)",
+        ),
+        ("3", "keyframe[0].while", "must be a table"),
+    ],
+)
 def test_bad_conditions_name_file_key_and_reason(tmp_path, condition, key, reason):
-    path = write(tmp_path, f'scene = "hopf"\n[[keyframe]]\nt = 0\nwhile = {condition}\n'
-                           '[[keyframe]]\nt = 5\n')
+    path = write(
+        tmp_path, f'scene = "hopf"\n[[keyframe]]\nt = 0\nwhile = {condition}\n[[keyframe]]\nt = 5\n'
+    )
     with pytest.raises(ConfigError) as info:
         load_timeline(path)
-    assert any(p.startswith(f"{path}: {key}: ") and reason in p for p in info.value.problems), \
+    assert any(p.startswith(f"{path}: {key}: ") and reason in p for p in info.value.problems), (
         info.value.problems
+    )
 
 
 def test_unknown_keyframe_keys_list_while_as_written(tmp_path):
@@ -193,17 +219,21 @@ def test_a_caption_about_one_pose_is_refused_once_the_view_turns_away(tmp_path):
     path = write(tmp_path, PLANE_CAPTION)
     assert caption_problems(load_timeline(path)) == [
         f"{path}: keyframe[0].while.angles_within: the caption is shown at t = 1.8..10.0 s with "
-        "the view turned up to 60.0° (θ1) from keyframe[0]'s pose, more than 5°"]
+        "the view turned up to 60.0° (θ1) from keyframe[0]'s pose, more than 5°"
+    ]
     # the caption changes before the view turns (it drifts 4° meanwhile): accepted
-    held = PLANE_CAPTION.replace("""[[keyframe]]
+    held = PLANE_CAPTION.replace(
+        """[[keyframe]]
 t = 10
-angles""", """[[keyframe]]
+angles""",
+        """[[keyframe]]
 t = 8
 eye = [4, -10]
 caption = "In 4D the red curve is the smooth outline of a tube – no corners, no loop."
 [[keyframe]]
 t = 16
-angles""")
+angles""",
+    )
     timeline = load_timeline(write(tmp_path, held, "held.toml"))
     assert [k.t for k in timeline.keyframes] == [0, 8, 16, 20]
     assert caption_problems(timeline) == []
@@ -234,7 +264,8 @@ t = 15
     # 0..10: the eye swings 10° from keyframe[0]'s; 10..15 holds still at keyframe[2]'s pose
     assert problems == [
         f"{path}: keyframe[0].while.angles_within: the caption is shown at t = 1.9..10.0 s with "
-        "the view turned up to 10.0° (eye azimuth) from keyframe[0]'s pose, more than 3°"]
+        "the view turned up to 10.0° (eye azimuth) from keyframe[0]'s pose, more than 3°"
+    ]
 
 
 def test_reading_time():
@@ -267,25 +298,32 @@ def test_check_config_reports_a_caption_that_lies(tmp_path, capsys):
     for old in (tree / "attract").glob("*.toml"):
         old.unlink()
     write(tree / "attract", OLD_HYPERSPHERE, "01-hypersphere.toml")
-    kiosk = tree / "kiosk.toml"   # English only: the old captions have no German (tested apart)
+    kiosk = tree / "kiosk.toml"  # English only: the old captions have no German (tested apart)
     kiosk.write_text(kiosk.read_text().replace('shown = ["en", "de"]', 'shown = ["en"]'))
     assert main(["check-config", str(tree / "kiosk.toml")]) == 2
     out = capsys.readouterr().out.splitlines()
     assert out[-1] == "3 problem(s) found."
-    assert any("01-hypersphere.toml: keyframe[3].while.sensor_distance: the caption is shown at "
-               "t = 29.1..36.0 s" in line for line in out)
+    assert any(
+        "01-hypersphere.toml: keyframe[3].while.sensor_distance: the caption is shown at "
+        "t = 29.1..36.0 s" in line
+        for line in out
+    )
     assert main(["check-config"]) == 0  # the shipped timelines
 
 
 def test_a_caption_held_for_a_day_is_checked_quickly(tmp_path):
     """Sampling is capped (MAX_SAMPLES a caption), so a day-long keyframe does not make
     check-config take minutes; the claim is still held to the view."""
-    path = write(tmp_path, 'scene = "hopf"\n[[keyframe]]\nt = 0\ncaption = "Far away."\n'
-                           'while = { sensor_distance = "inf" }\n[[keyframe]]\nt = 86400\n'
-                           'sensor_distance = 2\n')
+    path = write(
+        tmp_path,
+        'scene = "hopf"\n[[keyframe]]\nt = 0\ncaption = "Far away."\n'
+        'while = { sensor_distance = "inf" }\n[[keyframe]]\nt = 86400\n'
+        "sensor_distance = 2\n",
+    )
     problems = caption_problems(load_timeline(path))
     assert len(problems) == 1 and problems[0].startswith(
-        f"{path}: keyframe[0].while.sensor_distance: the caption is shown at t = ")
+        f"{path}: keyframe[0].while.sensor_distance: the caption is shown at t = "
+    )
     assert problems[0].endswith("..86400.0 s with the sensor at 2..2.67e+08, outside inf")
 
 
@@ -296,9 +334,13 @@ def test_check_config_refuses_a_plane_caption_shown_after_the_view_turned(tmp_pa
     assert main(["check-config", str(tree / "kiosk.toml")]) == 2
     out = capsys.readouterr().out.splitlines()
     assert out[-1] == "1 problem(s) found."
-    assert any(line.startswith(f"{tree / 'attract' / '02-offset-parabola.toml'}: keyframe[0]."
-                               "while.angles_within: the caption is shown at t = 1.8..10.0 s")
-               for line in out), out
+    assert any(
+        line.startswith(
+            f"{tree / 'attract' / '02-offset-parabola.toml'}: keyframe[0]."
+            "while.angles_within: the caption is shown at t = 1.8..10.0 s"
+        )
+        for line in out
+    ), out
 
 
 def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monkeypatch):
@@ -306,8 +348,12 @@ def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monke
     number of samples (MAX_SAMPLES for the whole timeline), each looked up without a scan of
     every keyframe: the old check played 100,000 poses, each scanning 1,000 keyframes."""
     from exhibit.kiosk import attract
-    body = "".join(f'[[keyframe]]\nt = {5 * i}\ncaption = "Caption {i} stays still."\n'
-                   f'while = {{ sensor_motion = "still" }}\n' for i in range(1000))
+
+    body = "".join(
+        f'[[keyframe]]\nt = {5 * i}\ncaption = "Caption {i} stays still."\n'
+        f'while = {{ sensor_motion = "still" }}\n'
+        for i in range(1000)
+    )
     body += "[[keyframe]]\nt = 5000\n"
     timeline = load_timeline(write(tmp_path, 'scene = "hopf"\n' + body))
     scanned = []
@@ -318,6 +364,7 @@ def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monke
         if sum(scanned) > 200_000:
             raise AssertionError("the caption check scans the timeline over and over")
         return real(self, t, stepped)
+
     monkeypatch.setattr(attract.Timeline, "at", at)
     assert caption_problems(timeline) == []
     assert len(scanned) <= 20_000 + 2 * 1000

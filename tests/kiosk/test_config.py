@@ -35,8 +35,10 @@ def test_reduced_motion_is_read_from_a_site_file(tmp_path, capsys):
     assert main(["check-config", str(site)]) == 0
     site.write_text('[accessibility]\nreduced_motion = "yes"\n')
     assert main(["check-config", str(site)]) == 2
-    assert (f"{site}: accessibility.reduced_motion: must be true or false, got 'yes'"
-            in capsys.readouterr().out)
+    assert (
+        f"{site}: accessibility.reduced_motion: must be true or false, got 'yes'"
+        in capsys.readouterr().out
+    )
 
 
 KIOSK = [
@@ -49,41 +51,71 @@ KIOSK = [
     ("[content]", "[screen]\nx = 1\n[content]", "screen", "unknown key"),
     ('start_scene = "hopf"', 'start_scene = "sun"', "content.start_scene", "not one of"),
     ('scenes = ["hopf",', 'scenes = ["moon", "hopf",', "content.scenes", "no scene named 'moon'"),
-    ("resolution = { hopf = 48", "resolution = { hopf = 2", "content.resolution.hopf",
-     "[4, 512]"),
-    ('config = "devices/default.toml"', 'config = "devices/absent.toml"', "devices.config",
-     "does not exist"),
+    ("resolution = { hopf = 48", "resolution = { hopf = 2", "content.resolution.hopf", "[4, 512]"),
+    (
+        'config = "devices/default.toml"',
+        'config = "devices/absent.toml"',
+        "devices.config",
+        "does not exist",
+    ),
     ('timelines = "attract"', 'timelines = "nowhere"', "attract.timelines", "does not exist"),
     ("idle_timeout_s = 90 ", "idle_timeout_s = 1 ", "attract.idle_timeout_s", "must lie in"),
     ("blend_s = 2.0 ", 'blend_s = "slow" ', "attract.blend_s", "a number"),
     ("drift_px = 12 ", "drift_px = 1e9 ", "burn_in.drift_px", "must lie in"),
-    ('quit_keys = "ctrl+alt+shift+q"', 'quit_keys = "q"', "maintenance.quit_keys",
-     "at least two"),
+    ('quit_keys = "ctrl+alt+shift+q"', 'quit_keys = "q"', "maintenance.quit_keys", "at least two"),
     ('level = "auto" ', 'level = "ultra" ', "quality.level", 'one of "auto", "msaa"'),
-    ('lowest = "auto" ', 'lowest = 3 ', "quality.lowest", "must be one of"),
-    ('antialiasing = "auto" ', 'antialiasing = "smaa" ', "quality.antialiasing",
-     'one of "auto", "msaa", "fxaa", "none"'),
-    ("caption_cap_height = 0.024", "caption_cap_height = 0.02", "text.caption_cap_height",
-     "from 1/45 (0.0222: 24 px at 1080p"),
-    ("title_cap_height = 0.034", "title_cap_height = 0.023", "text.title_cap_height",
-     "must be larger than text.caption_cap_height (0.024), got 0.023"),
+    ('lowest = "auto" ', "lowest = 3 ", "quality.lowest", "must be one of"),
+    (
+        'antialiasing = "auto" ',
+        'antialiasing = "smaa" ',
+        "quality.antialiasing",
+        'one of "auto", "msaa", "fxaa", "none"',
+    ),
+    (
+        "caption_cap_height = 0.024",
+        "caption_cap_height = 0.02",
+        "text.caption_cap_height",
+        "from 1/45 (0.0222: 24 px at 1080p",
+    ),
+    (
+        "title_cap_height = 0.034",
+        "title_cap_height = 0.023",
+        "text.title_cap_height",
+        "must be larger than text.caption_cap_height (0.024), got 0.023",
+    ),
     ("infinity_beyond = 1000", "infinity_beyond = 0", "text.infinity_beyond", "must lie in"),
     ('mesh = "auto" ', 'mesh = "tiny" ', "quality.mesh", "must be one of"),
     ('effects = "auto" ', 'effects = "none" ', "quality.effects", "must be one of"),
-    ('render_scale = "auto" ', 'render_scale = 0.1 ', "quality.render_scale",
-     'must be "auto" or a number in [0.25, 1]'),
-    ('render_scale = "auto" ', 'render_scale = nan ', "quality.render_scale", "must be"),
-    ('target_fps = "auto" ', 'target_fps = 1000 ', "quality.target_fps", "[10, 240]"),
+    (
+        'render_scale = "auto" ',
+        "render_scale = 0.1 ",
+        "quality.render_scale",
+        'must be "auto" or a number in [0.25, 1]',
+    ),
+    ('render_scale = "auto" ', "render_scale = nan ", "quality.render_scale", "must be"),
+    ('target_fps = "auto" ', "target_fps = 1000 ", "quality.target_fps", "[10, 240]"),
     ("step_interval_s = 4 ", "step_interval_s = 0 ", "quality.step_interval_s", "must lie in"),
     ("calm_s = 1.5 ", "calm_s = -1 ", "quality.calm_s", "must lie in"),
     ("headroom = 0.7 ", "headroom = 1.5 ", "quality.headroom", "must lie in"),
     ("[quality]", "[quality]\nsharpness = 2", "quality.sharpness", "unknown key"),
-    ("reduced_motion = false ", 'reduced_motion = "yes" ', "accessibility.reduced_motion",
-     "must be true or false, got 'yes'"),
-    ("reduced_motion = false ", "reduced_motion = 1 ", "accessibility.reduced_motion",
-     "must be true or false, got 1"),
-    ("[accessibility]", "[accessibility]\nlarge_text = true", "accessibility.large_text",
-     "unknown key"),
+    (
+        "reduced_motion = false ",
+        'reduced_motion = "yes" ',
+        "accessibility.reduced_motion",
+        "must be true or false, got 'yes'",
+    ),
+    (
+        "reduced_motion = false ",
+        "reduced_motion = 1 ",
+        "accessibility.reduced_motion",
+        "must be true or false, got 1",
+    ),
+    (
+        "[accessibility]",
+        "[accessibility]\nlarge_text = true",
+        "accessibility.large_text",
+        "unknown key",
+    ),
 ]
 
 
@@ -92,25 +124,56 @@ def test_kiosk_mistakes(tree, old, new, key, reason):
     edit(tree / "kiosk.toml", old, new)
     with pytest.raises(ConfigError) as info:
         load_kiosk_config(tree / "kiosk.toml")
-    assert any(p.startswith(f"{tree / 'kiosk.toml'}: {key}") and reason in p
-               for p in info.value.problems), info.value.problems
+    assert any(
+        p.startswith(f"{tree / 'kiosk.toml'}: {key}") and reason in p for p in info.value.problems
+    ), info.value.problems
 
 
 LINKED = [
-    ("attract/01-hypersphere.toml", 'scene = "hopf"', 'scene = "sun"', "scene",
-     "no scene named 'sun'"),
-    ("attract/01-hypersphere.toml", "t = 7\n", "t = -7\n", "keyframe[1].t", "must lie in [0, 86400]"),
+    (
+        "attract/01-hypersphere.toml",
+        'scene = "hopf"',
+        'scene = "sun"',
+        "scene",
+        "no scene named 'sun'",
+    ),
+    (
+        "attract/01-hypersphere.toml",
+        "t = 7\n",
+        "t = -7\n",
+        "keyframe[1].t",
+        "must lie in [0, 86400]",
+    ),
     ("attract/01-hypersphere.toml", "t = 14\n", "t = 5\n", "keyframe[2].t", "later than"),
-    ("attract/01-hypersphere.toml", 'sensor_distance = 3\n', 'sensor_distance = -3\n',
-     "keyframe[2].sensor_distance", "must lie in [0.05"),
-    ("attract/01-hypersphere.toml", 'caption = "Closer still."',
-     'caption = "Closer still."\nease = "bounce"', "keyframe[3].ease",
-     "'smooth', 'linear' or 'hold'"),
-    ("attract/01-hypersphere.toml", 'preset = "figure-6"', 'preset = "figure-60"', "preset",
-     "no preset"),
+    (
+        "attract/01-hypersphere.toml",
+        "sensor_distance = 3\n",
+        "sensor_distance = -3\n",
+        "keyframe[2].sensor_distance",
+        "must lie in [0.05",
+    ),
+    (
+        "attract/01-hypersphere.toml",
+        'caption = "Closer still."',
+        'caption = "Closer still."\nease = "bounce"',
+        "keyframe[3].ease",
+        "'smooth', 'linear' or 'hold'",
+    ),
+    (
+        "attract/01-hypersphere.toml",
+        'preset = "figure-6"',
+        'preset = "figure-60"',
+        "preset",
+        "no preset",
+    ),
     ("attract/05-collision-16.toml", "rs = 0.7", "rs = -0.7", "params", "must lie in"),
-    ("attract/01-hypersphere.toml", "angles = [0, 0, 0, 20, 0, 0]", "angles = [0, 20]",
-     "keyframe[1].angles", "list of 6 numbers"),
+    (
+        "attract/01-hypersphere.toml",
+        "angles = [0, 0, 0, 20, 0, 0]",
+        "angles = [0, 20]",
+        "keyframe[1].angles",
+        "list of 6 numbers",
+    ),
 ]
 
 
@@ -119,8 +182,9 @@ def test_linked_file_mistakes(tree, file, old, new, key, reason):
     edit(tree / file, old, new)
     with pytest.raises(ConfigError) as info:
         load_kiosk_config(tree / "kiosk.toml")
-    assert any(p.startswith(f"{tree / file}: {key}") and reason in p
-               for p in info.value.problems), info.value.problems
+    assert any(
+        p.startswith(f"{tree / file}: {key}") and reason in p for p in info.value.problems
+    ), info.value.problems
 
 
 def test_a_bad_device_config_is_reported(tree):
@@ -155,7 +219,6 @@ def test_environment_overrides_paths(tree, monkeypatch, tmp_path):
     assert load_kiosk_config().path == tree / "kiosk.toml"
 
 
-
 def test_run_refuses_a_bad_config_without_traceback(tree, cli):
     edit(tree / "kiosk.toml", "monitor = 0 ", "monitor = -1 ")
     result = cli("run", "--config", str(tree / "kiosk.toml"))
@@ -165,14 +228,19 @@ def test_run_refuses_a_bad_config_without_traceback(tree, cli):
 
 # ---- layered site configuration -------------------------------------------------------------
 
+
 def test_a_site_file_of_one_key_changes_only_that_key(tmp_path, capsys):
     site = tmp_path / "kiosk.toml"
     site.write_text("[display]\nmonitor = 1\n")
     shipped = load_kiosk_config(CONFIGS / "kiosk.toml")
     config = load_kiosk_config(site)
     assert config.monitor == 1 and config.site == site
-    assert (config.scenes, config.resolution, config.quit_keys, config.devices_config) == \
-        (shipped.scenes, shipped.resolution, shipped.quit_keys, shipped.devices_config)
+    assert (config.scenes, config.resolution, config.quit_keys, config.devices_config) == (
+        shipped.scenes,
+        shipped.resolution,
+        shipped.quit_keys,
+        shipped.devices_config,
+    )
     assert main(["check-config", str(site)]) == 0
     assert "over the shipped defaults" in capsys.readouterr().out
 
@@ -186,8 +254,9 @@ def test_tables_merge_key_by_key(tmp_path):
 def test_relative_paths_resolve_against_the_naming_file_else_the_shipped_files(tmp_path):
     (tmp_path / "museum-devices.toml").write_text('[devices.k]\nurl = "keyboard://"\n')
     site = tmp_path / "kiosk.toml"
-    site.write_text('[devices]\nconfig = "museum-devices.toml"\n'
-                    '[attract]\ntimelines = "attract"\n')  # not here: the shipped folder
+    site.write_text(
+        '[devices]\nconfig = "museum-devices.toml"\n[attract]\ntimelines = "attract"\n'
+    )  # not here: the shipped folder
     config = load_kiosk_config(site)
     assert config.devices_config == tmp_path / "museum-devices.toml"
     assert config.attract_dir == CONFIGS / "attract"
@@ -207,15 +276,22 @@ def test_show_prints_every_effective_value_with_its_file(tmp_path, capsys):
     site.write_text("[attract]\nidle_timeout_s = 30\n")
     assert main(["check-config", str(site), "--show"]) == 0
     lines = capsys.readouterr().out.splitlines()
-    assert any(line.startswith("attract.idle_timeout_s = 30 ") and line.endswith(f"# {site}")
-               for line in lines), lines
-    assert any(line.startswith("display.vsync = true ") and line.endswith("kiosk.toml")
-               and str(site) not in line for line in lines)
+    assert any(
+        line.startswith("attract.idle_timeout_s = 30 ") and line.endswith(f"# {site}")
+        for line in lines
+    ), lines
+    assert any(
+        line.startswith("display.vsync = true ")
+        and line.endswith("kiosk.toml")
+        and str(site) not in line
+        for line in lines
+    )
     assert any(line.startswith("devices.config = ") for line in lines)
 
 
 def test_etc_exhibit_is_the_default_site_file(tmp_path, monkeypatch):
     from exhibit.kiosk import config as kiosk_config
+
     site = tmp_path / "etc-kiosk.toml"
     site.write_text("[display]\nsamples = 0\n")
     monkeypatch.delenv("EXHIBIT_CONFIG", raising=False)
@@ -234,9 +310,13 @@ def test_device_commands_read_the_kiosk_config(tmp_path, cli):
         import os
         import subprocess
         import sys
-        result = subprocess.run([sys.executable, "-m", "exhibit", "devices", "--json", "--wait",
-                                 "0", *args], capture_output=True, text=True,
-                                env={**os.environ, **env})
+
+        result = subprocess.run(
+            [sys.executable, "-m", "exhibit", "devices", "--json", "--wait", "0", *args],
+            capture_output=True,
+            text=True,
+            env={**os.environ, **env},
+        )
         assert result.returncode == 0, result.stderr
         names = [d["name"] for d in json.loads(result.stdout)["configured"]]
         assert names == ["only-keys"]
@@ -249,13 +329,19 @@ def test_quality_pins(tree):
     edit(tree / "kiosk.toml", 'target_fps = "auto" ', "target_fps = 30 ")
     q = load_kiosk_config(tree / "kiosk.toml").quality
     assert (q.antialiasing_pin, q.mesh_pin, q.effects_pin, q.scale_pin, q.target_fps) == (
-        "none", 1, None, 0.8, 30.0)
+        "none",
+        1,
+        None,
+        0.8,
+        30.0,
+    )
     assert q.level == "auto" and q.step_interval_s == 4.0
 
 
 def test_quality_levels_are_the_renderers():
     from exhibit.kiosk.config import MESH_LEVELS, QUALITY_LEVELS
     from exhibit.render.quality import LEVEL_NAMES, MESH_FACTORS
+
     assert QUALITY_LEVELS == LEVEL_NAMES and len(MESH_LEVELS) == len(MESH_FACTORS)
 
 
@@ -264,10 +350,12 @@ def test_text_sizes_reach_the_renderer(tmp_path):
     layout's (1/45 of the screen height), and its defaults are the renderer's."""
     from exhibit.kiosk.config import MIN_CAPTION_CAP, TextConfig
     from exhibit.render import layout
+
     assert MIN_CAPTION_CAP == layout.MIN_CAPTION_CAP
     defaults = layout.TextSizes()
-    assert TextConfig() == TextConfig(defaults.caption_cap, defaults.title_cap,
-                                      defaults.infinity_beyond)
+    assert TextConfig() == TextConfig(
+        defaults.caption_cap, defaults.title_cap, defaults.infinity_beyond
+    )
     site = tmp_path / "site.toml"
     site.write_text("[text]\ncaption_cap_height = 0.03\ntitle_cap_height = 0.05\n")
     config = load_kiosk_config(site, check_linked=False)
@@ -284,9 +372,11 @@ def _broken_site_files(tmp_path):
 
 @pytest.mark.parametrize("kind", ["dangling", "loop"])
 @pytest.mark.parametrize("how", ["etc", "env", "argument"])
-def test_a_site_file_that_cannot_be_read_is_an_error_not_the_defaults(tmp_path, monkeypatch,
-                                                                       capsys, kind, how):
+def test_a_site_file_that_cannot_be_read_is_an_error_not_the_defaults(
+    tmp_path, monkeypatch, capsys, kind, how
+):
     from exhibit.kiosk import config as kiosk_config
+
     site = _broken_site_files(tmp_path)[kind]
     monkeypatch.delenv("EXHIBIT_CONFIG", raising=False)
     args = ["check-config"]
@@ -315,6 +405,7 @@ def test_a_site_file_that_cannot_be_read_is_an_error_not_the_defaults(tmp_path, 
 def test_an_unreadable_site_file_is_an_error(tmp_path, monkeypatch, capsys):
     from exhibit.kiosk import config as kiosk_config
     from exhibit.schema import files
+
     site = tmp_path / "kiosk.toml"
     site.write_text("[display]\nsamples = 0\n")
     real_open = files.os.open
@@ -336,8 +427,10 @@ def test_a_start_scene_conflict_is_reported_against_the_site_file(tmp_path, caps
     site.write_text('[content]\nscenes = ["collision"]\n')
     assert main(["check-config", str(site)]) == 2
     out = capsys.readouterr().out
-    assert (f"{site}: content.scenes: does not include the start scene 'hopf' (the shipped "
-            "default of content.start_scene)") in out, out
+    assert (
+        f"{site}: content.scenes: does not include the start scene 'hopf' (the shipped "
+        "default of content.start_scene)"
+    ) in out, out
     assert str(CONFIGS / "kiosk.toml") + ":" not in out
     site.write_text('[content]\nstart_scene = "nothing-like-it"\n')
     assert main(["check-config", str(site)]) == 2

@@ -37,13 +37,69 @@ from tests.hypothesis_profiles import examples
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
-NASTY = [math.nan, math.inf, -math.inf, 1e-320, -1e-320, 1e308, -1e308, 0, -0.0, 1, -1, 0.5,
-         2**63, -(2**63), 10**400, "inf", "nan", "", "x" * 5000, True, False, [], {}, [1, 2],
-         [math.nan] * 6, [1e308] * 6, [0] * 6, [1e-320] * 6, ["inf"] * 2, {"a": 1}]
+NASTY = [
+    math.nan,
+    math.inf,
+    -math.inf,
+    1e-320,
+    -1e-320,
+    1e308,
+    -1e308,
+    0,
+    -0.0,
+    1,
+    -1,
+    0.5,
+    2**63,
+    -(2**63),
+    10**400,
+    "inf",
+    "nan",
+    "",
+    "x" * 5000,
+    True,
+    False,
+    [],
+    {},
+    [1, 2],
+    [math.nan] * 6,
+    [1e308] * 6,
+    [0] * 6,
+    [1e-320] * 6,
+    ["inf"] * 2,
+    {"a": 1},
+]
 #: Values at the limits, which must be accepted and run.
-EDGES = [0.05, 0.2, 0.95, 1.0, 5, 20, 180, -180, 1440, 3600, -3600, 1e6, 1e-3, 86400, 16, 512,
-         [3600] * 6, [-3600, 3600], [180, -180, 0, 0, 0, 0], [0, 0.05], "ctrl+alt+shift+q",
-         "super+alt+f12", "hold", "linear", "axis 1", "delta 2", "sensor", "theta6"]
+EDGES = [
+    0.05,
+    0.2,
+    0.95,
+    1.0,
+    5,
+    20,
+    180,
+    -180,
+    1440,
+    3600,
+    -3600,
+    1e6,
+    1e-3,
+    86400,
+    16,
+    512,
+    [3600] * 6,
+    [-3600, 3600],
+    [180, -180, 0, 0, 0, 0],
+    [0, 0.05],
+    "ctrl+alt+shift+q",
+    "super+alt+f12",
+    "hold",
+    "linear",
+    "axis 1",
+    "delta 2",
+    "sensor",
+    "theta6",
+]
 ACCEPTED: list[str] = []
 
 
@@ -68,14 +124,29 @@ def toml_value(value) -> str:
     raise TypeError(value)
 
 
-values = st.one_of(st.sampled_from(NASTY), st.sampled_from(EDGES), st.floats(), st.integers(-10**6, 10**6),
-                   st.lists(st.floats(allow_nan=True), max_size=7))
+values = st.one_of(
+    st.sampled_from(NASTY),
+    st.sampled_from(EDGES),
+    st.floats(),
+    st.integers(-(10**6), 10**6),
+    st.lists(st.floats(allow_nan=True), max_size=7),
+)
 
-KIOSK_KEYS = [("display", "monitor"), ("display", "size"), ("display", "samples"),
-              ("display", "fps_limit"), ("display", "vsync"), ("content", "resolution"),
-              ("content", "start_scene"), ("attract", "idle_timeout_s"), ("attract", "blend_s"),
-              ("burn_in", "drift_px"), ("burn_in", "drift_period_s"),
-              ("maintenance", "quit_keys"), ("accessibility", "reduced_motion")]
+KIOSK_KEYS = [
+    ("display", "monitor"),
+    ("display", "size"),
+    ("display", "samples"),
+    ("display", "fps_limit"),
+    ("display", "vsync"),
+    ("content", "resolution"),
+    ("content", "start_scene"),
+    ("attract", "idle_timeout_s"),
+    ("attract", "blend_s"),
+    ("burn_in", "drift_px"),
+    ("burn_in", "drift_period_s"),
+    ("maintenance", "quit_keys"),
+    ("accessibility", "reduced_motion"),
+]
 MAPPING_KEYS = ["sensor_min_distance", "home_angles", "home_sensor_distance", "limits"]
 BIND_KEYS = ["step", "rate", "dead_zone", "curve", "invert", "input", "param"]
 KEYFRAME_KEYS = ["t", "angles", "sensor_distance", "eye", "half_height", "caption", "ease"]
@@ -138,7 +209,8 @@ def make_tree(root: Path) -> Path:
     (root / "attract" / "01.toml").write_text(TIMELINE)
     (root / "kiosk.toml").write_text(
         '[content]\nscenes = ["hopf", "collision"]\n[devices]\nconfig = "devices.toml"\n'
-        '[attract]\ntimelines = "attract"\n[maintenance]\nquit_keys = "ctrl+alt+q"\n')
+        '[attract]\ntimelines = "attract"\n[maintenance]\nquit_keys = "ctrl+alt+q"\n'
+    )
     return root / "kiosk.toml"
 
 
@@ -167,20 +239,28 @@ def run_kiosk_logic(config) -> None:
     """What `exhibit run` does with a loaded config, minus the window: a minute of use."""
     device_config = load_config(config.devices_config)
     mapper = Mapper(device_config.mapping, ActivityDetector(device_config.activity_threshold))
-    state = KioskState(Playlist(load_playlist(config.attract_dir)), mapper, config.scenes,
-                       config.idle_timeout_s, config.blend_s, now=0.0,
-                       reduced_motion=config.reduced_motion)
+    state = KioskState(
+        Playlist(load_playlist(config.attract_dir)),
+        mapper,
+        config.scenes,
+        config.idle_timeout_s,
+        config.blend_s,
+        now=0.0,
+        reduced_motion=config.reduced_motion,
+    )
     rng = np.random.default_rng(0)
     t = 0.0
     for i in range(400):
         t += 0.15 if i % 50 else config.idle_timeout_s + 1  # visitors come and go
         events = []
         if i % 3 == 0:
-            events.append(Event(t, "knobs", Kind.REL, int(rng.integers(0, 2)),
-                                float(rng.integers(-30, 30))))
+            events.append(
+                Event(t, "knobs", Kind.REL, int(rng.integers(0, 2)), float(rng.integers(-30, 30)))
+            )
         if i % 4 == 0:
-            events.append(Event(t, "stick", Kind.ABS, int(rng.integers(0, 2)),
-                                float(rng.uniform(-1, 1))))
+            events.append(
+                Event(t, "stick", Kind.ABS, int(rng.integers(0, 2)), float(rng.uniform(-1, 1)))
+            )
         if i % 37 == 0:
             events.append(Event(t, "knobs", Kind.BUTTON, 0, 1.0))
         frame = state.update(events, t)
@@ -204,8 +284,12 @@ def check_agreement(tree: Path) -> bool:
     return True
 
 
-FUZZ = settings(max_examples=examples(200), deadline=None, derandomize=True,
-                suppress_health_check=[HealthCheck.function_scoped_fixture])
+FUZZ = settings(
+    max_examples=examples(200),
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 
 
 @FUZZ
@@ -242,10 +326,15 @@ def test_timeline_values(tmp_path, key, value, which):
 
 def test_the_reported_crashes_are_refused(tmp_path):
     """The issue's examples: each was accepted, then crashed the kiosk."""
-    cases = [("bind", "step", math.inf, 0), ("bind", "step", 1e308, 0),
-             ("bind", "rate", math.inf, 2), ("mapping", "home_angles", [0, math.nan, 0, 0, 0, 0]),
-             ("mapping", "home_sensor_distance", 1e-320), ("keyframe", "sensor_distance", 1e-320),
-             ("maintenance", "quit_keys", "ctrl+ctrl+q")]
+    cases = [
+        ("bind", "step", math.inf, 0),
+        ("bind", "step", 1e308, 0),
+        ("bind", "rate", math.inf, 2),
+        ("mapping", "home_angles", [0, math.nan, 0, 0, 0, 0]),
+        ("mapping", "home_sensor_distance", 1e-320),
+        ("keyframe", "sensor_distance", 1e-320),
+        ("maintenance", "quit_keys", "ctrl+ctrl+q"),
+    ]
     for table, key, value, *which in cases:
         tree = make_tree(tmp_path / "r")
         if table == "bind":
@@ -262,6 +351,7 @@ def test_the_reported_crashes_are_refused(tmp_path):
 
 
 # ---- file types -------------------------------------------------------------------------------
+
 
 def _fifo(path: Path) -> None:
     os.mkfifo(path)
@@ -280,7 +370,7 @@ def _huge(path: Path) -> None:
 
 
 def _latin1(path: Path) -> None:
-    path.write_bytes("name = \"caf\xe9\"\n".encode("latin-1"))
+    path.write_bytes('name = "caf\xe9"\n'.encode("latin-1"))
 
 
 def _nested(path: Path) -> None:

@@ -42,8 +42,13 @@ def staged(tmp_path, capsys):
     root.mkdir()
     assert main(["install", "--root", str(root), "--prefix", "/srv/museum/exhibit"]) == 0
     capsys.readouterr()
-    for exe in ("srv/museum/exhibit/.venv/bin/exhibit", "usr/bin/cage", "usr/bin/env", "bin/sh",
-                "bin/sleep"):
+    for exe in (
+        "srv/museum/exhibit/.venv/bin/exhibit",
+        "usr/bin/cage",
+        "usr/bin/env",
+        "bin/sh",
+        "bin/sleep",
+    ):
         path = root / exe
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text("#!/bin/sh\n")
@@ -54,16 +59,23 @@ def staged(tmp_path, capsys):
 def analyze(root: Path, *args: str) -> subprocess.CompletedProcess:
     if shutil.which("systemd-analyze") is None:
         unavailable("systemd-analyze is not installed (Debian: apt-get install systemd)")
-    host_units = next((p for p in (Path("/usr/lib/systemd/system"), Path("/lib/systemd/system"))
-                       if (p / "sysinit.target").exists()), None)
+    host_units = next(
+        (
+            p
+            for p in (Path("/usr/lib/systemd/system"), Path("/lib/systemd/system"))
+            if (p / "sysinit.target").exists()
+        ),
+        None,
+    )
     if host_units is None:
         unavailable("no systemd unit directory with sysinit.target on this machine")
     (root / "usr/lib/systemd").mkdir(parents=True, exist_ok=True)
     link = root / "usr/lib/systemd/system"
     if not link.exists():
         link.symlink_to(host_units)
-    return subprocess.run(["systemd-analyze", *args, f"--root={root}"], capture_output=True,
-                          text=True, timeout=60)
+    return subprocess.run(
+        ["systemd-analyze", *args, f"--root={root}"], capture_output=True, text=True, timeout=60
+    )
 
 
 def verify(root: Path, *names: str) -> list[str]:
@@ -78,9 +90,12 @@ def verify(root: Path, *names: str) -> list[str]:
 
 # ---------------------------------------------------------------------- the units
 
+
 def test_units_pass_systemd_analyze_verify(staged):
-    assert verify(staged, *[name for name in inst.FILES
-                            if name.endswith((".service", ".timer"))]) == []
+    assert (
+        verify(staged, *[name for name in inst.FILES if name.endswith((".service", ".timer"))])
+        == []
+    )
 
 
 def test_verify_does_catch_a_broken_unit(staged):
@@ -90,8 +105,10 @@ def test_verify_does_catch_a_broken_unit(staged):
     problems = verify(staged, "exhibit.service")
     assert any("Unknown key 'WatchdogSecs'" in line for line in problems)
     (staged / "srv/museum/exhibit/.venv/bin/exhibit").unlink()
-    assert any("/srv/museum/exhibit/.venv/bin/exhibit is not executable" in line
-               for line in verify(staged, "exhibit.service"))
+    assert any(
+        "/srv/museum/exhibit/.venv/bin/exhibit is not executable" in line
+        for line in verify(staged, "exhibit.service")
+    )
 
 
 #: The most `systemd-analyze security` may score any of our services (0 best, 10 worst). Before
@@ -102,8 +119,7 @@ SERVICES = [name for name in inst.FILES if name.endswith(".service")]
 
 def exposure(root: Path, name: str) -> float:
     result = analyze(root, "security", "--offline=yes", "--no-pager", name)
-    match = re.search(rf"Overall exposure level for {re.escape(name)}: (\d+\.\d+)",
-                      result.stdout)
+    match = re.search(rf"Overall exposure level for {re.escape(name)}: (\d+\.\d+)", result.stdout)
     assert match, result.stdout[-600:] + result.stderr[-600:]
     return float(match.group(1))
 
@@ -119,8 +135,11 @@ def test_unit_exposure_is_at_most_2_5(staged, name):
 def test_the_exposure_check_can_fail(staged):
     """Without its sandbox the app scores far above the limit: the check above measures."""
     unit = staged / "etc/systemd/system/exhibit.service"
-    kept = [line for line in unit.read_text().splitlines()
-            if not line.startswith(("SystemCallFilter=", "PrivateUsers=", "CapabilityBounding"))]
+    kept = [
+        line
+        for line in unit.read_text().splitlines()
+        if not line.startswith(("SystemCallFilter=", "PrivateUsers=", "CapabilityBounding"))
+    ]
     unit.write_text("\n".join(kept) + "\n")
     assert exposure(staged, "exhibit.service") > MAX_EXPOSURE
 
@@ -144,8 +163,11 @@ def test_hardening_both_units_share(staged):
 
 def test_sysrq_is_turned_off(staged):
     text = (staged / "etc/sysctl.d/90-exhibit.conf").read_text()
-    settings = dict(line.replace(" ", "").split("=", 1) for line in text.splitlines()
-                    if line.strip() and not line.startswith(("#", ";")))
+    settings = dict(
+        line.replace(" ", "").split("=", 1)
+        for line in text.splitlines()
+        if line.strip() and not line.startswith(("#", ";"))
+    )
     assert settings == {"kernel.sysrq": "0"}
 
 
@@ -153,11 +175,20 @@ def test_app_unit_settings(staged):
     unit = units(staged / "etc/systemd/system/exhibit.service")
     service = unit["Service"]
     expected = {
-        "Type": ["notify"], "NotifyAccess": ["main"], "WatchdogSec": ["10"],
-        "Restart": ["always"], "RestartSec": ["2"], "User": ["exhibit"],
-        "NoNewPrivileges": ["yes"], "ProtectSystem": ["strict"], "ProtectHome": ["yes"],
-        "PrivateTmp": ["yes"], "IPAddressDeny": ["any"], "DevicePolicy": ["closed"],
-        "StateDirectory": ["exhibit"], "CacheDirectory": ["exhibit"],
+        "Type": ["notify"],
+        "NotifyAccess": ["main"],
+        "WatchdogSec": ["10"],
+        "Restart": ["always"],
+        "RestartSec": ["2"],
+        "User": ["exhibit"],
+        "NoNewPrivileges": ["yes"],
+        "ProtectSystem": ["strict"],
+        "ProtectHome": ["yes"],
+        "PrivateTmp": ["yes"],
+        "IPAddressDeny": ["any"],
+        "DevicePolicy": ["closed"],
+        "StateDirectory": ["exhibit"],
+        "CacheDirectory": ["exhibit"],
         "ExecStart": ["/srv/museum/exhibit/.venv/bin/exhibit run"],
     }
     for key, value in expected.items():
@@ -178,8 +209,9 @@ def test_app_unit_settings(staged):
 def test_app_and_display_meet_at_the_same_wayland_socket(staged):
     app = units(staged / "etc/systemd/system/exhibit.service")
     kiosk = units(staged / "etc/systemd/system/exhibit-kiosk.service")
-    env = dict(pair.split("=", 1) for line in app["Service"]["Environment"]
-               for pair in line.split())
+    env = dict(
+        pair.split("=", 1) for line in app["Service"]["Environment"] for pair in line.split()
+    )
     runtime = "/run/" + kiosk["Service"]["RuntimeDirectory"][0]
     assert env["XDG_RUNTIME_DIR"] == runtime
     assert f"XDG_RUNTIME_DIR={runtime} /usr/bin/cage" in kiosk["Service"]["ExecStart"][0]
@@ -194,7 +226,7 @@ def _wait_script(unit_file: Path) -> str:
     """The ExecStartPre shell snippet as sh would receive it ($$ is systemd's escape for $)."""
     line = units(unit_file)["Service"]["ExecStartPre"][0]
     assert line.startswith("/bin/sh -c '") and line.endswith("'")
-    return line[len("/bin/sh -c '"):-1].replace("$$", "$")
+    return line[len("/bin/sh -c '") : -1].replace("$$", "$")
 
 
 def test_socket_wait_returns_as_soon_as_the_socket_exists(staged):
@@ -209,25 +241,55 @@ def test_socket_wait_returns_as_soon_as_the_socket_exists(staged):
             with pytest.raises(subprocess.TimeoutExpired):
                 subprocess.run(["sh", "-c", script], env=env, timeout=0.5)
             server.bind(f"{runtime}/wayland-0")
-            result = subprocess.run(["sh", "-c", script], env=env, timeout=5,
-                                    capture_output=True, text=True)
+            result = subprocess.run(
+                ["sh", "-c", script], env=env, timeout=5, capture_output=True, text=True
+            )
         finally:
             server.close()
     assert result.returncode == 0 and result.stderr == ""
 
 
 def test_modules_loaded_at_boot_cover_the_serial_device_classes(staged):
-    modules = [line for line in (staged / "etc/modules-load.d/exhibit.conf").read_text()
-               .splitlines() if line and not line.startswith("#")]
+    modules = [
+        line
+        for line in (staged / "etc/modules-load.d/exhibit.conf").read_text().splitlines()
+        if line and not line.startswith("#")
+    ]
     assert modules == ["usbserial", "cdc_acm"]
 
 
 # ---------------------------------------------------------------------- udev rules
 
-MATCH_KEYS = {"ACTION", "SUBSYSTEM", "SUBSYSTEMS", "KERNEL", "KERNELS", "DRIVER", "DRIVERS",
-              "ATTR", "ATTRS", "ENV", "TAG", "TAGS", "DEVPATH", "PROGRAM", "RESULT"}
-ASSIGN_KEYS = {"GROUP", "OWNER", "MODE", "SYMLINK", "ENV", "TAG", "RUN", "NAME", "LABEL", "GOTO",
-               "OPTIONS"}
+MATCH_KEYS = {
+    "ACTION",
+    "SUBSYSTEM",
+    "SUBSYSTEMS",
+    "KERNEL",
+    "KERNELS",
+    "DRIVER",
+    "DRIVERS",
+    "ATTR",
+    "ATTRS",
+    "ENV",
+    "TAG",
+    "TAGS",
+    "DEVPATH",
+    "PROGRAM",
+    "RESULT",
+}
+ASSIGN_KEYS = {
+    "GROUP",
+    "OWNER",
+    "MODE",
+    "SYMLINK",
+    "ENV",
+    "TAG",
+    "RUN",
+    "NAME",
+    "LABEL",
+    "GOTO",
+    "OPTIONS",
+}
 PAIR = re.compile(r'\s*([A-Z_]+)(?:\{([A-Za-z0-9_]+)\})?\s*(==|!=|\+=|-=|:=|=)\s*"([^"]*)"\s*(,|$)')
 
 
@@ -237,7 +299,7 @@ def parse_rule(line: str) -> list[tuple[str, str | None, str, str]]:
     while pos < len(line):
         m = PAIR.match(line, pos)
         if not m:
-            raise ValueError(f"cannot parse at column {pos + 1}: {line[pos:pos + 30]!r}")
+            raise ValueError(f"cannot parse at column {pos + 1}: {line[pos : pos + 30]!r}")
         key, attr, op, value, _ = m.groups()
         if op in ("==", "!=") and key not in MATCH_KEYS:
             raise ValueError(f"{key} is not a match key")
@@ -252,8 +314,11 @@ def parse_rule(line: str) -> list[tuple[str, str | None, str, str]]:
 
 def rules() -> list[list[tuple[str, str | None, str, str]]]:
     text = (SYSTEMD / "99-exhibit.rules").read_text()
-    return [parse_rule(line) for line in text.splitlines()
-            if line.strip() and not line.lstrip().startswith("#")]
+    return [
+        parse_rule(line)
+        for line in text.splitlines()
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
 
 
 def test_every_udev_rule_parses_into_known_keys():
@@ -270,8 +335,14 @@ def test_every_udev_rule_parses_into_known_keys():
 
 
 def test_the_parser_rejects_what_udev_would():
-    for bad in ('SUBSYSTEM="tty"', 'GROUP=="exhibit"', 'SUBSYSTEM=="tty" GROUP="x"',
-                'ATTRS=="1a86"', "SUBSYSTEM==tty", 'FOO=="x"'):
+    for bad in (
+        'SUBSYSTEM="tty"',
+        'GROUP=="exhibit"',
+        'SUBSYSTEM=="tty" GROUP="x"',
+        'ATTRS=="1a86"',
+        "SUBSYSTEM==tty",
+        'FOO=="x"',
+    ):
         with pytest.raises(ValueError):
             parse_rule(bad)
 
@@ -317,6 +388,7 @@ def test_shipped_device_configs_are_covered_by_the_rules():
 
 # ---------------------------------------------------------------------- exhibit install
 
+
 def test_install_stages_files_with_the_prefix_and_is_idempotent(tmp_path, capsys):
     from exhibit.cli import main
 
@@ -324,12 +396,13 @@ def test_install_stages_files_with_the_prefix_and_is_idempotent(tmp_path, capsys
     out = capsys.readouterr().out
     for dest in inst.FILES.values():
         assert (tmp_path / dest).is_file() and f"wrote {tmp_path / dest} (new)" in out
-    assert "ExecStart=/srv/exhibit/.venv/bin/exhibit run" in (
-        tmp_path / "etc/systemd/system/exhibit.service").read_text()
+    assert (
+        "ExecStart=/srv/exhibit/.venv/bin/exhibit run"
+        in (tmp_path / "etc/systemd/system/exhibit.service").read_text()
+    )
     assert "remaining steps (on the kiosk, as root):" in out
     assert "  useradd --system --user-group --home-dir /var/lib/exhibit" in out
-    assert "  systemctl enable exhibit.service exhibit-kiosk.service exhibit-metrics.timer\n" \
-        in out
+    assert "  systemctl enable exhibit.service exhibit-kiosk.service exhibit-metrics.timer\n" in out
     assert main(["install", "--root", str(tmp_path), "--prefix", "/srv/exhibit"]) == 0
     assert capsys.readouterr().out.count("unchanged: ") == len(inst.FILES)
 
@@ -342,15 +415,18 @@ def test_dry_run_writes_nothing(tmp_path, capsys):
     assert "would write" in capsys.readouterr().out
 
 
-@pytest.mark.parametrize("args, message", [
-    (["--prefix", "opt/exhibit"], "must be an absolute path"),
-    (["--prefix", "/home/museum/exhibit"], "cannot use /home"),
-    (["--prefix", "/tmp/exhibit"], "cannot use /tmp"),
-    (["--prefix", "/opt/my exhibit"], "use only letters"),
-    (["--prefix", "/"], "give the folder of the checkout"),
-    (["--root", "/nonexistent/stage"], "--root /nonexistent/stage: no such folder"),
-    (["--root", ""], "--root '': give a folder"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--prefix", "opt/exhibit"], "must be an absolute path"),
+        (["--prefix", "/home/museum/exhibit"], "cannot use /home"),
+        (["--prefix", "/tmp/exhibit"], "cannot use /tmp"),
+        (["--prefix", "/opt/my exhibit"], "use only letters"),
+        (["--prefix", "/"], "give the folder of the checkout"),
+        (["--root", "/nonexistent/stage"], "--root /nonexistent/stage: no such folder"),
+        (["--root", ""], "--root '': give a folder"),
+    ],
+)
 def test_install_argument_errors_are_one_line(cli, args, message):
     result = cli("install", *args)
     assert result.returncode == 2 and result.stdout == ""
@@ -381,15 +457,19 @@ def test_install_never_writes_through_a_planted_temporary_name(tmp_path, monkeyp
     for dest in inst.FILES.values():
         path = root / dest
         path.parent.mkdir(parents=True, exist_ok=True)
-        for name in (f".{path.name}.exhibit-install", f".{path.name}.{'0' * 16}.exhibit-install",
-                     f".{path.name}.{guessed}.tmp"):
+        for name in (
+            f".{path.name}.exhibit-install",
+            f".{path.name}.{'0' * 16}.exhibit-install",
+            f".{path.name}.{guessed}.tmp",
+        ):
             if not (path.parent / name).is_symlink():
                 (path.parent / name).symlink_to(victim)
                 planted.append(path.parent / name)
     calls = iter(range(10**6))
     real = files.secrets.token_hex
-    monkeypatch.setattr(files.secrets, "token_hex",
-                        lambda n: guessed if next(calls) % 2 == 0 else real(n))
+    monkeypatch.setattr(
+        files.secrets, "token_hex", lambda n: guessed if next(calls) % 2 == 0 else real(n)
+    )
     old_umask = os.umask(0o077)
     try:
         assert main(["install", "--root", str(root)]) == 0
@@ -401,14 +481,14 @@ def test_install_never_writes_through_a_planted_temporary_name(tmp_path, monkeyp
         path = root / dest
         assert path.is_file() and not path.is_symlink()
         assert stat.S_IMODE(path.stat().st_mode) == 0o644  # despite the umask
-        assert sorted(p.name for p in path.parent.iterdir() if p.name.startswith(".")) == \
-            sorted(p.name for p in planted if p.parent == path.parent)
+        assert sorted(p.name for p in path.parent.iterdir() if p.name.startswith(".")) == sorted(
+            p.name for p in planted if p.parent == path.parent
+        )
     capsys.readouterr()
 
 
 @pytest.mark.parametrize("linked", ["etc", "etc/systemd/system", "etc/udev"])
-def test_install_never_writes_through_a_symlinked_folder_below_the_root(tmp_path, capsys,
-                                                                        linked):
+def test_install_never_writes_through_a_symlinked_folder_below_the_root(tmp_path, capsys, linked):
     from exhibit.cli import main
 
     root, outside = tmp_path / "root", tmp_path / "outside"
@@ -439,8 +519,7 @@ def test_install_replaces_a_symlink_to_a_file_without_following_it(tmp_path):
 
 
 @pytest.mark.parametrize("kind", ["fifo", "folder", "link to a fifo", "masked"])
-def test_install_refuses_what_is_not_a_file_at_a_target_and_writes_nothing(tmp_path, kind,
-                                                                            capsys):
+def test_install_refuses_what_is_not_a_file_at_a_target_and_writes_nothing(tmp_path, kind, capsys):
     """Checked before any write, without hanging on a FIFO: one line naming it, no 'wrote'."""
     from exhibit.cli import main
 
@@ -467,9 +546,12 @@ def test_install_refuses_what_is_not_a_file_at_a_target_and_writes_nothing(tmp_p
     assert "wrote" not in out and "internal error" not in err
     assert err.count("\n") == 1 and str(rules) in err and "nothing written" in err
     assert [p for p in root.rglob("*") if p.is_file() and not p.is_symlink()] == []
+
+
 def test_a_failed_write_leaves_no_temporary_file(tmp_path, monkeypatch):
     def fail(*args, **kwargs):
         raise OSError(28, "No space left on device")
+
     monkeypatch.setattr(inst.os, "replace", fail)
     with pytest.raises(ExhibitError, match="No space left on device"):
         inst.install(tmp_path, "/opt/exhibit", out=lambda line: None)
@@ -483,9 +565,12 @@ class Runner:
     def __call__(self, command):
         self.commands.append(command)
         failed = self.fail is not None and command[0] == self.fail
-        return subprocess.CompletedProcess(command, 1 if failed else 0, "",
-                                           "modprobe: FATAL: Module usbserial not found\n"
-                                           if failed else "")
+        return subprocess.CompletedProcess(
+            command,
+            1 if failed else 0,
+            "",
+            "modprobe: FATAL: Module usbserial not found\n" if failed else "",
+        )
 
 
 @pytest.fixture
@@ -501,20 +586,44 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
     root = tmp_path / "root"
     root.mkdir()
     runner, lines = Runner(), []
-    assert inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
-                        user_exists=lambda name: False, group_exists=lambda name: True) == 0
+    assert (
+        inst.install(
+            root,
+            prefix,
+            perform=True,
+            out=lines.append,
+            runner=runner,
+            user_exists=lambda name: False,
+            group_exists=lambda name: True,
+        )
+        == 0
+    )
     assert [c[:2] for c in runner.commands] == [
-        ["useradd", "--system"], ["modprobe", "-a"], ["sysctl", "--system"],
-        ["udevadm", "control"], ["udevadm", "trigger"], ["systemctl", "daemon-reload"],
-        ["systemctl", "enable"], ["install", "-d"], ["runuser", "-u"]]
+        ["useradd", "--system"],
+        ["modprobe", "-a"],
+        ["sysctl", "--system"],
+        ["udevadm", "control"],
+        ["udevadm", "trigger"],
+        ["systemctl", "daemon-reload"],
+        ["systemctl", "enable"],
+        ["install", "-d"],
+        ["runuser", "-u"],
+    ]
     assert runner.commands[0][-1] == "exhibit"
     # last: the mesh cache, built by the installed exhibit as the service's user
     assert runner.commands[-1][-2:] == [f"{prefix}/.venv/bin/exhibit", "prepare"]
     assert all((root / dest).is_file() for dest in inst.FILES.values())
     # The user exists the second time: no useradd.
     runner = Runner()
-    inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
-                 user_exists=lambda name: True, group_exists=lambda name: True)
+    inst.install(
+        root,
+        prefix,
+        perform=True,
+        out=lines.append,
+        runner=runner,
+        user_exists=lambda name: True,
+        group_exists=lambda name: True,
+    )
     assert runner.commands[0][0] == "modprobe"
 
 
@@ -523,10 +632,18 @@ def test_perform_stops_at_a_failing_step_and_says_what_is_left(tmp_path, prefix)
     root.mkdir()
     runner, lines = Runner(fail="modprobe"), []
     with pytest.raises(ExhibitError) as info:
-        inst.install(root, prefix, perform=True, out=lines.append, runner=runner,
-                     user_exists=lambda name: True, group_exists=lambda name: True)
-    assert str(info.value) == ("modprobe -a usbserial cdc_acm failed: modprobe: FATAL: Module "
-                               "usbserial not found")
+        inst.install(
+            root,
+            prefix,
+            perform=True,
+            out=lines.append,
+            runner=runner,
+            user_exists=lambda name: True,
+            group_exists=lambda name: True,
+        )
+    assert str(info.value) == (
+        "modprobe -a usbserial cdc_acm failed: modprobe: FATAL: Module usbserial not found"
+    )
     assert len(runner.commands) == 1
     assert "  systemctl daemon-reload" in lines and "  udevadm control --reload" in lines
 
@@ -535,8 +652,14 @@ def test_perform_refuses_without_the_venv_or_the_groups(tmp_path, prefix):
     with pytest.raises(ExhibitError, match=r"/nowhere/\.venv/bin/exhibit does not exist"):
         inst.install(tmp_path, "/nowhere", perform=True, out=lambda s: None, runner=Runner())
     with pytest.raises(ExhibitError, match="group\\(s\\) render do not exist"):
-        inst.install(tmp_path, prefix, perform=True, out=lambda s: None, runner=Runner(),
-                     group_exists=lambda name: name != "render")
+        inst.install(
+            tmp_path,
+            prefix,
+            perform=True,
+            out=lambda s: None,
+            runner=Runner(),
+            group_exists=lambda name: name != "render",
+        )
     assert not (tmp_path / "etc").exists()
 
 
@@ -548,22 +671,37 @@ def cli(capsys):
         code = main(list(args))
         out, err = capsys.readouterr()
         return subprocess.CompletedProcess(args, code, out, err)
+
     return run
 
 
 def test_perform_names_a_missing_compositor_or_xwayland(tmp_path, prefix, monkeypatch):
     """Debian's cage 0.1.4 exits with `Cannot find Xwayland binary` when xwayland is missing,
     even for a Wayland client: the installer says so instead of leaving a black screen."""
-    monkeypatch.setattr(inst, "_DISPLAY_PROGRAMS", (
-        (str(tmp_path / "cage"), "cage", "exhibit-kiosk.service runs it"),
-        (str(tmp_path / "Xwayland"), "xwayland", "Debian's cage exits at start without it")))
+    monkeypatch.setattr(
+        inst,
+        "_DISPLAY_PROGRAMS",
+        (
+            (str(tmp_path / "cage"), "cage", "exhibit-kiosk.service runs it"),
+            (str(tmp_path / "Xwayland"), "xwayland", "Debian's cage exits at start without it"),
+        ),
+    )
     root = tmp_path / "root"
     root.mkdir()
     lines = []
-    inst.install(root, prefix, perform=True, out=lines.append, runner=Runner(),
-                 user_exists=lambda name: True, group_exists=lambda name: True)
-    assert f"note: {tmp_path}/Xwayland is missing: apt-get install xwayland (Debian's cage " \
-           "exits at start without it)" in lines
+    inst.install(
+        root,
+        prefix,
+        perform=True,
+        out=lines.append,
+        runner=Runner(),
+        user_exists=lambda name: True,
+        group_exists=lambda name: True,
+    )
+    assert (
+        f"note: {tmp_path}/Xwayland is missing: apt-get install xwayland (Debian's cage "
+        "exits at start without it)" in lines
+    )
     assert any(line.startswith(f"note: {tmp_path}/cage is missing") for line in lines)
 
 
@@ -572,12 +710,31 @@ def test_perform_refuses_a_venv_whose_python_the_service_cannot_reach(tmp_path, 
     (203/EXEC): the installer says how to remake it instead."""
     python = Path(prefix) / ".venv/bin/python"
     python.symlink_to("/root/.exhibit-test-pyenv/bin/python3")
-    with pytest.raises(ExhibitError, match=r"is /root/\.exhibit-test-pyenv/bin/python3, which "
-                                           r"the service cannot run .* PYTHON=/usr/bin/python3 "):
-        inst.install(tmp_path, prefix, perform=True, out=lambda s: None, runner=Runner(),
-                     group_exists=lambda name: True)
+    with pytest.raises(
+        ExhibitError,
+        match=r"is /root/\.exhibit-test-pyenv/bin/python3, which "
+        r"the service cannot run .* PYTHON=/usr/bin/python3 ",
+    ):
+        inst.install(
+            tmp_path,
+            prefix,
+            perform=True,
+            out=lambda s: None,
+            runner=Runner(),
+            group_exists=lambda name: True,
+        )
     assert not (tmp_path / "etc").exists()
     python.unlink()
     python.symlink_to("/usr/bin/python3")
-    assert inst.install(tmp_path, prefix, perform=True, out=lambda s: None, runner=Runner(),
-                        user_exists=lambda name: True, group_exists=lambda name: True) == 0
+    assert (
+        inst.install(
+            tmp_path,
+            prefix,
+            perform=True,
+            out=lambda s: None,
+            runner=Runner(),
+            user_exists=lambda name: True,
+            group_exists=lambda name: True,
+        )
+        == 0
+    )

@@ -74,16 +74,28 @@ def read(path):
 
 def test_fullscreen_kiosk_keeps_drawing_after_losing_focus(tmp_path):
     kiosk = make_config(tmp_path, "wait 60\n")
-    kiosk.write_text(kiosk.read_text().replace("vsync = true", "vsync = false")
-                     .replace("fps_limit = 60", "fps_limit = 30"))
+    kiosk.write_text(
+        kiosk.read_text()
+        .replace("vsync = true", "vsync = false")
+        .replace("fps_limit = 60", "fps_limit = 30")
+    )
     health = tmp_path / "state" / "health.json"
     with xvfb("320x240x24") as display:
-        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
-                   EXHIBIT_STATE_DIR=str(tmp_path / "state"))
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+            EXHIBIT_STATE_DIR=str(tmp_path / "state"),
+        )
         env.pop("NOTIFY_SOCKET", None)
-        child = subprocess.Popen([sys.executable, "-m", "exhibit", "run", "--config", str(kiosk),
-                                  "--duration", "12"], env=env, cwd=ROOT,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        child = subprocess.Popen(
+            [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--duration", "12"],
+            env=env,
+            cwd=ROOT,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         thief = None
         try:
             deadline = time.monotonic() + 180  # a cold mesh cache is built first
@@ -92,8 +104,14 @@ def test_fullscreen_kiosk_keeps_drawing_after_losing_focus(tmp_path):
             if child.poll() is not None and "cannot start GLFW" in child.stderr.read():
                 unavailable("no GLFW window on Xvfb")
             assert read(health) is not None, "the kiosk wrote no health file"
-            thief = subprocess.Popen([sys.executable, "-c", THIEF, "9"], env=env, cwd=ROOT,
-                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            thief = subprocess.Popen(
+                [sys.executable, "-c", THIEF, "9"],
+                env=env,
+                cwd=ROOT,
+                stdout=subprocess.PIPE,
+                stderr=subprocess.PIPE,
+                text=True,
+            )
             said = thief.stdout.readline().strip()
             assert said == "focused", (said, thief.communicate(timeout=30))
             before = read(health)

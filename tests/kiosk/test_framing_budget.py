@@ -31,28 +31,34 @@ def counted(monkeypatch):
         if len(calls) > BUDGET:
             raise AssertionError(f"framing sampled more than {BUDGET} poses")
         return real(points, view)
+
     monkeypatch.setattr(framing, "sample_bounds", sample_bounds)
     return calls
 
 
 def day_long(tmp_path):
     path = tmp_path / "day.toml"
-    path.write_text(HEAD + '\n[[keyframe]]\nt = 0\nslice = -2\ncaption = "start"\n'
-                    '\n[[keyframe]]\nt = 86400\nslice = 2\nangles = [40, 0, 0, 0, 0, 0]\n')
+    path.write_text(
+        HEAD + '\n[[keyframe]]\nt = 0\nslice = -2\ncaption = "start"\n'
+        "\n[[keyframe]]\nt = 86400\nslice = 2\nangles = [40, 0, 0, 0, 0, 0]\n"
+    )
     return load_timeline(path)
 
 
 def many_keyframes(tmp_path, n=2000, captions=True):
-    body = "".join(f'\n[[keyframe]]\nt = {5 * i}\n'
-                   + (f'caption = "caption number {i} here"\nslice = {(-1) ** i}\n'
-                      if captions else "") for i in range(n))
+    body = "".join(
+        f"\n[[keyframe]]\nt = {5 * i}\n"
+        + (f'caption = "caption number {i} here"\nslice = {(-1) ** i}\n' if captions else "")
+        for i in range(n)
+    )
     path = tmp_path / "many.toml"
     path.write_text(HEAD + body)
     return load_timeline(path)
 
 
-@pytest.mark.parametrize("make", [day_long, many_keyframes,
-                                  lambda p: many_keyframes(p, 3000, captions=False)])
+@pytest.mark.parametrize(
+    "make", [day_long, many_keyframes, lambda p: many_keyframes(p, 3000, captions=False)]
+)
 def test_a_hostile_timeline_is_framed_within_the_budget(tmp_path, mesh, counted, make):
     scene, built = mesh
     timeline = make(tmp_path)
@@ -75,12 +81,18 @@ def test_sample_times_spread_over_the_timeline_keyframes_first(tmp_path):
 
 def test_short_timelines_sample_every_half_second_and_every_keyframe(tmp_path):
     from tests.kiosk.support import TIMELINE
+
     path = tmp_path / "t.toml"
     path.write_text(TIMELINE)
     timeline = load_timeline(path)
     times = framing.sample_times(timeline)
-    assert times == sorted({*(0.5 * i for i in range(int(2 * timeline.duration))),
-                            *(k.t for k in timeline.keyframes), timeline.duration})
+    assert times == sorted(
+        {
+            *(0.5 * i for i in range(int(2 * timeline.duration))),
+            *(k.t for k in timeline.keyframes),
+            timeline.duration,
+        }
+    )
 
 
 def test_poses_are_the_timelines_own(tmp_path, mesh):

@@ -45,7 +45,7 @@ def governor(**settings) -> Governor:
 
 
 def test_steps_down_to_the_first_level_that_holds_the_target():
-    costs = [60, 40, 30, 22, 15.5, 12, 11, 9]   # mesh-50 is 22 ms: too slow; lean holds 16.7
+    costs = [60, 40, 30, 22, 15.5, 12, 11, 9]  # mesh-50 is 22 ms: too slow; lean holds 16.7
     g = governor()
     m = Machine(g, steady(costs))
     m.run(60)
@@ -84,11 +84,11 @@ def test_no_flicker_between_two_levels_and_backoff_doubles():
     m = Machine(g, steady(costs))
     m.run(600)
     ups = [t for t, i in m.changes if i == 0]
-    assert 2 <= len(ups) <= 6          # tried again and again, but rarely...
+    assert 2 <= len(ups) <= 6  # tried again and again, but rarely...
     gaps = [b - a for a, b in zip(ups, ups[1:])]
     assert all(b > a for a, b in zip(gaps, gaps[1:]))  # ...ever more rarely
     assert g.index == 1 or m.now - ups[-1] < 10
-    assert len(m.changes) <= 12         # in ten minutes
+    assert len(m.changes) <= 12  # in ten minutes
 
 
 def test_no_decision_while_a_visitor_turns_quickly():
@@ -97,7 +97,7 @@ def test_no_decision_while_a_visitor_turns_quickly():
     m = Machine(g, steady(costs))
     m.run(30, busy=True)
     assert g.index == 0 and not m.changes
-    m.run(1.4)                         # calm_s after the last fast turn: still nothing
+    m.run(1.4)  # calm_s after the last fast turn: still nothing
     assert g.index == 0
     m.run(10)
     assert g.index >= 1
@@ -108,13 +108,13 @@ def test_observe_detects_fast_turns_and_scene_changes():
     view = ViewState()
     g.observe("visitor", "hopf", view, 0.0)
     turned = view.replace(angles=(math.radians(5),) + view.angles[1:])
-    g.observe("visitor", "hopf", turned, 0.05)          # 100 degrees a second
+    g.observe("visitor", "hopf", turned, 0.05)  # 100 degrees a second
     assert g._calm_until == pytest.approx(2.05)
-    g.observe("attract", "hopf", view, 3.0)             # attract mode turns are not visitors
+    g.observe("attract", "hopf", view, 3.0)  # attract mode turns are not visitors
     assert g._calm_until == pytest.approx(2.05)
     g.update(30.0, 3.0)
     g._frames.append((3.0, 30.0))
-    g.observe("attract", "collision", view, 3.1)        # a new scene: measure afresh
+    g.observe("attract", "collision", view, 3.1)  # a new scene: measure afresh
     assert not g._frames and g._settled > 3.1
 
 
@@ -122,12 +122,13 @@ def test_a_slow_scene_pulls_down_and_a_fast_one_lets_it_back_up():
     def cost(level, now):
         heavy = 30 <= now < 90
         return ([25, 20, 16, 12, 10, 8, 6] if heavy else [9, 8, 7, 6, 5, 4, 3])[level]
+
     g = governor()
     m = Machine(g, cost)
     m.run(30)
     assert g.index == 0
     m.run(60)
-    assert g.index == 2              # 16 ms holds
+    assert g.index == 2  # 16 ms holds
     m.run(60)
     assert g.index == 0
 
@@ -165,10 +166,11 @@ def test_health_carries_the_level_and_the_frame_time():
 def test_longest_frame_after_start_up():
     """frame_ms_max: the longest whole frame, not counting the first STARTUP_S seconds."""
     from exhibit.kiosk.governor import STARTUP_S
+
     g = governor()
     assert g.health()["frame_ms_max"] is None
-    g.frame_done(900.0, 100.0)                      # the first frame: start-up
-    g.frame_done(300.0, 100.0 + STARTUP_S / 2)      # still start-up
+    g.frame_done(900.0, 100.0)  # the first frame: start-up
+    g.frame_done(300.0, 100.0 + STARTUP_S / 2)  # still start-up
     for i in range(50):
         g.frame_done(20.0 + (i == 30) * 60.0, 100.0 + STARTUP_S + i * 0.02)
     g.frame_done(math.nan, 110.0)
@@ -179,8 +181,8 @@ def test_longest_frame_after_start_up():
 
 def test_pick():
     assert pick([10, 20, 30], 16.7) == 0
-    assert pick([30, 18, 10], 16.7) == 1          # within 10 %
-    assert pick([90, 80, 70], 16.7) == 2          # none holds: the last
+    assert pick([30, 18, 10], 16.7) == 1  # within 10 %
+    assert pick([90, 80, 70], 16.7) == 2  # none holds: the last
 
 
 def test_kiosk_levels_from_the_config():
@@ -188,9 +190,10 @@ def test_kiosk_levels_from_the_config():
     levels, pinned = kiosk_levels(QualityConfig(), software)
     # no MSAA and no smaller render scales on software GL: the direct level is the cheapest
     assert not pinned and levels[0].name == "fxaa" and levels[-1].name == "direct"
-    assert [q.name for q in levels] == [q.name for q in LADDER
-                                        if q.antialiasing != "msaa" and q.scale == 1.0]
-    levels, _ = kiosk_levels(QualityConfig(scale_pin=0.5), software)   # pinned: kept
+    assert [q.name for q in levels] == [
+        q.name for q in LADDER if q.antialiasing != "msaa" and q.scale == 1.0
+    ]
+    levels, _ = kiosk_levels(QualityConfig(scale_pin=0.5), software)  # pinned: kept
     assert {q.scale for q in levels} == {0.5} and levels[-1].name == "direct"
     levels, _ = kiosk_levels(QualityConfig(), "NVIDIA GeForce RTX 3060/PCIe/SSE2")
     assert levels[0].name == "msaa" and levels[-1].name == "scale-50"
@@ -200,22 +203,22 @@ def test_kiosk_levels_from_the_config():
     assert levels[-1].name == "lean"
     levels, _ = kiosk_levels(QualityConfig(antialiasing_pin="none", scale_pin=1.0), software)
     assert {q.antialiasing for q in levels} == {"none"} and {q.scale for q in levels} == {1.0}
-    assert len({q.settings for q in levels}) == len(levels)   # no two levels alike
+    assert len({q.settings for q in levels}) == len(levels)  # no two levels alike
     levels, _ = kiosk_levels(QualityConfig(mesh_pin=0, scale_pin=1.0), software)
     assert [q.name for q in levels] == ["fxaa", "lean", "direct"]
 
 
 def test_for_kiosk_target_and_mesh_levels():
     config = SimpleNamespace(vsync=True, fps_limit=60.0, quality=QualityConfig())
-    window = SimpleNamespace(ctx=SimpleNamespace(info={"GL_RENDERER": "llvmpipe"}),
-                             refresh_hz=75.0)
+    window = SimpleNamespace(ctx=SimpleNamespace(info={"GL_RENDERER": "llvmpipe"}), refresh_hz=75.0)
     g = for_kiosk(config, window, now=0.0)
     assert g.settings.target_ms == pytest.approx(1000 / 75) and g.quality.name == "fxaa"
     assert mesh_levels(g) == [0, 1, 2]
     config = SimpleNamespace(vsync=False, fps_limit=30.0, quality=QualityConfig(mesh_pin=1))
     g = for_kiosk(config, SimpleNamespace(ctx=SimpleNamespace(error="GL_NO_ERROR")), now=0.0)
     assert g.settings.target_ms == pytest.approx(1000 / 30) and mesh_levels(g) == [1]
-    config = SimpleNamespace(vsync=True, fps_limit=60.0,
-                             quality=QualityConfig(target_fps=25.0, step_interval_s=10.0))
+    config = SimpleNamespace(
+        vsync=True, fps_limit=60.0, quality=QualityConfig(target_fps=25.0, step_interval_s=10.0)
+    )
     g = for_kiosk(config, window, now=0.0)
     assert g.settings.target_ms == 40.0 and g.settings.step_interval_s == 10.0

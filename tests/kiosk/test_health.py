@@ -21,38 +21,60 @@ from exhibit.kiosk.health import HealthError, freshness, read_health, write_heal
 
 
 def sample(**changes) -> dict:
-    data = {"time": time.time(), "pid": os.getpid(), "fps": 59.8, "frame_ms_p95": 16.9,
-            "mode": "attract", "scene": "hopf",
-            "devices": [{"url": "serial:///dev/exhibit-controller?baud=115200",
-                         "state": "connected"},
-                        {"url": "hidraw://2341:8037", "state": "waiting"}],
-            "uptime_s": 93784.2, "gl_errors": 0, "rss_kb": 187_392, "fds": 23}
+    data = {
+        "time": time.time(),
+        "pid": os.getpid(),
+        "fps": 59.8,
+        "frame_ms_p95": 16.9,
+        "mode": "attract",
+        "scene": "hopf",
+        "devices": [
+            {"url": "serial:///dev/exhibit-controller?baud=115200", "state": "connected"},
+            {"url": "hidraw://2341:8037", "state": "waiting"},
+        ],
+        "uptime_s": 93784.2,
+        "gl_errors": 0,
+        "rss_kb": 187_392,
+        "fds": 23,
+    }
     data.update(changes)
     return data
 
 
 # ---------------------------------------------------------------------- paths
 
-@pytest.mark.parametrize("env, expected", [
-    ({"EXHIBIT_STATE_DIR": "/var/lib/exhibit", "XDG_STATE_HOME": "/x", "HOME": "/h"},
-     "/var/lib/exhibit/health.json"),
-    ({"XDG_STATE_HOME": "/x", "HOME": "/h"}, "/x/exhibit/health.json"),
-    ({"HOME": "/h"}, "/h/.local/state/exhibit/health.json"),
-    ({"EXHIBIT_STATE_DIR": "", "XDG_STATE_HOME": "", "HOME": "/h"},
-     "/h/.local/state/exhibit/health.json"),
-])
+
+@pytest.mark.parametrize(
+    "env, expected",
+    [
+        (
+            {"EXHIBIT_STATE_DIR": "/var/lib/exhibit", "XDG_STATE_HOME": "/x", "HOME": "/h"},
+            "/var/lib/exhibit/health.json",
+        ),
+        ({"XDG_STATE_HOME": "/x", "HOME": "/h"}, "/x/exhibit/health.json"),
+        ({"HOME": "/h"}, "/h/.local/state/exhibit/health.json"),
+        (
+            {"EXHIBIT_STATE_DIR": "", "XDG_STATE_HOME": "", "HOME": "/h"},
+            "/h/.local/state/exhibit/health.json",
+        ),
+    ],
+)
 def test_default_path(env, expected):
     assert str(health.default_path(env)) == expected
 
 
 def test_readers_fall_back_to_the_service_state_dir_unless_told_where():
     assert [str(p) for p in health.candidate_paths({"HOME": "/h"})] == [
-        "/h/.local/state/exhibit/health.json", "/var/lib/exhibit/health.json"]
+        "/h/.local/state/exhibit/health.json",
+        "/var/lib/exhibit/health.json",
+    ]
     assert [str(p) for p in health.candidate_paths({"EXHIBIT_STATE_DIR": "/s"})] == [
-        "/s/health.json"]
+        "/s/health.json"
+    ]
 
 
 # ---------------------------------------------------------------------- writing and reading
+
 
 def test_round_trip_creates_the_folder_and_is_world_readable_despite_umask(tmp_path):
     path = tmp_path / "state" / "exhibit" / "health.json"
@@ -89,7 +111,7 @@ def test_write_into_a_read_only_folder_raises_oserror(tmp_path):
     if os.geteuid() == 0:
         target = tmp_path / "file-not-folder"
         target.write_text("")
-        path = target / "health.json"      # root ignores permissions; a file as folder does not
+        path = target / "health.json"  # root ignores permissions; a file as folder does not
     else:
         folder = tmp_path / "ro"
         folder.mkdir(mode=0o500)
@@ -120,33 +142,39 @@ def test_readers_never_see_a_partial_file(tmp_path):
     assert len({r.fps for r in reads}) > 1  # the writer really was replacing it meanwhile
 
 
-@pytest.mark.parametrize("content, message", [
-    (None, "no health file at"),
-    ("", "not valid JSON (line 1 column 1"),
-    ('{"time": 1, "fps": ', "not valid JSON"),
-    ("[1, 2]", "expected a JSON object, got list"),
-    ('{"fps": 60}', "key 'time': missing"),
-    ('{"time": "now"}', "key 'time': expected a number (unix seconds), got 'now'"),
-    ('{"time": null}', "key 'time': expected a number"),
-    ('{"time": 1, "pid": true}', "key 'pid': expected a whole number, got True"),
-    ('{"time": 1, "mode": "sleeping"}', "key 'mode': expected one of attract, visitor"),
-    ('{"time": 1, "devices": {"url": "x"}}', "key 'devices': expected a list"),
-    ('{"time": 1, "devices": [{"url": "x"}]}', "key 'devices[0]': expected"),
-    ('{"time": 1, "fps": NaN}', "not valid JSON (NaN is not a JSON number)"),
-    ('{"time": 1, "extra": -Infinity}', "not valid JSON (-Infinity is not a JSON number)"),
-    ('{"time": 1e400}', "not valid JSON (1e400 is too large)"),
-    ('{"time": 1, "extra": [1e999]}', "not valid JSON (1e999 is too large)"),
-    ('{"time": 1, "extra": ' + "9" * 5000 + "}", "not valid JSON (Exceeds the limit"),
-    ("[" * 100_000 + "]" * 100_000, "not valid JSON (nested too deep)"),
-    ('{"time": ' + "9" * 400 + "}", "key 'time': out of range"),
-    ('{"time": 1, "rss_kb": 100000000000000000000}', "key 'rss_kb': out of range"),
-    ('{"time": -1e300}', "key 'time': out of range"),
-    ('{"time": 1, "pid": 1.5}', "key 'pid': expected a whole number, got 1.5"),
-    ('{"time": 1, "devices": [{"url": "x", "state": 3}]}', "key 'devices[0]': expected"),
-    ('{"time": 1, "devices": ["x"]}', "key 'devices[0]': expected"),
-    (b"\xff\xfe", "not UTF-8 text"),
-    (b" " * (health.MAX_HEALTH_BYTES + 1), "more than the 1048576 bytes a health file may have"),
-])
+@pytest.mark.parametrize(
+    "content, message",
+    [
+        (None, "no health file at"),
+        ("", "not valid JSON (line 1 column 1"),
+        ('{"time": 1, "fps": ', "not valid JSON"),
+        ("[1, 2]", "expected a JSON object, got list"),
+        ('{"fps": 60}', "key 'time': missing"),
+        ('{"time": "now"}', "key 'time': expected a number (unix seconds), got 'now'"),
+        ('{"time": null}', "key 'time': expected a number"),
+        ('{"time": 1, "pid": true}', "key 'pid': expected a whole number, got True"),
+        ('{"time": 1, "mode": "sleeping"}', "key 'mode': expected one of attract, visitor"),
+        ('{"time": 1, "devices": {"url": "x"}}', "key 'devices': expected a list"),
+        ('{"time": 1, "devices": [{"url": "x"}]}', "key 'devices[0]': expected"),
+        ('{"time": 1, "fps": NaN}', "not valid JSON (NaN is not a JSON number)"),
+        ('{"time": 1, "extra": -Infinity}', "not valid JSON (-Infinity is not a JSON number)"),
+        ('{"time": 1e400}', "not valid JSON (1e400 is too large)"),
+        ('{"time": 1, "extra": [1e999]}', "not valid JSON (1e999 is too large)"),
+        ('{"time": 1, "extra": ' + "9" * 5000 + "}", "not valid JSON (Exceeds the limit"),
+        ("[" * 100_000 + "]" * 100_000, "not valid JSON (nested too deep)"),
+        ('{"time": ' + "9" * 400 + "}", "key 'time': out of range"),
+        ('{"time": 1, "rss_kb": 100000000000000000000}', "key 'rss_kb': out of range"),
+        ('{"time": -1e300}', "key 'time': out of range"),
+        ('{"time": 1, "pid": 1.5}', "key 'pid': expected a whole number, got 1.5"),
+        ('{"time": 1, "devices": [{"url": "x", "state": 3}]}', "key 'devices[0]': expected"),
+        ('{"time": 1, "devices": ["x"]}', "key 'devices[0]': expected"),
+        (b"\xff\xfe", "not UTF-8 text"),
+        (
+            b" " * (health.MAX_HEALTH_BYTES + 1),
+            "more than the 1048576 bytes a health file may have",
+        ),
+    ],
+)
 def test_read_errors_name_the_file_and_the_problem(tmp_path, content, message):
     path = tmp_path / "health.json"
     if isinstance(content, bytes):
@@ -167,6 +195,7 @@ def test_unknown_keys_and_nulls_are_kept(tmp_path):
 
 # ---------------------------------------------------------------------- freshness
 
+
 def test_freshness():
     now = 1_000_000.0
     assert freshness({"time": now - 3}, 10, now=now) == (True, 3.0, None)
@@ -186,13 +215,16 @@ def test_a_dead_pid_is_stale_at_once():
     assert freshness({"time": time.time(), "pid": os.getpid()}, 10)[0]
 
 
-@pytest.mark.parametrize("seconds, text", [
-    (3.25, "3.2 s"), (250, "4 min 10 s"), (7500, "2 h 5 min"), (93784.2, "1 d 2 h")])
+@pytest.mark.parametrize(
+    "seconds, text",
+    [(3.25, "3.2 s"), (250, "4 min 10 s"), (7500, "2 h 5 min"), (93784.2, "1 d 2 h")],
+)
 def test_durations_read_as_staff_say_them(seconds, text):
     assert health.format_duration(seconds) == text
 
 
 # ---------------------------------------------------------------------- exhibit status
+
 
 @pytest.fixture
 def cli(capsys):
@@ -204,6 +236,7 @@ def cli(capsys):
         code = main(list(args))
         out, err = capsys.readouterr()
         return subprocess.CompletedProcess(args, code, out, err)
+
     return run
 
 
@@ -214,13 +247,26 @@ def status(cli, path, *args):
 def test_status_fresh_prints_a_summary_and_exits_0(tmp_path):
     path = tmp_path / "health.json"
     write_health(path, sample())
-    result = subprocess.run([sys.executable, "-m", "exhibit", "status", "--file", str(path)],
-                            capture_output=True, text=True)
+    result = subprocess.run(
+        [sys.executable, "-m", "exhibit", "status", "--file", str(path)],
+        capture_output=True,
+        text=True,
+    )
     assert result.returncode == 0, result.stderr
     out = result.stdout
     assert out.startswith("exhibit kiosk: OK (updated ")
-    for text in ("attract", "hopf", "59.8", "16.9 ms", "1 d 2 h", "hidraw://2341:8037",
-                 "waiting", "connected", "0 GL errors, 183 MB resident, 23 open files", str(path)):
+    for text in (
+        "attract",
+        "hopf",
+        "59.8",
+        "16.9 ms",
+        "1 d 2 h",
+        "hidraw://2341:8037",
+        "waiting",
+        "connected",
+        "0 GL errors, 183 MB resident, 23 open files",
+        str(path),
+    ):
         assert text in out
     assert result.stderr == ""
 
@@ -298,6 +344,7 @@ def test_status_max_age_zero_is_refused_and_max_lost_zero_is_not(capsys, tmp_pat
 
 # ---------------------------------------------------------------------- devices missing
 
+
 def devices(*entries) -> list[dict]:
     return [dict(zip(("name", "url", "state", "state_s", "missing_s"), e)) for e in entries]
 
@@ -307,42 +354,63 @@ CONTROLLER = "serial:///dev/exhibit-controller?baud=115200"
 
 def test_status_exits_3_when_a_device_is_lost_for_longer_than_max_lost(cli, tmp_path):
     path = tmp_path / "health.json"
-    write_health(path, sample(devices=devices(("controller", CONTROLLER, "lost", 125.0, 125.0),
-                                              ("kb", "keyboard://", "connected", 9.0, None))))
+    write_health(
+        path,
+        sample(
+            devices=devices(
+                ("controller", CONTROLLER, "lost", 125.0, 125.0),
+                ("kb", "keyboard://", "connected", 9.0, None),
+            )
+        ),
+    )
     result = status(cli, path)
     assert result.returncode == 3
     assert result.stdout.startswith("exhibit kiosk: DEVICE MISSING (updated ")
     assert f"{CONTROLLER}  lost for 2 min 5 s" in result.stdout
     assert "keyboard://" in result.stdout and "connected\n" in result.stdout
-    assert result.stderr == (f"exhibit status: DEVICE MISSING: controller ({CONTROLLER}) lost "
-                             "for 2 min 5 s (more than 60 s)\n")
+    assert result.stderr == (
+        f"exhibit status: DEVICE MISSING: controller ({CONTROLLER}) lost "
+        "for 2 min 5 s (more than 60 s)\n"
+    )
     assert status(cli, path, "--max-lost", "200").returncode == 0
     assert status(cli, path, "--max-lost", "124").returncode == 3
 
 
 def test_status_tells_waiting_from_lost(cli, tmp_path):
     path = tmp_path / "health.json"
-    write_health(path, sample(devices=devices(
-        ("controller", CONTROLLER, "lost", 1.5, 61.5),
-        ("knobs", "hidraw://2341:8037", "waiting", 3700.0, 3700.0))))
+    write_health(
+        path,
+        sample(
+            devices=devices(
+                ("controller", CONTROLLER, "lost", 1.5, 61.5),
+                ("knobs", "hidraw://2341:8037", "waiting", 3700.0, 3700.0),
+            )
+        ),
+    )
     result = status(cli, path)
     assert result.returncode == 3
-    assert re.search(r"hidraw://2341:8037 +waiting for 1 h 1 min \(never connected\)\n",
-                     result.stdout)
+    assert re.search(
+        r"hidraw://2341:8037 +waiting for 1 h 1 min \(never connected\)\n", result.stdout
+    )
     assert re.search(r"controller\?baud=115200 +lost for 1 min 1 s\n", result.stdout)
     assert result.stderr.count("\n") == 1
     assert f"controller ({CONTROLLER}) lost for 1 min 1 s (more than 60 s); " in result.stderr
-    assert "knobs (hidraw://2341:8037) waiting (never connected since the start) for 1 h 1 min" \
+    assert (
+        "knobs (hidraw://2341:8037) waiting (never connected since the start) for 1 h 1 min"
         in result.stderr
+    )
     data = json.loads(status(cli, path, "--json").stdout)
     assert [(m["device"], m["state"]) for m in data["devices_missing"]] == [
-        ("controller", "lost"), ("knobs", "waiting")]
+        ("controller", "lost"),
+        ("knobs", "waiting"),
+    ]
 
 
 def test_the_file_age_counts_towards_the_time_missing(cli, tmp_path):
     path = tmp_path / "health.json"
-    write_health(path, sample(time=time.time() - 5,
-                              devices=devices(("c", CONTROLLER, "lost", 57.0, 57.0))))
+    write_health(
+        path, sample(time=time.time() - 5, devices=devices(("c", CONTROLLER, "lost", 57.0, 57.0)))
+    )
     assert status(cli, path).returncode == 3  # 57 s as written, 62 s by now
 
 
@@ -356,8 +424,10 @@ def test_a_short_loss_and_a_reconnect_in_progress(cli, tmp_path):
 
 def test_stale_wins_over_a_missing_device(cli, tmp_path):
     path = tmp_path / "health.json"
-    write_health(path, sample(time=time.time() - 60,
-                              devices=devices(("c", CONTROLLER, "lost", 500.0, 500.0))))
+    write_health(
+        path,
+        sample(time=time.time() - 60, devices=devices(("c", CONTROLLER, "lost", 500.0, 500.0))),
+    )
     result = status(cli, path)
     assert result.returncode == 1 and "STALE" in result.stderr and "DEVICE" not in result.stderr
 
@@ -371,13 +441,19 @@ def test_an_older_kiosks_file_without_durations_is_read_as_before(cli, tmp_path)
     assert result.returncode == 0 and f"{CONTROLLER}  lost\n" in result.stdout
 
 
-@pytest.mark.parametrize("device, message", [
-    ({"url": "x", "state": "lost", "missing_s": "long"}, "devices[0].missing_s': expected a num"),
-    ({"url": "x", "state": "lost", "missing_s": -1}, "devices[0].missing_s': expected seconds"),
-    ({"url": "x", "state": "lost", "state_s": 1e300}, "devices[0].state_s': expected seconds"),
-    ({"url": "x", "state": "lost", "state_s": True}, "devices[0].state_s': expected a number"),
-    ({"url": "x", "state": "lost", "name": 7}, "devices[0].name': expected a string"),
-])
+@pytest.mark.parametrize(
+    "device, message",
+    [
+        (
+            {"url": "x", "state": "lost", "missing_s": "long"},
+            "devices[0].missing_s': expected a num",
+        ),
+        ({"url": "x", "state": "lost", "missing_s": -1}, "devices[0].missing_s': expected seconds"),
+        ({"url": "x", "state": "lost", "state_s": 1e300}, "devices[0].state_s': expected seconds"),
+        ({"url": "x", "state": "lost", "state_s": True}, "devices[0].state_s': expected a number"),
+        ({"url": "x", "state": "lost", "name": 7}, "devices[0].name': expected a string"),
+    ],
+)
 def test_device_durations_are_checked_on_read(tmp_path, device, message):
     path = tmp_path / "health.json"
     path.write_text(json.dumps({"time": 1, "devices": [device]}))
@@ -387,13 +463,20 @@ def test_device_durations_are_checked_on_read(tmp_path, device, message):
 
 # ---------------------------------------------------------------------- hostile health files
 
+
 def test_status_strips_terminal_escapes_from_the_file(cli, tmp_path):
     """Escape sequences in the scene or a device name (set the title, clear the screen, a
     hyperlink, 8-bit CSI, bidi override) reach the staff terminal as plain text only."""
     path = tmp_path / "health.json"
-    hostile = sample(scene="\x1b]0;pwned\x07hopf\x1b[2J\x1b[H",
-                     devices=[{"url": "serial://\x1b]8;;http://x\x1b\\dev\x1b]8;;\x1b\\",
-                               "state": "conn\x9b31mected\r\nFAKE: ok\u202e\x7f\x00"}])
+    hostile = sample(
+        scene="\x1b]0;pwned\x07hopf\x1b[2J\x1b[H",
+        devices=[
+            {
+                "url": "serial://\x1b]8;;http://x\x1b\\dev\x1b]8;;\x1b\\",
+                "state": "conn\x9b31mected\r\nFAKE: ok\u202e\x7f\x00",
+            }
+        ],
+    )
     write_health(path, hostile)
     result = status(cli, path)
     assert result.returncode == 0, result.stderr
@@ -427,14 +510,19 @@ def test_status_refuses_a_non_regular_file_without_hanging(tmp_path, kind):
         os.mkfifo(path)
     elif kind == "socket":
         import socket
+
         with socket.socket(socket.AF_UNIX) as server:
             server.bind(str(path))  # the socket file stays after close
     elif kind == "symlink to dev/zero":
         path.symlink_to("/dev/zero")
     else:
         path = "/dev/zero"
-    result = subprocess.run([sys.executable, "-m", "exhibit", "status", "--file", str(path)],
-                            capture_output=True, text=True, timeout=30)
+    result = subprocess.run(
+        [sys.executable, "-m", "exhibit", "status", "--file", str(path)],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
     assert result.returncode == 1 and result.stdout == ""
     why = "No such device or address" if kind == "socket" else "not a regular file"
     assert result.stderr.startswith(f"exhibit status: BROKEN: cannot read {path}: {why}")
@@ -445,8 +533,19 @@ def test_status_survives_extreme_but_valid_numbers(cli, tmp_path):
     """The largest accepted values, negative ones and huge unknown keys print, not crash."""
     path = tmp_path / "health.json"
     big = float(health.MAX_NUMBER)
-    write_health(path, sample(fps=big, frame_ms_p95=-big, uptime_s=big, rss_kb=2**53,
-                              gl_errors=-(2**53), fds=0, pid=2**53, extra=10**4000))
+    write_health(
+        path,
+        sample(
+            fps=big,
+            frame_ms_p95=-big,
+            uptime_s=big,
+            rss_kb=2**53,
+            gl_errors=-(2**53),
+            fds=0,
+            pid=2**53,
+            extra=10**4000,
+        ),
+    )
     result = status(cli, path)
     assert result.returncode == 1  # pid 2**53 is not running
     assert "exhibit kiosk: STALE" in result.stdout and "STALE" in result.stderr
@@ -455,9 +554,15 @@ def test_status_survives_extreme_but_valid_numbers(cli, tmp_path):
 
 def test_status_shows_skipped_scenes_and_problems_safely(tmp_path, capsys):
     path = tmp_path / "health.json"
-    write_health(path, sample(scenes_failed=[{"scene": "hopf", "reason": "boom"}],
-                              problems=["scene hopf skipped: \x1b[2Jboom"], frames=120,
-                              frame_errors=3))
+    write_health(
+        path,
+        sample(
+            scenes_failed=[{"scene": "hopf", "reason": "boom"}],
+            problems=["scene hopf skipped: \x1b[2Jboom"],
+            frames=120,
+            frame_errors=3,
+        ),
+    )
     assert main(["status", "--file", str(path)]) == 0
     out = capsys.readouterr().out
     assert "scene hopf skipped: boom" in out and "\x1b" not in out
@@ -477,13 +582,28 @@ def test_the_health_file_is_not_written_through_a_planted_link(tmp_path):
 
 def test_status_shows_the_quality_level(tmp_path, capsys):
     path = tmp_path / "health.json"
-    write_health(path, sample(quality="scale-50", frame_ms=19.1, target_ms=16.67,
-                              quality_detail={"antialiasing": "fxaa", "mesh": 2,
-                                              "effects": "lean", "render_scale": 0.5,
-                                              "level": 6, "levels": 6, "pinned": False}))
+    write_health(
+        path,
+        sample(
+            quality="scale-50",
+            frame_ms=19.1,
+            target_ms=16.67,
+            quality_detail={
+                "antialiasing": "fxaa",
+                "mesh": 2,
+                "effects": "lean",
+                "render_scale": 0.5,
+                "level": 6,
+                "levels": 6,
+                "pinned": False,
+            },
+        ),
+    )
     assert main(["status", "--file", str(path), "--max-lost", "1e6"]) in (0, 3)
-    assert ("quality   scale-50 (level 6 of 6, auto; fxaa, mesh x0.5, lean, scale 0.5), "
-            "frames 19.1 ms for a 16.7 ms target") in capsys.readouterr().out
+    assert (
+        "quality   scale-50 (level 6 of 6, auto; fxaa, mesh x0.5, lean, scale 0.5), "
+        "frames 19.1 ms for a 16.7 ms target"
+    ) in capsys.readouterr().out
 
 
 def test_status_survives_an_odd_quality_detail(tmp_path, capsys):
@@ -495,6 +615,7 @@ def test_status_survives_an_odd_quality_detail(tmp_path, capsys):
 
 
 # ---------------------------------------------------------------------- targets never replaced
+
 
 @pytest.mark.parametrize("target", ["", "/", ".", "..", "some/folder/"])
 def test_status_prometheus_refuses_a_name_that_is_no_file(capsys, tmp_path, target):
@@ -514,8 +635,11 @@ def _special_targets(tmp_path):
     folder.mkdir()
     link = tmp_path / "link.prom"
     link.symlink_to(fifo)
-    targets = {"fifo": (fifo, stat.S_ISFIFO), "folder": (folder, stat.S_ISDIR),
-               "link to a fifo": (link, stat.S_ISFIFO)}
+    targets = {
+        "fifo": (fifo, stat.S_ISFIFO),
+        "folder": (folder, stat.S_ISDIR),
+        "link to a fifo": (link, stat.S_ISFIFO),
+    }
     if os.geteuid() == 0:  # only root could replace a device node; it must not
         targets["/dev/null"] = (Path("/dev/null"), stat.S_ISCHR)
         targets["/dev/full"] = (Path("/dev/full"), stat.S_ISCHR)
@@ -542,13 +666,21 @@ def test_write_health_never_replaces_a_fifo_folder_or_device(tmp_path):
 
 # ---------------------------------------------------------------------- uptime
 
+
 def test_process_uptime_counts_from_the_process_start():
     """exhibit_uptime_seconds is "seconds since the kiosk process started": the kernel's start
     time of the process, so its start-up counts too."""
-    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(1.5); "
-                              "from exhibit.kiosk.health import process_uptime; "
-                              "print(process_uptime())"],
-                             stdout=subprocess.PIPE, text=True)
+    child = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import time; time.sleep(1.5); "
+            "from exhibit.kiosk.health import process_uptime; "
+            "print(process_uptime())",
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+    )
     time.sleep(0.5)
     seen = health.process_uptime(child.pid)
     out, _ = child.communicate(timeout=60)
@@ -582,5 +714,14 @@ def test_the_kiosk_writes_what_the_model_reads(tmp_path, monkeypatch):
     k.run(max_frames=30)
     data = read_health(tmp_path / "health.json")
     assert not data.model_extra, sorted(data.model_extra)
-    assert data.model_fields_set >= {"time", "pid", "fps", "devices", "uptime_s", "frames",
-                                     "quality", "target_ms", "language"}
+    assert data.model_fields_set >= {
+        "time",
+        "pid",
+        "fps",
+        "devices",
+        "uptime_s",
+        "frames",
+        "quality",
+        "target_ms",
+        "language",
+    }

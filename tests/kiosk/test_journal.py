@@ -31,9 +31,9 @@ def decode(data: bytes) -> dict[str, str]:
             i = end + 1
         else:
             key = line
-            (size,) = struct.unpack("<Q", data[end + 1:end + 9])
-            value = data[end + 9:end + 9 + size]
-            assert data[end + 9 + size:end + 10 + size] == b"\n"
+            (size,) = struct.unpack("<Q", data[end + 1 : end + 9])
+            value = data[end + 9 : end + 9 + size]
+            assert data[end + 9 + size : end + 10 + size] == b"\n"
             i = end + 10 + size
         fields[key.decode()] = value.decode("utf-8")
     return fields
@@ -54,7 +54,7 @@ def journald(tmp_path):
         data, ancdata, _, _ = server.recvmsg(1 << 20, socket.CMSG_SPACE(fds.itemsize))
         for level, kind, payload in ancdata:
             if level == socket.SOL_SOCKET and kind == socket.SCM_RIGHTS:
-                fds.frombytes(payload[:len(payload) - len(payload) % fds.itemsize])
+                fds.frombytes(payload[: len(payload) - len(payload) % fds.itemsize])
         if fds:
             assert data == b""
             with os.fdopen(fds[0], "rb") as memfd:
@@ -88,10 +88,17 @@ def clean_context():
 
 # ---------------------------------------------------------------------- the protocol
 
+
 def test_encode_plain_and_binary_safe_values():
     data = encode({"MESSAGE": "hello", "TRACE": "line 1\nline 2", "N": 3, "EMPTY": ""})
-    assert data == (b"MESSAGE=hello\n" + b"TRACE\n" + struct.pack("<Q", 13) + b"line 1\nline 2\n"
-                    + b"N=3\n" + b"EMPTY=\n")
+    assert data == (
+        b"MESSAGE=hello\n"
+        + b"TRACE\n"
+        + struct.pack("<Q", 13)
+        + b"line 1\nline 2\n"
+        + b"N=3\n"
+        + b"EMPTY=\n"
+    )
     assert decode(data) == {"MESSAGE": "hello", "TRACE": "line 1\nline 2", "N": "3", "EMPTY": ""}
 
 
@@ -104,14 +111,23 @@ def test_values_are_utf8_even_with_a_lone_surrogate():
     assert decode(encode({"MESSAGE": "scène \ud800 🌀"})) == {"MESSAGE": "scène ? 🌀"}
 
 
-@pytest.mark.parametrize("level, priority", [
-    (logging.CRITICAL, 2), (logging.ERROR, 3), (logging.WARNING, 4), (logging.INFO, 6),
-    (logging.DEBUG, 7), (5, 7)])
+@pytest.mark.parametrize(
+    "level, priority",
+    [
+        (logging.CRITICAL, 2),
+        (logging.ERROR, 3),
+        (logging.WARNING, 4),
+        (logging.INFO, 6),
+        (logging.DEBUG, 7),
+        (5, 7),
+    ],
+)
 def test_levels_become_syslog_priorities(level, priority):
     assert journal.priority(level) == priority
 
 
 # ---------------------------------------------------------------------- the handler
+
 
 def test_a_record_arrives_with_its_fields(journald, logger):
     handler = JournalHandler(journald.path, identifier="exhibit")
@@ -185,6 +201,7 @@ def test_a_full_journal_never_blocks_the_caller(journald, logger):
 
 # ---------------------------------------------------------------------- install
 
+
 @pytest.fixture
 def stream(tmp_path):
     with open(tmp_path / "stderr", "w") as f:
@@ -211,8 +228,9 @@ def test_install_replaces_the_stderr_handler_when_stderr_is_the_journal(journald
 
 
 @pytest.mark.parametrize("case", ["no variable", "another file", "garbage", "no socket"])
-def test_install_leaves_logging_alone_unless_stderr_is_the_journal(journald, logger, stream,
-                                                                   tmp_path, case):
+def test_install_leaves_logging_alone_unless_stderr_is_the_journal(
+    journald, logger, stream, tmp_path, case
+):
     old = logging.StreamHandler(stream)
     logger.addHandler(old)
     env, path = journal_stream(stream), journald.path
@@ -230,6 +248,7 @@ def test_install_leaves_logging_alone_unless_stderr_is_the_journal(journald, log
 
 
 # ---------------------------------------------------------------------- the kiosk
+
 
 @pytest.fixture
 def kiosk_journal(journald):

@@ -11,17 +11,18 @@ import pytest
 from exhibit.cli import main
 from exhibit.errors import ConfigError
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.kiosk.language import (SOURCE, Catalogue, Translator, coverage_problems,
-                                    load_catalogue)
+from exhibit.kiosk.language import SOURCE, Catalogue, Translator, coverage_problems, load_catalogue
 from exhibit.render.target import Key
 
 SHIPPED = Path(__file__).resolve().parents[2] / "configs"
 
 
 def test_the_translator_cycles_and_falls_back_to_english():
-    catalogues = {SOURCE: Catalogue(SOURCE, "English"),
-                  "de": Catalogue("de", "Deutsch", {"Closer still.": "Noch näher."})}
-    tr = Translator(catalogues, ["en", "de", "fr"])   # fr has no catalogue: not offered
+    catalogues = {
+        SOURCE: Catalogue(SOURCE, "English"),
+        "de": Catalogue("de", "Deutsch", {"Closer still.": "Noch näher."}),
+    }
+    tr = Translator(catalogues, ["en", "de", "fr"])  # fr has no catalogue: not offered
     assert tr.order == ["en", "de"] and tr("Closer still.") == "Closer still."
     assert tr.next() == "de" and tr("Closer still.") == "Noch näher."
     assert tr("Not translated.") == "Not translated." and tr("") == ""
@@ -59,24 +60,31 @@ def test_check_config_names_a_missing_translation_and_a_glyph_the_font_lacks(tmp
     assert f"{catalogue}: text.'4D axes': the font has no glyph for '軸'" in out
 
 
-@pytest.mark.parametrize("catalogue, fragment", [
-    ('language = "yy"\nname = "X"\n', "language: 'yy' does not match the file name (xx.toml)"),
-    ('language = "xx"\n', "name"),
-    ('language = "xx"\nname = "X"\n[text]\n"a" = 3\n', "text.a"),
-    ('language = "xx"\nname = "X"\n[text]\n"a" = "b\\u0007"\n', "text.a"),
-])
+@pytest.mark.parametrize(
+    "catalogue, fragment",
+    [
+        ('language = "yy"\nname = "X"\n', "language: 'yy' does not match the file name (xx.toml)"),
+        ('language = "xx"\n', "name"),
+        ('language = "xx"\nname = "X"\n[text]\n"a" = 3\n', "text.a"),
+        ('language = "xx"\nname = "X"\n[text]\n"a" = "b\\u0007"\n', "text.a"),
+    ],
+)
 def test_a_broken_catalogue_is_named_by_file_and_key(tmp_path, catalogue, fragment):
     with pytest.raises(ConfigError) as info:
         load_kiosk_config(site(tmp_path, catalogue))
-    assert any(str(tmp_path / "languages" / "xx.toml") in p and fragment in p
-               for p in info.value.problems), info.value.problems
+    assert any(
+        str(tmp_path / "languages" / "xx.toml") in p and fragment in p for p in info.value.problems
+    ), info.value.problems
 
 
-@pytest.mark.parametrize("text, key", [
-    ('shown = ["en", "deutsch"]', "languages.shown"),
-    ("switch_after_s = 1e-9", "languages.switch_after_s: must be 0 (buttons only) or at least"),
-    ("switch_after_s = nan", "languages.switch_after_s"),
-])
+@pytest.mark.parametrize(
+    "text, key",
+    [
+        ('shown = ["en", "deutsch"]', "languages.shown"),
+        ("switch_after_s = 1e-9", "languages.switch_after_s: must be 0 (buttons only) or at least"),
+        ("switch_after_s = nan", "languages.switch_after_s"),
+    ],
+)
 def test_the_languages_section_is_checked(tmp_path, text, key):
     path = tmp_path / "kiosk.toml"
     path.write_text(f"[languages]\n{text}\n")
@@ -108,7 +116,7 @@ def test_attract_mode_changes_language_on_its_timer(headless, tmp_path):
     assert run.kiosk.translate.language == "en"
     run.run(1.5)
     assert run.kiosk.translate.language == "de"
-    assert run.target.drawn[3].caption == "Noch näher."   # the test timeline's caption
+    assert run.target.drawn[3].caption == "Noch näher."  # the test timeline's caption
 
 
 def test_the_health_file_says_the_language_and_the_session_writer_counts(headless, tmp_path):
@@ -123,7 +131,7 @@ def test_the_health_file_says_the_language_and_the_session_writer_counts(headles
     run.kiosk.health_path = tmp_path / "health.json"
     run.target.post(Key("l", True))
     run.run(1.5)
-    assert writer.ready.wait(5.0)   # recording only once the database is open
+    assert writer.ready.wait(5.0)  # recording only once the database is open
     run.kiosk._report(run.clock())
     health = json.loads((tmp_path / "health.json").read_text())
     assert health["language"] == "de" and health["sessions"]["recording"]
@@ -140,7 +148,7 @@ def test_the_next_visitor_finds_the_museums_language(headless, tmp_path):
     run = HeadlessKiosk(headless, tmp_path)
     run.run(1.0)
     assert run.frame.mode == "attract" and run.target.drawn[3].caption == "Closer still."
-    for name in ("q", "l"):   # turn θ1 (the takeover), then the language key
+    for name in ("q", "l"):  # turn θ1 (the takeover), then the language key
         run.target.post(Key(name, True))
         run.target.post(Key(name, False))
         run.run(0.3)
@@ -155,8 +163,11 @@ def test_the_next_visitor_finds_the_museums_language(headless, tmp_path):
 
 @pytest.mark.parametrize("blank", ['""', '"   "', '"\\n\\t "'])
 def test_an_empty_translation_is_refused_by_its_english_key(tmp_path, capsys, blank):
-    german = (SHIPPED / "languages" / "de.toml").read_text().replace('language = "de"',
-                                                                     'language = "xx"')
+    german = (
+        (SHIPPED / "languages" / "de.toml")
+        .read_text()
+        .replace('language = "de"', 'language = "xx"')
+    )
     line = '"When a ball meets a pipe" = "Wenn eine Kugel auf ein Rohr trifft"'
     assert line in german
     german = german.replace(line, f'"When a ball meets a pipe" = {blank}')

@@ -14,7 +14,6 @@ from exhibit.render.target import CloseRequest, Focus, Key
 from tests.kiosk.support import IDLE_S, SIZE, HeadlessKiosk
 
 
-
 @pytest.fixture
 def loop(headless, tmp_path):
     return HeadlessKiosk(headless, tmp_path)
@@ -35,7 +34,7 @@ def test_a_key_takes_over_and_idle_time_gives_the_exhibit_back(loop):
     assert loop.frame.mode == "visitor" and loop.frame.view.angles[0] > before + 0.1
     loop.target.post(Key("q", False))
     loop.run(IDLE_S - 1.0)
-    assert loop.frame.mode == "visitor"     # not idle long enough yet
+    assert loop.frame.mode == "visitor"  # not idle long enough yet
     loop.run(2.5)
     assert loop.frame.mode == "attract"
 
@@ -60,7 +59,7 @@ def test_shift_q_turns_and_a_release_under_ctrl_lets_go(loop):
     loop.target.post(Key("q", True, frozenset({"shift"})))
     loop.run(1.0)
     assert loop.frame.mode == "visitor" and loop.frame.view.angles[0] > before + 0.1
-    loop.target.post(Key("q", False, frozenset({"ctrl"})))   # Ctrl pressed before letting go
+    loop.target.post(Key("q", False, frozenset({"ctrl"})))  # Ctrl pressed before letting go
     loop.run(0.3)
     held = loop.frame.view.angles[0]
     loop.run(1.0)
@@ -78,7 +77,7 @@ def test_the_next_scene_key_switches_scene(loop):
 def test_losing_the_focus_lets_go_of_every_held_key(loop):
     loop.target.post(Key("q", True))
     loop.run(1.0)
-    loop.target.post(Focus(False))   # the release never comes: another window has the keys
+    loop.target.post(Focus(False))  # the release never comes: another window has the keys
     loop.run(0.3)
     held = loop.frame.view.angles[0]
     loop.run(1.0)
@@ -92,11 +91,14 @@ def test_a_close_request_is_refused_and_the_loop_goes_on(loop):
     assert not loop.target.should_close and loop.frame.mode == "attract"
 
 
-@pytest.mark.parametrize("mods, quits", [
-    (frozenset({"ctrl", "alt", "shift"}), True),
-    (frozenset({"ctrl", "alt"}), False),       # one modifier short
-    (frozenset(), False),                       # a visitor's plain q
-])
+@pytest.mark.parametrize(
+    "mods, quits",
+    [
+        (frozenset({"ctrl", "alt", "shift"}), True),
+        (frozenset({"ctrl", "alt"}), False),  # one modifier short
+        (frozenset(), False),  # a visitor's plain q
+    ],
+)
 def test_the_maintenance_keys_end_the_loop(loop, mods, quits):
     loop.target.post(Key("q", True, mods))
     code = loop.kiosk.run(max_frames=20)
@@ -122,17 +124,17 @@ def test_the_shipped_collision_timeline_travels_through_time(headless, tmp_path)
     def border() -> float:
         """How much of the inset's top edge is its border colour."""
         rect = run.kiosk.inset.rect
-        row = run.window.image[int(rect.y0), int(rect.x0) + 2:int(rect.x1) - 2].astype(int)
+        row = run.window.image[int(rect.y0), int(rect.x0) + 2 : int(rect.x1) - 2].astype(int)
         return float((abs(row - [204, 209, 224]).max(axis=1) < 12).mean())
 
     run.run_until(20.0, step=0.5)
     assert run.kiosk.state.frame.view.slice_axis is None and glow() < 5
-    assert border() < 0.5                   # no inset while nothing slices
+    assert border() < 0.5  # no inset while nothing slices
     run.run_until(53.0, step=0.5)
     frame = run.kiosk.state.frame
     assert frame.view.slice_axis == 3 and frame.view.slice_at == 0.0
     assert glow() > 40, glow()
-    assert border() > 0.95                  # the inset: the 3D world at that moment
+    assert border() > 0.95  # the inset: the 3D world at that moment
 
 
 def test_release_frees_every_mesh_the_kiosk_uploaded(headless, tmp_path):

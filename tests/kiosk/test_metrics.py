@@ -36,18 +36,45 @@ UNITS = ("exhibit-metrics.service", "exhibit-metrics.timer")
 
 
 def sample(**changes) -> dict:
-    data = {"time": time.time(), "pid": os.getpid(), "fps": 59.8, "frame_ms_p95": 16.9,
-            "mode": "attract", "scene": "hopf",
-            "devices": [
-                {"name": "controller", "url": "serial:///dev/exhibit-controller?baud=115200",
-                 "state": "lost", "state_s": 12.5, "missing_s": 125.0},
-                {"name": "knobs", "url": "hidraw://2341:8037", "state": "waiting",
-                 "state_s": 1.5, "missing_s": 3600.0},
-                {"name": "keyboard", "url": "keyboard://", "state": "connected",
-                 "state_s": 3600.0, "missing_s": None}],
-            "uptime_s": 3600.2, "gl_errors": 1, "rss_kb": 187_392, "fds": 23, "frames": 216_000,
-            "frame_errors": 2, "problems": ["scene veronese skipped: boom"],
-            "scenes_failed": [{"scene": "veronese", "reason": "boom"}]}
+    data = {
+        "time": time.time(),
+        "pid": os.getpid(),
+        "fps": 59.8,
+        "frame_ms_p95": 16.9,
+        "mode": "attract",
+        "scene": "hopf",
+        "devices": [
+            {
+                "name": "controller",
+                "url": "serial:///dev/exhibit-controller?baud=115200",
+                "state": "lost",
+                "state_s": 12.5,
+                "missing_s": 125.0,
+            },
+            {
+                "name": "knobs",
+                "url": "hidraw://2341:8037",
+                "state": "waiting",
+                "state_s": 1.5,
+                "missing_s": 3600.0,
+            },
+            {
+                "name": "keyboard",
+                "url": "keyboard://",
+                "state": "connected",
+                "state_s": 3600.0,
+                "missing_s": None,
+            },
+        ],
+        "uptime_s": 3600.2,
+        "gl_errors": 1,
+        "rss_kb": 187_392,
+        "fds": 23,
+        "frames": 216_000,
+        "frame_errors": 2,
+        "problems": ["scene veronese skipped: boom"],
+        "scenes_failed": [{"scene": "veronese", "reason": "boom"}],
+    }
     data.update(changes)
     return data
 
@@ -66,11 +93,15 @@ def parse(text: str) -> dict[tuple[str, tuple], float]:
             continue
         m = re.fullmatch(r"([a-zA-Z_:][a-zA-Z0-9_:]*)(?:\{(.*)\})? (\S+)", line)
         assert m and m.group(1) == family, line
-        labels = tuple(sorted(
-            (k, re.sub(r"\\(.)", lambda e: {"n": "\n"}.get(e.group(1), e.group(1)), v))
-            for k, v in re.findall(label, m.group(2) or "")))
-        assert ",".join(f'{k}="{v}"' for k, v in re.findall(label, m.group(2) or "")) == \
-            (m.group(2) or ""), line
+        labels = tuple(
+            sorted(
+                (k, re.sub(r"\\(.)", lambda e: {"n": "\n"}.get(e.group(1), e.group(1)), v))
+                for k, v in re.findall(label, m.group(2) or "")
+            )
+        )
+        assert ",".join(f'{k}="{v}"' for k, v in re.findall(label, m.group(2) or "")) == (
+            m.group(2) or ""
+        ), line
         key = (family, labels)
         assert key not in out, f"duplicate series {key}"
         out[key] = float(m.group(3))
@@ -83,8 +114,9 @@ def promtool(text: str) -> None:
     tool = shutil.which("promtool")
     if tool is None:
         return
-    result = subprocess.run([tool, "check", "metrics"], input=text, capture_output=True,
-                            text=True, timeout=60)
+    result = subprocess.run(
+        [tool, "check", "metrics"], input=text, capture_output=True, text=True, timeout=60
+    )
     assert result.returncode == 0 and not result.stdout.strip(), result.stdout + result.stderr
 
 
@@ -96,15 +128,18 @@ def client_parse(text: str) -> dict:
 
 # ---------------------------------------------------------------------- rendering
 
+
 def test_promtool_is_there():
     """The other tests run `promtool check metrics` on what they render when it is installed;
     this one says so when it is not."""
     if shutil.which("promtool") is None:
-        pytest.skip("promtool is not installed (Debian: apt-get install prometheus); the "
-                    "metrics are checked by the test's own reader only")
+        pytest.skip(
+            "promtool is not installed (Debian: apt-get install prometheus); the "
+            "metrics are checked by the test's own reader only"
+        )
     promtool("# HELP x y\n# TYPE x gauge\nx 1\n")
     with pytest.raises(AssertionError):
-        promtool("x{a=\"b} 1\n")  # the check can fail
+        promtool('x{a="b} 1\n')  # the check can fail
 
 
 def at(got: dict, name: str, **labels) -> float:
@@ -135,8 +170,9 @@ def test_a_fresh_file_gives_every_family():
     keyboard = {"device": "keyboard", "url": "keyboard://"}
     assert at(got, "exhibit_device_missing_seconds", **keyboard) == 0
     # A full state set per device: an alert can test == 1 on any state.
-    assert [at(got, "exhibit_device_state", **keyboard, state=s.value) for s in State] == \
-        [int(s is State.CONNECTED) for s in State]
+    assert [at(got, "exhibit_device_state", **keyboard, state=s.value) for s in State] == [
+        int(s is State.CONNECTED) for s in State
+    ]
     assert at(got, "exhibit_uptime_seconds") == 3600.2
     assert at(got, "exhibit_frames_total") == 216_000
     assert at(got, "exhibit_frame_errors_total") == 2
@@ -157,8 +193,9 @@ def test_without_a_fresh_file_up_is_0_and_the_status_says_why(status):
     promtool(text)
     got = parse(text)
     assert at(got, "exhibit_up") == 0
-    assert {s: at(got, "exhibit_health", status=s) for s in metrics.HEALTH_STATUSES} == \
-        {s: int(s == status) for s in metrics.HEALTH_STATUSES}
+    assert {s: at(got, "exhibit_health", status=s) for s in metrics.HEALTH_STATUSES} == {
+        s: int(s == status) for s in metrics.HEALTH_STATUSES
+    }
     # A dead kiosk's numbers are not current: only when it was last heard of.
     names = {name for name, _ in got}
     expected = {"exhibit_up", "exhibit_health"}
@@ -175,26 +212,61 @@ def test_no_scene_is_the_notice_mode_and_no_scene_label():
 
 
 def test_an_older_kiosks_file_gives_states_without_durations():
-    old = sample(devices=[{"url": "serial:///dev/x", "state": "lost"},
-                          {"url": "keyboard://", "state": "connected"}], frames=None)
+    old = sample(
+        devices=[
+            {"url": "serial:///dev/x", "state": "lost"},
+            {"url": "keyboard://", "state": "connected"},
+        ],
+        frames=None,
+    )
     text = metrics.render(old, "ok", 1.0)
     promtool(text)
     got = parse(text)
-    assert at(got, "exhibit_device_state", device="serial:///dev/x", url="serial:///dev/x",
-              state="lost") == 1
-    assert not any(name in ("exhibit_device_state_seconds", "exhibit_device_missing_seconds",
-                            "exhibit_frames_total") for name, _ in got)
+    assert (
+        at(
+            got,
+            "exhibit_device_state",
+            device="serial:///dev/x",
+            url="serial:///dev/x",
+            state="lost",
+        )
+        == 1
+    )
+    assert not any(
+        name
+        in (
+            "exhibit_device_state_seconds",
+            "exhibit_device_missing_seconds",
+            "exhibit_frames_total",
+        )
+        for name, _ in got
+    )
 
 
-HOSTILE = ['ho"pf', "back\\slash", "new\nline", "\x1b]0;title\x07esc", "tab\there",
-           "\x00nul\x7fdel\x85nel\x9bcsi", "bidi\u202eoverride", "lone\ud800surrogate",
-           "émoji 🌀 ünïcode", "", "x" * 1000, 'trailing\\', '\\"', "\\n"]
+HOSTILE = [
+    'ho"pf',
+    "back\\slash",
+    "new\nline",
+    "\x1b]0;title\x07esc",
+    "tab\there",
+    "\x00nul\x7fdel\x85nel\x9bcsi",
+    "bidi\u202eoverride",
+    "lone\ud800surrogate",
+    "émoji 🌀 ünïcode",
+    "",
+    "x" * 1000,
+    "trailing\\",
+    '\\"',
+    "\\n",
+]
 
 
 @pytest.mark.parametrize("text", HOSTILE)
 def test_label_values_are_escaped_and_cleaned(text):
-    data = sample(scene=text, devices=[{"name": text, "url": text, "state": text,
-                                        "state_s": 1, "missing_s": 1}])
+    data = sample(
+        scene=text,
+        devices=[{"name": text, "url": text, "state": text, "state_s": 1, "missing_s": 1}],
+    )
     out = metrics.render(data, "ok", 0.0)
     out.encode("utf-8")  # valid UTF-8 (a lone surrogate would not encode)
     promtool(out)
@@ -208,13 +280,18 @@ def test_label_values_are_escaped_and_cleaned(text):
     assert states == {metrics._clean(text)}
 
 
-@settings(max_examples=examples(200), deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.too_slow])
-@given(names=st.lists(st.text(max_size=30), min_size=1, max_size=5),
-       scene=st.text(max_size=40))
+@settings(
+    max_examples=examples(200),
+    deadline=None,
+    derandomize=True,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+@given(names=st.lists(st.text(max_size=30), min_size=1, max_size=5), scene=st.text(max_size=40))
 def test_any_strings_give_a_parseable_file_without_duplicate_series(names, scene):
-    devices = [{"name": n, "url": "x", "state": "connected", "state_s": 1.0, "missing_s": None}
-               for n in names]
+    devices = [
+        {"name": n, "url": "x", "state": "connected", "state_s": 1.0, "missing_s": None}
+        for n in names
+    ]
     out = metrics.render(sample(scene=scene, devices=devices), "ok", 0.0)
     got = parse(out)  # raises on a duplicate series or a malformed line
     assert sum(1 for name, _ in got if name == "exhibit_device_state_seconds") == len(names)
@@ -222,8 +299,11 @@ def test_any_strings_give_a_parseable_file_without_duplicate_series(names, scene
 
 def test_extreme_values_are_written_as_numbers():
     big = float(2**53)
-    out = metrics.render(sample(fps=big, frame_ms_p95=-big, uptime_s=0, rss_kb=-1, fds=-1,
-                                frames=2**53, devices=[]), "ok", 0.0)
+    out = metrics.render(
+        sample(fps=big, frame_ms_p95=-big, uptime_s=0, rss_kb=-1, fds=-1, frames=2**53, devices=[]),
+        "ok",
+        0.0,
+    )
     promtool(out)
     got = parse(out)
     assert at(got, "exhibit_frames_total") == 2**53 and at(got, "exhibit_fps") == big
@@ -232,6 +312,7 @@ def test_extreme_values_are_written_as_numbers():
 
 
 # ---------------------------------------------------------------------- exhibit status --prometheus
+
 
 def run_status(*args) -> int:
     return main(["status", *args])
@@ -301,6 +382,7 @@ def test_status_prometheus_with_json_prints_the_json_too(tmp_path, capsys):
 
 # ---------------------------------------------------------------------- the systemd units
 
+
 def unavailable(reason: str):
     """Skip, except under CI=true, where these checks must really run."""
     if os.environ.get("CI") == "true":
@@ -316,8 +398,14 @@ def staged(tmp_path):
 
     if shutil.which("systemd-analyze") is None:
         unavailable("systemd-analyze is not installed (Debian: apt-get install systemd)")
-    host_units = next((p for p in (Path("/usr/lib/systemd/system"), Path("/lib/systemd/system"))
-                       if (p / "sysinit.target").exists()), None)
+    host_units = next(
+        (
+            p
+            for p in (Path("/usr/lib/systemd/system"), Path("/lib/systemd/system"))
+            if (p / "sysinit.target").exists()
+        ),
+        None,
+    )
     if host_units is None:
         unavailable("no systemd unit directory with sysinit.target on this machine")
     root = tmp_path / "root"
@@ -335,8 +423,9 @@ def staged(tmp_path):
 
 
 def analyze(root: Path, *args: str) -> subprocess.CompletedProcess:
-    return subprocess.run(["systemd-analyze", *args, f"--root={root}"], capture_output=True,
-                          text=True, timeout=60)
+    return subprocess.run(
+        ["systemd-analyze", *args, f"--root={root}"], capture_output=True, text=True, timeout=60
+    )
 
 
 def test_units_pass_systemd_analyze_verify(staged):
@@ -344,15 +433,18 @@ def test_units_pass_systemd_analyze_verify(staged):
     lines = [line for line in (result.stdout + result.stderr).splitlines() if "exhibit" in line]
     assert result.returncode == 0 and lines == [], result.stdout + result.stderr
     service = (staged / "etc/systemd/system/exhibit-metrics.service").read_text()
-    assert ("ExecStart=/srv/museum/exhibit/.venv/bin/exhibit status --prometheus "
-            "/var/lib/prometheus/node-exporter/exhibit.prom") in service
+    assert (
+        "ExecStart=/srv/museum/exhibit/.venv/bin/exhibit status --prometheus "
+        "/var/lib/prometheus/node-exporter/exhibit.prom"
+    ) in service
     assert "/opt/exhibit" not in service
 
 
 def test_the_service_scores_at_most_2_5(staged):
     result = analyze(staged, "security", "--offline=yes", "--no-pager", UNITS[0])
-    match = re.search(r"Overall exposure level for exhibit-metrics.service: (\d+\.\d+)",
-                      result.stdout)
+    match = re.search(
+        r"Overall exposure level for exhibit-metrics.service: (\d+\.\d+)", result.stdout
+    )
     assert match, result.stdout[-600:] + result.stderr[-600:]
     assert float(match.group(1)) <= 2.5
 
@@ -384,14 +476,36 @@ def test_status_runs_under_the_units_system_call_filter(tmp_path):
     syscalls.write_text("\n".join(sorted(calls)) + "\n")
     health, prom = tmp_path / "health.json", tmp_path / "exhibit.prom"
     write_health(health, sample())
-    options = ["--syscalls", str(syscalls), "--errno", service["SystemCallErrorNumber"][-1],
-               "--families", service["RestrictAddressFamilies"][-1].replace(" ", ",")]
+    options = [
+        "--syscalls",
+        str(syscalls),
+        "--errno",
+        service["SystemCallErrorNumber"][-1],
+        "--families",
+        service["RestrictAddressFamilies"][-1].replace(" ", ","),
+    ]
     assert yes(service, "MemoryDenyWriteExecute")
     options.append("--mdwe")
     result = subprocess.run(
-        [sys.executable, str(REPO / "tests/deploy/sandbox_exec.py"), *options, "--",
-         sys.executable, "-m", "exhibit", "status", "--file", str(health), "--prometheus",
-         str(prom)], capture_output=True, text=True, timeout=120, cwd=REPO)
+        [
+            sys.executable,
+            str(REPO / "tests/deploy/sandbox_exec.py"),
+            *options,
+            "--",
+            sys.executable,
+            "-m",
+            "exhibit",
+            "status",
+            "--file",
+            str(health),
+            "--prometheus",
+            str(prom),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=REPO,
+    )
     if result.returncode != 0 and "seccomp" in result.stderr and "libseccomp" in result.stderr:
         unavailable(f"no libseccomp here: {result.stderr.strip()[-200:]}")
     assert result.returncode == 0, result.stderr[-2000:]

@@ -95,8 +95,11 @@ class Clock:
 
 
 def test_ready_status_watchdog_stopping_reach_the_socket_from_this_pid(systemd):
-    env = {"NOTIFY_SOCKET": systemd.address, "WATCHDOG_USEC": "10000000",
-           "WATCHDOG_PID": str(os.getpid())}
+    env = {
+        "NOTIFY_SOCKET": systemd.address,
+        "WATCHDOG_USEC": "10000000",
+        "WATCHDOG_PID": str(os.getpid()),
+    }
     with Notifier.from_env(env) as notifier:
         assert notifier.enabled and notifier.watchdog_interval == 10.0
         assert notifier.ping_period == 5.0
@@ -104,7 +107,8 @@ def test_ready_status_watchdog_stopping_reach_the_socket_from_this_pid(systemd):
         assert systemd.receive() == (["READY=1", "STATUS=first frame"], os.getpid())
         assert notifier.status("60 fps, attract, hopf;\nserial:///dev/exhibit-controller connected")
         assert systemd.receive()[0] == [
-            "STATUS=60 fps, attract, hopf; serial:///dev/exhibit-controller connected"]
+            "STATUS=60 fps, attract, hopf; serial:///dev/exhibit-controller connected"
+        ]
         assert notifier.watchdog()
         assert systemd.receive() == (["WATCHDOG=1"], os.getpid())
         assert notifier.extend_timeout(30)
@@ -163,10 +167,10 @@ def test_failed_ping_is_retried_after_a_tenth_of_the_period(caplog):
     with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.notify"):
         assert not notifier.watchdog()
         clock.t += 0.4
-        assert not notifier.watchdog()   # not retried before 0.5 s ...
+        assert not notifier.watchdog()  # not retried before 0.5 s ...
         assert notifier.send_errors == 1
         clock.t += 0.1
-        assert not notifier.watchdog()   # ... but at 0.5 s, not 5 s
+        assert not notifier.watchdog()  # ... but at 0.5 s, not 5 s
         assert notifier.send_errors == 2
         notifier.ready()
         notifier.stopping()
@@ -196,16 +200,19 @@ def test_without_notify_socket_everything_is_a_cheap_no_op(monkeypatch):
     assert not notifier.stopping() and notifier.sent == 0 and notifier.send_errors == 0
 
 
-@pytest.mark.parametrize("env, enabled, interval", [
-    ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "3000000"}, True, 3.0),
-    ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "3000000", "WATCHDOG_PID": "1"}, True, None),
-    ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "3000000", "WATCHDOG_PID": "x"}, True, None),
-    ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "0"}, True, None),
-    ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "soon"}, True, None),
-    ({"NOTIFY_SOCKET": "relative/sock", "WATCHDOG_USEC": "3000000"}, False, None),
-    ({"NOTIFY_SOCKET": "/" + "x" * 200}, False, None),
-    ({"WATCHDOG_USEC": "3000000"}, False, None),  # a watchdog needs somewhere to ping
-])
+@pytest.mark.parametrize(
+    "env, enabled, interval",
+    [
+        ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "3000000"}, True, 3.0),
+        ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "3000000", "WATCHDOG_PID": "1"}, True, None),
+        ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "3000000", "WATCHDOG_PID": "x"}, True, None),
+        ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "0"}, True, None),
+        ({"NOTIFY_SOCKET": "@sock", "WATCHDOG_USEC": "soon"}, True, None),
+        ({"NOTIFY_SOCKET": "relative/sock", "WATCHDOG_USEC": "3000000"}, False, None),
+        ({"NOTIFY_SOCKET": "/" + "x" * 200}, False, None),
+        ({"WATCHDOG_USEC": "3000000"}, False, None),  # a watchdog needs somewhere to ping
+    ],
+)
 def test_from_env_accepts_only_what_systemd_would_send(env, enabled, interval, caplog):
     notifier = Notifier.from_env(env)
     assert notifier.enabled is enabled

@@ -23,8 +23,7 @@ from exhibit.kiosk import app, preparing
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.language import PREPARING
-from exhibit.kiosk.preparing import (InlinePreparer, Job, ProcessPreparer, run_job,
-                                     scene_jobs)
+from exhibit.kiosk.preparing import InlinePreparer, Job, ProcessPreparer, run_job, scene_jobs
 from exhibit.render.framer import Framer
 from exhibit.surfaces.mesh import Mesh4D
 from tests.kiosk.support import ROOT, FakeWindow, Notifier, make_config
@@ -49,10 +48,10 @@ def _config(tmp_path):
     path = make_config(tmp_path, "")
     shutil.copy(ROOT / "configs" / "attract" / "07-gallery.toml", path.parent / "attract")
     devices = path.parent / "devices" / "default.toml"
-    devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"',
-                              devices.read_text()))
-    text = path.read_text().replace('scenes = ["hopf", "clifford-torus"]',
-                                    'scenes = ["hopf", "clifford-torus", "veronese"]')
+    devices.write_text(re.sub(r'url = "sim://[^"]*"', 'url = "keyboard://"', devices.read_text()))
+    text = path.read_text().replace(
+        'scenes = ["hopf", "clifford-torus"]', 'scenes = ["hopf", "clifford-torus", "veronese"]'
+    )
     path.write_text(text)
     return load_kiosk_config(path)
 
@@ -77,9 +76,14 @@ def built(monkeypatch):
 
 def _kiosk(tmp_path, window=None):
     ticks = iter(np.arange(1e6) * 0.1)
-    return app.Kiosk(_config(tmp_path), window or Window(), clock=lambda: float(next(ticks)),
-                     notifier=Notifier(), health_path=tmp_path / "health.json",
-                     preparer=InlinePreparer)
+    return app.Kiosk(
+        _config(tmp_path),
+        window or Window(),
+        clock=lambda: float(next(ticks)),
+        notifier=Notifier(),
+        health_path=tmp_path / "health.json",
+        preparer=InlinePreparer,
+    )
 
 
 def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built):
@@ -171,15 +175,18 @@ def test_a_first_scene_that_fails_hands_the_first_frame_to_the_next(tmp_path, bu
     assert "hopf" not in k.state.content and k.state.frame.scene == "clifford-torus"
 
 
-@given(durations=st.lists(st.floats(1, 50), min_size=1, max_size=5),
-       at=st.floats(0, 500), new=st.floats(1, 50), index=st.integers(0, 5))
+@given(
+    durations=st.lists(st.floats(1, 50), min_size=1, max_size=5),
+    at=st.floats(0, 500),
+    new=st.floats(1, 50),
+    index=st.integers(0, 5),
+)
 @example(durations=[19.0, 1.0], at=19.0, new=45.66, index=0)  # a boundary, rounded badly
 def test_playlist_insert_keeps_the_timeline_playing_where_it_is(durations, at, new, index):
     from types import SimpleNamespace
 
     def timeline(name, duration):
-        return SimpleNamespace(name=name, duration=duration,
-                               at=lambda t, stepped=False: (t, name))
+        return SimpleNamespace(name=name, duration=duration, at=lambda t, stepped=False: (t, name))
 
     playlist = Playlist([timeline(f"t{i}", d) for i, d in enumerate(durations)], started=0.0)
     before, offset, _ = playlist.at(at)
@@ -243,8 +250,9 @@ def test_run_job_in_process_matches_the_cache(tmp_path, monkeypatch):
     first = run_job(job)
     again = run_job(job)
     assert first.error is None and again.error is None
-    assert np.array_equal(first.meshes[2].surfaces[0].positions,
-                          again.meshes[2].surfaces[0].positions)
+    assert np.array_equal(
+        first.meshes[2].surfaces[0].positions, again.meshes[2].surfaces[0].positions
+    )
     assert len(list(Path(tmp_path / "cache").glob("hopf-*.npz"))) == 1
 
 
@@ -286,8 +294,9 @@ def test_exhibit_prepare_fills_the_cache_the_kiosk_then_reads(tmp_path, monkeypa
     assert "1 of 2 scenes ready" in out
 
 
-def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(tmp_path, built,
-                                                                        monkeypatch):
+def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(
+    tmp_path, built, monkeypatch
+):
     """The first scene's other mesh levels arrive while a visitor turns it: their zoom stays;
     if those levels cannot be built, the scene keeps the one it has (not "skipped")."""
     built.broken.add("hopf")
@@ -314,18 +323,23 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(tmp_path
     assert k.problems == [] and k.scenes_failed == [] and "hopf" in k.state.content
 
 
-def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monkeypatch,
-                                                           caplog):
+def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monkeypatch, caplog):
     """A worker process that cannot start (no processes left, a sandbox that forbids it): the
     kiosk says so once and prepares the rest itself, one scene per frame, with no failed frame."""
+
     def refuse(self):
         raise OSError(11, "Resource temporarily unavailable")
 
     monkeypatch.setattr(ProcessPreparer, "_start", refuse)
     ticks = iter(np.arange(1e6) * 0.1)
-    k = app.Kiosk(_config(tmp_path), Window(), clock=lambda: float(next(ticks)),
-                  notifier=Notifier(), health_path=tmp_path / "health.json",
-                  preparer=ProcessPreparer)
+    k = app.Kiosk(
+        _config(tmp_path),
+        Window(),
+        clock=lambda: float(next(ticks)),
+        notifier=Notifier(),
+        health_path=tmp_path / "health.json",
+        preparer=ProcessPreparer,
+    )
     k.run(max_frames=8)
     assert caplog.text.count("the preparing process cannot run") == 1
     assert isinstance(k.content.preparer, InlinePreparer) and k.content.prepared_at is not None
@@ -341,10 +355,24 @@ def test_bench_startup_reports_rounds_ratios_and_the_prepared_time(tmp_path):
     path = make_config(tmp_path, "")
     with xvfb("1280x720x24") as display:
         result = subprocess.run(
-            [sys.executable, "-m", "exhibit", "bench", "startup", "--repeat", "1", "--json",
-             "--config", str(path)],
+            [
+                sys.executable,
+                "-m",
+                "exhibit",
+                "bench",
+                "startup",
+                "--repeat",
+                "1",
+                "--json",
+                "--config",
+                str(path),
+            ],
             env={**os.environ, "DISPLAY": display, "OPENBLAS_NUM_THREADS": "1"},
-            capture_output=True, text=True, timeout=600, cwd=tmp_path)
+            capture_output=True,
+            text=True,
+            timeout=600,
+            cwd=tmp_path,
+        )
     assert result.returncode == 0, result.stderr[-2000:]
     report = json.loads(result.stdout)
     assert len(report["cold_runs_s"]) == len(report["warm_runs_s"]) == 1

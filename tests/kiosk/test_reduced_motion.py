@@ -1,5 +1,6 @@
 """Reduced motion ([accessibility] reduced_motion) in the running kiosk loop: attract mode moves
-in slow steps, each pose held and cut, crossfaded, to the next; the text panels do not drift. The same
+in slow steps, each pose held and cut, crossfaded, to the next; the text panels do not drift.
+The same
 kiosk without it glides, so these tests fail without the feature."""
 
 from __future__ import annotations
@@ -40,8 +41,7 @@ def play(tmp_path, monkeypatch, reduced_motion: bool, seconds: float = 60.0):
     capture the outgoing picture for a crossfade."""
     clock = FakeClock(0.0)
     window = RecordingWindow()
-    k, _ = kiosk(tmp_path, monkeypatch, clock=clock, window=window,
-                 reduced_motion=reduced_motion)
+    k, _ = kiosk(tmp_path, monkeypatch, clock=clock, window=window, reduced_motion=reduced_motion)
     window.views, window.drifts = [], []
     frames = []
     for i in range(1, round(seconds / 0.1) + 1):
@@ -57,17 +57,19 @@ def play(tmp_path, monkeypatch, reduced_motion: bool, seconds: float = 60.0):
 def test_reduced_motion_holds_each_pose_and_crossfades_to_the_next(tmp_path, monkeypatch):
     k, window, frames = play(tmp_path, monkeypatch, reduced_motion=True)
     assert k.config.reduced_motion
-    moved = [t for (t, _, _), a, b in zip(frames[1:], window.views, window.views[1:])
-             if _camera(a) != _camera(b)]
+    moved = [
+        t
+        for (t, _, _), a, b in zip(frames[1:], window.views, window.views[1:])
+        if _camera(a) != _camera(b)
+    ]
     cuts = [t for t, cut, _ in frames if cut]
     # the view changes only in slow steps (the keyframes among them) and at the loop, each time
     # a cut...
     timeline = k.state.playlist.timelines[0]
     steps = [round(t, 6) for t in timeline.step_times()]
     assert moved == cuts
-    assert set(KEYFRAMES) <= set(cuts) <= {*steps, LOOP_S, *(round(LOOP_S + t, 6)
-                                                             for t in steps)}
-    assert len([t for t in cuts if t < LOOP_S]) > len(KEYFRAMES)   # steps between keyframes
+    assert set(KEYFRAMES) <= set(cuts) <= {*steps, LOOP_S, *(round(LOOP_S + t, 6) for t in steps)}
+    assert len([t for t in cuts if t < LOOP_S]) > len(KEYFRAMES)  # steps between keyframes
     # ...that the window crossfades: the outgoing picture captured, the new one fading in
     for (t, cut, captured), fade in zip(frames, window.fades):
         assert captured == cut, t
@@ -90,11 +92,14 @@ def test_reduced_motion_holds_each_pose_and_crossfades_to_the_next(tmp_path, mon
 def test_without_reduced_motion_the_same_timeline_glides(tmp_path, monkeypatch):
     k, window, frames = play(tmp_path, monkeypatch, reduced_motion=False)
     assert not k.config.reduced_motion
-    moved = [t for (t, cut, _), a, b in zip(frames[1:], window.views, window.views[1:])
-             if _camera(a) != _camera(b) and not cut]
-    assert len(moved) > 400          # the camera moves between keyframes, frame after frame
+    moved = [
+        t
+        for (t, cut, _), a, b in zip(frames[1:], window.views, window.views[1:])
+        if _camera(a) != _camera(b) and not cut
+    ]
+    assert len(moved) > 400  # the camera moves between keyframes, frame after frame
     assert [t for t, cut, _ in frames if cut] == [LOOP_S]
-    assert len(set(window.drifts)) > 100   # and the panels drift (burn-in care)
+    assert len(set(window.drifts)) > 100  # and the panels drift (burn-in care)
 
 
 def test_a_visitor_still_turns_smoothly_and_the_return_is_a_cut(headless, tmp_path):
@@ -103,10 +108,11 @@ def test_a_visitor_still_turns_smoothly_and_the_return_is_a_cut(headless, tmp_pa
     nothing drifts."""
     loop = HeadlessKiosk(headless, tmp_path, "[accessibility]\nreduced_motion = true\n")
     from exhibit.render.target import Key
+
     loop.run(1.0)
     held = loop.frame.view
     loop.run(1.0)
-    assert loop.frame.view == held and loop.frame.mode == "attract"   # the pose is held
+    assert loop.frame.view == held and loop.frame.mode == "attract"  # the pose is held
     loop.target.post(Key("q", True))
     turns = []
     for _ in range(10):
@@ -115,7 +121,7 @@ def test_a_visitor_still_turns_smoothly_and_the_return_is_a_cut(headless, tmp_pa
         turns.append(loop.frame.view.angles[0] - before)
     loop.target.post(Key("q", False))
     assert loop.frame.mode == "visitor"
-    steady = turns[2:]   # a held key's rate, frame after frame: small, even steps
+    steady = turns[2:]  # a held key's rate, frame after frame: small, even steps
     assert all(0 < d < math.radians(20) for d in steady), turns
     assert max(steady) - min(steady) < 1e-6, turns
     left = loop.frame.view
@@ -128,6 +134,6 @@ def test_a_visitor_still_turns_smoothly_and_the_return_is_a_cut(headless, tmp_pa
     # the first attract frame is a cut, crossfaded, straight into the timeline's held pose
     assert previous.mode == "visitor" and frame.cut and fade_start == t
     assert frame.view.angles != left.angles
-    assert all(f.view == frame.view and not f.cut for f, _, _ in frames[i + 1:])
+    assert all(f.view == frame.view and not f.cut for f, _, _ in frames[i + 1 :])
     assert loop.target.drawn[2].hud_drift == (0.0, 0.0)
     loop.kiosk.devices.close()

@@ -26,8 +26,14 @@ from exhibit.devices.mapping import Mapper
 from exhibit.kiosk import sessions as sessions_module
 from exhibit.kiosk.attract import Playlist
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
-from exhibit.kiosk.sessions import (Session, SessionLog, SessionStore, SessionWriter, input_name,
-                                    read_sessions)
+from exhibit.kiosk.sessions import (
+    Session,
+    SessionLog,
+    SessionStore,
+    SessionWriter,
+    input_name,
+    read_sessions,
+)
 from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
 from tests.kiosk.support import DEVICES, TIMELINE, edit, numbered
 
@@ -42,38 +48,63 @@ def report(capsys, db: Path, *more: str) -> dict:
     return json.loads(capsys.readouterr().out)
 
 
-def session(start: float, duration: float, scenes=("hopf",), inputs=("knobs.knob",),
-            offset: int = 0, active: float | None = None, language: str = "en") -> Session:
-    return Session(start, start + duration, duration,
-                   duration / 2 if active is None else active, offset, language, list(scenes),
-                   list(inputs))
+def session(
+    start: float,
+    duration: float,
+    scenes=("hopf",),
+    inputs=("knobs.knob",),
+    offset: int = 0,
+    active: float | None = None,
+    language: str = "en",
+) -> Session:
+    return Session(
+        start,
+        start + duration,
+        duration,
+        duration / 2 if active is None else active,
+        offset,
+        language,
+        list(scenes),
+        list(inputs),
+    )
 
 
 # ---------------------------------------------------------------------- a visitor, end to end
+
 
 @pytest.fixture
 def state(tmp_path):
     path = tmp_path / "t.toml"
     path.write_text(TIMELINE)
     from exhibit.kiosk.attract import load_timeline
+
     config = parse_config(tomllib.loads(DEVICES), "<test>")
-    return KioskState(Playlist([load_timeline(path)]), Mapper(config.mapping),
-                      ("hopf", "collision"), idle_timeout_s=30.0, blend_s=2.0, now=0.0)
+    return KioskState(
+        Playlist([load_timeline(path)]),
+        Mapper(config.mapping),
+        ("hopf", "collision"),
+        idle_timeout_s=30.0,
+        blend_s=2.0,
+        now=0.0,
+    )
 
 
-def test_a_visitor_session_through_the_state_machine_is_reported_by_stats(tmp_path, state,
-                                                                          capsys):
+def test_a_visitor_session_through_the_state_machine_is_reported_by_stats(tmp_path, state, capsys):
     """Attract, a knob takes over, a button to the next scene, a stick too small to count,
     then 30 s idle: one session, 100 s to 135.5 s on the kiosk clock, active until 105 s."""
     db = tmp_path / "sessions.db"
     wall = [NOON_ISH]
     writer = SessionWriter(db, wall=lambda: wall[0])
     recorder = SessionLog(writer, wall=lambda: wall[0])
-    script = {100.0: [Event(100.0, "knobs", Kind.REL, 0, 1.0)],
-              102.0: [Event(102.0, "knobs", Kind.BUTTON, 5, 1.0)],
-              103.0: [Event(103.0, "knobs", Kind.BUTTON, 5, 0.0),
-                      Event(103.0, "controller", Kind.ABS, 0, 0.1)],
-              105.0: [Event(105.0, "knobs", Kind.REL, 0, -2.0)]}
+    script = {
+        100.0: [Event(100.0, "knobs", Kind.REL, 0, 1.0)],
+        102.0: [Event(102.0, "knobs", Kind.BUTTON, 5, 1.0)],
+        103.0: [
+            Event(103.0, "knobs", Kind.BUTTON, 5, 0.0),
+            Event(103.0, "controller", Kind.ABS, 0, 0.1),
+        ],
+        105.0: [Event(105.0, "knobs", Kind.REL, 0, -2.0)],
+    }
     modes = []
     for i in range(0, 1400):
         now = i * 0.1
@@ -95,7 +126,7 @@ def test_a_visitor_session_through_the_state_machine_is_reported_by_stats(tmp_pa
     assert {i["name"] for i in out["inputs"]} == {"knobs.knob", "knobs.button"}
     assert out["languages"] == [{"name": "en", "sessions": 1}]
     stored = read_sessions(db)[0]
-    assert stored.scenes == ["hopf", "collision"]        # in the order shown
+    assert stored.scenes == ["hopf", "collision"]  # in the order shown
     assert stored.start == pytest.approx(NOON_ISH + 100.0)
     offset = time.localtime(NOON_ISH + 100).tm_gmtoff
     assert out["per_hour"][int((NOON_ISH + 100 + offset) // 3600) % 24] == 1
@@ -106,6 +137,7 @@ def test_the_kiosk_frame_loop_records_sessions(tmp_path, monkeypatch, capsys):
     scene, the idle return (5 s) ends the session; a second visitor still there when the loop
     stops has their session ended then."""
     from tests.kiosk.support import kiosk
+
     k, _ = kiosk(tmp_path, monkeypatch)
     db = tmp_path / "state" / "sessions.db"
     writer = SessionWriter(db)
@@ -125,16 +157,16 @@ def test_the_kiosk_frame_loop_records_sessions(tmp_path, monkeypatch, capsys):
     keyboard.key("n", True)
     frames(2)
     keyboard.key("n", False)
-    frames(60)                # 0.2 s a frame: 12 s, past the 5 s idle timeout
+    frames(60)  # 0.2 s a frame: 12 s, past the 5 s idle timeout
     assert k.state.mode == ATTRACT and k.sessions.current is None
-    keyboard.key("w", True)   # a second visitor
-    assert k.run(max_frames=3) == 0   # run() ends: so does the session; the writer finishes
+    keyboard.key("w", True)  # a second visitor
+    assert k.run(max_frames=3) == 0  # run() ends: so does the session; the writer finishes
     assert writer.written == 2
     rows = read_sessions(db)
     assert rows[0].scenes == ["hopf", "clifford-torus"]
     assert rows[0].inputs == [f"{keyboard.name}.stick", f"{keyboard.name}.button"]
     assert 5.0 <= rows[0].duration_s <= 8.0 and rows[0].active_s < 3.0
-    assert rows[1].duration_s < 2.0   # 3 frames of the fake clock
+    assert rows[1].duration_s < 2.0  # 3 frames of the fake clock
     assert report(capsys, db)["sessions"] == 2
 
 
@@ -145,16 +177,35 @@ def test_a_real_kiosk_run_is_reported_by_stats(tmp_path, cli):
     database the kiosk wrote in its state folder."""
     from tests.kiosk.support import make_config
     from tests.xvfb import unavailable, xvfb
+
     kiosk = make_config(tmp_path, "wait 2\naxes 0.9 0 0 0 0 0\nwait 1.5\naxes 0 0 0 0 0 0\n")
     state = tmp_path / "state"
     with xvfb("320x240x24") as display:
-        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
-                   EXHIBIT_STATE_DIR=str(state))
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+            EXHIBIT_STATE_DIR=str(state),
+        )
         env.pop("NOTIFY_SOCKET", None)
         result = subprocess.run(
-            [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--windowed",
-             "--duration", "12"], env=env, capture_output=True, text=True, timeout=240,
-            cwd=ROOT)
+            [
+                sys.executable,
+                "-m",
+                "exhibit",
+                "run",
+                "--config",
+                str(kiosk),
+                "--windowed",
+                "--duration",
+                "12",
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=240,
+            cwd=ROOT,
+        )
     if result.returncode != 0 and "cannot start GLFW" in result.stderr:
         unavailable("no GLFW window on Xvfb")
     assert result.returncode == 0, result.stderr[-3000:]
@@ -171,20 +222,30 @@ def test_input_names_count_real_use_only():
     assert input_name(Event(0, "knobs", Kind.REL, 0, 2.0)) == "knobs.knob"
     assert input_name(Event(0, "knobs", Kind.REL, 0, 0.0)) is None
     assert input_name(Event(0, "controller", Kind.BUTTON, 1, 1.0)) == "controller.button"
-    assert input_name(Event(0, "controller", Kind.BUTTON, 1, 0.0)) is None   # a release
+    assert input_name(Event(0, "controller", Kind.BUTTON, 1, 0.0)) is None  # a release
     assert input_name(Event(0, "controller", Kind.ABS, 2, -0.8)) == "controller.stick"
-    assert input_name(Event(0, "controller", Kind.ABS, 2, 0.3)) is None      # noise, drift
+    assert input_name(Event(0, "controller", Kind.ABS, 2, 0.3)) is None  # noise, drift
 
 
 def test_the_stored_columns_hold_no_personal_data(tmp_path):
     store = SessionStore(tmp_path / "s.db").open()
     columns = [r[1] for r in store.db.execute("PRAGMA table_info(sessions)")]
     store.close()
-    assert columns == ["id", "start", "end", "duration_s", "active_s", "utc_offset_s",
-                       "language", "scenes", "inputs"]
+    assert columns == [
+        "id",
+        "start",
+        "end",
+        "duration_s",
+        "active_s",
+        "utc_offset_s",
+        "language",
+        "scenes",
+        "inputs",
+    ]
 
 
 # ---------------------------------------------------------------------- off the frame path
+
 
 def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
     """The writer hangs inside its first write: the frame thread's calls still return at once,
@@ -196,13 +257,14 @@ def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
         entered.set()
         release.wait(10)
         return real_add(self, s)
+
     monkeypatch.setattr(SessionStore, "add", stuck)
     writer = SessionWriter(tmp_path / "s.db", queue_size=8)
     assert writer.ready.wait(5) and writer.usable
     recorder = SessionLog(writer)
     recorder.observe(VISITOR, "hopf", [], 0.0)
     recorder.observe(ATTRACT, "hopf", [], 0.5)
-    assert entered.wait(5)     # the writer is inside its first write, and stays there
+    assert entered.wait(5)  # the writer is inside its first write, and stays there
     worst = 0.0
     with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
         for i in range(1, 200):
@@ -211,8 +273,8 @@ def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
             recorder.observe(ATTRACT, "hopf", [], i + 0.5)
             worst = max(worst, time.perf_counter() - t0)
     assert worst < 0.05, f"a frame waited {worst * 1000:.1f} ms for the recorder"
-    assert writer.dropped == 200 - 8 - 1   # 8 queued, 1 inside the stuck write
-    assert len(caplog.records) == 8        # the 1st, 2nd, 4th, ... 128th dropped
+    assert writer.dropped == 200 - 8 - 1  # 8 queued, 1 inside the stuck write
+    assert len(caplog.records) == 8  # the 1st, 2nd, 4th, ... 128th dropped
     release.set()
     writer.close()
     assert writer.written == 9 and SessionStore(tmp_path / "s.db").open().count() == 9
@@ -222,6 +284,7 @@ def test_a_recorder_bug_is_logged_once_and_never_reaches_the_frame(caplog):
     class Broken:
         def submit(self, s):
             raise RuntimeError("bug")
+
     recorder = SessionLog(Broken())
     with caplog.at_level(logging.ERROR, logger="exhibit.kiosk.sessions"):
         for i in range(10):
@@ -272,10 +335,13 @@ def test_the_database_survives_sigkill_in_the_middle_of_writes(tmp_path):
     seen: dict[int, int] = {}
     start, base = 0, float(int(time.time()) - 86400)
     for kill_after in (337, 1789):
-        child = subprocess.Popen([sys.executable, "-c", CHILD, str(db), str(start), str(base)],
-                                 cwd=ROOT,
-                                 stdout=subprocess.PIPE, text=True)
-        watchdog = threading.Timer(60, child.kill)   # a child that hangs fails, not blocks
+        child = subprocess.Popen(
+            [sys.executable, "-c", CHILD, str(db), str(start), str(base)],
+            cwd=ROOT,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        watchdog = threading.Timer(60, child.kill)  # a child that hangs fails, not blocks
         watchdog.start()
         try:
             for _ in range(kill_after):
@@ -291,9 +357,13 @@ def test_the_database_survives_sigkill_in_the_middle_of_writes(tmp_path):
         assert child.returncode == -signal.SIGKILL
         with sqlite3.connect(db) as con:
             assert con.execute("PRAGMA integrity_check").fetchall() == [("ok",)]
-            rows = {r[0]: r[1:] for r in con.execute(
-                "SELECT id, start, end, duration_s, active_s, utc_offset_s, language, scenes, "
-                "inputs FROM sessions")}
+            rows = {
+                r[0]: r[1:]
+                for r in con.execute(
+                    "SELECT id, start, end, duration_s, active_s, utc_offset_s, language, scenes, "
+                    "inputs FROM sessions"
+                )
+            }
         con.close()
         for row, start_s in seen.items():
             expected = numbered(int(start_s - base), base).row()
@@ -304,17 +374,18 @@ def test_the_database_survives_sigkill_in_the_middle_of_writes(tmp_path):
 
 # ---------------------------------------------------------------------- rotation
 
+
 def test_rotation_by_age_and_by_count_at_open(tmp_path):
     db = tmp_path / "s.db"
     now = NOON_ISH
     store = SessionStore(db, keep_days=30, max_sessions=1000, wall=lambda: now).open()
-    for day in range(60):   # one session a day for 60 days, the oldest first
+    for day in range(60):  # one session a day for 60 days, the oldest first
         store.add(session(now - (59 - day) * 86400 - 60, 30))
-    assert store.rotate() == 30   # older than 30 days: those 30..59 days (and a minute) ago
+    assert store.rotate() == 30  # older than 30 days: those 30..59 days (and a minute) ago
     assert store.count() == 30
     store.close()
     store = SessionStore(db, keep_days=30, max_sessions=10, wall=lambda: now).open()
-    assert store.count() == 10    # at open: the newest 10
+    assert store.count() == 10  # at open: the newest 10
     newest = [s.start for s in read_sessions(db)]
     assert newest == sorted(newest) and newest[-1] == now - 60
     store.close()
@@ -339,11 +410,12 @@ def test_rotation_shrinks_the_file_and_runs_while_writing(tmp_path, monkeypatch)
     with sqlite3.connect(db) as con:
         count = con.execute("SELECT count(*) FROM sessions").fetchone()[0]
     con.close()
-    assert count == 300   # 100 after the open, again after 500 and 1000 writes, then 200 more
+    assert count == 300  # 100 after the open, again after 500 and 1000 writes, then 200 more
     assert db.stat().st_size < big / 4, (big, db.stat().st_size)
 
 
 # ---------------------------------------------------------------------- broken files
+
 
 def test_a_file_that_is_no_database_is_moved_aside_and_a_fresh_one_started(tmp_path, caplog):
     db = tmp_path / "sessions.db"
@@ -366,7 +438,7 @@ def test_a_database_with_damaged_pages_is_moved_aside(tmp_path):
         store.add(numbered(i))
     store.db.execute("PRAGMA wal_checkpoint(TRUNCATE)")
     store.close()
-    with open(db, "r+b") as f:   # scribble over pages in the middle of the table
+    with open(db, "r+b") as f:  # scribble over pages in the middle of the table
         f.seek(20 * 4096)
         f.write(os.urandom(8 * 4096))
     store = SessionStore(db).open()
@@ -405,33 +477,45 @@ def test_only_the_last_few_moved_aside_files_are_kept(tmp_path):
 
 # ---------------------------------------------------------------------- the arithmetic
 
+
 def test_stats_arithmetic_against_hand_computed_values(tmp_path, capsys):
     """Four sessions, hand-placed: lengths 10, 20, 30 and 400 s (median 25 s); local hours and
     days from each session's own UTC offset."""
-    day = 1796083200.0   # 2026-12-01 00:00 UTC
+    day = 1796083200.0  # 2026-12-01 00:00 UTC
     db = tmp_path / "s.db"
     store = SessionStore(db, wall=lambda: day + 86400).open()
     for s in [
-        session(day - 1800, 10, ("hopf",), ("knobs.knob",), offset=3600),    # 12-01 00:30 local
+        session(day - 1800, 10, ("hopf",), ("knobs.knob",), offset=3600),  # 12-01 00:30 local
         session(day + 9 * 3600, 20, ("hopf", "collision"), ("controller.stick",)),  # 09:00
         session(day + 9 * 3600 + 3599, 30, ("collision",), ("controller.stick",)),  # 09:59
-        session(day + 2 * 86400 + 17 * 3600, 400, ("veronese", "hopf"),
-                ("controller.stick", "knobs.knob"), active=100, language="de"),  # 12-03 17:00
+        session(
+            day + 2 * 86400 + 17 * 3600,
+            400,
+            ("veronese", "hopf"),
+            ("controller.stick", "knobs.knob"),
+            active=100,
+            language="de",
+        ),  # 12-03 17:00
     ]:
         store.add(s)
     store.close()
     out = report(capsys, db)
     assert out["sessions"] == 4
     assert out["median_s"] == 25.0
-    assert out["median_active_s"] == 12.5   # of 5, 10, 15 and 100
-    assert out["per_day"] == [{"date": "2026-12-01", "sessions": 3},
-                              {"date": "2026-12-02", "sessions": 0},
-                              {"date": "2026-12-03", "sessions": 1}]
+    assert out["median_active_s"] == 12.5  # of 5, 10, 15 and 100
+    assert out["per_day"] == [
+        {"date": "2026-12-01", "sessions": 3},
+        {"date": "2026-12-02", "sessions": 0},
+        {"date": "2026-12-03", "sessions": 1},
+    ]
     expected = [0] * 24
     expected[0], expected[9], expected[17] = 1, 2, 1
     assert out["per_hour"] == expected
-    assert out["scenes"] == [{"name": "hopf", "sessions": 3}, {"name": "collision", "sessions": 2},
-                             {"name": "veronese", "sessions": 1}]
+    assert out["scenes"] == [
+        {"name": "hopf", "sessions": 3},
+        {"name": "collision", "sessions": 2},
+        {"name": "veronese", "sessions": 1},
+    ]
     assert out["inputs"][0] == {"name": "controller.stick", "sessions": 3}
     assert out["languages"] == [{"name": "en", "sessions": 3}, {"name": "de", "sessions": 1}]
     later = report(capsys, db, "--since", "2026-12-02")
@@ -449,6 +533,7 @@ def test_no_sessions_is_a_report_too(tmp_path, capsys):
 
 def test_the_plot_is_a_png(tmp_path, capsys):
     from PIL import Image
+
     db = tmp_path / "s.db"
     store = SessionStore(db, wall=lambda: NOON_ISH).open()
     for i in range(40):
@@ -459,31 +544,42 @@ def test_the_plot_is_a_png(tmp_path, capsys):
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     with Image.open(png) as image:
         assert image.format == "PNG" and image.size == (1000, 700)
-        assert len(image.convert("L").getcolors(1 << 16)) > 2   # bars drawn, not blank
+        assert len(image.convert("L").getcolors(1 << 16)) > 2  # bars drawn, not blank
 
 
 def test_matplotlib_is_not_imported_without_plot(tmp_path):
     SessionStore(tmp_path / "s.db").open().close()
-    code = ("import sys; from exhibit.cli import main; main(['stats', '--db', sys.argv[1], "
-            "'--json']); assert 'matplotlib' not in sys.modules")
-    result = subprocess.run([sys.executable, "-c", code, str(tmp_path / "s.db")], cwd=ROOT,
-                            capture_output=True, text=True, timeout=60)
+    code = (
+        "import sys; from exhibit.cli import main; main(['stats', '--db', sys.argv[1], "
+        "'--json']); assert 'matplotlib' not in sys.modules"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", code, str(tmp_path / "s.db")],
+        cwd=ROOT,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert result.returncode == 0, result.stderr
 
 
 # ---------------------------------------------------------------------- bad input
 
-@pytest.mark.parametrize("setup, args, message", [
-    (None, ["--since", "2026-02-30"], "argument --since: '2026-02-30' is not a date"),
-    (None, ["--since", "yesterday"], "is not a date (YYYY-MM-DD)"),
-    ("fifo", [], "is not a regular file"),
-    ("folder", [], "is a folder"),
-    ("text", [], "not a sessions database"),
-    ("other-db", [], "not a sessions database"),
-    ("missing", [], "no sessions database at"),
-    (None, ["--plot", "report.pdf"], "must end in .png"),
-    (None, ["--plot", "nowhere/report.png"], "does not exist"),
-])
+
+@pytest.mark.parametrize(
+    "setup, args, message",
+    [
+        (None, ["--since", "2026-02-30"], "argument --since: '2026-02-30' is not a date"),
+        (None, ["--since", "yesterday"], "is not a date (YYYY-MM-DD)"),
+        ("fifo", [], "is not a regular file"),
+        ("folder", [], "is a folder"),
+        ("text", [], "not a sessions database"),
+        ("other-db", [], "not a sessions database"),
+        ("missing", [], "no sessions database at"),
+        (None, ["--plot", "report.pdf"], "must end in .png"),
+        (None, ["--plot", "nowhere/report.png"], "does not exist"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(tmp_path, cli, setup, args, message):
     db = tmp_path / "s.db"
     if setup is None:
@@ -507,28 +603,34 @@ def test_bad_input_is_one_line_and_exit_2(tmp_path, cli, setup, args, message):
 
 # ---------------------------------------------------------------------- [sessions] in kiosk.toml
 
+
 @pytest.fixture
 def tree(tmp_path):
     import shutil
+
     shutil.copytree(ROOT / "configs", tmp_path / "configs")
     return tmp_path / "configs"
 
 
-@pytest.mark.parametrize("old, new, key, reason", [
-    ('path = ""', 'path = "sessions.db"', "sessions.path", "must be an absolute path"),
-    ('path = ""', 'path = "/var/lib/exhibit/"', "sessions.path", "must name a file"),
-    ("keep_days = 400", "keep_days = 0", "sessions.keep_days", "must lie in [1, 3650]"),
-    ("max_sessions = 200000", "max_sessions = 2000.5", "sessions.max_sessions", "whole number"),
-    ("enabled = true", 'enabled = "yes"', "sessions.enabled", "true or false"),
-    ("enabled = true", "enabled = true\nretention = 3", "sessions.retention", "unknown key"),
-])
+@pytest.mark.parametrize(
+    "old, new, key, reason",
+    [
+        ('path = ""', 'path = "sessions.db"', "sessions.path", "must be an absolute path"),
+        ('path = ""', 'path = "/var/lib/exhibit/"', "sessions.path", "must name a file"),
+        ("keep_days = 400", "keep_days = 0", "sessions.keep_days", "must lie in [1, 3650]"),
+        ("max_sessions = 200000", "max_sessions = 2000.5", "sessions.max_sessions", "whole number"),
+        ("enabled = true", 'enabled = "yes"', "sessions.enabled", "true or false"),
+        ("enabled = true", "enabled = true\nretention = 3", "sessions.retention", "unknown key"),
+    ],
+)
 def test_sessions_config_mistakes_are_named(tree, old, new, key, reason):
     kiosk = tree / "kiosk.toml"
     edit(kiosk, old, new)
     with pytest.raises(ConfigError) as info:
         load_kiosk_config(kiosk)
-    assert any(p.startswith(f"{kiosk}: {key}: ") and reason in p for p in info.value.problems), \
+    assert any(p.startswith(f"{kiosk}: {key}: ") and reason in p for p in info.value.problems), (
         info.value.problems
+    )
 
 
 def test_sessions_config_reaches_the_kiosk(tree, monkeypatch, tmp_path):
@@ -568,14 +670,15 @@ def test_stats_finds_the_database_the_config_names(tmp_path, capsys, monkeypatch
     out = json.loads(capsys.readouterr().out)
     assert out["db"] == str(db) and out["sessions"] == 1
     monkeypatch.setenv("EXHIBIT_STATE_DIR", str(tmp_path / "museum"))
-    site.write_text("[sessions]\nkeep_days = 30\n")   # no path: the state folder's sessions.db
+    site.write_text("[sessions]\nkeep_days = 30\n")  # no path: the state folder's sessions.db
     (tmp_path / "museum" / "sessions.db").write_bytes(db.read_bytes())
     assert main(["stats", "--config", str(site), "--json"]) == 0
     assert json.loads(capsys.readouterr().out)["db"] == str(tmp_path / "museum" / "sessions.db")
 
 
 def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
-        tmp_path, monkeypatch, caplog):
+    tmp_path, monkeypatch, caplog
+):
     real_add, calls = SessionStore.add, []
 
     def add(self, s):
@@ -583,6 +686,7 @@ def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
         if len(calls) == 1:
             raise sqlite3.DatabaseError("database disk image is malformed")
         return real_add(self, s)
+
     monkeypatch.setattr(SessionStore, "add", add)
     with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
         writer = SessionWriter(tmp_path / "s.db")
@@ -595,19 +699,38 @@ def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
 
 # ---------------------------------------------------------------------- hostile rows
 
+
 def _plant(db: Path, rows: list[tuple]) -> None:
     """Rows put in with sqlite3 directly, as a hand or a broken kiosk could."""
     SessionStore(db, wall=lambda: NOON_ISH).open().close()
     with sqlite3.connect(db) as c:
-        c.executemany("INSERT INTO sessions (start, end, duration_s, active_s, utc_offset_s, "
-                      "language, scenes, inputs) VALUES (?, ?, ?, ?, ?, ?, ?, ?)", rows)
+        c.executemany(
+            "INSERT INTO sessions (start, end, duration_s, active_s, utc_offset_s, "
+            "language, scenes, inputs) VALUES (?, ?, ?, ?, ?, ?, ?, ?)",
+            rows,
+        )
     c.close()
 
 
-def _row(start=NOON_ISH, duration=60.0, active=30.0, offset=0, language="en",
-         scenes='["hopf"]', inputs='["knobs.knob"]'):
-    return (start, start + duration if isinstance(start, float) and isinstance(duration, float)
-            else start, duration, active, offset, language, scenes, inputs)
+def _row(
+    start=NOON_ISH,
+    duration=60.0,
+    active=30.0,
+    offset=0,
+    language="en",
+    scenes='["hopf"]',
+    inputs='["knobs.knob"]',
+):
+    return (
+        start,
+        start + duration if isinstance(start, float) and isinstance(duration, float) else start,
+        duration,
+        active,
+        offset,
+        language,
+        scenes,
+        inputs,
+    )
 
 
 DEEP = "[" * 100_000 + "]" * 100_000
@@ -615,8 +738,8 @@ HOSTILE_ROWS = {
     "year 33658": _row(start=1e12),
     "before 1970": _row(start=-1e12),
     "1e300": _row(start=1e300),
-    "first day": _row(start=-62135596800.0),      # 0001-01-01
-    "last day": _row(start=253402214400.0),       # 9999-12-31
+    "first day": _row(start=-62135596800.0),  # 0001-01-01
+    "last day": _row(start=253402214400.0),  # 9999-12-31
     "last day, offset": _row(start=253402300799.0, offset=86400),
     "huge duration": _row(duration=1.7e308, active=1.7e308),
     "negative duration": _row(duration=-5.0),
@@ -657,6 +780,7 @@ def test_stats_survives_every_hostile_row_at_once(tmp_path, capsys):
 
 def test_read_sessions_bounds_every_value():
     from exhibit.kiosk.sessions import _session_from_row
+
     ok = _session_from_row(*_row())
     assert ok.scenes == ["hopf"] and ok.duration_s == 60.0
     for what, row in HOSTILE_ROWS.items():
@@ -664,8 +788,7 @@ def test_read_sessions_bounds_every_value():
             _session_from_row(*row)
 
 
-def test_the_health_file_says_sessions_are_not_recorded_when_the_database_cannot_open(
-        tmp_path):
+def test_the_health_file_says_sessions_are_not_recorded_when_the_database_cannot_open(tmp_path):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
     writer = SessionWriter(blocker / "sessions.db")

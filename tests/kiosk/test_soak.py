@@ -18,11 +18,20 @@ def test_an_hour_of_frames_with_device_churn(tmp_path):
     script = "axes 0.6 0 0 0 0 0\nwait 0.5\naxes 0 0 0 0 0 0\nwait 0.5\nunplug 0.5\nrepeat\n"
     kiosk = make_config(tmp_path, script)
     with xvfb() as display:
-        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
-                   EXHIBIT_STATE_DIR=str(tmp_path / "state"))
-        result = subprocess.run([sys.executable, "-m", "tests.kiosk.soak_run", str(kiosk), "5000",
-                                 "0.75"],
-                                env=env, capture_output=True, text=True, timeout=1200, cwd=ROOT)
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+            EXHIBIT_STATE_DIR=str(tmp_path / "state"),
+        )
+        result = subprocess.run(
+            [sys.executable, "-m", "tests.kiosk.soak_run", str(kiosk), "5000", "0.75"],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=1200,
+            cwd=ROOT,
+        )
     if result.returncode != 0 and "cannot start GLFW" in result.stderr:
         unavailable("no GLFW window on Xvfb")
     assert result.returncode == 0, result.stderr[-3000:]

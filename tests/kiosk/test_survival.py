@@ -24,7 +24,8 @@ def health(tmp_path):
 
 
 def test_frames_that_raise_are_logged_once_and_the_next_frame_tries_again(
-        tmp_path, monkeypatch, caplog):
+    tmp_path, monkeypatch, caplog
+):
     k, notifier = kiosk(tmp_path, monkeypatch)
     k.window.fail = 200
     with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
@@ -42,7 +43,8 @@ def test_frames_that_raise_are_logged_once_and_the_next_frame_tries_again(
 
 
 def test_a_minute_of_nothing_but_failed_frames_exits_for_systemd_to_restart(
-        tmp_path, monkeypatch, caplog):
+    tmp_path, monkeypatch, caplog
+):
     k, _ = kiosk(tmp_path, monkeypatch)
     k.window.fail = 10**9
     with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
@@ -52,8 +54,7 @@ def test_a_minute_of_nothing_but_failed_frames_exits_for_systemd_to_restart(
     assert any("frames failing for" in p for p in health(tmp_path)["problems"])
 
 
-def test_a_scene_that_fails_to_build_is_skipped_with_its_timelines(tmp_path, monkeypatch,
-                                                                   caplog):
+def test_a_scene_that_fails_to_build_is_skipped_with_its_timelines(tmp_path, monkeypatch, caplog):
     """hopf fails: its attract timeline goes too, so attract mode turns clifford-torus."""
     with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
         k, _ = kiosk(tmp_path, monkeypatch, broken={"hopf"})
@@ -64,14 +65,16 @@ def test_a_scene_that_fails_to_build_is_skipped_with_its_timelines(tmp_path, mon
     first = k.state.frame.view.angles[0]
     assert k.state.update([], k.clock() + 10).view.angles[0] != first  # it turns
     report = health(tmp_path)
-    assert report["scenes_failed"] == [{"scene": "hopf", "reason": "RuntimeError: cannot "
-                                        "build hopf"}]
+    assert report["scenes_failed"] == [
+        {"scene": "hopf", "reason": "RuntimeError: cannot build hopf"}
+    ]
     assert any("attract timeline" in p for p in report["problems"])
     assert report["mode"] == "attract" and report["scene"] == "clifford-torus"
 
 
 def test_buttons_do_nothing_when_no_content_scene_is_left(tmp_path, monkeypatch):
     from exhibit.devices.base import Event, Kind
+
     k, _ = kiosk(tmp_path, monkeypatch, broken={"clifford-torus"})
     k.state.content = ()  # hopf only shows in its timeline
     frame = k.state.update([Event(k.clock(), "controller", Kind.BUTTON, 0, 1.0)], k.clock())
@@ -117,13 +120,33 @@ def test_the_notice_is_drawn_in_a_real_window(tmp_path):
     kiosk = make_config(tmp_path, "wait 60\n")
     shot = tmp_path / "notice.png"
     with xvfb() as display:
-        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
-                   EXHIBIT_STATE_DIR=str(tmp_path / "state"))
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+            EXHIBIT_STATE_DIR=str(tmp_path / "state"),
+        )
         env.pop("NOTIFY_SOCKET", None)
         result = subprocess.run(
-            [sys.executable, "-c", NOTICE_RUN, "run", "--config", str(kiosk), "--windowed",
-             "--duration", "2", "--screenshot", str(shot)],
-            env=env, capture_output=True, text=True, timeout=120, cwd=ROOT)
+            [
+                sys.executable,
+                "-c",
+                NOTICE_RUN,
+                "run",
+                "--config",
+                str(kiosk),
+                "--windowed",
+                "--duration",
+                "2",
+                "--screenshot",
+                str(shot),
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            cwd=ROOT,
+        )
     if result.returncode != 0 and "cannot start GLFW" in result.stderr:
         unavailable("no GLFW window on Xvfb")
     assert result.returncode == 0, result.stderr[-3000:]
@@ -147,14 +170,13 @@ def test_a_cut_is_crossfaded_from_the_last_frame_shown(tmp_path, monkeypatch):
     assert len(window.captured) == 1, "one loop, one crossfade"
     start = next(i for i, f in enumerate(window.fades) if f > 0)
     fading = [f for f in window.fades[start:] if f > 0]
-    seconds = (k.clock() - k.started) / k.frames   # per frame, on the fake clock
+    seconds = (k.clock() - k.started) / k.frames  # per frame, on the fake clock
     assert 0.5 < fading[0] <= 1.0 and fading == sorted(fading, reverse=True)
     assert len(fading) <= app.CROSSFADE_S / seconds + 1
-    assert not any(window.fades[:start]) and not any(window.fades[start + len(fading):])
+    assert not any(window.fades[:start]) and not any(window.fades[start + len(fading) :])
 
 
-def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monkeypatch,
-                                                                 capsys):
+def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monkeypatch, capsys):
     """One broken curator's file on the scene path: check-config still says so (exit 2), but
     `exhibit run` runs with the valid scenes and names the file in the log and health file."""
     from exhibit import scenes
@@ -188,16 +210,23 @@ def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monk
             pass
         assert opened and opened[0].scene_problems == config.scene_problems
 
-        monkeypatch.setattr(preparing, "build_cached",
-                            lambda scene, params, res: (f"mesh {scene.name}", None))
+        monkeypatch.setattr(
+            preparing, "build_cached", lambda scene, params, res: (f"mesh {scene.name}", None)
+        )
         ticks = iter(np.arange(1e6) * 0.1)
-        k = app.Kiosk(config, FakeWindow(), clock=lambda: float(next(ticks)),
-                      health_path=tmp_path / "health.json")
+        k = app.Kiosk(
+            config,
+            FakeWindow(),
+            clock=lambda: float(next(ticks)),
+            health_path=tmp_path / "health.json",
+        )
         assert k.state is not None
         k._report(k.clock())
         report = health(tmp_path)
-        assert any("scene file left out" in p and str(folder / "broken.toml") in p
-                   for p in report["problems"]), report["problems"]
+        assert any(
+            "scene file left out" in p and str(folder / "broken.toml") in p
+            for p in report["problems"]
+        ), report["problems"]
     finally:
         monkeypatch.delenv("EXHIBIT_SCENE_PATH")
         scenes.load(reload=True)

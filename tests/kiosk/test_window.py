@@ -14,6 +14,7 @@ from PIL import Image
 from tests.kiosk.support import ROOT, make_config
 from tests.xvfb import unavailable, xvfb
 
+
 @pytest.fixture(scope="module")
 def kiosk_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("kiosk")
@@ -21,13 +22,33 @@ def kiosk_run(tmp_path_factory):
     kiosk = make_config(tmp, "wait 2\naxes 0.9 0 0 0 0 0\nwait 1.5\naxes 0 0 0 0 0 0\n")
     shot = tmp / "last.png"
     with xvfb("640x480x24") as display:
-        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp / "cache"),
-                   EXHIBIT_STATE_DIR=str(tmp / "state"))
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp / "cache"),
+            EXHIBIT_STATE_DIR=str(tmp / "state"),
+        )
         env.pop("NOTIFY_SOCKET", None)
         result = subprocess.run(
-            [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--windowed",
-             "--duration", "12", "--screenshot", str(shot)],
-            env=env, capture_output=True, text=True, timeout=240, cwd=ROOT)
+            [
+                sys.executable,
+                "-m",
+                "exhibit",
+                "run",
+                "--config",
+                str(kiosk),
+                "--windowed",
+                "--duration",
+                "12",
+                "--screenshot",
+                str(shot),
+            ],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=240,
+            cwd=ROOT,
+        )
     if result.returncode != 0 and "cannot start GLFW" in result.stderr:
         unavailable(f"no GLFW window on Xvfb: {result.stderr.strip().splitlines()[-1]}")
     assert result.returncode == 0, result.stderr
@@ -62,6 +83,7 @@ def test_controller_input_takes_over_and_idle_returns_to_attract(kiosk_run):
 def test_health_file_is_written(kiosk_run):
     _, _, tmp = kiosk_run
     import json
+
     health = json.loads((tmp / "state" / "health.json").read_text())
     assert health["mode"] in ("attract", "visitor") and health["fps"] > 0
     assert health["gl_errors"] == 0
@@ -92,13 +114,33 @@ def test_watchdog_pings_follow_the_frame_loop(tmp_path):
         return got
 
     with xvfb() as display:
-        env = dict(os.environ, DISPLAY=display, EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
-                   EXHIBIT_STATE_DIR=str(tmp_path / "state"), NOTIFY_SOCKET=address,
-                   WATCHDOG_USEC="400000")
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
+            EXHIBIT_STATE_DIR=str(tmp_path / "state"),
+            NOTIFY_SOCKET=address,
+            WATCHDOG_USEC="400000",
+        )
         env.pop("WATCHDOG_PID", None)
-        child = subprocess.Popen([sys.executable, "-m", "exhibit", "run", "--config", str(kiosk),
-                                  "--windowed", "--duration", "60"], env=env, cwd=ROOT,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        child = subprocess.Popen(
+            [
+                sys.executable,
+                "-m",
+                "exhibit",
+                "run",
+                "--config",
+                str(kiosk),
+                "--windowed",
+                "--duration",
+                "60",
+            ],
+            env=env,
+            cwd=ROOT,
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
         try:
             started = messages(60, until="READY=1")
             if child.poll() is not None and "cannot start GLFW" in child.stderr.read():
@@ -120,12 +162,20 @@ def test_watchdog_pings_follow_the_frame_loop(tmp_path):
 
 
 def test_fullscreen_fills_the_monitor_and_a_missing_monitor_falls_back():
-    code = ("from exhibit.render.window import Window\n"
-            "w = Window(size=(320, 240), fullscreen=True, samples=0, monitor=3)\n"
-            "print(*w.size); w.close()\n")
+    code = (
+        "from exhibit.render.window import Window\n"
+        "w = Window(size=(320, 240), fullscreen=True, samples=0, monitor=3)\n"
+        "print(*w.size); w.close()\n"
+    )
     with xvfb("800x600x24") as display:
-        result = subprocess.run([sys.executable, "-c", code], env=dict(os.environ, DISPLAY=display),
-                                capture_output=True, text=True, timeout=60, cwd=ROOT)
+        result = subprocess.run(
+            [sys.executable, "-c", code],
+            env=dict(os.environ, DISPLAY=display),
+            capture_output=True,
+            text=True,
+            timeout=60,
+            cwd=ROOT,
+        )
     if result.returncode != 0 and "cannot start GLFW" in result.stderr:
         unavailable("no GLFW window on Xvfb")
     assert result.returncode == 0, result.stderr

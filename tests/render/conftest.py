@@ -11,10 +11,9 @@ from exhibit.surfaces.mesh import Marker, Material, Mesh4D, Surface
 from tests.xvfb import unavailable  # noqa: F401 - the render tests import it from here
 
 #: Plain pictures for pixel checks: flat black background, no HUD, no silhouettes.
-PLAIN = RenderOptions(silhouettes=False, pinch_points=False, hud=False,
-                      background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
-
-
+PLAIN = RenderOptions(
+    silhouettes=False, pinch_points=False, hud=False, background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
+)
 
 
 @pytest.fixture
@@ -37,12 +36,17 @@ def square(name, center, u, v, color, half=0.5, n=4) -> Surface:
     tris = []
     for i in range(n):
         for j in range(n):
-            a, b, c, d = i * (n + 1) + j, (i + 1) * (n + 1) + j, (i + 1) * (n + 1) + j + 1, \
-                i * (n + 1) + j + 1
+            a, b, c, d = (
+                i * (n + 1) + j,
+                (i + 1) * (n + 1) + j,
+                (i + 1) * (n + 1) + j + 1,
+                i * (n + 1) + j + 1,
+            )
             tris += [(a, b, c), (a, c, d)]
     return Surface(name, positions, normals, np.array(tris), Material(color=color))
 
 
 def marker_mesh(point, color=(1.0, 0.0, 0.0)) -> Mesh4D:
-    return Mesh4D(markers=[Marker("m", np.asarray(point, float), Material(color=color,
-                                                                        line_width=2.0))])
+    return Mesh4D(
+        markers=[Marker("m", np.asarray(point, float), Material(color=color, line_width=2.0))]
+    )

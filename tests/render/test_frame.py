@@ -50,8 +50,10 @@ def test_fxaa_softens_surface_edges_only(gl):
     u = (np.cos(tilt), np.sin(tilt), 0.0, 0.0)
     v = (-np.sin(tilt), np.cos(tilt), 0.0, 0.0)
     from exhibit.surfaces.mesh import Mesh4D
-    gpu = gl.renderer.upload(Mesh4D(surfaces=[square("s", (0, 0, 0, 0), u, v, (0.9, 0.9, 0.9),
-                                                     half=1.0)]))
+
+    gpu = gl.renderer.upload(
+        Mesh4D(surfaces=[square("s", (0, 0, 0, 0), u, v, (0.9, 0.9, 0.9), half=1.0)])
+    )
     view = scenes.get("hopf").view.replace(angles=(0.0,) * 6)
     options = RenderOptions(hud=False, silhouettes=False, background=BLACK)
     plain = gl.frame(gpu, view, SIZE, options, None, Quality("n", "none"))
@@ -81,6 +83,7 @@ def test_fxaa_leaves_lines_alone(gl):
 
 def test_a_lower_render_scale_keeps_the_hud_crisp(gl):
     from exhibit.surfaces.mesh import Mesh4D
+
     gpu = gl.renderer.upload(Mesh4D())
     view = scenes.get("hopf").view
     options = RenderOptions(background=BLACK)
@@ -88,7 +91,7 @@ def test_a_lower_render_scale_keeps_the_hud_crisp(gl):
     full = gl.frame(gpu, view, SIZE, options, hud, Quality("a", "fxaa", scale=1.0))
     half = gl.frame(gpu, view, SIZE, options, hud, Quality("b", "fxaa", scale=0.5))
     gpu.release()
-    assert np.array_equal(full, half)   # nothing in the scene: only the HUD, at full size
+    assert np.array_equal(full, half)  # nothing in the scene: only the HUD, at full size
 
 
 def test_the_direct_level_is_lean_without_the_fxaa_pass(gl, hopf):
@@ -96,11 +99,16 @@ def test_the_direct_level_is_lean_without_the_fxaa_pass(gl, hopf):
     its picture is lean's but for what FXAA would soften, and its HUD is laid out by the same
     [text] sizes as every other level's (the direct path once left them out)."""
     from exhibit.render.layout import TextSizes
+
     gpu, view = hopf
     levels = {q.name: q for q in LADDER}
     direct, lean = levels["direct"], levels["lean"]
     assert (direct.antialiasing, direct.mesh, direct.effects, direct.scale) == (
-        "none", lean.mesh, lean.effects, 1.0)
+        "none",
+        lean.mesh,
+        lean.effects,
+        1.0,
+    )
     options = RenderOptions(text=TextSizes(caption_cap=0.05, title_cap=0.08))
     hud = HudInfo(title="Hopf", caption="A torus on the hypersphere")
     size = (480, 320)
@@ -117,6 +125,7 @@ def test_the_background_pass_is_the_clear(gl):
     """The direct path has no clear: its background pass writes every pixel's colour and a
     depth of 1.0 (the far plane), so nothing of the last frame survives, in colour or depth."""
     from exhibit.surfaces.mesh import Mesh4D
+
     target = gl.target((16, 8), 0)
     fb = target.framebuffer
     fb.use()
@@ -165,7 +174,7 @@ def test_frame_timer(gl, hopf, wall):
         got.append(timer.end())
     timer.release()
     assert timer.mode == ("wall" if wall else "gpu")
-    assert all(ms is not None and ms > 0 for ms in got[2 if not wall else 0:])
+    assert all(ms is not None and ms > 0 for ms in got[2 if not wall else 0 :])
 
 
 @pytest.mark.parametrize("level", ["fxaa", "direct"])
@@ -184,15 +193,17 @@ def test_crossfade_mixes_the_pictures_and_never_the_words(gl, hopf, level):
     new = gl.frame(gpu, turned, SIZE, RenderOptions(), new_hud, quality).astype(float)
     old_picture = gl.frame(gpu, view, SIZE, bare, None, quality).astype(float)
     new_picture = gl.frame(gpu, turned, SIZE, bare, None, quality).astype(float)
-    words = ((np.abs(old - old_picture).max(axis=2) > 0)
-             | (np.abs(new - new_picture).max(axis=2) > 0))
+    words = (np.abs(old - old_picture).max(axis=2) > 0) | (
+        np.abs(new - new_picture).max(axis=2) > 0
+    )
     pipeline = gl.pipeline
     pipeline.capture(gpu, view, SIZE, RenderOptions(), old_hud, quality)
     target = gl.target(SIZE, 0)
 
     def drawn(alpha):
-        pipeline.draw(gpu, turned, target.framebuffer, SIZE, RenderOptions(), new_hud,
-                      quality, fade=alpha)
+        pipeline.draw(
+            gpu, turned, target.framebuffer, SIZE, RenderOptions(), new_hud, quality, fade=alpha
+        )
         return target.read().astype(float)
 
     assert np.abs(drawn(0.0) - new).max() <= 1.5
@@ -201,7 +212,7 @@ def test_crossfade_mixes_the_pictures_and_never_the_words(gl, hopf, level):
         mixed = drawn(alpha)
         pictures = alpha * old_picture + (1 - alpha) * new_picture
         assert np.abs(mixed - pictures)[~words].max() <= 1.5, alpha
-        if alpha == 0.5:   # no words at all: neither title is legible
+        if alpha == 0.5:  # no words at all: neither title is legible
             assert np.abs(mixed - pictures).max() <= 1.5
-    assert words.any() and np.abs(old - new).max() > 100   # the two frames do differ
-    assert mixed.mean() > 5   # not black
+    assert words.any() and np.abs(old - new).max() > 100  # the two frames do differ
+    assert mixed.mean() > 5  # not black

@@ -41,7 +41,7 @@ def test_no_two_gizmo_letters_overlap(angles, size, axes):
 @pytest.mark.parametrize("size", SIZES)
 def test_letters_of_coinciding_tips_are_separated(size):
     """x and y both along the eye's z: all four tips at two points (the issue's "x over y")."""
-    rotation = np.eye(4)[:, [2, 3, 0, 1]]   # x, y -> eye z and w; z, w -> screen x, y
+    rotation = np.eye(4)[:, [2, 3, 0, 1]]  # x, y -> eye z and w; z, w -> screen x, y
     layout = hud_layout(size, "Title", ("caption",))
     tips = gizmo_tips(rotation, layout)
     assert tips[0] == tips[1] == layout.gizmo_center
@@ -51,9 +51,9 @@ def test_letters_of_coinciding_tips_are_separated(size):
 def test_the_hud_draws_the_letters_where_the_layout_says(gl):
     gpu = gl.renderer.upload(Mesh4D())
     view = scenes.get("hopf").view.replace(angles=(0.3, 1.2, -0.4, 2.0, 0.1, -1.0))
-    gl.image(gpu, view, (480, 270), RenderOptions(), HudInfo(axes=("x", "y", "z", "t")),
-             samples=0)
+    gl.image(gpu, view, (480, 270), RenderOptions(), HudInfo(axes=("x", "y", "z", "t")), samples=0)
     gpu.release()
     layout = gl.renderer.hud.layout
-    assert gl.renderer.hud.gizmo_labels == gizmo_labels(view.rotation(), ("x", "y", "z", "t"),
-                                                        layout)
+    assert gl.renderer.hud.gizmo_labels == gizmo_labels(
+        view.rotation(), ("x", "y", "z", "t"), layout
+    )

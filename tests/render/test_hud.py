@@ -24,8 +24,9 @@ def test_numbers_cost_no_new_texture(gl):
     pictures = []
     for degrees in (10.0, 20.0, 30.0):  # digits already in the atlas
         turned = view.replace(angles=(np.radians(degrees),) + view.angles[1:])
-        pictures.append(gl.image(gpu, turned, SIZE, RenderOptions(background=BLACK), hud,
-                                 samples=0))
+        pictures.append(
+            gl.image(gpu, turned, SIZE, RenderOptions(background=BLACK), hud, samples=0)
+        )
     gpu.release()
     assert gl.renderer.hud.rasterised == panels, "the title panel was redrawn"
     assert len(gl.renderer.atlas._glyphs) == glyphs
@@ -61,7 +62,7 @@ def test_block_image_is_panel_then_text_over_it():
     image = block_image([("Hi", "bold", 20, (1.0, 1.0, 1.0, 1.0))], 3, panel).astype(int)
     coverage = rasterise("Hi", "bold", 20).astype(float) / 255
     h, w = coverage.shape
-    alpha = image[3:3 + h, 3:3 + w, 3] / 255
+    alpha = image[3 : 3 + h, 3 : 3 + w, 3] / 255
     assert np.allclose(alpha, coverage + 0.45 * (1 - coverage), atol=1 / 255 + 1e-9)
     assert image[0, 0, 3] == round(0.45 * 255) and image[0, 0, :3].max() == 0
 
@@ -71,8 +72,9 @@ def test_atlas_text_matches_pillow_for_monospaced_digits(gl):
     atlas = gl.renderer.atlas
     ((x, glyph),) = atlas.layout("7", "mono", 17)
     data = np.frombuffer(atlas.texture.read(alignment=1), dtype=np.uint8).reshape(
-        atlas.size, atlas.size)
-    cell = data[glyph.v:glyph.v + glyph.height, glyph.u:glyph.u + glyph.width]
+        atlas.size, atlas.size
+    )
+    cell = data[glyph.v : glyph.v + glyph.height, glyph.u : glyph.u + glyph.width]
     expected = rasterise("7", "mono", 17)
     trim = lambda a: a[a.any(axis=1)][:, a.any(axis=0)]  # noqa: E731
     assert np.array_equal(trim(cell), trim(expected))

@@ -12,8 +12,13 @@ from exhibit.render.layout import TextSizes, hud_layout, status_lines
 from exhibit.render.text import text_width
 from exhibit.surfaces.mesh import Marker, Mesh4D
 
-GERMAN = (("4D axes", "4D-Achsen"), ("sensor", "Sensor"), ("eye", "Auge"),
-          ("fov", "Sichtfeld"), ("first contact", "erste Berührung"))
+GERMAN = (
+    ("4D axes", "4D-Achsen"),
+    ("sensor", "Sensor"),
+    ("eye", "Auge"),
+    ("fov", "Sichtfeld"),
+    ("first contact", "erste Berührung"),
+)
 
 
 def test_the_numbers_panel_speaks_the_language_on_screen():
@@ -25,24 +30,34 @@ def test_the_numbers_panel_speaks_the_language_on_screen():
 
 def test_the_numbers_panel_is_wide_enough_for_its_words_and_keeps_its_width():
     rng = np.random.default_rng(3)
-    for words, beyond in (((), 1000.0), (GERMAN, 1000.0), ((), 1e6),
-                          ((("fov", "Öffnungswinkel des Auges"),), 50.0)):
+    for words, beyond in (
+        ((), 1000.0),
+        (GERMAN, 1000.0),
+        ((), 1e6),
+        ((("fov", "Öffnungswinkel des Auges"),), 50.0),
+    ):
         layout = hud_layout((1920, 1080), sizes=TextSizes(infinity_beyond=beyond), words=words)
         px, pad = layout.body_px, layout.pad
         for _ in range(50):
-            view = ViewState(angles=tuple(rng.uniform(-math.pi, math.pi, 6)),
-                             sensor_r=1 / float(rng.choice([np.inf, beyond, 0.99 * beyond, 3])),
-                             eye_r=1 / float(rng.choice([np.inf, beyond, 0.99 * beyond, 2])))
+            view = ViewState(
+                angles=tuple(rng.uniform(-math.pi, math.pi, 6)),
+                sensor_r=1 / float(rng.choice([np.inf, beyond, 0.99 * beyond, 3])),
+                eye_r=1 / float(rng.choice([np.inf, beyond, 0.99 * beyond, 2])),
+            )
             for line in status_lines(view, beyond, words):
                 assert text_width(line, "mono", px) + 2 * pad <= layout.status_block.width
-    assert (hud_layout((1920, 1080), words=GERMAN).status_block.width
-            > hud_layout((1920, 1080)).status_block.width)
+    assert (
+        hud_layout((1920, 1080), words=GERMAN).status_block.width
+        > hud_layout((1920, 1080)).status_block.width
+    )
 
 
 def test_marker_labels_translate_their_words_not_their_formula():
     word = dict(GERMAN).get
-    assert marker_text("first contact, t = -0.250", lambda w: word(w, w)) == \
-        "erste Berührung, t = -0.250"
+    assert (
+        marker_text("first contact, t = -0.250", lambda w: word(w, w))
+        == "erste Berührung, t = -0.250"
+    )
     assert marker_text("first contact", lambda w: word(w, w)) == "erste Berührung"
     assert marker_text("a point, x = 1", lambda w: word(w, w)) == "a point, x = 1"
 

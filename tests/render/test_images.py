@@ -55,8 +55,23 @@ def test_depth_colour_differs_from_material_colour(gl, hopf):
 @pytest.mark.parametrize("number", sorted(scenes.FIGURES))
 def test_every_figure_renders_non_blank(gl, tmp_path, number):
     out = tmp_path / f"figure-{number}.png"
-    assert main(["render", "--figure", str(number), "--size", "160x120", "--resolution", "12",
-                 "--no-hud", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "render",
+                "--figure",
+                str(number),
+                "--size",
+                "160x120",
+                "--resolution",
+                "12",
+                "--no-hud",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     with Image.open(out) as picture:
         image = np.asarray(picture.convert("RGB")).astype(int)
     background = np.array([[0.16, 0.18, 0.23]]) * 255  # the gradient's top colour, roughly
@@ -70,17 +85,29 @@ def test_hud_text_is_placed_texel_for_pixel(gl):
     size = (320, 240)
     black = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
     gpu = gl.renderer.upload(Mesh4D())
-    with_title = gl.image(gpu, scenes.get("hopf").view, size,
-                          RenderOptions(background=black), HudInfo(title="Hopf"), samples=0)
-    without = gl.image(gpu, scenes.get("hopf").view, size,
-                       RenderOptions(background=black), HudInfo(title=""), samples=0)
+    with_title = gl.image(
+        gpu,
+        scenes.get("hopf").view,
+        size,
+        RenderOptions(background=black),
+        HudInfo(title="Hopf"),
+        samples=0,
+    )
+    without = gl.image(
+        gpu,
+        scenes.get("hopf").view,
+        size,
+        RenderOptions(background=black),
+        HudInfo(title=""),
+        samples=0,
+    )
     gpu.release()
     diff = np.abs(with_title.astype(int) - without.astype(int)).max(axis=-1)
     ys, xs = np.nonzero(diff)
     glyphs = rasterise("Hopf", "bold", hud_layout(size, "Hopf").title_px)
-    gy, gx = np.nonzero(glyphs)   # the ink's bounding box (letters may have gaps between)
-    coverage = glyphs[gy.min():gy.max() + 1, gx.min():gx.max() + 1]
-    drawn = diff[ys.min():ys.max() + 1, xs.min():xs.max() + 1]
+    gy, gx = np.nonzero(glyphs)  # the ink's bounding box (letters may have gaps between)
+    coverage = glyphs[gy.min() : gy.max() + 1, gx.min() : gx.max() + 1]
+    drawn = diff[ys.min() : ys.max() + 1, xs.min() : xs.max() + 1]
     assert drawn.shape == coverage.shape
     # The title colour is near white on a 45% black panel: coverage maps monotonically.
     assert np.corrcoef(drawn.ravel(), coverage.ravel())[0, 1] > 0.99

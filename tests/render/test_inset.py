@@ -22,10 +22,10 @@ def test_the_collision_world_at_a_moment_lies_in_that_hyperplane(collision):
     world = inset_mesh(collision, params, mesh, 3, -1.0)
     ball = world.surfaces[0].positions
     assert np.all(ball[:, 3] == -1.0)
-    centre = np.array([0.0, 0.0, 1.0])   # the ball falls along -z: at t = -1 it is at z = vs
+    centre = np.array([0.0, 0.0, 1.0])  # the ball falls along -z: at t = -1 it is at z = vs
     assert np.abs(np.linalg.norm(ball[:, :3] - centre, axis=1) - params["rs"]).max() < 1e-12
     pipe = [c for c in world.curves if c.name.startswith("cylinder")]
-    for curve in pipe:   # the pipe's axis has moved to y = vc * t
+    for curve in pipe:  # the pipe's axis has moved to y = vc * t
         y, z = curve.points[:, 1] + 0.3, curve.points[:, 2]
         assert np.allclose(np.hypot(y, z), params["rc"]) and np.all(curve.points[:, 3] == -1.0)
     slices = [c for c in world.curves if c.name.startswith("slice")]
@@ -36,10 +36,10 @@ def test_a_scene_without_a_world_shows_its_slice_curves_with_the_axis_projected_
     scenes.load()
     hopf = scenes.get("hopf")
     mesh = hopf.build({}, 24)
-    world = inset_mesh(hopf, hopf.resolve({}), mesh, 1, 0.2)   # slice y = 0.2
+    world = inset_mesh(hopf, hopf.resolve({}), mesh, 1, 0.2)  # slice y = 0.2
     assert not world.surfaces and world.curves
     for curve in world.curves:
-        assert np.allclose(curve.points[:, 3], 0.2)   # y moved last: the sensor drops it
+        assert np.allclose(curve.points[:, 3], 0.2)  # y moved last: the sensor drops it
 
 
 def test_the_inset_sits_in_the_bottom_right_and_keeps_its_view_to_the_eye(collision):
@@ -56,8 +56,21 @@ def test_the_inset_sits_in_the_bottom_right_and_keeps_its_view_to_the_eye(collis
 
 def test_render_draws_the_inset_beside_the_framed_picture(cli, tmp_path):
     out = tmp_path / "inset.png"
-    result = cli("render", "collision", "--slice", "t=-1.2", "--inset", "--size", "640x360",
-                 "--samples", "0", "--resolution", "24", "--out", str(out))
+    result = cli(
+        "render",
+        "collision",
+        "--slice",
+        "t=-1.2",
+        "--inset",
+        "--size",
+        "640x360",
+        "--samples",
+        "0",
+        "--resolution",
+        "24",
+        "--out",
+        str(out),
+    )
     assert result.returncode == 0, result.stderr
     picture = np.asarray(Image.open(out).convert("RGB")).astype(int)
     rect = inset_rect((640, 360), 8)
@@ -65,20 +78,23 @@ def test_render_draws_the_inset_beside_the_framed_picture(cli, tmp_path):
     row = picture[int(rect.y0 + rect.height / 2)]
     border = np.flatnonzero(np.abs(row - 255 * np.array(BORDER[:3])).max(axis=1) < 12)
     assert len(border) and border.min() > 640 * 0.4
-    inside = picture[int(rect.y0) + 10:, border.min() + 3:-12]
-    assert np.unique(inside.reshape(-1, 3), axis=0).shape[0] > 200   # a picture, not a panel
+    inside = picture[int(rect.y0) + 10 :, border.min() + 3 : -12]
+    assert np.unique(inside.reshape(-1, 3), axis=0).shape[0] > 200  # a picture, not a panel
     # the glowing slice: bright warm pixels in the main picture, left of the inset
-    main = picture[:, :border.min() - 2]
+    main = picture[:, : border.min() - 2]
     glow = (main[..., 0] > 200) & (main[..., 1] > 180) & (main[..., 2] > 80) & (main[..., 2] < 190)
     assert glow.sum() > 50
 
 
-@pytest.mark.parametrize("args, message", [
-    (("--inset",), "--inset shows the 3D world at a slice: give --slice AXIS=C too"),
-    (("--slice", "w=0"), "is not AXIS=C with AXIS one of x, y, z, t"),
-    (("--slice", "t=nan"), "must be a finite number"),
-    (("--slice", "t=abc"), "'abc' is not a number"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("--inset",), "--inset shows the 3D world at a slice: give --slice AXIS=C too"),
+        (("--slice", "w=0"), "is not AXIS=C with AXIS one of x, y, z, t"),
+        (("--slice", "t=nan"), "must be a finite number"),
+        (("--slice", "t=abc"), "'abc' is not a number"),
+    ],
+)
 def test_bad_slice_arguments_get_one_line(cli, tmp_path, args, message):
     result = cli("render", "collision", *args, "--out", str(tmp_path / "x.png"))
     assert result.returncode == 2 and message in result.stderr
@@ -117,11 +133,14 @@ def test_the_ball_falls_on_screen_in_the_inset_and_the_main_view(collision):
     the pipe, where the falling ball meets it) is drawn at the top of the surface."""
     params = collision.resolve({})
     world = {c: inset_mesh(collision, params, None, 3, c) for c in (-1.5, 1.5)}
-    view = inset_view(collision.view, np.concatenate(
-        [w.surfaces[0].positions for w in world.values()]), (400, 300))
+    view = inset_view(
+        collision.view,
+        np.concatenate([w.surfaces[0].positions for w in world.values()]),
+        (400, 300),
+    )
     early, late = (_screen_y(view, world[c].surfaces[0].positions).mean() for c in (-1.5, 1.5))
     pipe = _screen_y(view, [[0, 0, 0, 0]])[0]
-    assert early < pipe < late   # above the pipe, then below it: falling
+    assert early < pipe < late  # above the pipe, then below it: falling
     mesh = collision.build(params, 24)
     first = mesh.markers[0].position
     rows = _screen_y(collision.view, mesh.surfaces[0].positions)

@@ -27,10 +27,13 @@ def crossing_planes(one_surface: bool) -> Mesh4D:
     b = square("b", (0, 0, 0, w), (1, 0, SLOPE[0], 0), (0, 1, SLOPE[1], 0), GREY, half=1.0, n=5)
     if not one_surface:
         return Mesh4D(surfaces=[a, b])
-    merged = Surface("ab", np.concatenate([a.positions, b.positions]),
-                     np.concatenate([a.normals, b.normals]),
-                     np.concatenate([a.triangles, b.triangles + len(a.positions)]),
-                     Material(color=GREY))
+    merged = Surface(
+        "ab",
+        np.concatenate([a.positions, b.positions]),
+        np.concatenate([a.normals, b.normals]),
+        np.concatenate([a.triangles, b.triangles + len(a.positions)]),
+        Material(color=GREY),
+    )
     return Mesh4D(surfaces=[merged])
 
 
@@ -38,8 +41,14 @@ def draw(gl, mesh, intersections: bool, quality=Quality("f", "fxaa")):
     gpu = gl.renderer.upload(mesh)
     view = scenes.get("hopf").view.replace(angles=(0.0,) * 6, half_height=1.2)
     # Line widths as at 720 px.
-    options = RenderOptions(hud=False, silhouettes=False, curves=False, background=BLACK,
-                            intersections=intersections, line_scale=1.0)
+    options = RenderOptions(
+        hud=False,
+        silhouettes=False,
+        curves=False,
+        background=BLACK,
+        intersections=intersections,
+        line_scale=1.0,
+    )
     image = gl.frame(gpu, view, SIZE, options, None, quality)
     ct = gl.renderer.clip_transform(view, SIZE)
     gpu.release()
@@ -121,8 +130,12 @@ def components(mask: np.ndarray) -> list[int]:
             for dy in (-1, 0, 1):
                 for dx in (-1, 0, 1):
                     q = (y + dy, x + dx)
-                    if (0 <= q[0] < mask.shape[0] and 0 <= q[1] < mask.shape[1]
-                            and mask[q] and not seen[q]):
+                    if (
+                        0 <= q[0] < mask.shape[0]
+                        and 0 <= q[1] < mask.shape[1]
+                        and mask[q]
+                        and not seen[q]
+                    ):
                         seen[q] = True
                         stack.append(q)
         sizes.append(size)
@@ -134,15 +147,18 @@ def test_the_hopf_tori_crossings_at_the_kiosks_mesh_size(gl):
     resolution 48: where the tori pass through each other the crossing is inked as long,
     unbroken curves; without them there is no ink, only the staircase between two colours."""
     import math
+
     scene = scenes.get("hopf")
     gpu = gl.renderer.upload(scene.build({}, 48))
-    view = scene.view.replace(angles=(0.0, 0.0, 0.0, math.radians(20), 0.0, 0.0),
-                              half_height=2.2).with_sensor_distance(3.0)
+    view = scene.view.replace(
+        angles=(0.0, 0.0, 0.0, math.radians(20), 0.0, 0.0), half_height=2.2
+    ).with_sensor_distance(3.0)
     size = (640, 360)
     options = dict(hud=False, silhouettes=False, curves=False, line_scale=1.0)
     inked = gl.frame(gpu, view, size, RenderOptions(**options), None, Quality("f", "fxaa"))
-    plain = gl.frame(gpu, view, size, RenderOptions(intersections=False, **options), None,
-                     Quality("f", "fxaa"))
+    plain = gl.frame(
+        gpu, view, size, RenderOptions(intersections=False, **options), None, Quality("f", "fxaa")
+    )
     gpu.release()
     ink = luma(plain) - luma(inked) > 0.1
     sizes = components(ink)

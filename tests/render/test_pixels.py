@@ -13,15 +13,27 @@ RNG = np.random.default_rng(7)
 POINTS = RNG.uniform(-0.9, 0.9, size=(8, 4))
 
 VIEWS = {
-    "orthographic": ViewState(sensor_r=0.0, eye_r=0.0, half_height=1.5,
-                              angles=(0.3, -0.5, -0.9, 0.4, -0.6, 0.2)),
-    "perspective": ViewState(sensor_r=1 / 3, eye_r=1 / 6, half_height=1.5,
-                             angles=(-0.7, -1.1, -0.4, 1.9, -0.3, -0.5), eye_azimuth=0.4),
+    "orthographic": ViewState(
+        sensor_r=0.0, eye_r=0.0, half_height=1.5, angles=(0.3, -0.5, -0.9, 0.4, -0.6, 0.2)
+    ),
+    "perspective": ViewState(
+        sensor_r=1 / 3,
+        eye_r=1 / 6,
+        half_height=1.5,
+        angles=(-0.7, -1.1, -0.4, 1.9, -0.3, -0.5),
+        eye_azimuth=0.4,
+    ),
     # The hypersphere's setting of Figures 6-8 with the sensor just outside it: image scales up
     # to ~10x near the sensor, the regime where a wrong division would show first.
-    "sensor-near": ViewState(sensor_r=1 / 2.1, eye_r=1 / 9, half_height=2.5,
-                             offset=(0.0, 0.0, 0.0, 1.0), eye_azimuth=0.35, eye_incidence=-1.05,
-                             angles=(0.2, -0.3, -0.1, 0.0, 0.0, 0.0)),
+    "sensor-near": ViewState(
+        sensor_r=1 / 2.1,
+        eye_r=1 / 9,
+        half_height=2.5,
+        offset=(0.0, 0.0, 0.0, 1.0),
+        eye_azimuth=0.35,
+        eye_incidence=-1.05,
+        angles=(0.2, -0.3, -0.1, 0.0, 0.0, 0.0),
+    ),
 }
 
 

@@ -60,8 +60,18 @@ angles = [40, 0, 0, 0, 0, 0]
 
 
 def _render(cli, timeline, site, out, *extra):
-    result = cli("render", "--timeline", str(timeline), "--config", str(site), "--size",
-                 f"{SIZE[0]}x{SIZE[1]}", "--out", str(out), *extra)
+    result = cli(
+        "render",
+        "--timeline",
+        str(timeline),
+        "--config",
+        str(site),
+        "--size",
+        f"{SIZE[0]}x{SIZE[1]}",
+        "--out",
+        str(out),
+        *extra,
+    )
     assert result.returncode == 0, result.stderr
     assert "Traceback" not in result.stderr
     return result
@@ -84,8 +94,9 @@ def test_frames_in_a_folder(gl, cli, setup, tmp_path):
     with Image.open(frames[0]) as image:
         assert image.size == SIZE
     # The caption change shows: the caption panel (top left) differs before and after t = 1.
-    before, after = (np.asarray(Image.open(frames[i]))[: SIZE[1] // 3, : SIZE[0] // 2]
-                     for i in (FPS - 1, -1))
+    before, after = (
+        np.asarray(Image.open(frames[i]))[: SIZE[1] // 3, : SIZE[0] // 2] for i in (FPS - 1, -1)
+    )
     assert (before != after).any(axis=-1).mean() > 0.02
 
 
@@ -135,41 +146,97 @@ def test_takeover_writes_the_png(gl, cli, tmp_path, monkeypatch):
     site = tmp_path / "site.toml"
     site.write_text("[content]\nresolution = { hopf = 12 }\n")
     out = tmp_path / "takeover.png"
-    result = cli("render", "--takeover", "hopf", "--config", str(site), "--size", "320x180",
-                 "--after", "1", "--fps", "4", "--out", str(out))
+    result = cli(
+        "render",
+        "--takeover",
+        "hopf",
+        "--config",
+        str(site),
+        "--size",
+        "320x180",
+        "--after",
+        "1",
+        "--fps",
+        "4",
+        "--out",
+        str(out),
+    )
     assert result.returncode == 0, result.stderr
     with Image.open(out) as image:
         assert image.size == (320, 180)
 
 
-@pytest.mark.parametrize("argv, message", [
-    (["--timeline", "no-such.toml", "--out", "x.png"], "no-such.toml does not exist"),
-    (["--timeline", str(SHIPPED / "kiosk.toml"), "--out", "x.png"], "not a timeline"),
-    (["--timeline", str(ROOT / "README.md"), "--out", "x.png"], "not a timeline"),
-    (["--timeline", str(SHIPPED / "attract"), "--out", "x.png"], "is not a file"),
-    (["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--language", "xx",
-      "--out", "x.png"], "no catalogue for 'xx'"),
-    (["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--out", "x.jpg"],
-     "must be a folder (ending in /), an .mp4 or a .png"),
-    (["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--out",
-      "/no/such/dir/x.png"], "does not exist"),
-    (["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--fps", "0",
-      "--out", "x/"], "argument --fps: must lie in [1, 120], got 0"),
-    (["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml")], "--out is required"),
-    (["hopf", "--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--out", "x/"],
-     "takes no scene name"),
-    (["--takeover", "nope", "--out", "x.png"], "no scene named 'nope'"),
-    (["--takeover", "hopf", "--out", "x.gif"], "must end in .png"),
-    (["--takeover", "hopf", "--after", "-1", "--out", "x.png"],
-     "argument --after: must lie in [0, 600], got -1"),
-    (["--takeover", "hopf", "--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"),
-      "--out", "x.png"], "not both"),
-    (["hopf", "--language", "de", "--out", "x.png"], "--language goes with --timeline"),
-])
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["--timeline", "no-such.toml", "--out", "x.png"], "no-such.toml does not exist"),
+        (["--timeline", str(SHIPPED / "kiosk.toml"), "--out", "x.png"], "not a timeline"),
+        (["--timeline", str(ROOT / "README.md"), "--out", "x.png"], "not a timeline"),
+        (["--timeline", str(SHIPPED / "attract"), "--out", "x.png"], "is not a file"),
+        (
+            [
+                "--timeline",
+                str(SHIPPED / "attract" / "01-hypersphere.toml"),
+                "--language",
+                "xx",
+                "--out",
+                "x.png",
+            ],
+            "no catalogue for 'xx'",
+        ),
+        (
+            ["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--out", "x.jpg"],
+            "must be a folder (ending in /), an .mp4 or a .png",
+        ),
+        (
+            [
+                "--timeline",
+                str(SHIPPED / "attract" / "01-hypersphere.toml"),
+                "--out",
+                "/no/such/dir/x.png",
+            ],
+            "does not exist",
+        ),
+        (
+            [
+                "--timeline",
+                str(SHIPPED / "attract" / "01-hypersphere.toml"),
+                "--fps",
+                "0",
+                "--out",
+                "x/",
+            ],
+            "argument --fps: must lie in [1, 120], got 0",
+        ),
+        (["--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml")], "--out is required"),
+        (
+            ["hopf", "--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"), "--out", "x/"],
+            "takes no scene name",
+        ),
+        (["--takeover", "nope", "--out", "x.png"], "no scene named 'nope'"),
+        (["--takeover", "hopf", "--out", "x.gif"], "must end in .png"),
+        (
+            ["--takeover", "hopf", "--after", "-1", "--out", "x.png"],
+            "argument --after: must lie in [0, 600], got -1",
+        ),
+        (
+            [
+                "--takeover",
+                "hopf",
+                "--timeline",
+                str(SHIPPED / "attract" / "01-hypersphere.toml"),
+                "--out",
+                "x.png",
+            ],
+            "not both",
+        ),
+        (["hopf", "--language", "de", "--out", "x.png"], "--language goes with --timeline"),
+    ],
+)
 def test_bad_input_gets_one_line_and_exit_2(capsys, argv, message):
     try:
         code = main(["render", *argv])
-    except SystemExit as exc:   # argparse refuses a flag's value itself
+    except SystemExit as exc:  # argparse refuses a flag's value itself
         code = exc.code
     assert code == 2
     err = capsys.readouterr().err
@@ -178,7 +245,17 @@ def test_bad_input_gets_one_line_and_exit_2(capsys, argv, message):
 
 def test_mp4_without_ffmpeg_says_so(capsys, monkeypatch, tmp_path):
     monkeypatch.setenv("PATH", str(tmp_path))  # no ffmpeg there
-    assert main(["render", "--timeline", str(SHIPPED / "attract" / "01-hypersphere.toml"),
-                 "--out", str(tmp_path / "x.mp4")]) == 2
+    assert (
+        main(
+            [
+                "render",
+                "--timeline",
+                str(SHIPPED / "attract" / "01-hypersphere.toml"),
+                "--out",
+                str(tmp_path / "x.mp4"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "needs ffmpeg on PATH" in err and err.count("\n") == 1

@@ -5,19 +5,35 @@ import numpy as np
 import pytest
 
 from exhibit import scenes
-from exhibit.geometry import (ViewState, clip_transform, eye_ray, sensor_ray, silhouette_function,
-                              zero_set_segments)
+from exhibit.geometry import (
+    ViewState,
+    clip_transform,
+    eye_ray,
+    sensor_ray,
+    silhouette_function,
+    zero_set_segments,
+)
 from exhibit.render import RenderOptions
 
 SIZE = (240, 180)
-INK_ONLY = RenderOptions(surfaces=False, curves=False, hud=False, pinch_points=False,
-                         background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), silhouette_width=2.0,
-                         line_scale=1.0)
+INK_ONLY = RenderOptions(
+    surfaces=False,
+    curves=False,
+    hud=False,
+    pinch_points=False,
+    background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+    silhouette_width=2.0,
+    line_scale=1.0,
+)
 VIEWS = [
-    ViewState(angles=(0.4, -0.7, -0.5, 0.3, -0.4, 0.0), sensor_r=0.0, eye_r=0.0,
-              half_height=1.3),
-    ViewState(angles=(-0.9, -1.2, -0.3, 0.8, -0.6, 0.3), sensor_r=1 / 3, eye_r=1 / 7,
-              offset=(0.0, 0.0, 0.0, 0.3), half_height=1.5),
+    ViewState(angles=(0.4, -0.7, -0.5, 0.3, -0.4, 0.0), sensor_r=0.0, eye_r=0.0, half_height=1.3),
+    ViewState(
+        angles=(-0.9, -1.2, -0.3, 0.8, -0.6, 0.3),
+        sensor_r=1 / 3,
+        eye_r=1 / 7,
+        offset=(0.0, 0.0, 0.0, 0.3),
+        half_height=1.5,
+    ),
 ]
 
 
@@ -42,7 +58,7 @@ def test_gpu_silhouette_is_the_cpu_zero_set(gl, index):
     gpu = gl.renderer.upload(mesh)
     image = gl.image(gpu, view, SIZE, INK_ONLY, samples=0)
     gpu.release()
-    ink = np.argwhere(image.max(axis=-1) > 20)[:, ::-1] + 0.5   # (x, y) pixel centres
+    ink = np.argwhere(image.max(axis=-1) > 20)[:, ::-1] + 0.5  # (x, y) pixel centres
     expected = np.concatenate([cpu_silhouette_pixels(s, view) for s in mesh.surfaces])
     expected = expected[np.all((expected >= 0) & (expected < SIZE), axis=1)]
     assert len(ink) > 200 and len(expected) > 200
@@ -71,8 +87,14 @@ def test_gpu_slice_is_the_exact_slice(gl, at):
     mesh.markers.clear()
     gpu = gl.renderer.upload(mesh)
     view = preset.view.replace(slice_axis=3, slice_at=at)
-    plain = RenderOptions(surfaces=False, curves=False, hud=False, silhouettes=False,
-                          background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)), line_scale=1.0)
+    plain = RenderOptions(
+        surfaces=False,
+        curves=False,
+        hud=False,
+        silhouettes=False,
+        background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        line_scale=1.0,
+    )
     image = gl.image(gpu, view, SIZE, plain, samples=0)
     none = gl.image(gpu, preset.view, SIZE, plain, samples=0)
     gpu.release()
@@ -99,12 +121,18 @@ def test_the_silhouette_pass_writes_no_depth(gl):
     target = gl.target(SIZE, 0)
     depth, colour = [], []
     for silhouettes in (False, True):
-        options = RenderOptions(hud=False, curves=False, surfaces=False, intersections=False,
-                                silhouettes=silhouettes, silhouette_width=6.0,
-                                background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+        options = RenderOptions(
+            hud=False,
+            curves=False,
+            surfaces=False,
+            intersections=False,
+            silhouettes=silhouettes,
+            silhouette_width=6.0,
+            background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        )
         gl.renderer.render(gpu, VIEWS[0], target.framebuffer, options)
         raw = target.framebuffer.read(attachment=-1, dtype="f4")
-        depth.append(np.frombuffer(raw, dtype=np.uint32)[:SIZE[0] * SIZE[1]])
+        depth.append(np.frombuffer(raw, dtype=np.uint32)[: SIZE[0] * SIZE[1]])
         colour.append(np.frombuffer(target.framebuffer.read(), dtype=np.uint8))
     gpu.release()
     assert (colour[1] > 20).sum() > 500 and colour[0].max() == 0
@@ -122,9 +150,15 @@ def test_lemma_2_discs_lie_on_top_of_the_silhouette_ink(gl):
     gpu = gl.renderer.upload(mesh)
 
     def yellow(ink_width: float) -> int:
-        options = RenderOptions(surfaces=False, curves=False, hud=False, pinch_size=14.0,
-                                silhouette_width=ink_width, line_scale=1.0,
-                                background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)))
+        options = RenderOptions(
+            surfaces=False,
+            curves=False,
+            hud=False,
+            pinch_size=14.0,
+            silhouette_width=ink_width,
+            line_scale=1.0,
+            background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+        )
         image = gl.image(gpu, preset.view, SIZE, options, samples=0).astype(int)
         r, g, b = image[..., 0], image[..., 1], image[..., 2]
         return int(((r > 200) & (g > 180) & (b < 120)).sum())

@@ -42,7 +42,8 @@ def test_in_a_kiosk_a_typo_is_logged_once_and_drawing_goes_on(gl, monkeypatch, c
         for _ in range(3):
             shaders.set_uniforms(prog, {"u_bottm": (0.0, 0.0, 0.0), "u_top": (0.5, 0.5, 0.5)})
     assert [r.getMessage() for r in caplog.records].count(
-        caplog.records[0].getMessage()) == 1 and "u_bottm" in caplog.text
+        caplog.records[0].getMessage()
+    ) == 1 and "u_bottm" in caplog.text
     assert prog["u_top"].value == pytest.approx((0.5, 0.5, 0.5))
 
 

@@ -19,16 +19,30 @@ SIZES = [(1920, 1080), (1280, 720)]
 DRIFT = 12.0
 BLACK = ((0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
 #: Surfaces only, on black: every lit pixel is a surface pixel.
-SURFACES_ONLY = RenderOptions(hud=False, curves=False, silhouettes=False, pinch_points=False,
-                              intersections=False, background=BLACK)
+SURFACES_ONLY = RenderOptions(
+    hud=False,
+    curves=False,
+    silhouettes=False,
+    pinch_points=False,
+    intersections=False,
+    background=BLACK,
+)
 #: (scene, preset or None for the start view, extra turn of θ1, θ2 in degrees).
-CASES = [("offset-parabola", "figure-9", 0, 0), ("offset-parabola", "figure-10", 0, 0),
-         ("offset-parabola", None, 60, -20), ("offset-cusp", "figure-11", 0, 0),
-         ("offset-cusp", "figure-12", 0, 0), ("offset-cusp", None, 0, 0),
-         ("offset-cusp", None, 120, -30), ("offset-cusp-traced", "figure-14", 0, 0),
-         ("collision", "figure-15", 0, 0), ("collision", "figure-17", 80, -35),
-         ("clifford-torus", None, 45, 10), ("complex-square", None, 0, 0),
-         ("hopf", "figure-7", 0, 0)]
+CASES = [
+    ("offset-parabola", "figure-9", 0, 0),
+    ("offset-parabola", "figure-10", 0, 0),
+    ("offset-parabola", None, 60, -20),
+    ("offset-cusp", "figure-11", 0, 0),
+    ("offset-cusp", "figure-12", 0, 0),
+    ("offset-cusp", None, 0, 0),
+    ("offset-cusp", None, 120, -30),
+    ("offset-cusp-traced", "figure-14", 0, 0),
+    ("collision", "figure-15", 0, 0),
+    ("collision", "figure-17", 80, -35),
+    ("clifford-torus", None, 45, 10),
+    ("complex-square", None, 0, 0),
+    ("hopf", "figure-7", 0, 0),
+]
 MESHES: dict = {}
 
 
@@ -49,8 +63,9 @@ def case_view(scene, preset, turn1, turn2):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("size", SIZES, ids=["1080p", "720p"])
-@pytest.mark.parametrize("name, preset, turn1, turn2", CASES,
-                         ids=[f"{c[0]}-{c[1] or 'start'}-{c[2]}" for c in CASES])
+@pytest.mark.parametrize(
+    "name, preset, turn1, turn2", CASES, ids=[f"{c[0]}-{c[1] or 'start'}-{c[2]}" for c in CASES]
+)
 def test_framed_surfaces_stay_in_the_free_area(gl, size, name, preset, turn1, turn2):
     scene = scenes.get(name)
     params = dict(scene.preset(preset).params) if preset else {}
@@ -70,7 +85,7 @@ def test_framed_surfaces_stay_in_the_free_area(gl, size, name, preset, turn1, tu
     for panel in layout.panels:
         # The fit keeps the layout's margin; 2 px for rasterising and FXAA.
         guard = panel.grow(layout.margin - 2)
-        inside = ((xs >= guard.x0) & (xs < guard.x1) & (ys >= guard.y0) & (ys < guard.y1))
+        inside = (xs >= guard.x0) & (xs < guard.x1) & (ys >= guard.y0) & (ys < guard.y1)
         assert not inside.any(), f"{inside.sum()} surface pixels near the panel {panel}"
     edge = layout.margin - 2
     assert xs.min() >= edge and ys.min() >= edge
@@ -113,15 +128,19 @@ POSES = collision_poses()
 
 @pytest.mark.slow
 @pytest.mark.parametrize("size", SIZES, ids=["1080p", "720p"])
-@pytest.mark.parametrize("number, turn, tilt, behind", POSES,
-                         ids=[f"fig{p[0]}-{p[1]}-{p[2]}{'-hidden' if p[3] else ''}"
-                              for p in POSES])
+@pytest.mark.parametrize(
+    "number, turn, tilt, behind",
+    POSES,
+    ids=[f"fig{p[0]}-{p[1]}-{p[2]}{'-hidden' if p[3] else ''}" for p in POSES],
+)
 def test_marker_labels_are_on_screen_off_the_panels_and_above_the_surfaces(
-        gl, size, number, turn, tilt, behind):
+    gl, size, number, turn, tilt, behind
+):
     scene, preset = scenes.figure(number)
     mesh = mesh_for(scene, dict(preset.params))
-    view = Framer(size, TextSizes(), DRIFT).scene_view(scene, mesh,
-                                                       case_view(scene, preset.name, turn, tilt))
+    view = Framer(size, TextSizes(), DRIFT).scene_view(
+        scene, mesh, case_view(scene, preset.name, turn, tilt)
+    )
     hud = HudInfo(scene.title, scene.caption, scene.axes)
     gpu = gl.renderer.upload(mesh)
     try:
@@ -143,7 +162,7 @@ def test_marker_labels_are_on_screen_off_the_panels_and_above_the_surfaces(
         rim = image[int(round(y - 0.5)), int(round(x - 0.5 + r))].astype(float)
         assert np.abs(rim - color).max() < 70, (rim, color)
         # The label's glyphs are in the label's colour, on their halo.
-        box = image[int(rect.y0):int(rect.y1), int(rect.x0):int(rect.x1)].astype(float)
+        box = image[int(rect.y0) : int(rect.y1), int(rect.x0) : int(rect.x1)].astype(float)
         ink = (np.abs(box - color).max(axis=-1) < 40).sum()
         assert ink > 0.05 * box.shape[0] * box.shape[1]
 
@@ -158,16 +177,20 @@ def test_caption_capitals_are_at_least_a_45th_of_the_height(gl, size):
     assert cap_height("bold", layout.title_px) > cap_height("sans", layout.body_px)
     gpu = gl.renderer.upload(mesh_for(scenes.get("complex-square"), {}))
     try:
-        caption = gl.image(gpu, scenes.get("hopf").view, size,
-                           RenderOptions(background=BLACK, surfaces=False, curves=False),
-                           HudInfo(caption="HHHH"), samples=0)
+        caption = gl.image(
+            gpu,
+            scenes.get("hopf").view,
+            size,
+            RenderOptions(background=BLACK, surfaces=False, curves=False),
+            HudInfo(caption="HHHH"),
+            samples=0,
+        )
     finally:
         gpu.release()
     block = layout.title_block
-    region = caption[int(block.y0):int(block.y1), int(block.x0):int(block.x1)].max(axis=-1)
+    region = caption[int(block.y0) : int(block.y1), int(block.x0) : int(block.x1)].max(axis=-1)
     rows = np.nonzero((region > 128).any(axis=1))[0]
     assert rows.max() - rows.min() + 1 >= math.floor(size[1] / 45)
-
 
 
 def test_every_word_of_the_hud_meets_the_size_rule(gl):
@@ -179,8 +202,13 @@ def test_every_word_of_the_hud_meets_the_size_rule(gl):
     try:
         for size in SIZES:
             gl.renderer.atlas._clear()
-            gl.frame(gpu, preset.view, size, RenderOptions(),
-                     HudInfo(scene.title, scene.caption, scene.axes))
+            gl.frame(
+                gpu,
+                preset.view,
+                size,
+                RenderOptions(),
+                HudInfo(scene.title, scene.caption, scene.axes),
+            )
             used = {(style, px) for style, px, _ in gl.renderer.atlas._glyphs}
             assert {"mono", "bold", "sans"} <= {style for style, _ in used}
             for style, px in used:

@@ -51,9 +51,14 @@ def display():
 def window_frames(display, tmp_path_factory):
     out = tmp_path_factory.mktemp("window")
     env = dict(os.environ, DISPLAY=display)
-    result = subprocess.run([sys.executable, "-c", CHILD, str(out), "16"], env=env,
-                            capture_output=True, text=True, timeout=120,
-                            cwd=Path(__file__).resolve().parents[2])
+    result = subprocess.run(
+        [sys.executable, "-c", CHILD, str(out), "16"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+        cwd=Path(__file__).resolve().parents[2],
+    )
     if result.returncode != 0 and "cannot start GLFW" in result.stderr:
         unavailable(f"no GLFW window on Xvfb: {result.stderr.strip().splitlines()[-1]}")
     assert result.returncode == 0, result.stderr

@@ -7,9 +7,11 @@ from exhibit import scenes
 from exhibit.render.layout import hud_layout
 from exhibit.render.text import text_width, wrap, wrap_balanced
 
-SPACED = ("Take every line through the centre of a ball and turn it into one point. The shadow "
-          "you see crosses itself {dash} turn the knobs and watch the crossings move {dash} "
-          "and again.")
+SPACED = (
+    "Take every line through the centre of a ball and turn it into one point. The shadow "
+    "you see crosses itself {dash} turn the knobs and watch the crossings move {dash} "
+    "and again."
+)
 
 
 @pytest.mark.parametrize("dash", ["–", "—", "-"])
@@ -28,8 +30,11 @@ def test_a_hyphen_in_a_word_or_a_minus_sign_still_breaks_normally():
     for width in range(40, 600, 5):
         lines = wrap(text, "sans", 24, width)
         assert " ".join(lines) == text
-    assert any(line.startswith("-0.50") for width in range(40, 600, 5)
-               for line in wrap(text, "sans", 24, width))
+    assert any(
+        line.startswith("-0.50")
+        for width in range(40, 600, 5)
+        for line in wrap(text, "sans", 24, width)
+    )
 
 
 def test_a_caption_that_fits_beside_the_gizmo_is_one_line():
@@ -52,5 +57,5 @@ def test_a_long_caption_takes_the_fewest_lines_of_its_measure_evened(size):
     assert len(lines) == len(wrap(caption, "sans", px, measure)) > 1
     widths = [text_width(line, "sans", px) for line in lines]
     assert max(widths) <= measure
-    assert min(widths[:-1]) > 0.8 * max(widths)   # no ragged column
+    assert min(widths[:-1]) > 0.8 * max(widths)  # no ragged column
     assert layout.title_block.x1 + layout.margin <= layout.gizmo_block.x0

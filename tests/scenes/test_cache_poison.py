@@ -50,11 +50,13 @@ def assert_same(a: Mesh4D, b: Mesh4D) -> None:
         assert x.material == y.material
         assert {**x.info, "seconds": 0} == {**y.info, "seconds": 0}  # build time varies
     assert [(c.name, c.material, c.closed) for c in a.curves] == [
-        (c.name, c.material, c.closed) for c in b.curves]
+        (c.name, c.material, c.closed) for c in b.curves
+    ]
     for x, y in zip(a.curves, b.curves):
         np.testing.assert_array_equal(x.points, y.points)
     assert [(m.name, m.label, list(m.position)) for m in a.markers] == [
-        (m.name, m.label, list(m.position)) for m in b.markers]
+        (m.name, m.label, list(m.position)) for m in b.markers
+    ]
 
 
 def unpack(data: bytes = VALID) -> tuple[dict, dict]:
@@ -106,6 +108,7 @@ def rebuilt(entry, caplog, reason: str = "", replaced: bool = True) -> None:
 
 # ---------------------------------------------------------------------- the manifest
 
+
 def set_manifest(value):
     raw = value if isinstance(value, bytes) else json.dumps(value).encode()
     return lambda arrays, manifest: raw
@@ -115,6 +118,7 @@ def edit(fn):
     def change(arrays, manifest):
         fn(manifest)
         return manifest
+
     return change
 
 
@@ -155,19 +159,26 @@ def test_malformed_manifest_is_rebuilt(entry, caplog, name):
 
 # ---------------------------------------------------------------------- the arrays
 
+
 def arr(key, fn):
     def change(arrays, manifest):
         arrays[key] = fn(arrays[key])
+
     return change
 
 
 def add_marker(position):
     def change(arrays, manifest):
-        manifest["markers"].append({"name": "m", "label": "",
-                                    "material": {"color": [1, 1, 0], "style": "solid",
-                                                 "line_width": 2.0}})
+        manifest["markers"].append(
+            {
+                "name": "m",
+                "label": "",
+                "material": {"color": [1, 1, 0], "style": "solid", "line_width": 2.0},
+            }
+        )
         arrays["m0_position"] = np.asarray(position, dtype=np.float64)
         return manifest
+
     return change
 
 
@@ -176,6 +187,7 @@ def with_value(value, index=(0, 0)):
         a = a.copy()
         a[index] = value
         return a
+
     return fn
 
 
@@ -236,6 +248,7 @@ def test_a_valid_marker_still_loads():
 
 # ---------------------------------------------------------------------- the zip container
 
+
 def zip_bytes(members: dict[str, bytes], compression=zipfile.ZIP_DEFLATED) -> bytes:
     buffer = io.BytesIO()
     with zipfile.ZipFile(buffer, "w", compression) as z:
@@ -265,9 +278,13 @@ def test_zip_bomb_is_refused_without_inflating(entry, caplog, monkeypatch):
     assert len(data) < 1 << 20
     opened = []
     real_open = zipfile.ZipFile.open
-    monkeypatch.setattr(zipfile.ZipFile, "open",
-                        lambda self, name, *a, **k: opened.append(getattr(name, "filename", name))
-                        or real_open(self, name, *a, **k))
+    monkeypatch.setattr(
+        zipfile.ZipFile,
+        "open",
+        lambda self, name, *a, **k: (
+            opened.append(getattr(name, "filename", name)) or real_open(self, name, *a, **k)
+        ),
+    )
     with pytest.raises(ValueError, match="more than the 16777216 allowed"):
         Mesh4D.from_bytes(data)
     assert opened == []
@@ -281,8 +298,8 @@ def patch_sizes(data: bytes, name: bytes, size: int) -> bytes:
     for sig, offset, name_at in ((b"PK\x03\x04", 22, 30), (b"PK\x01\x02", 24, 46)):
         start = 0
         while (start := out.find(sig, start)) >= 0:
-            if out[start + name_at:start + name_at + len(name)] == name:
-                out[start + offset:start + offset + 4] = size.to_bytes(4, "little")
+            if out[start + name_at : start + name_at + len(name)] == name:
+                out[start + offset : start + offset + 4] = size.to_bytes(4, "little")
             start += 4
     return bytes(out)
 
@@ -297,8 +314,9 @@ def test_declared_size_over_the_default_cap_is_refused(entry, caplog):
 def test_member_shorter_than_its_header_claims_is_refused(entry, caplog):
     """The .npy header claims 10**12 rows; nothing that size is allocated."""
     buffer = io.BytesIO()
-    np.lib.format.write_array_header_1_0(buffer, {"descr": "<f8", "fortran_order": False,
-                                                  "shape": (10**12, 4)})
+    np.lib.format.write_array_header_1_0(
+        buffer, {"descr": "<f8", "fortran_order": False, "shape": (10**12, 4)}
+    )
     entry.write_bytes(zip_bytes({**members(), "s0_positions.npy": buffer.getvalue() + bytes(32)}))
     rebuilt(entry, caplog, "smaller member")
 
@@ -314,19 +332,28 @@ def test_stored_members_are_accepted():
     assert_same(Mesh4D.from_bytes(zip_bytes(members(), zipfile.ZIP_STORED)), REFERENCE)
 
 
-@pytest.mark.parametrize("name, data", [
-    ("duplicate member", lambda: _duplicate()),
-    ("non-npy member", lambda: zip_bytes({**members(), "notes.txt": b"hi"})),
-    ("many tiny members", lambda: zip_bytes({f"{i}.npy": b"" for i in range(25_000)},
-                                            zipfile.ZIP_STORED)),
-    ("npy version 9", lambda: zip_bytes({**members(), "manifest.npy":
-                                         b"\x93NUMPY\x09\x00" + members()["manifest.npy"][8:]})),
-    ("empty file", lambda: b""),
-    ("random bytes", lambda: np.random.default_rng(1).bytes(5000)),
-    ("half the archive", lambda: VALID[:len(VALID) // 2]),
-    ("all but the last byte", lambda: VALID[:-1]),
-    ("zip64 directory", lambda: _zip64()),
-])
+@pytest.mark.parametrize(
+    "name, data",
+    [
+        ("duplicate member", lambda: _duplicate()),
+        ("non-npy member", lambda: zip_bytes({**members(), "notes.txt": b"hi"})),
+        (
+            "many tiny members",
+            lambda: zip_bytes({f"{i}.npy": b"" for i in range(25_000)}, zipfile.ZIP_STORED),
+        ),
+        (
+            "npy version 9",
+            lambda: zip_bytes(
+                {**members(), "manifest.npy": b"\x93NUMPY\x09\x00" + members()["manifest.npy"][8:]}
+            ),
+        ),
+        ("empty file", lambda: b""),
+        ("random bytes", lambda: np.random.default_rng(1).bytes(5000)),
+        ("half the archive", lambda: VALID[: len(VALID) // 2]),
+        ("all but the last byte", lambda: VALID[:-1]),
+        ("zip64 directory", lambda: _zip64()),
+    ],
+)
 def test_bad_containers_are_rebuilt(entry, caplog, name, data):
     entry.write_bytes(data())
     rebuilt(entry, caplog)
@@ -352,6 +379,7 @@ def _zip64() -> bytes:
 
 # ---------------------------------------------------------------------- what is at the path
 
+
 def test_fifo_is_refused_without_hanging(entry, caplog):
     entry.unlink()
     os.mkfifo(entry)
@@ -364,8 +392,9 @@ def test_symlink_to_dev_zero_is_refused(entry, caplog):
     rebuilt(entry, caplog, "symbolic link")
 
 
-def test_symlink_to_a_valid_mesh_elsewhere_is_refused_and_not_written_through(entry, caplog,
-                                                                             tmp_path_factory):
+def test_symlink_to_a_valid_mesh_elsewhere_is_refused_and_not_written_through(
+    entry, caplog, tmp_path_factory
+):
     """os.replace renames over the link itself: the file it pointed to is untouched."""
     outside = tmp_path_factory.mktemp("outside") / "target.npz"
     outside.write_bytes(VALID)
@@ -403,7 +432,7 @@ def test_file_over_the_size_cap_is_refused_unread(entry, caplog, monkeypatch):
     monkeypatch.setattr(meshmod.Mesh4D, "to_bytes", lambda self: b"x")  # fits the lowered cap
     reads = []
     real_read = os.read
-    me = threading.get_ident()   # os.read is global: another test's threads may still read
+    me = threading.get_ident()  # os.read is global: another test's threads may still read
 
     def read(fd, n):
         if threading.get_ident() == me:
@@ -419,9 +448,11 @@ def test_file_over_the_size_cap_is_refused_unread(entry, caplog, monkeypatch):
 
 # ---------------------------------------------------------------------- random corruption
 
+
 @settings(max_examples=examples(400), deadline=None)
-@given(st.lists(st.tuples(st.integers(0, len(VALID) - 1), st.integers(0, 255)),
-                min_size=1, max_size=8))
+@given(
+    st.lists(st.tuples(st.integers(0, len(VALID) - 1), st.integers(0, 255)), min_size=1, max_size=8)
+)
 def test_random_byte_corruption_is_refused_or_harmless(edits):
     """Replace up to 8 bytes anywhere: the archive is refused (ValueError) or, where the bytes
     were ones nothing reads (timestamps, attributes), loads as exactly the original mesh: the
@@ -446,8 +477,11 @@ def test_every_truncation_is_refused(cut):
         Mesh4D.from_bytes(VALID[:cut])
 
 
-@settings(max_examples=examples(60), deadline=None,
-          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=examples(60),
+    deadline=None,
+    suppress_health_check=[HealthCheck.function_scoped_fixture],
+)
 @given(st.integers(0, len(VALID) - 1), st.binary(min_size=1, max_size=64))
 def test_corrupt_entries_through_build_cached(tmp_path, at, junk):
     """End to end: a corrupted file on disk never raises and always yields the right mesh."""
@@ -455,7 +489,7 @@ def test_corrupt_entries_through_build_cached(tmp_path, at, junk):
     folder = tmp_path / f"c{COUNTS['end-to-end corruptions']}"
     build_cached(SCENE, None, RES, folder)
     (path,) = folder.glob("hopf-*.npz")
-    path.write_bytes(VALID[:at] + junk + VALID[at + len(junk):])
+    path.write_bytes(VALID[:at] + junk + VALID[at + len(junk) :])
     logging.disable(logging.WARNING)
     try:
         mesh, _ = build_cached(SCENE, None, RES, folder)
@@ -472,6 +506,7 @@ def test_report_example_counts(capsys):
 
 
 # ---------------------------------------------------------------------- writing
+
 
 def key_name() -> str:
     return f"hopf-{cache.cache_key(SCENE, SCENE.resolve(None), RES)}.npz"
@@ -497,8 +532,9 @@ def test_write_never_follows_a_symlink_at_the_temporary_name(tmp_path, caplog, m
 def test_temporary_names_are_unpredictable(tmp_path, monkeypatch):
     names = []
     real_open = os.open
-    monkeypatch.setattr(cache.os, "open", lambda p, flags, *a: (names.append(str(p)), real_open(
-        p, flags, *a))[1])
+    monkeypatch.setattr(
+        cache.os, "open", lambda p, flags, *a: (names.append(str(p)), real_open(p, flags, *a))[1]
+    )
     for i in range(3):
         build_cached(SCENE, None, RES, tmp_path / str(i))
     tmps = {os.path.basename(n) for n in names if n.endswith(".tmp")}
@@ -509,6 +545,7 @@ def test_temporary_names_are_unpredictable(tmp_path, monkeypatch):
 def test_a_failed_write_leaves_no_temporary_file(tmp_path, caplog, monkeypatch, failing):
     def boom(*args, **kwargs):
         raise OSError(28, "No space left on device")
+
     monkeypatch.setattr(cache.os, failing, boom)
     caplog.set_level(logging.WARNING)
     mesh, hit = build_cached(SCENE, None, RES, tmp_path)

@@ -12,8 +12,18 @@ import pytest
 from exhibit import scenes
 from exhibit.render.hud import AXIS_COLORS
 from exhibit.scenes import palette
-from exhibit.scenes.colours import LIMIT, VISIONS, Part, clashes, contrast_ratio, delta_e, \
-    least_delta_e, luminance, parts_of, scene_clashes
+from exhibit.scenes.colours import (
+    LIMIT,
+    VISIONS,
+    Part,
+    clashes,
+    contrast_ratio,
+    delta_e,
+    least_delta_e,
+    luminance,
+    parts_of,
+    scene_clashes,
+)
 
 
 @pytest.mark.parametrize("name", scenes.names())
@@ -31,21 +41,23 @@ def test_the_axes_gizmo_is_told_apart_in_every_vision():
 def test_the_old_palette_is_caught_with_the_issues_numbers():
     """Figure 6's magenta and blue fibres were one colour to a protanope (ΔE 5.3), its green and
     red doughnuts hardly two; the check says so, naming both parts and the vision."""
-    fibres = [Part("fibre Z=-1", "line", (0.85, 0.2, 0.8)),
-              Part("fibre Z=1", "line", (0.2, 0.35, 0.95))]
+    fibres = [
+        Part("fibre Z=-1", "line", (0.85, 0.2, 0.8)),
+        Part("fibre Z=1", "line", (0.2, 0.35, 0.95)),
+    ]
     found = clashes(fibres)
     assert len(found) == 1 and found[0].vision == "protanopia"
     assert found[0].delta_e == pytest.approx(5.3, abs=0.1)
     assert "'fibre Z=-1'" in found[0].describe() and "protanopia" in found[0].describe()
     tori = [Part("green", "surface", (0.25, 0.75, 0.3)), Part("red", "surface", (0.85, 0.2, 0.18))]
     assert [c.vision for c in clashes(tori)] in (["protanopia"], ["deuteranopia"])
-    assert delta_e(*tori) > 38   # apart to normal vision: the deficiencies are the problem
+    assert delta_e(*tori) > 38  # apart to normal vision: the deficiencies are the problem
 
 
 def test_the_difference_is_the_published_one():
     white, black = Part("w", "line", (1.0, 1.0, 1.0)), Part("k", "line", (0.0, 0.0, 0.0))
     assert delta_e(white, white) == 0.0
-    assert delta_e(white, black) == pytest.approx(100.0, abs=1.0)   # J' spans 0..100
+    assert delta_e(white, black) == pytest.approx(100.0, abs=1.0)  # J' spans 0..100
     red, green = Part("r", "line", (0.9, 0.1, 0.1)), Part("g", "line", (0.1, 0.7, 0.1))
     assert delta_e(red, green, "deuteranopia") < 0.5 * delta_e(red, green)
     # a lit surface is compared at half light too: a line matching its mid-tone clashes
@@ -62,9 +74,11 @@ def test_one_colour_used_twice_is_no_pair():
 
 
 def test_the_names_the_captions_use_still_fit():
-    """"The green doughnut", "the red curve", "the blue curves", "the yellow circle"."""
+    """ "The green doughnut", "the red curve", "the blue curves", "the yellow circle"."""
+
     def hue(rgb):
         return 360 * colorsys.rgb_to_hsv(*rgb)[0]
+
     assert 90 <= hue(palette.GREEN) <= 175
     assert hue(palette.RED) <= 15 or hue(palette.RED) >= 350
     assert 200 <= hue(palette.BLUE) <= 250
@@ -97,14 +111,21 @@ f2 = "z^2 + w^2 - 0.7"
 box = [[-1, 1], [-1, 1], [-1, 1], [-1, 1]]
 """
     site = tmp_path / "kiosk.toml"
-    site.write_text('[content]\nscenes = ["hopf", "two-tori"]\nstart_scene = "hopf"\n'
-                    '[languages]\nshown = ["en"]\n')
+    site.write_text(
+        '[content]\nscenes = ["hopf", "two-tori"]\nstart_scene = "hopf"\n'
+        '[languages]\nshown = ["en"]\n'
+    )
     env = {**os.environ, "EXHIBIT_SCENE_PATH": str(folder)}
 
     def check(*command):
         command = command or ("check-config", str(site))
-        return subprocess.run([sys.executable, "-m", "exhibit", *command],
-                              capture_output=True, text=True, env=env, timeout=120)
+        return subprocess.run(
+            [sys.executable, "-m", "exhibit", *command],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
 
     scene.write_text(body.format(green=[0.25, 0.75, 0.3], red=[0.85, 0.2, 0.18]))
     refused = check()
@@ -113,7 +134,7 @@ box = [[-1, 1], [-1, 1], [-1, 1], [-1, 1]]
     assert line.startswith(f"{scene}: colours: 'green one' [0.25, 0.75, 0.3] and 'red one' ")
     assert "under deuteranopia" in line or "under protanopia" in line
     assert "Traceback" not in refused.stdout + refused.stderr
-    listed = check("scenes", "--check-colours")   # every scene, the shipped ones too
+    listed = check("scenes", "--check-colours")  # every scene, the shipped ones too
     assert listed.returncode == 2 and f"{scene}: colours: 'green one'" in listed.stdout
     assert "hopf                 OK: " in listed.stdout
     scene.write_text(body.format(green=list(palette.GREEN), red=list(palette.RED)))
@@ -126,5 +147,6 @@ def test_luminance_and_contrast_are_wcags():
     """WCAG 2.x: white on black 21:1; sRGB mid-grey 0.5 has relative luminance 0.2140."""
     assert contrast_ratio((1.0, 1.0, 1.0), (0.0, 0.0, 0.0)) == pytest.approx(21.0, rel=1e-3)
     assert luminance((0.5, 0.5, 0.5)) == pytest.approx(0.2140, abs=2e-4)
-    assert contrast_ratio((0.2, 0.2, 0.2), (0.9, 0.9, 0.9)) == \
-        pytest.approx(contrast_ratio((0.9, 0.9, 0.9), (0.2, 0.2, 0.2)))
+    assert contrast_ratio((0.2, 0.2, 0.2), (0.9, 0.9, 0.9)) == pytest.approx(
+        contrast_ratio((0.9, 0.9, 0.9), (0.2, 0.2, 0.2))
+    )

@@ -22,6 +22,7 @@ def test_parameters_resolution_and_version_change_the_key(tmp_path):
     assert not build_cached(scene, {"axis_length": 2}, 8, tmp_path)[1]
     assert not build_cached(scene, None, 9, tmp_path)[1]
     from dataclasses import replace
+
     assert not build_cached(replace(scene, version="edited"), None, 8, tmp_path)[1]
     assert build_cached(scene, None, 8, tmp_path)[1]
 

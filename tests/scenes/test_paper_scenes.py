@@ -16,8 +16,9 @@ def test_initial_colliding_point_matches_the_closed_form(figure):
     part = collision.build_part(params, 20)
     point = collision.colliding_point(part)
     expected = collision.initial_colliding_point_closed_form(params)
-    np.testing.assert_allclose(point, [expected["x"], expected["y"], expected["z"], expected["t"]],
-                               atol=1e-8)
+    np.testing.assert_allclose(
+        point, [expected["x"], expected["y"], expected["z"], expected["t"]], atol=1e-8
+    )
 
 
 def test_figure_15_is_two_sheets_meeting_at_two_singular_points_at_t0():

@@ -11,8 +11,7 @@ from exhibit.surfaces import analyse
 def test_hopf_scene_has_the_parts_of_figures_6_to_8():
     mesh = scenes.get("hopf").build(resolution=16)
     # green, grey and red doughnuts (in the palette every visitor tells apart)
-    assert [s.material.color for s in mesh.surfaces] == [palette.GREEN, palette.GREY,
-                                                          palette.RED]
+    assert [s.material.color for s in mesh.surfaces] == [palette.GREEN, palette.GREY, palette.RED]
     assert len(mesh.curves) == 6  # two pole fibres, four axes
     for surface in mesh.surfaces:
         report = analyse(surface.triangles)

@@ -58,27 +58,37 @@ def test_parameters_reach_the_formulas(tmp_path):
     assert np.max(np.abs(x * y - z * w + 0.3)) < 1e-9
 
 
-@pytest.mark.parametrize("change, key, reason", [
-    (("name = \"slice\"", "name = \"Bad Name\""), "name", "lower-case"),
-    (("title = \"A slice\"\n", ""), "title", "missing"),
-    (("caption = \"For visitors.\"", "caption = \"For visitors.\"\ncolour = 1"), "colour",
-     "unknown key"),
-    (("default = 0.25", "default = 0.9"), "parameters.a.default", "outside"),
-    (("default = 0.25", "default = \"big\""), "parameters.a.default", "must be a number"),
-    (("x*y - z*w - a", "x*y - q"), "surface[0].f2", "unknown name 'q'"),
-    (("x*y - z*w - a", "__import__('os')"), "surface[0].f2", "not allowed"),
-    (("x*y - z*w - a", "x*y +"), "surface[0].f2", "syntax error"),
-    (("[-1.1, 1.1], [-1.1, 1.1]]", "[-1.1, 1.1]]"), "surface[0].box", "must have 4 items"),
-    (("box = [[-1.1, 1.1]", "box = [[1.1, -1.1]"), "surface[0].box[0]", "below high"),
-    (("name = \"slice\"\nf1", "name = \"slice\"\ncolor = [2, 0, 0]\nf1"), "surface[0].color",
-     "must lie in [0, 1]"),
-    (("[[surface]]", "[[surface]]\npoint = [\"s\", \"t\", \"0\", \"0\"]"), "surface[0]",
-     "either"),
-    ((BOX, BOX + "\n[view]\nsensor_distance = -2"),
-     "view.sensor_distance", "must lie in [0.05"),
-    ((BOX, BOX + "\n[view]\nangles = [1, 2]"), "view.angles",
-     "list of 6 numbers"),
-])
+@pytest.mark.parametrize(
+    "change, key, reason",
+    [
+        (('name = "slice"', 'name = "Bad Name"'), "name", "lower-case"),
+        (('title = "A slice"\n', ""), "title", "missing"),
+        (
+            ('caption = "For visitors."', 'caption = "For visitors."\ncolour = 1'),
+            "colour",
+            "unknown key",
+        ),
+        (("default = 0.25", "default = 0.9"), "parameters.a.default", "outside"),
+        (("default = 0.25", 'default = "big"'), "parameters.a.default", "must be a number"),
+        (("x*y - z*w - a", "x*y - q"), "surface[0].f2", "unknown name 'q'"),
+        (("x*y - z*w - a", "__import__('os')"), "surface[0].f2", "not allowed"),
+        (("x*y - z*w - a", "x*y +"), "surface[0].f2", "syntax error"),
+        (("[-1.1, 1.1], [-1.1, 1.1]]", "[-1.1, 1.1]]"), "surface[0].box", "must have 4 items"),
+        (("box = [[-1.1, 1.1]", "box = [[1.1, -1.1]"), "surface[0].box[0]", "below high"),
+        (
+            ('name = "slice"\nf1', 'name = "slice"\ncolor = [2, 0, 0]\nf1'),
+            "surface[0].color",
+            "must lie in [0, 1]",
+        ),
+        (("[[surface]]", '[[surface]]\npoint = ["s", "t", "0", "0"]'), "surface[0]", "either"),
+        (
+            (BOX, BOX + "\n[view]\nsensor_distance = -2"),
+            "view.sensor_distance",
+            "must lie in [0.05",
+        ),
+        ((BOX, BOX + "\n[view]\nangles = [1, 2]"), "view.angles", "list of 6 numbers"),
+    ],
+)
 def test_mistakes_are_named(tmp_path, change, key, reason):
     old, new = change
     assert old in GOOD
@@ -102,11 +112,14 @@ def test_not_toml_and_missing_surface(tmp_path):
 def test_a_broken_file_is_skipped_and_reported_not_fatal(tmp_path):
     write(tmp_path, "name = = broken", "broken.toml")
     write(tmp_path, GOOD.replace('"slice"', '"extra-slice"', 1), "extra.toml")
-    code = ("from exhibit import scenes; print('extra-slice' in scenes.names()); "
-            "print(len(scenes.LOAD_ERRORS))")
+    code = (
+        "from exhibit import scenes; print('extra-slice' in scenes.names()); "
+        "print(len(scenes.LOAD_ERRORS))"
+    )
     env = {"EXHIBIT_SCENE_PATH": str(tmp_path), "PATH": "/usr/bin:/bin"}
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
-                         check=True).stdout.split()
+    out = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, env=env, check=True
+    ).stdout.split()
     assert out == ["True", "1"]
 
 
@@ -144,8 +157,13 @@ def test_broken_scene_files_stop_no_command(tmp_path):
     env = {**os.environ, "EXHIBIT_SCENE_PATH": str(tmp_path)}
 
     def exhibit(*args):
-        return subprocess.run([sys.executable, "-m", "exhibit", *args], capture_output=True,
-                              text=True, env=env, timeout=120)
+        return subprocess.run(
+            [sys.executable, "-m", "exhibit", *args],
+            capture_output=True,
+            text=True,
+            env=env,
+            timeout=120,
+        )
 
     assert exhibit("--help").returncode == 0
     listed = exhibit("scenes")
@@ -161,11 +179,17 @@ def test_broken_scene_files_stop_no_command(tmp_path):
         assert f"{tmp_path / name}: surface[0].f2: " in checked.stdout, checked.stdout
 
 
-@pytest.mark.parametrize("formula, reason", [
-    ("x/sin(pi)", "division by zero"), ("tan(pi/2) + x", "infinite"),
-    ("x + sqrt(-1)", ""), ("((x^64)^64)^64", "degree"), ("sin(" * 200 + "x" + ")" * 200, ""),
-    ("log(-1 - x^2)", ""),
-])
+@pytest.mark.parametrize(
+    "formula, reason",
+    [
+        ("x/sin(pi)", "division by zero"),
+        ("tan(pi/2) + x", "infinite"),
+        ("x + sqrt(-1)", ""),
+        ("((x^64)^64)^64", "degree"),
+        ("sin(" * 200 + "x" + ")" * 200, ""),
+        ("log(-1 - x^2)", ""),
+    ],
+)
 def test_formulas_that_cannot_be_built_are_refused_at_load(tmp_path, formula, reason):
     path = write(tmp_path, GOOD.replace("x*y - z*w - a", formula))
     with pytest.raises(ExhibitError) as info:
@@ -177,10 +201,16 @@ def test_formulas_that_cannot_be_built_are_refused_at_load(tmp_path, formula, re
 def test_a_warm_start_remembers_checked_formulas_and_needs_no_sympy(tmp_path):
     """The box check needs sympy (half a second); a pass is remembered beside the mesh cache."""
     env = {**os.environ, "EXHIBIT_CACHE_DIR": str(tmp_path / "cache")}
-    code = ("import sys; from exhibit import scenes; scenes.load(); "
-            "print('sympy' in sys.modules, len(scenes.problems()))")
-    runs = [subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
-                           text=True, check=True).stdout.split() for _ in range(2)]
+    code = (
+        "import sys; from exhibit import scenes; scenes.load(); "
+        "print('sympy' in sys.modules, len(scenes.problems()))"
+    )
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True
+        ).stdout.split()
+        for _ in range(2)
+    ]
     assert runs == [["True", "0"], ["False", "0"]]
 
 

@@ -22,8 +22,18 @@ def test_the_cusps_branches_reach_the_stated_exclusion(capsys, r):
     """On the cusp's pipe σ_min/σ_max of (∇g, ∇f) at the offset point of (t², t³) is about
     |t|³/(2r), so the exclusion σ_min/σ_max < EXCLUSION_RATIO leaves out |t| < (2r·ratio)^(1/3).
     Each of the four half-branches ends within 15% of that, next to (0, ±r, 0, 0)."""
-    out = _json(capsys, "silhouette", "offset-cusp", "--along", "u,v", "--param", f"r={r}",
-                "--resolution", "24", "--json")
+    out = _json(
+        capsys,
+        "silhouette",
+        "offset-cusp",
+        "--along",
+        "u,v",
+        "--param",
+        f"r={r}",
+        "--resolution",
+        "24",
+        "--json",
+    )
     limit = (2 * r * EXCLUSION_RATIO) ** (1 / 3)
     ends = []
     for curve in out["curves"]:
@@ -34,16 +44,45 @@ def test_the_cusps_branches_reach_the_stated_exclusion(capsys, r):
     assert out["smallest_ratio"] >= EXCLUSION_RATIO
 
 
-@pytest.mark.parametrize("argv", [
-    ("silhouette", "offset-cusp", "--along", "u,v"),
-    ("silhouette", "offset-cusp-traced", "--along", "t,w"),
-    ("silhouette", "collision", "--along", "x,y", "--param", "rs=0.7", "--param", "vc=0.2"),
-    ("silhouette", "collision", "--along", "y,z", "--param", "rc=1", "--param", "rs=1",
-     "--param", "vc=0", "--param", "vs=1"),
-    ("slice", "collision", "--axis", "t", "--at", "0", "--param", "rc=1", "--param", "rs=1",
-     "--param", "vc=0", "--param", "vs=1"),
-    ("slice", "collision", "--axis", "t", "--at", "0.3"),
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ("silhouette", "offset-cusp", "--along", "u,v"),
+        ("silhouette", "offset-cusp-traced", "--along", "t,w"),
+        ("silhouette", "collision", "--along", "x,y", "--param", "rs=0.7", "--param", "vc=0.2"),
+        (
+            "silhouette",
+            "collision",
+            "--along",
+            "y,z",
+            "--param",
+            "rc=1",
+            "--param",
+            "rs=1",
+            "--param",
+            "vc=0",
+            "--param",
+            "vs=1",
+        ),
+        (
+            "slice",
+            "collision",
+            "--axis",
+            "t",
+            "--at",
+            "0",
+            "--param",
+            "rc=1",
+            "--param",
+            "rs=1",
+            "--param",
+            "vc=0",
+            "--param",
+            "vs=1",
+        ),
+        ("slice", "collision", "--axis", "t", "--at", "0.3"),
+    ],
+)
 def test_no_degenerate_curve_and_refined_counts_the_points_exported(capsys, argv):
     out = _json(capsys, *argv, "--resolution", "24", "--json")
     assert out["curves"]

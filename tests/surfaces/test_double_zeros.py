@@ -20,8 +20,23 @@ def test_the_tangency_circle_of_figure_15_is_a_silhouette_along_y_z(capsys):
     """rc = rs = 1, vc = 0, vs = 1: s = 4yt along y, z, and t ≤ 0 on the sheet z > 0 (t ≥ 0 on
     z < 0), so s keeps its sign across the circle t = 0, x = 0, y² + z² = 1. Before, no exported
     point was nearer than 1.38 to it."""
-    argv = ["silhouette", "collision", "--along", "y,z", "--param", "rc=1", "--param", "rs=1",
-            "--param", "vc=0", "--param", "vs=1", "--resolution", "24", "--json"]
+    argv = [
+        "silhouette",
+        "collision",
+        "--along",
+        "y,z",
+        "--param",
+        "rc=1",
+        "--param",
+        "rs=1",
+        "--param",
+        "vc=0",
+        "--param",
+        "vs=1",
+        "--resolution",
+        "24",
+        "--json",
+    ]
     assert cli.main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     points = np.concatenate([np.array(c) for c in out["curves"]])
@@ -44,8 +59,17 @@ def test_a_planted_double_zero_is_found_and_nothing_else():
     """x² + y² = 1, v = (u - x)³/3: along x, u, s = (∇f1·e_x)(∇f2·e_u) - (∇f1·e_u)(∇f2·e_x)
     = -2x(u - x)², a double zero on the curve u = x, v = 0 (and a simple one at x = 0, which
     the sign-change tracer finds)."""
-    part = mesh_implicit("planted", "x^2 + y^2 - 1", "v - (u - x)^3/3", ("x", "y", "u", "v"),
-                         {}, [-1.2, -1.2, -1.3, -4.0], [1.2, 1.2, 1.3, 4.0], 16, Material())
+    part = mesh_implicit(
+        "planted",
+        "x^2 + y^2 - 1",
+        "v - (u - x)^3/3",
+        ("x", "y", "u", "v"),
+        {},
+        [-1.2, -1.2, -1.3, -4.0],
+        [1.2, 1.2, 1.3, 4.0],
+        16,
+        Material(),
+    )
     curves = touching_silhouette(part.f1, part.f2, part.surface, (0, 2), cell_size(part))
     assert curves
     points = np.concatenate([c.points for c in curves])
@@ -62,6 +86,15 @@ def test_a_planted_double_zero_is_found_and_nothing_else():
 
 def test_a_simple_zero_is_not_reported_as_touching():
     """x² + y² = 1, v = u: along x, u, s = 2x changes sign: nothing touches zero."""
-    part = mesh_implicit("simple", "x^2 + y^2 - 1", "v - u", ("x", "y", "u", "v"), {},
-                         [-1.2, -1.2, -1.2, -1.2], [1.2, 1.2, 1.2, 1.2], 12, Material())
+    part = mesh_implicit(
+        "simple",
+        "x^2 + y^2 - 1",
+        "v - u",
+        ("x", "y", "u", "v"),
+        {},
+        [-1.2, -1.2, -1.2, -1.2],
+        [1.2, 1.2, 1.2, 1.2],
+        12,
+        Material(),
+    )
     assert touching_silhouette(part.f1, part.f2, part.surface, (0, 2), cell_size(part)) == []

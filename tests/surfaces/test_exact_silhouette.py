@@ -1,4 +1,5 @@
-"""Every silhouette point a scene draws or `exhibit silhouette` exports lies on the exact silhouette,
+"""Every silhouette point a scene draws or `exhibit silhouette` exports lies on the exact
+silhouette,
 checked against the paper's own conditions written out here independently of the code, and none
 lies in the excluded neighbourhood of a singular point or curve (the cusp's false arcs, issue 13).
 """
@@ -12,12 +13,18 @@ from hypothesis import strategies as st
 
 from exhibit import cli, scenes
 from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
-from exhibit.surfaces.exact_silhouette import (EXCLUSION_RATIO, RESIDUAL_TOLERANCE, RefineStats,
-                                               SilhouetteSystem, split_runs)
+from exhibit.surfaces.exact_silhouette import (
+    EXCLUSION_RATIO,
+    RESIDUAL_TOLERANCE,
+    RefineStats,
+    SilhouetteSystem,
+    split_runs,
+)
 from exhibit.surfaces.mesh import Material
 
-FAST = settings(max_examples=6, deadline=None, derandomize=True,
-                suppress_health_check=[HealthCheck.too_slow])
+FAST = settings(
+    max_examples=6, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow]
+)
 
 
 def _silhouette_points(mesh, prefix):
@@ -33,6 +40,7 @@ def _ratio(g1, g2):
 
 
 # ----------------------------------------------------------------------------- offset curves
+
 
 def _check_offset(points, r, curve, gradient, sampled):
     """(u, v) on the base curve f = 0, (x, y) at distance r along its normal ∇f (condition C),
@@ -63,8 +71,9 @@ def _cusp_sample(r):
 
 
 def _cusp_check(points, r):
-    _check_offset(points, r, lambda u, v: v**2 - u**3, lambda u, v: (-3 * u**2, 2 * v),
-                  _cusp_sample(r))
+    _check_offset(
+        points, r, lambda u, v: v**2 - u**3, lambda u, v: (-3 * u**2, 2 * v), _cusp_sample(r)
+    )
 
 
 @pytest.mark.parametrize("r", [0.4, 1.0, 1.7])
@@ -90,8 +99,13 @@ def test_parabola_offset_curve_is_exact_for_any_radius(r):
     mesh = scenes.get("offset-parabola").build({"r": r}, resolution=16)
     t = np.linspace(-1.6, 1.6, 6401)
     sampled = _true_offset(np.stack([t, t**2], 1), np.stack([-2 * t, 1 + 0 * t], 1), r)
-    _check_offset(_silhouette_points(mesh, "offset curve"), r, lambda u, v: v - u**2,
-                  lambda u, v: (-2 * u, 1 + 0 * v), sampled)
+    _check_offset(
+        _silhouette_points(mesh, "offset curve"),
+        r,
+        lambda u, v: v - u**2,
+        lambda u, v: (-2 * u, 1 + 0 * v),
+        sampled,
+    )
 
 
 @pytest.mark.slow
@@ -115,6 +129,7 @@ def test_traced_cusp_silhouette_is_exact():
 
 # ----------------------------------------------------------------------------- collision
 
+
 def _check_collision(points, p):
     """C' along x, y: f_x g_y - f_y g_x = -4 x (y - vc t) = 0, on both hypersurfaces, and the
     normals ∇f, ∇g independent (the singular points (0, ±1, 0, 0) of Figure 15 excluded)."""
@@ -132,14 +147,16 @@ def _check_collision(points, p):
 @pytest.mark.parametrize("figure", [15, 16, 17])
 def test_collision_silhouettes_are_exact(figure):
     from exhibit.scenes.collision import FIGURE_PARAMS
+
     params = FIGURE_PARAMS[figure]
     mesh = scenes.get("collision").build(params, resolution=20)
     _check_collision(_silhouette_points(mesh, "silhouette along x and y"), params)
 
 
 @FAST
-@given(rc=st.floats(0.5, 2.0), rs=st.floats(0.5, 2.0), vc=st.floats(-1.0, 1.0),
-       vs=st.floats(0.3, 2.0))
+@given(
+    rc=st.floats(0.5, 2.0), rs=st.floats(0.5, 2.0), vc=st.floats(-1.0, 1.0), vs=st.floats(0.3, 2.0)
+)
 def test_collision_silhouettes_are_exact_for_any_parameters(rc, rs, vc, vs):
     params = {"rc": rc, "rs": rs, "vc": vc, "vs": vs}
     mesh = scenes.get("collision").build(params, resolution=14)
@@ -150,10 +167,18 @@ def test_collision_silhouettes_are_exact_for_any_parameters(rc, rs, vc, vs):
 
 # ----------------------------------------------------------------------------- every scene
 
+
 def _silhouette_scenes():
-    return [("offset-parabola", "u,v"), ("offset-cusp", "u,v"), ("offset-cusp-traced", "t,w"),
-            ("collision", "x,y"), ("sphere-slice", "x,y"), ("hopf", "x,y"),
-            ("complex-square", "x,y"), ("veronese", "x,y")]
+    return [
+        ("offset-parabola", "u,v"),
+        ("offset-cusp", "u,v"),
+        ("offset-cusp-traced", "t,w"),
+        ("collision", "x,y"),
+        ("sphere-slice", "x,y"),
+        ("hopf", "x,y"),
+        ("complex-square", "x,y"),
+        ("veronese", "x,y"),
+    ]
 
 
 def _run_json(capsys, *argv):
@@ -188,8 +213,10 @@ def test_every_exported_silhouette_point_is_exact(capsys, name, along):
         else:
             # parametric: the point is X(s, t) for a refined (s, t); check Lemma 3(b) there
             from exhibit.geometry.silhouette import lemma3_measure_tangents
-            near = np.argmin(np.linalg.norm(points[:, None] - surface.positions[None], axis=-1),
-                             axis=1)
+
+            near = np.argmin(
+                np.linalg.norm(points[:, None] - surface.positions[None], axis=-1), axis=1
+            )
             st_near = exact.params[near]
             e = np.eye(4)
             for i, (p, s0) in enumerate(zip(points, st_near)):
@@ -211,9 +238,19 @@ def test_every_exported_silhouette_point_is_exact(capsys, name, along):
 
 # ----------------------------------------------------------------------------- the machinery
 
+
 def test_unconverged_points_are_dropped_never_kept():
-    part = mesh_implicit("pipe", "(x - u)^2 + (y - v)^2 - 1", "v^2 - u^3", ("x", "y", "u", "v"),
-                         {}, [-1.1, -2.8, -0.05, -1.75], [2.5, 2.8, 1.45, 1.75], 16, Material())
+    part = mesh_implicit(
+        "pipe",
+        "(x - u)^2 + (y - v)^2 - 1",
+        "v^2 - u^3",
+        ("x", "y", "u", "v"),
+        {},
+        [-1.1, -2.8, -0.05, -1.75],
+        [2.5, 2.8, 1.45, 1.75],
+        16,
+        Material(),
+    )
     system = SilhouetteSystem(part.f1, part.f2, (2, 3))
     far = np.array([[5.0, 5.0, 5.0, 5.0], [0.3, 0.2, 0.1, 0.05]])
     _, keep, stats = system.refine(far, max_move=0.01)

@@ -39,8 +39,26 @@ SPHERE = "x^2 + y^2 + z^2 + w^2 - 1"
 CHECK_EXAMPLES = (1000, 10000)
 BUILD_EXAMPLES = (100, 1200)
 
-NUMBERS = st.sampled_from(["0", "1", "2", "0.5", "3.25", "1e-3", "64", "65", "1e12", "1e13",
-                           "1e400", "1_0", ".5", "1e-400", "0.0", "2.5e6"])
+NUMBERS = st.sampled_from(
+    [
+        "0",
+        "1",
+        "2",
+        "0.5",
+        "3.25",
+        "1e-3",
+        "64",
+        "65",
+        "1e12",
+        "1e13",
+        "1e400",
+        "1_0",
+        ".5",
+        "1e-400",
+        "0.0",
+        "2.5e6",
+    ]
+)
 NAMES = st.sampled_from(["x", "y", "z", "w", "a", "b", "pi", "e", "q", "sin", "__import__"])
 FUNCTIONS = st.sampled_from(FUNCTION_NAMES + ("foo", "eval", "x.real"))
 UNARY = st.sampled_from(["-", "+", "--", "-" * 40, "~", "not "])
@@ -53,7 +71,8 @@ def _extend(inner):
         st.tuples(inner, BINARY, inner).map("".join),
         inner.map(lambda t: f"({t})"),
         st.tuples(FUNCTIONS, st.lists(inner, min_size=1, max_size=3)).map(
-            lambda t: f"{t[0]}({', '.join(t[1])})"),
+            lambda t: f"{t[0]}({', '.join(t[1])})"
+        ),
     )
 
 
@@ -66,16 +85,23 @@ def _extend_valid(inner):
     return st.one_of(
         inner.map(lambda t: f"-({t})"),
         st.tuples(inner, st.sampled_from([" + ", " - ", "*", "/", "^"]), inner).map(
-            lambda t: f"({t[0]}){t[1]}({t[2]})"),
+            lambda t: f"({t[0]}){t[1]}({t[2]})"
+        ),
         st.tuples(st.sampled_from(unary), inner).map(lambda t: f"{t[0]}({t[1]})"),
         st.tuples(st.sampled_from(["min", "max"]), st.lists(inner, min_size=2, max_size=3)).map(
-            lambda t: f"{t[0]}({', '.join(t[1])})"),
+            lambda t: f"{t[0]}({', '.join(t[1])})"
+        ),
     )
 
 
 #: Formulas in the language, so many are accepted and go on to be compiled and meshed.
-VALID = st.recursive(st.sampled_from(["x", "y", "z", "w", "a", "b", "pi", "e", "0", "1", "2",
-                                      "0.5", "3", "1e-3", "64"]), _extend_valid, max_leaves=8)
+VALID = st.recursive(
+    st.sampled_from(
+        ["x", "y", "z", "w", "a", "b", "pi", "e", "0", "1", "2", "0.5", "3", "1e-3", "64"]
+    ),
+    _extend_valid,
+    max_leaves=8,
+)
 
 
 @st.composite
@@ -101,14 +127,18 @@ def _pathological(draw):
 @st.composite
 def _spliced(draw):
     text = draw(GRAMMAR)
-    junk = draw(st.text(alphabet="xyzw+-*/^()., 0123456789abs[]'\"=<>!~&|@#:;\\\0é",
-                        max_size=4))
+    junk = draw(st.text(alphabet="xyzw+-*/^()., 0123456789abs[]'\"=<>!~&|@#:;\\\0é", max_size=4))
     at = draw(st.integers(0, len(text)))
     return text[:at] + junk + text[at:]
 
 
-FORMULAS = st.one_of(VALID, GRAMMAR, _pathological(), _spliced(),
-                     st.text(alphabet="xyzwpie0123456789+-*/^() .,", max_size=40))
+FORMULAS = st.one_of(
+    VALID,
+    GRAMMAR,
+    _pathological(),
+    _spliced(),
+    st.text(alphabet="xyzwpie0123456789+-*/^() .,", max_size=40),
+)
 BUILDABLE = st.one_of(VALID, VALID, _pathological())
 
 
@@ -138,8 +168,9 @@ def _check_builds(text):
     inside = value[np.isfinite(value)]
     assert np.all((lo[0] <= inside) & (inside <= hi[0]))
     try:
-        surface = polygonize("fuzz", field, compile_field(SPHERE, V), [-1.2] * 4, [1.2] * 4, 5,
-                             seed=0).surface
+        surface = polygonize(
+            "fuzz", field, compile_field(SPHERE, V), [-1.2] * 4, [1.2] * 4, 5, seed=0
+        ).surface
     except (ExpressionError, ExhibitError):
         return
     assert np.isfinite(surface.positions).all() and np.isfinite(surface.normals).all()

@@ -23,10 +23,13 @@ def collision(rc, rs, vc, vs, n=24, seed=1):
     return polygonize("collision", f, g, lo, [-v for v in lo], n, seed=seed), f, g
 
 
-@pytest.mark.parametrize("params, components, euler", [
-    ((1.0, 0.7, 0.2, 1.0), 2, 4),   # Figure 16: two separate components, each a sphere
-    ((1.0, 1.2, 0.0, 1.0), 1, 0),   # Figure 17: connected, with a hole (a torus)
-])
+@pytest.mark.parametrize(
+    "params, components, euler",
+    [
+        ((1.0, 0.7, 0.2, 1.0), 2, 4),  # Figure 16: two separate components, each a sphere
+        ((1.0, 1.2, 0.0, 1.0), 1, 0),  # Figure 17: connected, with a hole (a torus)
+    ],
+)
 def test_collision_topology_matches_the_paper(params, components, euler):
     result, f, g = collision(*params)
     report = analyse(result.surface.triangles)
@@ -106,10 +109,13 @@ def test_empty_and_bad_boxes():
         polygonize("bad", f1, f2, [1] * 4, [-1] * 4, 8)
 
 
-@pytest.mark.parametrize("f1_text, f2_text, level", [
-    ("sign(x)*x + abs(y) + abs(z) + abs(w) - 1", "min(w, 1) - 0.2", "abs(x) + abs(y) + abs(z)"),
-    ("max(abs(x), abs(y), abs(z), abs(w)) - 0.7", "w - 0.3", "max(abs(x), abs(y), abs(z))"),
-])
+@pytest.mark.parametrize(
+    "f1_text, f2_text, level",
+    [
+        ("sign(x)*x + abs(y) + abs(z) + abs(w) - 1", "min(w, 1) - 0.2", "abs(x) + abs(y) + abs(z)"),
+        ("max(abs(x), abs(y), abs(z), abs(w)) - 0.7", "w - 0.3", "max(abs(x), abs(y), abs(z))"),
+    ],
+)
 def test_surfaces_with_kinks_are_closed_and_on_their_equations(f1_text, f2_text, level):
     """An octahedron and a cube (f1 = f2 = 0 in the slice w = const): abs, sign, min and max in
     the pruning bounds, the Newton projection and the singular-point search."""
@@ -122,8 +128,9 @@ def test_surfaces_with_kinks_are_closed_and_on_their_equations(f1_text, f2_text,
     assert np.max(np.abs(f1.value(v))) <= 1e-9 and np.max(np.abs(f2.value(v))) <= 1e-9
     assert np.all(np.isfinite(result.surface.normals)) and np.all(np.isfinite(v))
     assert result.stats.cells < 16**4 / 4  # the bounds of abs, max... pruned most of the grid
-    np.testing.assert_allclose(compile_field(level, xyzw).value(v), 0.8 if "sign" in f1_text
-                               else 0.7, atol=1e-9)
+    np.testing.assert_allclose(
+        compile_field(level, xyzw).value(v), 0.8 if "sign" in f1_text else 0.7, atol=1e-9
+    )
 
 
 def test_singular_circle_is_found_through_abs():

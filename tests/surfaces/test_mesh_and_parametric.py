@@ -13,9 +13,15 @@ FULL = Interval(0.0, 2 * math.pi, periodic=True)
 
 
 def torus(latitude=0.3, resolution=(24, 32), adaptive=False):
-    return tessellate("torus", lambda a, b: hopf_torus(latitude, a, b), FULL, FULL, resolution,
-                      tangents=lambda a, b: hopf_torus_tangents(latitude, a, b),
-                      adaptive=adaptive)
+    return tessellate(
+        "torus",
+        lambda a, b: hopf_torus(latitude, a, b),
+        FULL,
+        FULL,
+        resolution,
+        tangents=lambda a, b: hopf_torus_tangents(latitude, a, b),
+        adaptive=adaptive,
+    )
 
 
 def test_hopf_torus_vertices_lie_on_their_equations_and_latitude():
@@ -35,8 +41,13 @@ def test_periodic_torus_is_closed_and_manifold(adaptive):
 
 
 def test_open_patch_is_a_disc():
-    s = tessellate("patch", lambda u, v: np.stack([u, v, u * u - v * v, 2 * u * v], -1),
-                   Interval(-1, 1), Interval(-1, 1), (9, 13))
+    s = tessellate(
+        "patch",
+        lambda u, v: np.stack([u, v, u * u - v * v, 2 * u * v], -1),
+        Interval(-1, 1),
+        Interval(-1, 1),
+        (9, 13),
+    )
     report = analyse(s.triangles)
     assert report.euler_characteristic == 1
     assert report.boundary_edges == 2 * (8 + 12)
@@ -47,17 +58,20 @@ def test_normals_are_orthonormal_and_orthogonal_to_the_tangents():
     alpha, beta = np.meshgrid(FULL.uniform(24), FULL.uniform(32), indexing="ij")
     t1, t2 = (t.reshape(-1, 4) for t in hopf_torus_tangents(0.3, alpha, beta))
     n = s.normals
-    np.testing.assert_allclose(np.einsum("vai,vbi->vab", n, n), np.broadcast_to(np.eye(2), (len(n), 2, 2)),
-                               atol=1e-12)
+    np.testing.assert_allclose(
+        np.einsum("vai,vbi->vab", n, n), np.broadcast_to(np.eye(2), (len(n), 2, 2)), atol=1e-12
+    )
     np.testing.assert_allclose(np.einsum("vai,vi->va", n, t1), 0, atol=1e-12)
     np.testing.assert_allclose(np.einsum("vai,vi->va", n, t2), 0, atol=1e-12)
 
 
 def test_adaptive_sampling_puts_rows_where_the_surface_bends():
     """A surface flat for s < 0 and bending fast for s > 0 gets most rows on the bent side."""
+
     def bend(s, t):
         k = np.where(s > 0, 6.0, 0.0)
         return np.stack([s, t, np.where(s > 0, np.sin(k * s) / 6, 0), 0 * s], -1)
+
     surface = tessellate("bend", bend, Interval(-1, 1), Interval(0, 1), (21, 3))
     s_values = surface.positions.reshape(21, 3, 4)[:, 0, 0]
     assert np.sum(s_values > 0) > 1.5 * np.sum(s_values < 0)
@@ -78,8 +92,11 @@ def test_topology_counts_components_and_nonmanifold_edges():
 
 
 def test_mesh_round_trip_and_bad_archive():
-    mesh = Mesh4D([torus()], [Curve("c", np.eye(4), Material(style="wire"), closed=True)],
-                  [Marker("m", [1, 2, 3, 4], label="here")])
+    mesh = Mesh4D(
+        [torus()],
+        [Curve("c", np.eye(4), Material(style="wire"), closed=True)],
+        [Marker("m", [1, 2, 3, 4], label="here")],
+    )
     back = Mesh4D.from_bytes(mesh.to_bytes())
     np.testing.assert_array_equal(back.surfaces[0].positions, mesh.surfaces[0].positions)
     np.testing.assert_array_equal(back.surfaces[0].triangles, mesh.surfaces[0].triangles)
@@ -95,8 +112,14 @@ def test_curve_segments_and_tangents():
     np.testing.assert_allclose(np.linalg.norm(c.tangents, axis=1), 1.0)
 
 
-@pytest.mark.parametrize("kwargs, message", [
-    ({"color": (2, 0, 0)}, "colour"), ({"style": "dotted"}, "style"), ({"line_width": 0}, "width")])
+@pytest.mark.parametrize(
+    "kwargs, message",
+    [
+        ({"color": (2, 0, 0)}, "colour"),
+        ({"style": "dotted"}, "style"),
+        ({"line_width": 0}, "width"),
+    ],
+)
 def test_material_validation(kwargs, message):
     with pytest.raises(ValueError, match=message):
         Material(**kwargs)

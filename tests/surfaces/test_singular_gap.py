@@ -20,13 +20,13 @@ def test_cusp_pipe_reaches_its_singular_circle(r):
     lo, hi = surface.info["box"]
     diagonal = np.linalg.norm(np.subtract(hi, lo))
     # the analytic circle, independently of the traced set
-    assert distance_to_mesh(circle, surface.positions, surface.triangles).max() <= \
-        0.005 * diagonal
+    assert distance_to_mesh(circle, surface.positions, surface.triangles).max() <= 0.005 * diagonal
     traced = surface.exact.result.singular_positions
     assert np.max(np.abs(traced[:, 2:])) < 1e-5  # u = v = 0
     assert np.max(np.abs(np.hypot(traced[:, 0], traced[:, 1]) - r)) < 1e-5
-    assert np.all(surface.singular[surface.normals.reshape(len(surface.positions), -1)
-                                   .any(axis=1) == 0])
+    assert np.all(
+        surface.singular[surface.normals.reshape(len(surface.positions), -1).any(axis=1) == 0]
+    )
 
 
 def test_figure_15_singular_points_are_on_the_mesh():
@@ -43,8 +43,15 @@ def test_a_singular_region_neither_exhausts_memory_nor_fails():
     growing past 7 GB), and reaching it must cope with every vertex moved."""
     from exhibit.surfaces.expressions import compile_field
     from exhibit.surfaces.implicit import polygonize
+
     V = ("x", "y", "z", "w")
-    surface = polygonize("region", compile_field("-((-(x)) + (min(x, y)))", V, {}),
-                         compile_field("x^2 + y^2 + z^2 + w^2 - 1", V), [-1.2] * 4, [1.2] * 4,
-                         5, seed=0).surface
+    surface = polygonize(
+        "region",
+        compile_field("-((-(x)) + (min(x, y)))", V, {}),
+        compile_field("x^2 + y^2 + z^2 + w^2 - 1", V),
+        [-1.2] * 4,
+        [1.2] * 4,
+        5,
+        seed=0,
+    ).surface
     assert np.isfinite(surface.positions).all()

@@ -40,12 +40,19 @@ def random_cases(seed: int, count: int):
     rng = np.random.default_rng(seed)
     cases = []
     while len(cases) < count:
-        p = {"rc": rng.uniform(0.6, 1.4), "rs": rng.uniform(0.6, 1.6),
-             "vc": rng.uniform(0.0, 1.2), "vs": rng.uniform(0.3, 1.2)}
+        p = {
+            "rc": rng.uniform(0.6, 1.4),
+            "rs": rng.uniform(0.6, 1.6),
+            "vc": rng.uniform(0.0, 1.2),
+            "vs": rng.uniform(0.3, 1.2),
+        }
         v = math.hypot(p["vc"], p["vs"])
         t0 = (p["rc"] + p["rs"]) / v
-        times = [c for c in rng.uniform(-1.1 * t0, 1.1 * t0, 12)
-                 if margin(p, c) > 0.12 * min(p["rc"], p["rs"])]
+        times = [
+            c
+            for c in rng.uniform(-1.1 * t0, 1.1 * t0, 12)
+            if margin(p, c) > 0.12 * min(p["rc"], p["rs"])
+        ]
         cases.append((p, times[:4]))
     return cases
 
@@ -124,11 +131,14 @@ def test_the_command_prints_the_curves_as_json(cli):
     assert all(point[3] == 0.0 for curve in data["curves"] for point in curve)
 
 
-@pytest.mark.parametrize("args, message", [
-    (("--axis", "w", "--at", "0"), "'w' is not an axis of this scene (axes: x, y, z, t)"),
-    (("--axis", "t", "--at", "nan"), "argument --at: must be a number"),
-    (("--axis", "t", "--at", "1e400"), "argument --at: must be a number"),
-])
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (("--axis", "w", "--at", "0"), "'w' is not an axis of this scene (axes: x, y, z, t)"),
+        (("--axis", "t", "--at", "nan"), "argument --at: must be a number"),
+        (("--axis", "t", "--at", "1e400"), "argument --at: must be a number"),
+    ],
+)
 def test_bad_arguments_get_one_line(cli, args, message):
     out = cli("slice", "collision", *args)
     assert out.returncode == 2 and message in out.stderr and "Traceback" not in out.stderr

@@ -17,11 +17,14 @@ def _json(capsys, *argv):
     return json.loads(capsys.readouterr().out)
 
 
-@pytest.mark.parametrize("argv, name", [
-    (("offset-parabola", "--along", "x,y"), "pipe of y = x²"),
-    (("offset-cusp", "--along", "x,y"), "pipe of y² = x³"),
-    (("collision", "--along", "x,t", "--param", "vc=0"), "collision surface"),
-])
+@pytest.mark.parametrize(
+    "argv, name",
+    [
+        (("offset-parabola", "--along", "x,y"), "pipe of y = x²"),
+        (("offset-cusp", "--along", "x,y"), "pipe of y² = x³"),
+        (("collision", "--along", "x,t", "--param", "vc=0"), "collision surface"),
+    ],
+)
 def test_a_whole_silhouette_component_is_reported_by_name(capsys, argv, name):
     out = _json(capsys, "silhouette", *argv, "--resolution", "16", "--json")
     assert out["curves"] == []
@@ -31,16 +34,26 @@ def test_a_whole_silhouette_component_is_reported_by_name(capsys, argv, name):
 
 
 def test_an_ordinary_view_has_no_whole_component(capsys):
-    out = _json(capsys, "silhouette", "offset-parabola", "--along", "u,v", "--resolution", "16",
-                "--json")
+    out = _json(
+        capsys, "silhouette", "offset-parabola", "--along", "u,v", "--resolution", "16", "--json"
+    )
     assert out["curves"] and not any(c["whole_component"] for c in out["components"])
 
 
 def test_a_planted_torus_is_whole_along_one_pair_and_a_curve_along_another():
     """x² + y² = 1, u² + v² = 1: ∇f1 = 2(x, y, 0, 0), ∇f2 = 2(0, 0, u, v). Along x, y the minor
     (∇f1·e_x)(∇f2·e_y) - (∇f1·e_y)(∇f2·e_x) = 0 identically; along x, u it is 4xu, a curve."""
-    part = mesh_implicit("torus", "x^2 + y^2 - 1", "u^2 + v^2 - 1", ("x", "y", "u", "v"), {},
-                         [-1.2] * 4, [1.2] * 4, 12, Material())
+    part = mesh_implicit(
+        "torus",
+        "x^2 + y^2 - 1",
+        "u^2 + v^2 - 1",
+        ("x", "y", "u", "v"),
+        {},
+        [-1.2] * 4,
+        [1.2] * 4,
+        12,
+        Material(),
+    )
     whole = whole_silhouette_components(part.surface, (0, 1))
     assert [c["whole_component"] for c in whole] == [True]
     other = whole_silhouette_components(part.surface, (0, 2))

@@ -2,7 +2,8 @@
 
 Each benchmark is a module of this package, above the libraries it measures (geometry, surfaces,
 scenes, render, devices, kiosk), so measuring a layer never makes it import a higher one. A module
-has HELP, add_arguments(parser) and run(args); this one only dispatches. Every benchmark compares against a baseline in the
+has HELP, add_arguments(parser) and run(args); this one only dispatches. Every benchmark
+compares against a baseline in the
 same run, so ratios hold on a noisy machine.
 """
 
@@ -20,8 +21,12 @@ import sys
 #: environment before numpy is first imported (this module is imported before any benchmark,
 #: and `exhibit` imports numpy for no other command first), and, if threadpoolctl is installed,
 #: also limited at run time in case numpy was already imported (tests calling main() in-process).
-BLAS_THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS",
-                         "BLIS_NUM_THREADS")
+BLAS_THREAD_VARIABLES = (
+    "OPENBLAS_NUM_THREADS",
+    "OMP_NUM_THREADS",
+    "MKL_NUM_THREADS",
+    "BLIS_NUM_THREADS",
+)
 if "numpy" not in sys.modules:
     for _name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(_name, "1")

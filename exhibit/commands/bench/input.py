@@ -33,8 +33,12 @@ CONTROLLER_HZ = 100
 
 def add_arguments(parser) -> None:
     parser.add_argument("--frames", type=int, default=2000, help="latency samples (default 2000)")
-    parser.add_argument("--decode-frames", type=int, default=200_000,
-                        help="frames for the throughput run (default 200000)")
+    parser.add_argument(
+        "--decode-frames",
+        type=int,
+        default=200_000,
+        help="frames for the throughput run (default 200000)",
+    )
     parser.add_argument("--json", action="store_true")
 
 
@@ -102,12 +106,13 @@ def pipeline_latency(n: int) -> list[float]:
 
 
 def decoder_throughput(n: int) -> float:
-    blob = b"".join(p.encode_frame(p.Axes(i & 0xFFFF, (i & 0x7FFF,) * 6, i & 0xF), i & 0xFF)
-                    for i in range(n))
+    blob = b"".join(
+        p.encode_frame(p.Axes(i & 0xFFFF, (i & 0x7FFF,) * 6, i & 0xF), i & 0xFF) for i in range(n)
+    )
     dec = p.StreamDecoder()
     t0 = time.perf_counter()
     for i in range(0, len(blob), 4096):
-        dec.feed(blob[i:i + 4096])
+        dec.feed(blob[i : i + 4096])
     dt = time.perf_counter() - t0
     if dec.frames_ok != n:
         raise ExhibitError(f"bench: decoded {dec.frames_ok} of {n} frames")
@@ -121,13 +126,17 @@ def run(args) -> int:
     lat = pipeline_latency(args.frames)
     fps = decoder_throughput(args.decode_frames)
     ms = lambda xs, q: round(_pct(xs, q) * 1000, 3)  # noqa: E731
-    lt = {"p50": ms(lat, 0.5), "p99": ms(lat, 0.99), "max": ms(lat, 1.0),
-          "mean": round(statistics.fmean(lat) * 1000, 3)}
+    lt = {
+        "p50": ms(lat, 0.5),
+        "p99": ms(lat, 0.99),
+        "max": ms(lat, 1.0),
+        "mean": round(statistics.fmean(lat) * 1000, 3),
+    }
     fl = {"p50": ms(floor, 0.5), "p99": ms(floor, 0.99)}
     rate = round(fps / CONTROLLER_HZ)
     result = {
         "machine": f"{platform.machine()}, {os.cpu_count()} cpus, "
-                   f"Python {platform.python_version()}",
+        f"Python {platform.python_version()}",
         "latency_ms": lt,
         "kernel_pty_floor_ms": fl,
         "decoder_frames_per_s": round(fps),
@@ -138,11 +147,15 @@ def run(args) -> int:
     if args.json:
         print(json.dumps(result, indent=2))
         return 0
-    print(f"input latency, pty bytes -> ViewState ({args.frames} frames): p50 {lt['p50']} ms, "
-          f"p99 {lt['p99']} ms, max {lt['max']} ms   (goal p99 <= 2 ms)")
+    print(
+        f"input latency, pty bytes -> ViewState ({args.frames} frames): p50 {lt['p50']} ms, "
+        f"p99 {lt['p99']} ms, max {lt['max']} ms   (goal p99 <= 2 ms)"
+    )
     print(f"  kernel floor, pty write -> read:          p50 {fl['p50']} ms, p99 {fl['p99']} ms")
-    print(f"decoder: {result['decoder_frames_per_s']} frames/s on one core = "
-          f"{result['decoder_vs_controller_rate']}x the controller's {CONTROLLER_HZ} Hz "
-          "(goal >= 100x)")
+    print(
+        f"decoder: {result['decoder_frames_per_s']} frames/s on one core = "
+        f"{result['decoder_vs_controller_rate']}x the controller's {CONTROLLER_HZ} Hz "
+        "(goal >= 100x)"
+    )
     print("goals met" if result["goals_met"] else "GOALS NOT MET")
     return 0

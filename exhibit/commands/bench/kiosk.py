@@ -53,22 +53,37 @@ def _switched_off(names: tuple[str, ...]) -> dict[str, Any]:
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--size", default="1920x1080", metavar="WxH",
-                        help="frame size (default: %(default)s)")
+    parser.add_argument(
+        "--size", default="1920x1080", metavar="WxH", help="frame size (default: %(default)s)"
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.add_argument("--frames", default="12", metavar="N",
-                        help="timed frames per level and scene (default: %(default)s)")
+    parser.add_argument(
+        "--frames",
+        default="12",
+        metavar="N",
+        help="timed frames per level and scene (default: %(default)s)",
+    )
     parser.add_argument("--config", help="kiosk config (default: the layered site config)")
-    parser.add_argument("--scenes", metavar="NAME,...",
-                        help="only these scenes (default: the config's content.scenes)")
-    parser.add_argument("--levels", metavar="NAME,...",
-                        help="only these levels (default: the whole ladder)")
-    parser.add_argument("--ssim", action="store_true",
-                        help="also compare each level's picture with MSAA 4x at full scale "
-                             "(SSIM of the whole frame and of the edges alone)")
-    parser.add_argument("--breakdown", action="store_true",
-                        help="also time a direct-level frame part by part (background, "
-                             "surfaces, curves, silhouettes, Lemma 2 marks, HUD)")
+    parser.add_argument(
+        "--scenes",
+        metavar="NAME,...",
+        help="only these scenes (default: the config's content.scenes)",
+    )
+    parser.add_argument(
+        "--levels", metavar="NAME,...", help="only these levels (default: the whole ladder)"
+    )
+    parser.add_argument(
+        "--ssim",
+        action="store_true",
+        help="also compare each level's picture with MSAA 4x at full scale "
+        "(SSIM of the whole frame and of the edges alone)",
+    )
+    parser.add_argument(
+        "--breakdown",
+        action="store_true",
+        help="also time a direct-level frame part by part (background, "
+        "surfaces, curves, silhouettes, Lemma 2 marks, HUD)",
+    )
 
 
 def run(args) -> int:
@@ -101,8 +116,9 @@ def run(args) -> int:
         wanted = [n.strip() for n in args.levels.split(",") if n.strip()]
         unknown = [n for n in wanted if n not in {q.name for q in LADDER}]
         if unknown:
-            raise ExhibitError(f"--levels: no level {unknown[0]!r} (levels: "
-                               f"{', '.join(q.name for q in LADDER)})")
+            raise ExhibitError(
+                f"--levels: no level {unknown[0]!r} (levels: {', '.join(q.name for q in LADDER)})"
+            )
         levels = [q for q in LADDER if q.name in wanted]
 
     headless = Headless()
@@ -127,10 +143,13 @@ def run(args) -> int:
             times: dict[str, list[float]] = {q.name: [] for q in levels}
             floors: dict[int, list[float]] = {level: [] for level in gpus}
             part_times: dict[str, list[float]] = (
-                {part: [] for part, _, _ in PARTS} if args.breakdown else {})
+                {part: [] for part, _, _ in PARTS} if args.breakdown else {}
+            )
             lean = options.at_quality(direct)
-            part_options = {part: (replace(lean, **_switched_off(off)), with_hud)
-                            for part, off, with_hud in PARTS}
+            part_options = {
+                part: (replace(lean, **_switched_off(off)), with_hud)
+                for part, off, with_hud in PARTS
+            }
 
             def floor(gpu, view):
                 fbo = floor_target.framebuffer
@@ -152,40 +171,59 @@ def run(args) -> int:
             for i in range(frames + 2):  # two warm-up rounds
                 turn = 0.02 * i
                 angles = scene.view.angles
-                view = scene.view.replace(angles=(angles[0] + turn, angles[1] + 0.5 * turn,
-                                                  *angles[2:]))
+                view = scene.view.replace(
+                    angles=(angles[0] + turn, angles[1] + 0.5 * turn, *angles[2:])
+                )
                 for q in levels:
-                    timed(lambda: headless.draw_frame(gpus[q.mesh], view, size, options, hud, q),
-                          times[q.name], i < 2)
+                    timed(
+                        lambda: headless.draw_frame(gpus[q.mesh], view, size, options, hud, q),
+                        times[q.name],
+                        i < 2,
+                    )
                 for level, gpu in gpus.items():
                     timed(lambda: floor(gpu, view), floors[level], i < 2)
                 for part in part_times:
                     part_opts, with_hud = part_options[part]
-                    timed(lambda: renderer.render(gpus[direct.mesh], view,
-                                                  floor_target.framebuffer, part_opts,
-                                                  hud if with_hud else None),
-                          part_times[part], i < 2)
+                    timed(
+                        lambda: renderer.render(
+                            gpus[direct.mesh],
+                            view,
+                            floor_target.framebuffer,
+                            part_opts,
+                            hud if with_hud else None,
+                        ),
+                        part_times[part],
+                        i < 2,
+                    )
             # the scene's part of the JSON report: a row per level, "breakdown", "none"
             rows: dict[str, dict[str, Any]] = {}
             for q in levels:
                 frame_ms = statistics.median(times[q.name])
                 floor_ms = statistics.median(floors[q.mesh])
-                rows[q.name] = {"frame_ms": round(frame_ms, 2), "floor_ms": round(floor_ms, 2),
-                                "triangles": gpus[q.mesh].triangle_count}
+                rows[q.name] = {
+                    "frame_ms": round(frame_ms, 2),
+                    "floor_ms": round(floor_ms, 2),
+                    "triangles": gpus[q.mesh].triangle_count,
+                }
             if part_times:
                 totals = [statistics.median(part_times[part]) for part, _, _ in PARTS]
                 rows["breakdown"] = {
                     "triangles": gpus[direct.mesh].triangle_count,
                     "floor_ms": round(statistics.median(floors[direct.mesh]), 2),
                     "frame_ms": round(totals[-1], 2),
-                    "parts_ms": {part: round(total - (totals[k - 1] if k else 0.0), 2)
-                                 for k, ((part, _, _), total) in enumerate(zip(PARTS, totals))}}
+                    "parts_ms": {
+                        part: round(total - (totals[k - 1] if k else 0.0), 2)
+                        for k, ((part, _, _), total) in enumerate(zip(PARTS, totals))
+                    },
+                }
             if args.ssim:
                 from exhibit.render.quality import Quality
                 from exhibit.render.ssim import edge_mask, ssim
+
                 view = scene.view
-                reference = headless.frame(gpus[0], view, size, options, hud,
-                                           Quality("msaa", "msaa"))
+                reference = headless.frame(
+                    gpus[0], view, size, options, hud, Quality("msaa", "msaa")
+                )
                 plain = headless.frame(gpus[0], view, size, options, hud, Quality("none", "none"))
                 edges = edge_mask(reference, plain)
                 for q in levels:
@@ -194,8 +232,10 @@ def run(args) -> int:
                     picture = headless.frame(gpus[q.mesh], view, size, options, hud, q)
                     rows[q.name]["ssim"] = round(ssim(picture, reference), 4)
                     rows[q.name]["ssim_edges"] = round(ssim(picture, reference, mask=edges), 4)
-                rows["none"] = {"ssim": round(ssim(plain, reference), 4),
-                                "ssim_edges": round(ssim(plain, reference, mask=edges), 4)}
+                rows["none"] = {
+                    "ssim": round(ssim(plain, reference), 4),
+                    "ssim_edges": round(ssim(plain, reference, mask=edges), 4),
+                }
             per_scene.append((name, rows))
             for gpu in gpus.values():
                 gpu.release()
@@ -207,19 +247,29 @@ def run(args) -> int:
 
     report_levels: list[dict[str, Any]] = []
     for q in levels:
-        name, row = max(((n, rows[q.name]) for n, rows in per_scene),
-                        key=lambda item: item[1]["frame_ms"])
-        report_levels.append({
-            "name": q.name, "frame_ms": row["frame_ms"], "floor_ms": row["floor_ms"],
-            "antialiasing": q.antialiasing, "triangles": row["triangles"],
-            "ratio": round(row["frame_ms"] / row["floor_ms"], 2), "scene": name,
-            "mesh_factor": MESH_FACTORS[q.mesh], "effects": q.effects,
-            "render_scale": q.scale,
-            "scenes": {n: rows[q.name] for n, rows in per_scene}})
+        name, row = max(
+            ((n, rows[q.name]) for n, rows in per_scene), key=lambda item: item[1]["frame_ms"]
+        )
+        report_levels.append(
+            {
+                "name": q.name,
+                "frame_ms": row["frame_ms"],
+                "floor_ms": row["floor_ms"],
+                "antialiasing": q.antialiasing,
+                "triangles": row["triangles"],
+                "ratio": round(row["frame_ms"] / row["floor_ms"], 2),
+                "scene": name,
+                "mesh_factor": MESH_FACTORS[q.mesh],
+                "effects": q.effects,
+                "render_scale": q.scale,
+                "scenes": {n: rows[q.name] for n, rows in per_scene},
+            }
+        )
         if args.ssim:
             for key in ("ssim", "ssim_edges"):
-                report_levels[-1][key] = round(statistics.mean(
-                    rows[q.name][key] for _, rows in per_scene), 4)
+                report_levels[-1][key] = round(
+                    statistics.mean(rows[q.name][key] for _, rows in per_scene), 4
+                )
     target = target_ms(config, None)
     # The levels this kiosk's governor may use here (exhibit.kiosk.governor.kiosk_levels: its
     # [quality] pins; no MSAA and no smaller render scales on software GL).
@@ -229,38 +279,63 @@ def run(args) -> int:
     candidates = [r for r in report_levels if r["used_here"]] or report_levels
     chosen = candidates[pick([r["frame_ms"] for r in candidates], target)]["name"]
     report: dict[str, Any] = {
-        "size": list(size), "renderer": renderer_name, "levels": report_levels,
-        "chosen": chosen, "target_ms": round(target, 2), "frames": frames,
-        "cpu": cpu_model(), "cpus": os.cpu_count(), "scenes": names,
-        "load_average": [round(x, 2) for x in os.getloadavg()]}
+        "size": list(size),
+        "renderer": renderer_name,
+        "levels": report_levels,
+        "chosen": chosen,
+        "target_ms": round(target, 2),
+        "frames": frames,
+        "cpu": cpu_model(),
+        "cpus": os.cpu_count(),
+        "scenes": names,
+        "load_average": [round(x, 2) for x in os.getloadavg()],
+    }
     if args.breakdown:
         report["breakdown"] = {n: rows["breakdown"] for n, rows in per_scene}
     if args.ssim:  # no antialiasing at all, for comparison
-        report["no_antialiasing"] = {key: round(statistics.mean(
-            rows["none"][key] for _, rows in per_scene), 4) for key in ("ssim", "ssim_edges")}
+        report["no_antialiasing"] = {
+            key: round(statistics.mean(rows["none"][key] for _, rows in per_scene), 4)
+            for key in ("ssim", "ssim_edges")
+        }
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
-    print(f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; {size[0]}x{size[1]}; "
-          f"{len(names)} scenes, medians of {frames} frames; load {report['load_average']}")
-    print(f"{'level':>9} {'aa':>5} {'slowest scene':>20} {'triangles':>9} {'frame':>9} "
-          f"{'floor':>8} {'ratio':>6}")
+    print(
+        f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; {size[0]}x{size[1]}; "
+        f"{len(names)} scenes, medians of {frames} frames; load {report['load_average']}"
+    )
+    print(
+        f"{'level':>9} {'aa':>5} {'slowest scene':>20} {'triangles':>9} {'frame':>9} "
+        f"{'floor':>8} {'ratio':>6}"
+    )
     for r in report_levels:
-        mark = ("  <- chosen" if r["name"] == chosen
-                else "" if r["used_here"] else "  (the kiosk leaves it out here)")
-        quality = (f"  SSIM {r['ssim']:.4f}, edges {r['ssim_edges']:.4f}" if "ssim" in r
-                   else "")
-        print(f"{r['name']:>9} {r['antialiasing']:>5} {r['scene']:>20} {r['triangles']:>9} "
-              f"{r['frame_ms']:>7.1f}ms {r['floor_ms']:>6.1f}ms {r['ratio']:>5.2f}x"
-              f"{quality}{mark}")
+        mark = (
+            "  <- chosen"
+            if r["name"] == chosen
+            else ""
+            if r["used_here"]
+            else "  (the kiosk leaves it out here)"
+        )
+        quality = f"  SSIM {r['ssim']:.4f}, edges {r['ssim_edges']:.4f}" if "ssim" in r else ""
+        print(
+            f"{r['name']:>9} {r['antialiasing']:>5} {r['scene']:>20} {r['triangles']:>9} "
+            f"{r['frame_ms']:>7.1f}ms {r['floor_ms']:>6.1f}ms {r['ratio']:>5.2f}x"
+            f"{quality}{mark}"
+        )
     if args.ssim:
         none = report["no_antialiasing"]
-        print(f"no antialiasing: SSIM {none['ssim']:.4f}, edges {none['ssim_edges']:.4f} "
-              "(all against MSAA 4x at full scale)")
+        print(
+            f"no antialiasing: SSIM {none['ssim']:.4f}, edges {none['ssim_edges']:.4f} "
+            "(all against MSAA 4x at full scale)"
+        )
     for name, row in report.get("breakdown", {}).items():
-        parts = ", ".join(f"{part} {ms:+.1f}" if k else f"{part} {ms:.1f}"
-                          for k, (part, ms) in enumerate(row["parts_ms"].items()))
-        print(f"direct frame, {name} ({row['triangles']} triangles): {parts} "
-              f"= {row['frame_ms']:.1f} ms (floor {row['floor_ms']:.1f} ms)")
+        parts = ", ".join(
+            f"{part} {ms:+.1f}" if k else f"{part} {ms:.1f}"
+            for k, (part, ms) in enumerate(row["parts_ms"].items())
+        )
+        print(
+            f"direct frame, {name} ({row['triangles']} triangles): {parts} "
+            f"= {row['frame_ms']:.1f} ms (floor {row['floor_ms']:.1f} ms)"
+        )
     print(f"target {target:.1f} ms per frame; the governor settles on {chosen}")
     return 0

@@ -18,9 +18,14 @@ HELP = "time the implicit polygonizer (collision surface) against a dense n^4 ba
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--sizes", default="16,32,64,128", help="resolutions (default: %(default)s)")
-    parser.add_argument("--dense-sizes", default="8,16",
-                        help="resolutions for the dense baseline (default: %(default)s)")
+    parser.add_argument(
+        "--sizes", default="16,32,64,128", help="resolutions (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--dense-sizes",
+        default="8,16",
+        help="resolutions for the dense baseline (default: %(default)s)",
+    )
     parser.add_argument("--repeat", type=int, default=3, help="runs per size; the median counts")
     parser.add_argument("--json", action="store_true", help="print JSON")
 
@@ -29,7 +34,9 @@ def _sizes(text: str, option: str) -> list[int]:
     try:
         sizes = [int(v) for v in text.split(",") if v.strip()]
     except ValueError:
-        raise ExhibitError(f"{option}: expected comma-separated whole numbers, got {text!r}") from None
+        raise ExhibitError(
+            f"{option}: expected comma-separated whole numbers, got {text!r}"
+        ) from None
     if not sizes or any(not 2 <= n <= 512 for n in sizes):
         raise ExhibitError(f"{option}: sizes must lie between 2 and 512")
     return sizes
@@ -57,17 +64,27 @@ def run(args) -> int:
     results, dense = [], []
     for n in sizes:
         seconds, result = measure(n, True)
-        results.append({"n": n, "seconds": round(seconds, 4),
-                        "triangles": len(result.surface.triangles),
-                        "max_residual": result.stats.max_residual, "cells": result.stats.cells})
+        results.append(
+            {
+                "n": n,
+                "seconds": round(seconds, 4),
+                "triangles": len(result.surface.triangles),
+                "max_residual": result.stats.max_residual,
+                "cells": result.stats.cells,
+            }
+        )
     for n in dense_sizes:
         seconds, result = measure(n, False)
-        dense.append({"n": n, "seconds": round(seconds, 4),
-                      "triangles": len(result.surface.triangles)})
-    report = {"machine": f"{platform.machine()}, {os.cpu_count()} cores, "
-                         f"Python {platform.python_version()}",
-              "surface": "collision, rc=1, rs=1.2, vc=0, vs=1 (Figure 17)",
-              "results": results, "dense_baseline": dense}
+        dense.append(
+            {"n": n, "seconds": round(seconds, 4), "triangles": len(result.surface.triangles)}
+        )
+    report = {
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores, "
+        f"Python {platform.python_version()}",
+        "surface": "collision, rc=1, rs=1.2, vc=0, vs=1 (Figure 17)",
+        "results": results,
+        "dense_baseline": dense,
+    }
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
@@ -77,8 +94,10 @@ def run(args) -> int:
     for row in results:
         ratio = f"{row['seconds'] / previous:6.2f}" if previous else "     -"
         previous = row["seconds"]
-        print(f"{row['n']:>5} {row['seconds']:>9.3f} {ratio} {row['triangles']:>10} "
-              f"{row['cells']:>9} {row['max_residual']:>9.1e}")
+        print(
+            f"{row['n']:>5} {row['seconds']:>9.3f} {ratio} {row['triangles']:>10} "
+            f"{row['cells']:>9} {row['max_residual']:>9.1e}"
+        )
     print("dense baseline (every cell of the n^4 grid):")
     by_n = {row["n"]: row for row in results}
     for row in dense:

@@ -43,14 +43,24 @@ DEFAULT_TRIANGLES = "20k,200k,1M"
 
 def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
-    parser.add_argument("--size", default="1280x720", metavar="WxH",
-                        help="framebuffer size (default: %(default)s)")
-    parser.add_argument("--triangles", default=DEFAULT_TRIANGLES, metavar="N,...",
-                        help="approximate triangle counts, k/M suffixes (default: %(default)s)")
-    parser.add_argument("--frames", default="15", metavar="N",
-                        help="timed frames per variant (default: %(default)s)")
-    parser.add_argument("--samples", default="0", metavar="S",
-                        help="multisampling samples (default: %(default)s)")
+    parser.add_argument(
+        "--size", default="1280x720", metavar="WxH", help="framebuffer size (default: %(default)s)"
+    )
+    parser.add_argument(
+        "--triangles",
+        default=DEFAULT_TRIANGLES,
+        metavar="N,...",
+        help="approximate triangle counts, k/M suffixes (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--frames",
+        default="15",
+        metavar="N",
+        help="timed frames per variant (default: %(default)s)",
+    )
+    parser.add_argument(
+        "--samples", default="0", metavar="S", help="multisampling samples (default: %(default)s)"
+    )
 
 
 def parse_count(text: str) -> int:
@@ -80,10 +90,12 @@ class CpuBaseline:
         for s in mesh.surfaces:
             vbo = ctx.buffer(reserve=len(s.positions) * 12 * 4, dynamic=True)
             ibo = ctx.buffer(np.ascontiguousarray(s.triangles, dtype=np.int32).tobytes())
-            vao = ctx.vertex_array(self.program, [(vbo, "4f 2f 3f 3f", "in_clip",
-                                                   "in_clip_distance", "in_normal",
-                                                   "in_to_eye")], index_buffer=ibo,
-                                   index_element_size=4)
+            vao = ctx.vertex_array(
+                self.program,
+                [(vbo, "4f 2f 3f 3f", "in_clip", "in_clip_distance", "in_normal", "in_to_eye")],
+                index_buffer=ibo,
+                index_element_size=4,
+            )
             self.parts.append((s, vbo, ibo, vao))
 
     def draw(self, view, size) -> None:
@@ -92,7 +104,7 @@ class CpuBaseline:
         r1, r2 = view.sensor_r, view.eye_r
         prog = self.program
         lights = np.zeros((2, 3), dtype=np.float32)
-        lights[:len(view.lights[:2])] = view.lights[:2]
+        lights[: len(view.lights[:2])] = view.lights[:2]
         prog["u_lights"].write(lights.tobytes())
         self.renderer.clip_distances(True)
         self.ctx.polygon_offset = (1.0, 1.0)
@@ -197,20 +209,27 @@ def run(args) -> int:
             def inset_gpu(v):
                 world = inset_meshes.pop()
                 inset_gpu_mesh = renderer.upload(world)
-                renderer.render(inset_gpu_mesh, inset_view(v, world, inset_size),
-                                inset_target.framebuffer, RenderOptions(hud=False))
+                renderer.render(
+                    inset_gpu_mesh,
+                    inset_view(v, world, inset_size),
+                    inset_target.framebuffer,
+                    RenderOptions(hud=False),
+                )
                 inset_gpu_mesh.release()
 
             variants = {
                 "sheets_ms": with_sheets,
                 "pipeline_ms": lambda v: surfaces_only(
-                    lambda: renderer.draw_surfaces(gpu, v, size)),
+                    lambda: renderer.draw_surfaces(gpu, v, size)
+                ),
                 "cpu_baseline_ms": lambda v: surfaces_only(lambda: baseline.draw(v, size)),
                 "floor_ms": lambda v: surfaces_only(
-                    lambda: renderer.draw_surfaces(gpu, v, size, key="floor")),
+                    lambda: renderer.draw_surfaces(gpu, v, size, key="floor")
+                ),
                 "frame_ms": lambda v: renderer.render(gpu, v, fbo, RenderOptions(), hud),
                 "sliced_frame_ms": lambda v: renderer.render(
-                    gpu, v.replace(slice_axis=3), fbo, RenderOptions(), hud),
+                    gpu, v.replace(slice_axis=3), fbo, RenderOptions(), hud
+                ),
                 "inset_cpu_ms": inset_cpu,
                 "inset_gpu_ms": inset_gpu,
             }
@@ -218,7 +237,8 @@ def run(args) -> int:
             for i in range(frames + 2):  # two warm-up frames
                 view = scene.view.replace(
                     angles=(0.02 * i, -0.3 + 0.01 * i, -0.2, 0.4, -0.3, 0.0),
-                    slice_at=0.3 * math.sin(0.2 * i))
+                    slice_at=0.3 * math.sin(0.2 * i),
+                )
                 for key, draw in variants.items():
                     start = time.perf_counter()
                     draw(view)
@@ -238,20 +258,32 @@ def run(args) -> int:
         headless.release()
     if error != "GL_NO_ERROR":
         raise ExhibitError(f"OpenGL reported {error} during the benchmark")
-    report = {"size": list(size), "renderer": renderer_name, "samples": samples,
-              "cpu": cpu_model(), "cpus": os.cpu_count(), "results": results}
+    report = {
+        "size": list(size),
+        "renderer": renderer_name,
+        "samples": samples,
+        "cpu": cpu_model(),
+        "cpus": os.cpu_count(),
+        "results": results,
+    }
     if args.json:
         print(json.dumps(report, indent=2))
         return 0
-    print(f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; "
-          f"{size[0]}x{size[1]}, {samples or 'no'} MSAA samples; medians of {frames} frames")
-    print(f"{'triangles':>10} {'pipeline':>10} {'cpu base':>10} {'floor':>10} "
-          f"{'pipe/floor':>10} {'base/pipe':>10} {'full frame':>11} {'intersect':>10} "
-          f"{'slice':>8} {'inset cpu':>10} {'inset gpu':>10}")
+    print(
+        f"renderer: {renderer_name}; {report['cpus']} x {report['cpu']}; "
+        f"{size[0]}x{size[1]}, {samples or 'no'} MSAA samples; medians of {frames} frames"
+    )
+    print(
+        f"{'triangles':>10} {'pipeline':>10} {'cpu base':>10} {'floor':>10} "
+        f"{'pipe/floor':>10} {'base/pipe':>10} {'full frame':>11} {'intersect':>10} "
+        f"{'slice':>8} {'inset cpu':>10} {'inset gpu':>10}"
+    )
     for r in results:
-        print(f"{r['triangles']:>10} {r['pipeline_ms']:>8.1f}ms {r['cpu_baseline_ms']:>8.1f}ms "
-              f"{r['floor_ms']:>8.1f}ms {r['pipeline_ms'] / r['floor_ms']:>9.2f}x "
-              f"{r['cpu_baseline_ms'] / r['pipeline_ms']:>9.2f}x {r['frame_ms']:>9.1f}ms "
-              f"{r['intersections_ms']:>+8.1f}ms {r['slice_ms']:>+6.1f}ms "
-              f"{r['inset_cpu_ms']:>8.1f}ms {r['inset_gpu_ms']:>8.1f}ms")
+        print(
+            f"{r['triangles']:>10} {r['pipeline_ms']:>8.1f}ms {r['cpu_baseline_ms']:>8.1f}ms "
+            f"{r['floor_ms']:>8.1f}ms {r['pipeline_ms'] / r['floor_ms']:>9.2f}x "
+            f"{r['cpu_baseline_ms'] / r['pipeline_ms']:>9.2f}x {r['frame_ms']:>9.1f}ms "
+            f"{r['intersections_ms']:>+8.1f}ms {r['slice_ms']:>+6.1f}ms "
+            f"{r['inset_cpu_ms']:>8.1f}ms {r['inset_gpu_ms']:>8.1f}ms"
+        )
     return 0

@@ -30,8 +30,12 @@ WARM_GOAL, COLD_GOAL = 2.5, 2.5
 
 def add_arguments(parser) -> None:
     parser.add_argument("--config", help="kiosk config (default: the shipped one)")
-    parser.add_argument("--repeat", type=int, default=3,
-                        help="rounds (baselines, a cold and a warm start each); medians count")
+    parser.add_argument(
+        "--repeat",
+        type=int,
+        default=3,
+        help="rounds (baselines, a cold and a warm start each); medians count",
+    )
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
@@ -41,8 +45,9 @@ def _time_command(args: list[str]) -> float:
     return time.perf_counter() - start
 
 
-def _time_to_ready(config: str | None, env: dict, folder: Path, timeout: float = 600
-                   ) -> tuple[float, float | None]:
+def _time_to_ready(
+    config: str | None, env: dict, folder: Path, timeout: float = 600
+) -> tuple[float, float | None]:
     """Seconds from start to READY=1 and to the log line PREPARED (None if it never came)."""
     address = str(folder / f"notify-{time.monotonic_ns()}.sock")
     server = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM)
@@ -52,10 +57,15 @@ def _time_to_ready(config: str | None, env: dict, folder: Path, timeout: float =
     if config:
         command += ["--config", config]
     start = time.perf_counter()
-    child = subprocess.Popen(command, env=dict(env, NOTIFY_SOCKET=address),
-                             stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    child = subprocess.Popen(
+        command,
+        env=dict(env, NOTIFY_SOCKET=address),
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     stderr = child.stderr
-    assert stderr is not None   # stderr=PIPE
+    assert stderr is not None  # stderr=PIPE
     lines: list[str] = []
     prepared = threading.Event()
     when: list[float] = []
@@ -77,8 +87,10 @@ def _time_to_ready(config: str | None, env: dict, folder: Path, timeout: float =
             except socket.timeout:
                 if child.poll() is not None:
                     reader.join(timeout=5)
-                    raise ExhibitError("the kiosk exited before its first frame: "
-                                       + ([s.strip() for s in lines if s.strip()] or ["?"])[-1])
+                    raise ExhibitError(
+                        "the kiosk exited before its first frame: "
+                        + ([s.strip() for s in lines if s.strip()] or ["?"])[-1]
+                    )
                 continue
             if "READY=1" in message:
                 ready = time.perf_counter() - start
@@ -100,13 +112,20 @@ def _time_to_ready(config: str | None, env: dict, folder: Path, timeout: float =
 
 def run(args) -> int:
     if not 1 <= args.repeat <= 100:
-        raise ExhibitError(f"--repeat {args.repeat}: give 1 to 100 rounds (each is a cold and "
-                           "a warm start, seconds to a minute)")
+        raise ExhibitError(
+            f"--repeat {args.repeat}: give 1 to 100 rounds (each is a cold and "
+            "a warm start, seconds to a minute)"
+        )
     if not (os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")):
-        raise ExhibitError("the kiosk needs a display; on a headless machine run "
-                           "`xvfb-run -a exhibit bench startup`")
-    imports_command = [sys.executable, "-c", "import exhibit.kiosk.app, exhibit.render.window, "
-                       "exhibit.commands.run"]
+        raise ExhibitError(
+            "the kiosk needs a display; on a headless machine run "
+            "`xvfb-run -a exhibit bench startup`"
+        )
+    imports_command = [
+        sys.executable,
+        "-c",
+        "import exhibit.kiosk.app, exhibit.render.window, exhibit.commands.run",
+    ]
     interpreter: list[float] = []
     imports: list[float] = []
     cold: list[float] = []
@@ -118,11 +137,17 @@ def run(args) -> int:
     for round_ in range(args.repeat):
         with tempfile.TemporaryDirectory() as tmp:
             folder = Path(tmp)
-            env = dict(os.environ, EXHIBIT_CACHE_DIR=str(folder / "cache"),
-                       EXHIBIT_STATE_DIR=str(folder / "state"))
+            env = dict(
+                os.environ,
+                EXHIBIT_CACHE_DIR=str(folder / "cache"),
+                EXHIBIT_STATE_DIR=str(folder / "state"),
+            )
             env.pop("WATCHDOG_USEC", None)
-            print(f"round {round_ + 1}/{args.repeat}: baselines, cold start (an empty mesh "
-                  "cache), warm start...", file=sys.stderr)
+            print(
+                f"round {round_ + 1}/{args.repeat}: baselines, cold start (an empty mesh "
+                "cache), warm start...",
+                file=sys.stderr,
+            )
             interpreter.append(_time_command([sys.executable, "-c", "pass"]))
             imports.append(_time_command(imports_command))
             ready, prepared = _time_to_ready(args.config, env, folder)
@@ -137,29 +162,50 @@ def run(args) -> int:
     cold_s, warm_s = round(median(cold), 3), round(median(warm), 3)
     cold_runs, warm_runs = [round(c, 3) for c in cold], [round(w, 3) for w in warm]
     prepared_s = {"cold": _median(cold_prepared), "warm": _median(warm_prepared)}
-    ratios = {"warm_to_imports": round(warm_s / imports_s, 2),
-              "cold_to_warm": round(cold_s / warm_s, 2)}
+    ratios = {
+        "warm_to_imports": round(warm_s / imports_s, 2),
+        "cold_to_warm": round(cold_s / warm_s, 2),
+    }
     goals_met = ratios["warm_to_imports"] <= WARM_GOAL and ratios["cold_to_warm"] <= COLD_GOAL
     if args.json:
-        report = {"machine": machine, "cold_s": cold_s, "warm_s": warm_s,
-                  "cold_runs_s": cold_runs, "warm_runs_s": warm_runs, "prepared_s": prepared_s,
-                  "baseline": {"interpreter_s": round(interpreter_s, 3),
-                               "imports_s": round(imports_s, 3)},
-                  "ratios": ratios, "goals_met": goals_met}
+        report = {
+            "machine": machine,
+            "cold_s": cold_s,
+            "warm_s": warm_s,
+            "cold_runs_s": cold_runs,
+            "warm_runs_s": warm_runs,
+            "prepared_s": prepared_s,
+            "baseline": {
+                "interpreter_s": round(interpreter_s, 3),
+                "imports_s": round(imports_s, 3),
+            },
+            "ratios": ratios,
+            "goals_met": goals_met,
+        }
         print(json.dumps(report, indent=2))
         return 0
     print(f"start to first frame on {machine}:")
-    print(f"  cold (empty mesh cache, median of {args.repeat}): {cold_s:.2f} s  "
-          f"(runs: {', '.join(f'{c:.2f}' for c in cold_runs)})")
-    print(f"  warm (median of {args.repeat}): {warm_s:.2f} s  "
-          f"(runs: {', '.join(f'{w:.2f}' for w in warm_runs)})")
-    print(f"  every scene prepared: {_seconds(prepared_s['cold'])} (cold), "
-          f"{_seconds(prepared_s['warm'])} (warm)")
-    print(f"  baselines: bare interpreter {interpreter_s:.2f} s, interpreter + kiosk imports "
-          f"{imports_s:.2f} s")
-    print(f"  warm / imports {ratios['warm_to_imports']:.2f} (goal <= {WARM_GOAL}), "
-          f"cold / warm {ratios['cold_to_warm']:.2f} (goal <= {COLD_GOAL}): "
-          + ("met" if goals_met else "NOT met"))
+    print(
+        f"  cold (empty mesh cache, median of {args.repeat}): {cold_s:.2f} s  "
+        f"(runs: {', '.join(f'{c:.2f}' for c in cold_runs)})"
+    )
+    print(
+        f"  warm (median of {args.repeat}): {warm_s:.2f} s  "
+        f"(runs: {', '.join(f'{w:.2f}' for w in warm_runs)})"
+    )
+    print(
+        f"  every scene prepared: {_seconds(prepared_s['cold'])} (cold), "
+        f"{_seconds(prepared_s['warm'])} (warm)"
+    )
+    print(
+        f"  baselines: bare interpreter {interpreter_s:.2f} s, interpreter + kiosk imports "
+        f"{imports_s:.2f} s"
+    )
+    print(
+        f"  warm / imports {ratios['warm_to_imports']:.2f} (goal <= {WARM_GOAL}), "
+        f"cold / warm {ratios['cold_to_warm']:.2f} (goal <= {COLD_GOAL}): "
+        + ("met" if goals_met else "NOT met")
+    )
     return 0
 
 
