@@ -363,6 +363,13 @@ case "$job" in
     [ -z "$bundle" ] || die "a bundle holds what \`run\` needs, not the tests' packages: run the tests from a checkout, with a network"
     install_system_packages "${apt_test[@]}"
     setup_venv test
+    if [ $# -eq 0 ]; then
+      # The whole suite: lint, format and types first (pyproject.toml's [tool.ruff], [tool.mypy]).
+      say "ruff check, ruff format --check, mypy"
+      .venv/bin/ruff check --quiet exhibit tests
+      .venv/bin/ruff format --check --quiet exhibit tests
+      .venv/bin/mypy
+    fi
     markers=()
     # CI also runs the slow soak and fuzz tests.
     [ "${CI:-}" = "true" ] && markers=(-m "")
