@@ -24,7 +24,6 @@ import os
 import pwd
 import re
 import shlex
-import stat
 import subprocess
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -32,7 +31,7 @@ from pathlib import Path
 
 from exhibit.errors import ExhibitError
 from exhibit.resources import shipped
-from exhibit.schema.files import UnsafePath, check_target, write_atomic
+from exhibit.schema.files import UnsafePath, check_target, read_regular, write_atomic
 
 HELP = "install the kiosk's systemd units and udev rules (--root DIR to stage, --dry-run to look)"
 
@@ -176,7 +175,8 @@ def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
             problems.append(f"{path}: {exc.strerror or exc}")
             continue
         try:
-            old = _read_existing(path)
+            # a symlink there is replaced, not followed; a FIFO or device counts as changed
+            old = read_regular(path, 1 << 20, follow=False)
         except FileNotFoundError:
             state = "new"
         except (OSError, ValueError):
@@ -189,20 +189,6 @@ def plan(root: Path, prefix: str, source: Path = SOURCE_DIR) -> list[Planned]:
         more = f" (and {len(unique) - 1} more)" if len(unique) > 1 else ""
         raise ExhibitError(f"nothing written: {unique[0]}{more}")
     return planned
-
-
-def _read_existing(path: Path, limit: int = 1 << 20) -> bytes:
-    """The bytes of the regular file at ``path``; ValueError for a FIFO, device or folder (which
-    would hang or flood the read) or a file over ``limit``. Non-blocking, so a FIFO opens; a
-    symlink there is not followed (it is replaced)."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | os.O_NOFOLLOW)
-    try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode) or info.st_size > limit:
-            raise ValueError(f"{path}: not a regular file of at most {limit} bytes")
-        return os.read(fd, limit + 1)
-    finally:
-        os.close(fd)
 
 
 def write(

@@ -25,7 +25,6 @@ from __future__ import annotations
 import json
 import math
 import os
-import stat
 import time
 from collections.abc import Mapping
 from pathlib import Path
@@ -56,7 +55,6 @@ __all__ = [
     "candidate_paths",
     "report",
     "write_health",
-    "write_atomic",
     "read_health",
     "freshness",
     "missing_devices",
@@ -306,14 +304,6 @@ def write_health(path: str | os.PathLike, data: Health | Mapping) -> None:
     files.write_atomic(path, text, sync=False, make_folder=True)
 
 
-def write_atomic(path: str | os.PathLike, text: str, mode: int = 0o644) -> None:
-    """Replace the file at ``path`` with ``text`` at once, without fsync (it is rewritten every
-    few seconds): :func:`exhibit.schema.files.write_atomic`, which refuses a target that is a
-    device, FIFO, folder or symlink, or an empty name (UnsafePath, an OSError). Raises OSError
-    (the folder missing or read-only, a full disk) and leaves no temporary file behind."""
-    files.write_atomic(path, text, mode=mode, sync=False)
-
-
 def read_health(path: str | os.PathLike) -> Health:
     """The health file at ``path``; HealthError names the file and what is wrong.
 
@@ -325,7 +315,15 @@ def read_health(path: str | os.PathLike) -> Health:
     """
     path = Path(path)
     try:
-        raw = _read_regular(path)
+        raw = files.read_regular(path, MAX_HEALTH_BYTES)
+    except files.NotAFile as exc:
+        if exc.kind == "a folder":
+            raise HealthError(f"{path} is a folder, not a health file") from None
+        raise HealthError(f"cannot read {path}: not a regular file ({exc.kind})") from None
+    except files.TooLarge:
+        raise HealthError(
+            f"cannot read {path}: more than the {MAX_HEALTH_BYTES} bytes a health file may have"
+        ) from None
     except FileNotFoundError:
         raise HealthError(
             f"no health file at {path}: the kiosk is not running or has not "
@@ -356,26 +354,6 @@ def read_health(path: str | os.PathLike) -> Health:
         return Health.model_validate(data)
     except ValidationError as exc:
         raise HealthError(f"{path}: " + "; ".join(_validation_problems(exc))) from None
-
-
-def _read_regular(path: Path) -> bytes:
-    """The bytes of the regular file at ``path``; IsADirectoryError for a folder, ValueError for
-    anything else that is not a regular file of at most MAX_HEALTH_BYTES."""
-    fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
-    try:
-        info = os.fstat(fd)
-        if stat.S_ISDIR(info.st_mode):
-            raise IsADirectoryError(path)
-        if not stat.S_ISREG(info.st_mode):
-            raise ValueError(
-                f"not a regular file (a FIFO, socket or device: {stat.filemode(info.st_mode)})"
-            )
-        raw = os.read(fd, MAX_HEALTH_BYTES + 1)  # one more: a bigger file is refused unparsed
-        if len(raw) > MAX_HEALTH_BYTES:
-            raise ValueError(f"more than the {MAX_HEALTH_BYTES} bytes a health file may have")
-        return raw
-    finally:
-        os.close(fd)
 
 
 def _no_constant(name: str):

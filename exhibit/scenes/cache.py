@@ -14,20 +14,18 @@ entry), so a reader sees the old file or the new one, and no temporary file is l
 
 from __future__ import annotations
 
-import errno
 import functools
 import hashlib
 import json
 import logging
 import os
-import secrets
-import stat
 import time
 from pathlib import Path
 from typing import Mapping
 
 from exhibit import __version__
 from exhibit.scenes.base import Scene
+from exhibit.schema import files
 from exhibit.surfaces.mesh import Mesh4D
 
 log = logging.getLogger(__name__)
@@ -86,9 +84,10 @@ def build_cached(
     folder = Path(directory) if directory else cache_dir()
     path = folder / f"{scene.name}-{cache_key(scene, params, resolution)}.npz"
     try:
-        data = _read_entry(path)
-        if data is not None:
-            return Mesh4D.from_bytes(data), True
+        data = files.read_regular(path, MAX_CACHE_BYTES, follow=False)
+        return Mesh4D.from_bytes(data), True
+    except FileNotFoundError:
+        pass
     except Exception as exc:  # noqa: BLE001 - no cache file is worth a crash
         log.warning("mesh cache %s is unusable (%s); rebuilding", path, exc)
     mesh = scene.build(params, resolution)
@@ -99,64 +98,16 @@ def build_cached(
     return mesh, False
 
 
-def _read_entry(path: Path) -> bytes | None:
-    """The bytes of the regular file at ``path``, None if there is none; OSError or ValueError
-    for anything else. O_NOFOLLOW refuses a symlink (to /dev/zero, say); O_NONBLOCK lets a FIFO
-    open without a writer, so fstat can refuse it instead of the read hanging the kiosk."""
-    try:
-        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
-    except FileNotFoundError:
-        return None
-    except OSError as exc:
-        if exc.errno == errno.ELOOP:
-            raise ValueError("a symbolic link, not a regular file") from None
-        raise
-    try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            raise ValueError(f"not a regular file (mode {stat.filemode(info.st_mode)})")
-        if info.st_size > MAX_CACHE_BYTES:
-            raise ValueError(f"{info.st_size} bytes, more than the {MAX_CACHE_BYTES} allowed")
-        chunks, left = [], MAX_CACHE_BYTES + 1
-        while left > 0 and (chunk := os.read(fd, min(left, 1 << 20))):
-            chunks.append(chunk)
-            left -= len(chunk)
-        if left <= 0:
-            raise ValueError(f"grew past {MAX_CACHE_BYTES} bytes while being read")
-        return b"".join(chunks)
-    finally:
-        os.close(fd)
-
-
 def store(folder: Path, path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` atomically through a temporary file only this call created.
-
-    O_EXCL|O_NOFOLLOW with a random name: a file or symlink planted in the folder is never
-    written through. os.replace renames over ``path`` itself, so a symlink, FIFO or bad file
-    there is replaced, not followed.
-    """
+    """Write ``data`` to ``path`` atomically (exhibit.schema.files.write_atomic, fsynced: the
+    rename must not reach the disk before the data), healing whatever is there: a symlink, FIFO
+    or bad file in the entry's place is replaced, never followed. Leftovers of writers killed
+    mid-write go first."""
     if len(data) > MAX_CACHE_BYTES:
         raise ValueError(f"{len(data)} bytes, more than the {MAX_CACHE_BYTES} a read accepts")
     folder.mkdir(parents=True, exist_ok=True)
     _sweep(folder)
-    tmp = folder / f".{path.name}.{secrets.token_hex(8)}.tmp"
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC, 0o644)
-    try:
-        try:
-            view = memoryview(data)
-            while view:
-                view = view[os.write(fd, view) :]
-            os.fsync(fd)  # the rename must not reach the disk before the data (power cuts)
-        finally:
-            os.close(fd)
-        try:
-            os.replace(tmp, path)
-        except IsADirectoryError:
-            os.rmdir(path)  # an empty folder in the entry's place; a full one is left alone
-            os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    files.write_atomic(path, data, mode=0o644, heal=True)
 
 
 def _sweep(folder: Path) -> None:

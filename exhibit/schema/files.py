@@ -12,6 +12,7 @@ bounded in size and depth (:func:`loads_json`), and every file exhibit writes go
 from __future__ import annotations
 
 import json
+import errno
 import os
 import re
 import secrets
@@ -39,35 +40,69 @@ def _kind(mode: int) -> str:
     return "a special file"
 
 
-def read_bytes(path: str | Path, limit: int = MAX_CONFIG_BYTES) -> bytes:
-    """The bytes of a regular file of at most ``limit`` bytes; ConfigError names the file."""
-    path = Path(path)
+class NotAFile(ValueError):
+    """What :func:`read_regular` found instead of a regular file: ``kind`` is "a FIFO", "a
+    folder", "a character device", "a symbolic link"..."""
+
+    def __init__(self, kind: str):
+        super().__init__(f"{kind}, not a regular file")
+        self.kind = kind
+
+
+class TooLarge(ValueError):
+    """A file over :func:`read_regular`'s limit: ``size`` bytes (None: it grew while read)."""
+
+    def __init__(self, size: int | None, limit: int):
+        what = f"{size} bytes is" if size is not None else "it grew while being read,"
+        super().__init__(f"{what} over the {limit}-byte limit")
+        self.size, self.limit = size, limit
+
+
+def read_regular(path: str | os.PathLike, limit: int, follow: bool = True) -> bytes:
+    """The bytes of the regular file at ``path``, of at most ``limit`` bytes: the one way
+    exhibit reads a file it did not just write. Opened non-blocking, so a FIFO in its place is
+    refused by fstat instead of hanging the read, and read to at most ``limit`` + 1 bytes, so
+    /dev/zero or a growing file cannot fill the memory. ``follow=False``: a symbolic link is
+    refused too (a cache entry pointing at /dev/zero). Raises NotAFile, TooLarge, or the
+    OSError of the open (FileNotFoundError, PermissionError...)."""
+    flags = os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | (0 if follow else os.O_NOFOLLOW)
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+        fd = os.open(path, flags)
     except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
+        if exc.errno == errno.ELOOP and not follow:
+            raise NotAFile("a symbolic link") from None
+        raise
     try:
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
-            raise ConfigError(f"{path}: cannot read: {_kind(info.st_mode)}, not a file")
+            raise NotAFile(_kind(info.st_mode))
         if info.st_size > limit:
-            raise ConfigError(
-                f"{path}: cannot read: {info.st_size} bytes is over the {limit}-byte limit"
-            )
+            raise TooLarge(info.st_size, limit)
         chunks, size = [], 0
         while size <= limit:
-            chunk = os.read(fd, min(1 << 16, limit + 1 - size))
+            chunk = os.read(fd, min(1 << 20, limit + 1 - size))
             if not chunk:
                 break
             chunks.append(chunk)
             size += len(chunk)
-        if size > limit:  # grew while being read
-            raise ConfigError(f"{path}: cannot read: over the {limit}-byte limit")
+        if size > limit:
+            raise TooLarge(None, limit)
         return b"".join(chunks)
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
     finally:
         os.close(fd)
+
+
+def read_bytes(path: str | Path, limit: int = MAX_CONFIG_BYTES) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes; ConfigError names the file."""
+    path = Path(path)
+    try:
+        return read_regular(path, limit)
+    except NotAFile as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.kind}, not a file") from None
+    except TooLarge as exc:
+        raise ConfigError(f"{path}: cannot read: {exc}") from None
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read: {exc.strerror or exc}") from None
 
 
 def read_text(path: str | Path, limit: int = MAX_CONFIG_BYTES) -> str:
@@ -290,6 +325,7 @@ def write_atomic(
     root: str | os.PathLike | None = None,
     sync: bool = True,
     make_folder: bool = False,
+    heal: bool = False,
 ) -> None:
     """Replace the file at ``path`` with ``data`` at once: a reader sees the old file or the new
     one, never a part. The one way exhibit writes a file.
@@ -304,15 +340,18 @@ def write_atomic(
     umask, fsynced (``sync``: files rewritten every few seconds pass False, since losing the last
     one to a power cut is harmless and wearing the flash is not), then renamed over the name.
     The temporary name does not end in .prom or .json, so a collector globbing ``*.prom`` never
-    reads it half written. ``make_folder`` creates missing folders. Raises OSError (a missing or
-    read-only folder, a full disk), leaving no temporary file behind."""
+    reads it half written. ``make_folder`` creates missing folders. ``heal`` (a cache entry,
+    never a file a person made): whatever is at ``path`` is replaced by the rename, not refused
+    (a FIFO, a device node or a link planted there; an empty folder is removed first). Raises
+    OSError (a missing or read-only folder, a full disk), leaving no temporary file behind."""
     folder, name = split_target(path)
     shown = os.fspath(path)
     if isinstance(data, str):
         data = data.encode("utf-8")
     fd = open_folder(folder, root, create=make_folder)
     try:
-        _check_at(fd, name, shown)
+        if not heal:
+            _check_at(fd, name, shown)
         flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
         for _ in range(100):
             tmp = f".{name}.{secrets.token_hex(6)}.tmp"
@@ -333,8 +372,15 @@ def write_atomic(
                     os.fsync(out)
             finally:
                 os.close(out)
-            _check_at(fd, name, shown)  # nothing swapped in meanwhile
-            os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
+            if not heal:
+                _check_at(fd, name, shown)  # nothing swapped in meanwhile
+            try:
+                os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
+            except IsADirectoryError:
+                if not heal:
+                    raise
+                os.rmdir(name, dir_fd=fd)  # an empty folder in its place; a full one stays
+                os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
         except BaseException:
             try:
                 os.unlink(tmp, dir_fd=fd)
