@@ -1,6 +1,8 @@
 """The `exhibit` command as a user meets it: help, version, one-line errors with exit code 2."""
 
 import json
+import re
+from pathlib import Path
 
 import pytest
 from hypothesis import given, settings
@@ -12,10 +14,15 @@ from tests.hypothesis_profiles import examples
 
 
 def test_help_lists_every_subcommand(cli):
+    """The commands `exhibit --help` lists (argparse's "    name  help" lines, each a whole
+    word) are the ones the README's command table documents, and the ones the parser runs."""
     result = cli("--help")
     assert result.returncode == 0
-    for name in COMMANDS:
-        assert name in result.stdout
+    listed = re.findall(r"^ {4}([a-z][a-z-]*)(?: |$)", result.stdout, re.M)
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    documented = set(re.findall(r"^\| `exhibit ([a-z][a-z-]*)", readme, re.M))
+    assert len(listed) == len(set(listed)) and set(listed) == documented
+    assert set(listed) == set(COMMANDS)
 
 
 def test_version(cli):

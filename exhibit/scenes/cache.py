@@ -86,8 +86,8 @@ def build_cached(
     try:
         data = files.read_regular(path, MAX_CACHE_BYTES, follow=False)
         return Mesh4D.from_bytes(data), True
-    except FileNotFoundError:
-        pass
+    except (FileNotFoundError, NotADirectoryError):
+        pass  # no entry (or no cache folder: a file in its way), nothing to warn about yet
     except Exception as exc:  # noqa: BLE001 - no cache file is worth a crash
         log.warning("mesh cache %s is unusable (%s); rebuilding", path, exc)
     mesh = scene.build(params, resolution)

@@ -255,7 +255,7 @@ def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
 
     def stuck(self, s):
         entered.set()
-        release.wait(10)
+        release.wait(120)  # longer than the frames are given below
         return real_add(self, s)
 
     monkeypatch.setattr(SessionStore, "add", stuck)
@@ -265,14 +265,21 @@ def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
     recorder.observe(VISITOR, "hopf", [], 0.0)
     recorder.observe(ATTRACT, "hopf", [], 0.5)
     assert entered.wait(5)  # the writer is inside its first write, and stays there
-    worst = 0.0
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+
+    def frames():
         for i in range(1, 200):
-            t0 = time.perf_counter()
             recorder.observe(VISITOR, "hopf", [Event(i, "knobs", Kind.REL, 0, 1.0)], float(i))
             recorder.observe(ATTRACT, "hopf", [], i + 0.5)
-            worst = max(worst, time.perf_counter() - t0)
-    assert worst < 0.05, f"a frame waited {worst * 1000:.1f} ms for the recorder"
+
+    # The frames run to the end while the write is still stuck: not one of them waited for it
+    # (one that did would wait for `release`, which comes only after this check).
+    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+        loop = threading.Thread(target=frames, daemon=True)
+        loop.start()
+        loop.join(timeout=30)
+    if loop.is_alive():
+        release.set()
+        pytest.fail("a frame waited for the stuck write")
     assert writer.dropped == 200 - 8 - 1  # 8 queued, 1 inside the stuck write
     assert len(caplog.records) == 8  # the 1st, 2nd, 4th, ... 128th dropped
     release.set()
