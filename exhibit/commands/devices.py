@@ -14,8 +14,8 @@ import time
 from pathlib import Path
 from typing import Any
 
-from exhibit.commands import _args
-from exhibit.commands._devices_common import add_config_arguments, config_from_args
+from exhibit.commands import _arg_types as _args
+from exhibit.commands._device_options import add_config_arguments, config_from_args
 from exhibit.devices.base import State
 from exhibit.devices.hid import load_layouts
 from exhibit.devices.hub import DeviceSet

@@ -16,8 +16,8 @@ import math
 import time
 from collections.abc import Sequence
 
-from exhibit.commands import _args
-from exhibit.commands._devices_common import add_config_arguments, config_from_args
+from exhibit.commands import _arg_types as _args
+from exhibit.commands._device_options import add_config_arguments, config_from_args
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper

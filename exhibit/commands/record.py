@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import time
 
-from exhibit.commands import _args
-from exhibit.commands._devices_common import add_config_arguments, config_from_args
+from exhibit.commands import _arg_types as _args
+from exhibit.commands._device_options import add_config_arguments, config_from_args
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.replay import Recorder
 

@@ -11,7 +11,7 @@ import tempfile
 from pathlib import Path
 
 from exhibit import scenes
-from exhibit.commands import _args
+from exhibit.commands import _arg_types as _args
 from exhibit.commands._media import (
     encode_mp4,
     need_ffmpeg,  # noqa: F401
@@ -332,8 +332,8 @@ def _inset(headless, scene, params, mesh, view, rect):
 
 def _window(scene, params, view, note, size, resolution, samples) -> int:
     """The staff viewer: the kiosk's keyboard mapping (the device config `exhibit run` would
-    use) drives the view (exhibit.commands._viewer)."""
-    from exhibit.commands import _viewer
+    use) drives the view (exhibit.commands._staff_viewer)."""
+    from exhibit.commands import _staff_viewer as _viewer
     from exhibit.devices.config import load_config
     from exhibit.kiosk.config import load_kiosk_config
     from exhibit.render import HudInfo, RenderOptions

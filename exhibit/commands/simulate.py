@@ -20,7 +20,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from exhibit.commands import _args
+from exhibit.commands import _arg_types as _args
 from exhibit.devices import protocol as p
 from exhibit.devices.sim import SimController, parse_script
 from exhibit.schema import read_text

@@ -8,7 +8,7 @@ from __future__ import annotations
 import json
 
 from exhibit import scenes
-from exhibit.commands._args import number
+from exhibit.commands._arg_types import number
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.surfaces.exact_silhouette import RefineStats

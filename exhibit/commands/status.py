@@ -33,7 +33,7 @@ import sys
 import time
 from pathlib import Path
 
-from exhibit.commands import _args
+from exhibit.commands import _arg_types as _args
 from exhibit.errors import ExhibitError
 from exhibit.kiosk.health import (
     MISSING_STATES,
@@ -186,7 +186,7 @@ def _missing_text(m: dict, max_lost: float) -> str:
 
 
 def _write_metrics(target: Path, data: Health | None, status: str, age: float | None = None) -> int:
-    from exhibit.kiosk.metrics import write_metrics
+    from exhibit.kiosk.prometheus import write_metrics
 
     try:
         write_metrics(target, data, status, age)

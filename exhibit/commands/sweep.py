@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from exhibit.commands import _args
+from exhibit.commands import _arg_types as _args
 from exhibit.geometry import ViewState, project_to_3d
 from exhibit.geometry.hopf import hopf_torus
 

@@ -2,7 +2,7 @@
 
 Its schema is one pydantic model, Health (with DeviceHealth per device): the kiosk builds one
 (Kiosk._report, through report()) and writes it, and every reader gets one back from
-read_health (`exhibit status`, the Prometheus metrics in exhibit.kiosk.metrics). The fields'
+read_health (`exhibit status`, the Prometheus metrics in exhibit.kiosk.prometheus). The fields'
 comments say what each holds. "frames" drawn and "frame_errors" (frames that raised) count since
 the start, "uptime_s" is the seconds since the kiosk process started (process_uptime),
 "problems" has one line each for people (scenes skipped, frames failing), and "mode" and "scene"

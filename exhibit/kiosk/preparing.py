@@ -25,7 +25,7 @@ from typing import Protocol
 
 from exhibit import scenes
 from exhibit.kiosk.attract import Timeline
-from exhibit.kiosk.framing import frame_timeline
+from exhibit.kiosk.timeline_framing import frame_timeline
 from exhibit.kiosk.governor import level_resolution
 from exhibit.render.framer import Framer
 from exhibit.scenes.cache import build_cached
@@ -162,7 +162,7 @@ def slices(scene, timeline: Timeline) -> bool:
 
 
 def frame(timeline: Timeline, scene, mesh: Mesh4D, framers: Framers) -> Timeline:
-    """The timeline framed clear of the text (exhibit.kiosk.framing); unchanged without a
+    """The timeline framed clear of the text (exhibit.kiosk.timeline_framing); unchanged without a
     framer or when framing fails (never fatal: an unframed timeline still plays)."""
     framer = framers.inset if slices(scene, timeline) else framers.main
     if framer is None:

@@ -8,7 +8,7 @@ from collections import OrderedDict
 
 from exhibit import scenes
 from exhibit.geometry.framing import mesh_sample
-from exhibit.kiosk.framing import FILL_LIMIT
+from exhibit.kiosk.timeline_framing import FILL_LIMIT
 
 log = logging.getLogger("exhibit.kiosk")
 

@@ -1,8 +1,8 @@
 """Start-up work the first frames would otherwise pay for, done one piece per frame after the
-first: every title and caption panel laid out and rasterised (15 ms at each change otherwise),
-and a frame drawn through a crossfade at every quality level the governor may choose (software
-GL compiles each shader variant at its first draw, and the crossfade's snapshot is allocated at
-the first cut: a 109 ms frame at the first scene change of a 1080p kiosk on llvmpipe)."""
+first: every title and caption panel laid out and rasterised, and a frame drawn through a
+crossfade at every quality level the governor may choose (software GL compiles each shader
+variant at its first draw, and the crossfade's snapshot is allocated at the first cut: each a
+long frame at the first scene change otherwise)."""
 
 from __future__ import annotations
 

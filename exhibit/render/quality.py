@@ -5,23 +5,18 @@ A level sets four things (antialiasing, mesh, effects, render scale), and the la
 up in this order, cheapest loss first (the antialiasing twice: MSAA for FXAA, later the FXAA pass
 itself):
 
-1. antialiasing: "msaa" (multisampling; cheap on real GPUs, a full-screen resolve and 4x the
-   samples on software GL), "fxaa" (one post-process pass, exhibit/render/shaders/composite.glsl),
-   or "none";
-2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS; the
-   kiosk loads every level's meshes at start-up, never during a visitor's session);
-3. effects: "full", or "lean" (no intersection curves: their sheet buffer and passes cost
-   7-11 ms at 1080p on software GL). Everything else stays: thinner lines (lean once drew them
-   at 0.7x) saved nothing measurable, and the background's gradient (once flattened) was most
-   of lean's SSIM drop (0.995 -> 0.917), also for nothing;
-4. the antialiasing pass: "direct" draws the lean picture straight to the screen without one
-   (the live silhouettes ink every outline of a closed surface with antialiased lines, so it
-   hardly shows: docs/PERFORMANCE.md);
-5. scale: the render scale of the 3D picture, upscaled with bilinear filtering (which smooths
-   its edges as well; the HUD always stays at full resolution and crisp). On software GL the
-   upscaling pass (9-11 ms at 1080p) costs about what the smaller picture saves: scale-75 is
-   slower than direct and scale-50 no faster (docs/PERFORMANCE.md), so the kiosk leaves these
-   levels out there (exhibit.kiosk.governor.kiosk_levels) and keeps its ladder in cost order.
+1. antialiasing: "msaa" (multisampling; cheap on real GPUs, costly on software GL), "fxaa" (one
+   post-process pass, exhibit/render/shaders/composite.glsl), or "none";
+2. mesh: the mesh resolution per scene, as a factor of the configured one (MESH_FACTORS);
+3. effects: "full", or "lean" (no intersection curves, whose sheet buffer and passes are the
+   costly effect on software GL; everything else stays, as dropping it saved nothing);
+4. the antialiasing pass: "direct" draws the lean picture straight to the screen (the live
+   silhouettes' antialiased lines ink every outline, so it hardly shows);
+5. scale: the render scale of the 3D picture, upscaled bilinearly (the HUD stays at full
+   resolution). On software GL the upscaling costs about what the smaller picture saves, so the
+   kiosk leaves these levels out there (exhibit.kiosk.governor.kiosk_levels).
+
+What each level costs and shows, measured: docs/PERFORMANCE.md, "Kiosk frames".
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ callbacks become toolkit-neutral Key, Focus and CloseRequest events here, and no
 One process uses one kind of target: with Mesa, once EGL (the headless
 target) has been initialised, GLX refuses to make a window context current (BadAccess). The
 kiosk owns the loop, and so does the staff viewer (`exhibit render SCENE --window`,
-exhibit.commands._viewer), with the kiosk's own keys.
+exhibit.commands._staff_viewer), with the kiosk's own keys.
 
 GLFW errors are logged, never raised: on a kiosk that runs for months, an error from the window
 system (a monitor unplugged, a focus change GLFW cannot follow) must not end the exhibit.

@@ -205,7 +205,7 @@ def test_window_key_names_match_the_keyboard_backend():
 
 def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
     """A key sequence gives the same views in the viewer as through the kiosk's keyboard://."""
-    from exhibit.commands._viewer import StaffControls
+    from exhibit.commands._staff_viewer import StaffControls
 
     home = ViewState(angles=(0.1, -0.2, 0, 0, 0, 0))
     staff = StaffControls(load_config(), home, clock=clock)
@@ -238,7 +238,7 @@ def test_the_staff_viewer_reads_the_same_keys_as_the_kiosk(clock):
 
 def test_the_staff_viewer_loop_takes_keys_from_the_window():
     """The viewer hears the window's toolkit-neutral events (exhibit.render.target)."""
-    from exhibit.commands import _viewer
+    from exhibit.commands import _staff_viewer as _viewer
     from exhibit.render.options import RenderOptions
     from exhibit.render.target import Focus, Key
 

@@ -4,7 +4,7 @@ thousands of keyframes must not keep the kiosk from its first frame."""
 import pytest
 
 from exhibit import scenes
-from exhibit.kiosk import framing
+from exhibit.kiosk import timeline_framing as framing
 from exhibit.kiosk.attract import load_timeline
 from exhibit.render.framer import Framer
 

@@ -26,7 +26,7 @@ from hypothesis import strategies as st
 
 from exhibit.cli import main
 from exhibit.devices.base import State
-from exhibit.kiosk import metrics
+from exhibit.kiosk import prometheus as metrics
 from exhibit.kiosk.health import write_health
 from tests.hypothesis_profiles import examples
 
