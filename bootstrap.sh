@@ -363,17 +363,19 @@ case "$job" in
     [ -z "$bundle" ] || die "a bundle holds what \`run\` needs, not the tests' packages: run the tests from a checkout, with a network"
     install_system_packages "${apt_test[@]}"
     setup_venv test
+    options=()
     if [ $# -eq 0 ]; then
-      # The whole suite: lint, format and types first (pyproject.toml's [tool.ruff], [tool.mypy]).
+      # The whole suite: lint, format and types first (pyproject.toml's [tool.ruff], [tool.mypy]),
+      # then the tests on every core, a test file per worker (its module fixtures stay together).
       say "ruff check, ruff format --check, mypy"
       .venv/bin/ruff check --quiet exhibit tests
       .venv/bin/ruff format --check --quiet exhibit tests
       .venv/bin/mypy
+      options=(-n auto --dist loadfile)
     fi
-    markers=()
     # CI also runs the slow soak and fuzz tests.
-    [ "${CI:-}" = "true" ] && markers=(-m "")
-    exec .venv/bin/python -m pytest "${markers[@]}" "$@"
+    [ "${CI:-}" = "true" ] && options+=(-m "")
+    exec .venv/bin/python -m pytest "${options[@]}" "$@"
     ;;
   lock) run_lock "$@" ;;
   bundle)

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import select
 import shutil
 import subprocess
 import time
-from pathlib import Path
 
 import pytest
 
@@ -21,29 +21,34 @@ def unavailable(reason: str):
 
 @contextlib.contextmanager
 def xvfb(size: str = "640x480x24"):
-    """Start Xvfb on a free display number; yields the DISPLAY value."""
+    """Start Xvfb on a display number it picks itself (-displayfd: no race between test
+    processes running side by side); yields the DISPLAY value once the server is ready."""
     if shutil.which("Xvfb") is None:
         unavailable("Xvfb is not installed (Debian: apt-get install xvfb)")
-    number = next(
-        n
-        for n in range(90, 400)
-        if not Path(f"/tmp/.X{n}-lock").exists() and not Path(f"/tmp/.X11-unix/X{n}").exists()
-    )
+    read_end, write_end = os.pipe()
     server = subprocess.Popen(
-        ["Xvfb", f":{number}", "-screen", "0", size, "-nolisten", "tcp"],
+        ["Xvfb", "-displayfd", str(write_end), "-screen", "0", size, "-nolisten", "tcp"],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
+        pass_fds=(write_end,),
     )
-    socket = Path(f"/tmp/.X11-unix/X{number}")
+    os.close(write_end)
+    number = b""
     deadline = time.monotonic() + 10
-    while not socket.exists() and server.poll() is None and time.monotonic() < deadline:
-        time.sleep(0.05)
-    if not socket.exists():
+    with os.fdopen(read_end, "rb", buffering=0) as said:
+        while not number.endswith(b"\n") and time.monotonic() < deadline:
+            ready, _, _ = select.select([said], [], [], 0.1)
+            if ready:
+                chunk = said.read(16)
+                if not chunk:
+                    break
+                number += chunk
+    if not number.strip().isdigit():
         server.kill()
         server.wait()
-        unavailable(f"Xvfb did not start on :{number}")
+        unavailable("Xvfb did not start (no display number on -displayfd)")
     try:
-        yield f":{number}"
+        yield f":{int(number)}"
     finally:
         server.terminate()
         server.wait(timeout=10)

@@ -12,6 +12,8 @@ import subprocess
 import sys
 import time
 
+import pytest
+
 from tests.kiosk.support import ROOT, make_config
 from tests.xvfb import unavailable, xvfb
 
@@ -72,6 +74,7 @@ def read(path):
         return None
 
 
+@pytest.mark.slow  # a 12 s run of the kiosk in a real window (CI runs it)
 def test_fullscreen_kiosk_keeps_drawing_after_losing_focus(tmp_path):
     kiosk = make_config(tmp_path, "wait 60\n")
     kiosk.write_text(

@@ -86,6 +86,7 @@ def test_cusp_offset_curve_has_no_false_arcs(r):
     assert len(points) > 100
 
 
+@pytest.mark.slow  # the cusp's pipe built for every example (the three radii above stay fast)
 @FAST
 @given(r=st.floats(0.3, 2.0))
 def test_cusp_offset_curve_is_exact_for_any_radius(r):
