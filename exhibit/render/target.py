@@ -164,24 +164,14 @@ class HeadlessTarget:
     ) -> None:
         target = self._target()
         if options.quality is None:
-            self.renderer.render(gpu, view, target.framebuffer, options, hud)
+            self._render(target, gpu, view, options, hud, fade, inset)
         else:
             if self._timer is None:
                 from exhibit.render.frame import FrameTimer
 
                 self._timer = FrameTimer(self.ctx)
             self._timer.begin()  # as the window measures, for the frame governor
-            self.headless.pipeline.draw(
-                gpu,
-                view,
-                target.framebuffer,
-                self._size,
-                options,
-                hud,
-                options.quality,
-                fade,
-                inset,
-            )
+            self._render(target, gpu, view, options, hud, fade, inset)
             self.frame_ms = self._timer.end()
         self.image = target.read()
         self.drawn = (gpu, view, options, hud)
@@ -195,6 +185,11 @@ class HeadlessTarget:
         gpu, view, options, hud = self.drawn
         fade, inset = self._fade_inset
         target = self._target()
+        self._render(target, gpu, view, options, hud, fade, inset)
+        return target.read()
+
+    def _render(self, target, gpu, view, options: RenderOptions, hud, fade, inset) -> None:
+        """One frame into ``target``: a kiosk frame at its quality level, else a plain picture."""
         if options.quality is None:
             self.renderer.render(gpu, view, target.framebuffer, options, hud)
         else:
@@ -209,7 +204,6 @@ class HeadlessTarget:
                 fade,
                 inset,
             )
-        return target.read()
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
         if options.quality is None:
