@@ -292,3 +292,33 @@ def test_no_test_module_imports_another():
             if stripped.startswith(("from tests.", "import tests.")) and ".test_" in stripped:
                 problems.append(f"{path.relative_to(tests)}: {stripped}")
     assert not problems, "\n".join(sorted(set(problems)))
+
+
+#: A module longer than this says at its top why it is one module (issue 24).
+MAX_MODULE_LINES = 400
+SIZE_REASON = "Why one module of this size:"
+
+
+def oversized(root: pathlib.Path) -> list[str]:
+    """Modules of more than MAX_MODULE_LINES lines whose docstring does not say why."""
+    out = []
+    for path in sorted(root.rglob("*.py")):
+        text = path.read_text()
+        if text.count("\n") + 1 > MAX_MODULE_LINES:
+            doc = ast.get_docstring(ast.parse(text)) or ""
+            if SIZE_REASON not in " ".join(doc.split()):
+                out.append(str(path.relative_to(root)))
+    return out
+
+
+def test_every_long_module_says_why_it_is_one():
+    assert oversized(ROOT) == []
+
+
+def test_a_long_module_without_its_reason_is_found(tmp_path):
+    (tmp_path / "short.py").write_text('"""Short."""\n')
+    (tmp_path / "long.py").write_text('"""Long."""\n' + "x = 1\n" * MAX_MODULE_LINES)
+    (tmp_path / "said.py").write_text(
+        f'"""Long, and {SIZE_REASON}\nit has to be."""\n' + "x = 1\n" * MAX_MODULE_LINES
+    )
+    assert oversized(tmp_path) == ["long.py"]

@@ -15,7 +15,9 @@ It never writes outside the root, nor over what is not a file: every target is c
 anything is written, and a symlinked folder below the root (etc/ linked elsewhere), or a folder,
 FIFO or device (or a link to one, such as a unit masked to /dev/null) at a target, stops it with
 one line naming the path, having written nothing. "wrote PATH" is said once PATH is in place.
-"""
+
+Why one module of this size: the install plan, its file table and its steps, which
+docs/DEPLOYMENT.md and its test read as one."""
 
 from __future__ import annotations
 

@@ -13,7 +13,9 @@ kernel hides from hidraw) and ``hidraw`` (/dev/hidrawN: not exclusive, usage pag
 URL scheme picks one; a layout names the one its device needs. Unplug shows as OSError from
 ``read``: the device is closed and looked for again every ``retry_s`` (the binding has no
 hotplug callbacks).
-"""
+
+Why one module of this size: the HID layout files and the backend that decodes reports with
+them."""
 
 from __future__ import annotations
 

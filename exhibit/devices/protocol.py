@@ -20,7 +20,9 @@ Typical use by a serial backend (which owns the port; this module never touches 
     port.write(encode_frame(HelloRequest(), seq=host_seq))
 
 ``decoder.summary()`` gives ``{"frames_ok": N, "rejected": N, "bytes_skipped": N}``.
-"""
+
+Why one module of this size: the wire format (framing, CRC, every message and its codec) is kept
+whole beside its C mirror in firmware/, so the two are read side by side."""
 
 from __future__ import annotations
 

@@ -22,7 +22,9 @@ plain text, one command a line::
     watchdog              # hang until the watchdog resets the board, as WATCHDOG_TEST does
     reset                 # the reset button
     repeat                # from the top again
-"""
+
+Why one module of this size: the script language and the byte stream it turns into are tested
+together, against the real protocol."""
 
 from __future__ import annotations
 

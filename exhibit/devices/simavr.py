@@ -12,7 +12,9 @@ replies and reset notices on its stdout. :class:`FirmwareController` is a plugge
 harness behind a stable symlink (like /dev/serial/by-id/...), an EEPROM image kept in a file
 across "power cycles", and the simulator's script language (:mod:`exhibit.devices.sim`), where
 a deflection in [-1, 1] is a voltage on the pot's wiper (0 V .. Vcc, rest at Vcc/2).
-"""
+
+Why one module of this size: the emulator's C bindings and the board's pins and timing belong
+together."""
 
 from __future__ import annotations
 

@@ -26,7 +26,9 @@ Under systemd the log goes to the journal in its native protocol (exhibit.kiosk.
 every record, the mode and scene changes and the errors among them, carries the mode and the
 scene on screen as the fields EXHIBIT_MODE and EXHIBIT_SCENE (`journalctl -u exhibit
 EXHIBIT_SCENE=hopf`); EXHIBIT_MODE is "notice" when no scene could be prepared.
-"""
+
+Why one module of this size: what each frame does, in order, reads best in one place; its parts
+(content, start views, inset, languages, warm-up, frame errors) are modules of their own."""
 
 from __future__ import annotations
 

@@ -10,7 +10,9 @@ Every problem is collected (not just the first) and reported as ``file: key: rea
 the file that holds the key, so an installer fixes a config in one pass. The fields are typed
 once in :mod:`exhibit.schema`, the same types the running kiosk relies on, so whatever this
 accepts can be run.
-"""
+
+Why one module of this size: kiosk.toml's schema: every section's model and check, shared by
+check-config and run."""
 
 from __future__ import annotations
 

@@ -18,7 +18,9 @@ read it without sudo: nothing in it is secret.
 
 Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
 ~/.local/state/exhibit/health.json. The systemd unit sets EXHIBIT_STATE_DIR=/var/lib/exhibit.
-"""
+
+Why one module of this size: the health file's schema, its writer, its reader and the problems
+`exhibit status` reports from it."""
 
 from __future__ import annotations
 

@@ -7,7 +7,9 @@ worker process at a lower priority (building the cusp's pipe takes seconds of pu
 thread would hold the interpreter lock against the frame loop), InlinePreparer in this process
 (tests, reviews, `exhibit prepare`). Either way a job's result comes back as plain data (Mesh4D,
 Timeline); uploading it to the GPU is the kiosk's, on its own thread.
-"""
+
+Why one module of this size: jobs, the work they do and both places they run: a worker process
+imports exactly this."""
 
 from __future__ import annotations
 

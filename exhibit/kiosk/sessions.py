@@ -32,7 +32,9 @@ Why it is built like this:
 Where: ``[sessions] path`` in kiosk.toml, else ``sessions.db`` in the state folder
 (exhibit.kiosk.health.state_dir: $EXHIBIT_STATE_DIR, /var/lib/exhibit under systemd).
 `exhibit stats` reads it (:func:`read_sessions`).
-"""
+
+Why one module of this size: the recorder, its SQLite store and the writer thread share one row
+format and one queue; apart, each would restate them."""
 
 from __future__ import annotations
 

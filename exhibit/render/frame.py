@@ -13,7 +13,8 @@ instructions in a pass that runs anyway, and the screen is never cleared. On sof
 full-screen pass costs several milliseconds at 1080p whatever it does, so there is never more than
 one at full size. FrameTimer measures what a frame costs the GPU (timer queries) or, on software
 GL where the "GPU" is the same CPU cores, the wall time of the frame's work up to glFinish.
-"""
+
+Why one module of this size: one kiosk frame's passes at a quality level, in the order they run."""
 
 from __future__ import annotations
 

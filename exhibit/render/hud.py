@@ -13,7 +13,8 @@ of its own, with a leader line to the point whenever it is not right beside it.
 
 Three draw calls, as before: the cached title block, the overlay capsules (gizmo, marker discs,
 leader lines) and every other panel and glyph from the atlas.
-"""
+
+Why one module of this size: the HUD's panels, gizmo and labels, drawn from one layout."""
 
 from __future__ import annotations
 

@@ -11,7 +11,9 @@ at least 1/45 of the height (24 px at 1080p, about 12 mm on a 55" screen, legibl
 title's larger; both come from the kiosk config's [text] table (``TextSizes``). Sizes are chosen
 by the measured cap height of the font (the height of "H"), not the nominal point size, because
 that is what a reader sees.
-"""
+
+Why one module of this size: the HUD's layout and the framing's free area must agree to the
+pixel, so one module computes both."""
 
 from __future__ import annotations
 

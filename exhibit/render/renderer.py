@@ -5,7 +5,9 @@ hyperplane and the front plane by gl_ClipDistance, lit two-sided with the Lemma 
 live silhouettes (Lemma 3 curves and Lemma 2 points, found per triangle in a geometry shader),
 curves and markers as screen-space capsules depth-tested against the surfaces, then the HUD.
 Per frame only uniforms change, plus a few HUD instances and any text that changed.
-"""
+
+Why one module of this size: the passes share the programs, the uniforms and each frame's clip
+transform."""
 
 from __future__ import annotations
 

@@ -16,7 +16,9 @@ symbolically from the scene's own f1, f2, and then judged:
   false arcs Newton would otherwise pull onto the singular circle.
 
 Curves are split where points are dropped or excluded, so no segment joins across a gap.
-"""
+
+Why one module of this size: implicit and parametric refinement share the Newton step, the
+judgement of each point and the joining of runs into curves."""
 
 from __future__ import annotations
 

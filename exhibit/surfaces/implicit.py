@@ -19,7 +19,9 @@ log(x^2) at x = 0). No NaN or inf reaches the mesh: cells with such corner value
 crossing, Newton keeps the start of a point it cannot evaluate, vertices where f1 or f2 is not
 finite are dropped with their triangles, and a non-finite gradient makes a zero normal (a
 singular vertex). numpy's warnings about those values are silenced: they are handled here.
-"""
+
+Why one module of this size: the polygonizer's stages (prune, cross, clip, triangulate) hand
+each other large arrays in one layout."""
 
 from __future__ import annotations
 
