@@ -27,7 +27,7 @@ from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import Renderer
 
 if TYPE_CHECKING:
-    from exhibit.render.frame import FrameTimer
+    from exhibit.render.frame import FramePipeline, FrameTimer
     from exhibit.render.offscreen import Headless
 
 __all__ = [
@@ -111,7 +111,55 @@ class RenderTarget(Protocol):
     def close(self) -> None: ...
 
 
-class HeadlessTarget:
+class FrameDrawing:
+    """draw() and capture() as the window and the headless target share them: a plain picture
+    (``options.quality`` None), or a whole kiosk frame at that quality level (FramePipeline),
+    timed into ``frame_ms`` for the frame governor, with the captured frame laid over it at
+    opacity ``fade`` (a crossfade) and ``inset`` over it. A target says where its frames go and
+    gives its pipeline and timer."""
+
+    renderer: Renderer
+    frame_ms: float | None
+
+    @property
+    def size(self) -> tuple[int, int]:
+        raise NotImplementedError
+
+    def _framebuffer(self) -> moderngl.Framebuffer:
+        """Where frames go, with this target's context made current."""
+        raise NotImplementedError
+
+    def _pipeline(self) -> FramePipeline:
+        raise NotImplementedError
+
+    def _frame_timer(self) -> FrameTimer:
+        raise NotImplementedError
+
+    def _draw_into(
+        self, framebuffer, gpu, view, options: RenderOptions, hud, fade, inset, timed: bool = True
+    ) -> None:
+        if options.quality is None:
+            self.renderer.render(gpu, view, framebuffer, options, hud, size=self.size)
+            return
+        timer = self._frame_timer() if timed else None
+        if timer is not None:
+            timer.begin()
+        self._pipeline().draw(
+            gpu, view, framebuffer, self.size, options, hud, options.quality, fade, inset
+        )
+        if timer is not None:
+            self.frame_ms = timer.end()
+
+    def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
+        """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
+        the following draw()s with ``fade`` lay it over the new frames."""
+        if options.quality is None:
+            raise ValueError("capture() draws a kiosk frame: options.quality must be set")
+        self._framebuffer()  # this target's context, current
+        self._pipeline().capture(gpu, view, self.size, options, hud, options.quality)
+
+
+class HeadlessTarget(FrameDrawing):
     """The offscreen target: frames are drawn by the kiosk's own FramePipeline into an EGL
     framebuffer the size of the screen; ``post`` queues input that the next ``swap`` delivers,
     as a window system delivers what arrived between two frames. ``headless`` is an
@@ -153,6 +201,19 @@ class HeadlessTarget:
         self.headless.activate()
         return self.headless.target(self._size, 0)
 
+    def _framebuffer(self) -> moderngl.Framebuffer:
+        return self._target().framebuffer
+
+    def _pipeline(self) -> FramePipeline:
+        return self.headless.pipeline
+
+    def _frame_timer(self) -> FrameTimer:
+        if self._timer is None:
+            from exhibit.render.frame import FrameTimer
+
+            self._timer = FrameTimer(self.ctx)
+        return self._timer
+
     def draw(
         self,
         gpu,
@@ -163,16 +224,7 @@ class HeadlessTarget:
         inset=None,
     ) -> None:
         target = self._target()
-        if options.quality is None:
-            self._render(target, gpu, view, options, hud, fade, inset)
-        else:
-            if self._timer is None:
-                from exhibit.render.frame import FrameTimer
-
-                self._timer = FrameTimer(self.ctx)
-            self._timer.begin()  # as the window measures, for the frame governor
-            self._render(target, gpu, view, options, hud, fade, inset)
-            self.frame_ms = self._timer.end()
+        self._draw_into(target.framebuffer, gpu, view, options, hud, fade, inset)
         self.image = target.read()
         self.drawn = (gpu, view, options, hud)
         self._fade_inset = (fade, inset)
@@ -185,31 +237,8 @@ class HeadlessTarget:
         gpu, view, options, hud = self.drawn
         fade, inset = self._fade_inset
         target = self._target()
-        self._render(target, gpu, view, options, hud, fade, inset)
+        self._draw_into(target.framebuffer, gpu, view, options, hud, fade, inset, timed=False)
         return target.read()
-
-    def _render(self, target, gpu, view, options: RenderOptions, hud, fade, inset) -> None:
-        """One frame into ``target``: a kiosk frame at its quality level, else a plain picture."""
-        if options.quality is None:
-            self.renderer.render(gpu, view, target.framebuffer, options, hud)
-        else:
-            self.headless.pipeline.draw(
-                gpu,
-                view,
-                target.framebuffer,
-                self._size,
-                options,
-                hud,
-                options.quality,
-                fade,
-                inset,
-            )
-
-    def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
-        if options.quality is None:
-            raise ValueError("capture() draws a kiosk frame: options.quality must be set")
-        self.headless.activate()
-        self.headless.pipeline.capture(gpu, view, self._size, options, hud, options.quality)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         target = self._target()

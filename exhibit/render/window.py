@@ -23,7 +23,7 @@ from exhibit.devices.keyboard import key_name
 from exhibit.render.context import REQUIRED_VERSION, RenderUnavailable
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo, Renderer
-from exhibit.render.target import CloseRequest, Focus, InputHandler, Key
+from exhibit.render.target import CloseRequest, Focus, FrameDrawing, InputHandler, Key
 
 if TYPE_CHECKING:
     from glfw import _GLFWwindowPointerT
@@ -68,7 +68,7 @@ class GlfwErrors:
             pass
 
 
-class Window:
+class Window(FrameDrawing):
     """A GLFW window with an OpenGL 3.3 core context and a Renderer on it."""
 
     def __init__(
@@ -124,7 +124,7 @@ class Window:
         self.ctx = moderngl.create_context(require=REQUIRED_VERSION)
         self.renderer = Renderer(self.ctx)
         self.msaa_samples = msaa_samples
-        self._pipeline: FramePipeline | None = None
+        self._kiosk: FramePipeline | None = None  # the kiosk frame pipeline, made at first use
         self._timer: FrameTimer | None = None
         #: What drawing the latest kiosk frame cost (ms; exhibit.render.frame.FrameTimer).
         self.frame_ms: float | None = None
@@ -194,13 +194,22 @@ class Window:
         width, height = self._glfw.get_framebuffer_size(self._window)
         return (width, height)
 
-    def _kiosk_pipeline(self) -> FramePipeline:
+    def _framebuffer(self) -> moderngl.Framebuffer:
+        self._glfw.make_context_current(self._window)
+        return self.ctx.screen
+
+    def _pipeline(self) -> FramePipeline:
         from exhibit.render.frame import FramePipeline, FrameTimer
 
-        if self._pipeline is None:
-            self._pipeline = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
+        if self._kiosk is None:
+            self._kiosk = FramePipeline(self.ctx, self.renderer, self.msaa_samples)
             self._timer = FrameTimer(self.ctx)
-        return self._pipeline
+        return self._kiosk
+
+    def _frame_timer(self) -> FrameTimer:
+        self._pipeline()
+        assert self._timer is not None  # made with the pipeline
+        return self._timer
 
     def draw(
         self,
@@ -211,30 +220,8 @@ class Window:
         fade: float = 0.0,
         inset=None,
     ) -> None:
-        """Render one frame into the back buffer (call swap() to show it). With
-        ``options.quality`` it is a whole kiosk frame at that level (exhibit.render.frame),
-        timed into ``frame_ms``, with the captured frame laid over it at opacity ``fade``
-        (a crossfade: see capture()), and ``inset`` (exhibit.render.frame.Inset) over it."""
-        self._glfw.make_context_current(self._window)
-        if options.quality is None:
-            self.renderer.render(gpu, view, self.ctx.screen, options, hud, size=self.size)
-            return
-        pipeline = self._kiosk_pipeline()
-        timer = self._timer
-        assert timer is not None  # made with the pipeline
-        timer.begin()
-        pipeline.draw(
-            gpu, view, self.ctx.screen, self.size, options, hud, options.quality, fade, inset
-        )
-        self.frame_ms = timer.end()
-
-    def capture(self, gpu, view, options: RenderOptions, hud: HudInfo | None = None) -> None:
-        """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
-        the following draw()s with ``fade`` lay it over the new frames."""
-        if options.quality is None:
-            raise ValueError("capture() draws a kiosk frame: options.quality must be set")
-        self._glfw.make_context_current(self._window)
-        self._kiosk_pipeline().capture(gpu, view, self.size, options, hud, options.quality)
+        """Render one frame into the back buffer (call swap() to show it): FrameDrawing's."""
+        self._draw_into(self._framebuffer(), gpu, view, options, hud, fade, inset)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         """The notice screen (Renderer.notice) in the back buffer (call swap() to show it)."""
@@ -270,8 +257,8 @@ class Window:
         if self.handle is None:
             return
         self._handler = None
-        if self._pipeline is not None:
-            self._pipeline.release()
+        if self._kiosk is not None:
+            self._kiosk.release()
         if self._timer is not None:
             self._timer.release()
         self.renderer.release()
