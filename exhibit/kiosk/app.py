@@ -39,6 +39,7 @@ import math
 import os
 import resource
 import time
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -55,7 +56,7 @@ from exhibit.kiosk.content import Content, nearest_level
 from exhibit.kiosk.governor import for_kiosk, mesh_levels
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
 from exhibit.kiosk.language import PREPARING, LanguageChoice, in_every_language, translator_for
-from exhibit.kiosk.preparing import Framers, scene_jobs
+from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
 from exhibit.kiosk.slice_inset import SliceInset
 from exhibit.kiosk.start_views import StartViews
 from exhibit.kiosk.state import ATTRACT, KioskState
@@ -65,7 +66,7 @@ from exhibit.render.inset import inset_rect
 from exhibit.render.layout import TextSizes, hud_layout
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo
-from exhibit.render.target import CloseRequest, Focus, Key
+from exhibit.render.target import CloseRequest, Focus, Key, RenderTarget
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -112,13 +113,13 @@ class Kiosk:
     def __init__(
         self,
         config: KioskConfig,
-        window,
-        clock=time.monotonic,
+        window: RenderTarget,
+        clock: Callable[[], float] = time.monotonic,
         notifier=None,
         health_path: Path | None = None,
         sessions=None,
-        preparer=None,
-    ):
+        preparer: Callable[[Framers], Preparer] | None = None,
+    ) -> None:
         journal.install()  # stderr is the journal (a service): structured fields from here on
         self.config = config
         self.window = window
@@ -481,11 +482,12 @@ class Kiosk:
                     gc.freeze()
                     if self.notifier is not None:
                         self.notifier.ready()
-                if not drawn and start - self.errors.failing_since >= FAILING_EXIT_S:
+                failing = self.errors.failing_since  # set whenever a frame was not drawn
+                if not drawn and failing is not None and start - failing >= FAILING_EXIT_S:
                     log.critical(
                         "no frame drawn for %.0f s (%d failed): exiting, for systemd "
                         "to restart the kiosk",
-                        start - self.errors.failing_since,
+                        start - failing,
                         self.errors.total,
                     )
                     code = FAILING_EXIT
