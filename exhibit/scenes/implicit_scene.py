@@ -8,6 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from exhibit.geometry.silhouette import silhouette_function
+from exhibit.surfaces.crossings import find_crossings, join_at_crossings
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, refine_curves
 from exhibit.surfaces.expressions import ScalarField, compile_field
@@ -68,7 +69,9 @@ def fixed_silhouette(
     mesh; then every point is Newton-refined onto the exact curve f1 = f2 = s = 0 (s built
     symbolically from the scene's own f1, f2) to a scale-free residual of 1e-9. Points that do not
     converge are dropped, points near a singular point or curve are excluded (singular points are
-    never silhouettes), and curves are split there (`surfaces/exact_silhouette.py`). ``stats``,
+    never silhouettes), and curves are split there (`surfaces/exact_silhouette.py`). Where two
+    branches cross, the crossing is solved for and every piece ends there
+    (`surfaces/crossings.py`). ``stats``,
     when given, accumulates the counts."""
     surface = part.surface
     if len(surface.triangles) == 0:
@@ -87,6 +90,14 @@ def fixed_silhouette(
     refined, counts = refine_curves(
         system, curves, 2.0 * edge, part.result.singular_positions, exclusion_radius(part)
     )
+    # Where two branches cross, every piece ends at the crossing itself (an X, not "><").
+    crossings = find_crossings(system, refined, edge)
+    if len(crossings):
+        refined = join_at_crossings(system, refined, crossings, edge)
+        counts.refined = sum(len(c.points) + c.closed for c in refined)  # the points exported
+        counts.max_residual = max(
+            (float(system.residual(c.points).max()) for c in refined), default=0.0
+        )
     if stats is not None:
         stats.add(counts)
     for i, curve in enumerate(refined):
