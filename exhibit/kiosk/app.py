@@ -37,12 +37,10 @@ import gc
 import logging
 import math
 import os
-import resource
 import time
 from collections.abc import Callable
 from pathlib import Path
 
-import numpy as np
 
 from exhibit import scenes
 from exhibit.devices.config import load_config
@@ -57,6 +55,7 @@ from exhibit.kiosk.governor import for_kiosk, mesh_levels
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
 from exhibit.kiosk.language import PREPARING, LanguageChoice, in_every_language, translator_for
 from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
+from exhibit.kiosk.reporting import Reporter
 from exhibit.kiosk.slice_inset import SliceInset
 from exhibit.kiosk.start_views import StartViews
 from exhibit.kiosk.state import ATTRACT, KioskState
@@ -84,25 +83,6 @@ NOTICE = (
 )
 
 
-def _rss_kb() -> int:
-    try:
-        with open("/proc/self/statm") as f:
-            return int(f.read().split()[1]) * (os.sysconf("SC_PAGE_SIZE") // 1024)
-    except OSError:
-        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
-
-
-def _round(seconds: float | None) -> float | None:
-    return None if seconds is None else round(seconds, 1)
-
-
-def _fd_count() -> int:
-    try:
-        return len(os.listdir("/proc/self/fd"))
-    except OSError:
-        return -1
-
-
 class Kiosk:
     """The running exhibit. ``window`` is a render target (exhibit.render.target: the GLFW
     Window on a museum's screen, HeadlessTarget in tests and benchmarks). ``state`` is None when
@@ -125,7 +105,6 @@ class Kiosk:
         self.window = window
         self.clock = clock
         self.notifier = notifier
-        self.health_path = health_path
         #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog), or None.
         self.sessions = sessions
         #: For the health file: [{"scene", "reason"}] and one line per problem, for people.
@@ -221,6 +200,7 @@ class Kiosk:
         self.errors = FrameErrors()
         self.frames = 0
         self._last_report = now
+        self.reporter = Reporter(notifier, health_path, self.started)
         self._quit = False
         self._install_input()
         #: Start-up work left for after the first frame, one piece per frame.
@@ -386,73 +366,20 @@ class Kiosk:
         return (amplitude * (1 + math.sin(phase)), amplitude * (1 + math.sin(0.71 * phase + 1.3)))
 
     def _report(self, now: float) -> None:
-        frames = len(self.stats.times)
-        elapsed = now - self._last_report
-        fps = frames / elapsed if elapsed > 0 else 0.0
-        p95 = float(np.percentile(self.stats.times, 95)) * 1000 if self.stats.times else 0.0
-        self.stats.times.clear()
-        self._last_report = now
-        # Per device: its state, seconds in it, and seconds it has been missing (null when
-        # connected), for `exhibit status --max-lost` and the metrics (exhibit.kiosk.health).
-        devices = [
-            {
-                "name": s.get("name", ""),
-                "url": s.get("url", ""),
-                "state": s.get("state", ""),
-                "state_s": _round(s.get("state_s")),
-                "missing_s": _round(s.get("missing_s")),
-            }
-            for s in self.devices.statuses(now)
-        ]
-        mode = scene = None
-        if self.state is not None:
-            mode, scene = self.state.mode, self.state.frame.scene
-        problems = list(self.problems)
-        if self.errors.failing_since is not None:
-            problems.append(
-                f"frames failing for {now - self.errors.failing_since:.0f} s (see the journal)"
-            )
-        if self.notifier is not None:
-            states = ", ".join(f"{d['url']} {d['state']}" for d in devices)
-            what = f"{mode}, {scene}" if self.state is not None else "notice (no scene)"
-            self.notifier.status(
-                f"{fps:.0f} fps, {what}; {states}"
-                + (f"; {len(problems)} problems" if problems else "")
-            )
-        if self.health_path is not None:
-            from exhibit.kiosk.health import process_uptime, report, write_health
-
-            # Since the process started (imports, window, first meshes included), not since
-            # this object was built: that missed the whole start-up (issue 24).
-            uptime = process_uptime()
-            try:
-                write_health(
-                    self.health_path,
-                    report(
-                        **{
-                            "time": time.time(),
-                            "pid": os.getpid(),
-                            "fps": round(fps, 1),
-                            "frame_ms_p95": round(p95, 2),
-                            "mode": mode,
-                            "scene": scene,
-                            "devices": devices,
-                            "uptime_s": round(now - self.started if uptime is None else uptime, 1),
-                            "gl_errors": self.stats.gl_errors,
-                            "rss_kb": _rss_kb(),
-                            "fds": _fd_count(),
-                            "frames": self.frames,
-                            "frame_errors": self.errors.total,
-                            "problems": problems,
-                            "scenes_failed": self.scenes_failed,
-                            "language": self.translate.language,
-                            **(self.sessions.health() if self.sessions is not None else {}),
-                            **self.governor.health(),
-                        }
-                    ),
-                )  # quality level, frame_ms, target_ms
-            except (OSError, TypeError) as exc:
-                log.warning("cannot write the health file %s: %s", self.health_path, exc)
+        """The STATUS line and the health file (exhibit.kiosk.reporting), about once a second."""
+        self.reporter.report(
+            now,
+            stats=self.stats,
+            frames=self.frames,
+            errors=self.errors,
+            devices=self.devices.statuses(now),
+            state=self.state,
+            problems=self.problems,
+            scenes_failed=self.scenes_failed,
+            language=self.translate.language,
+            sessions=self.sessions,
+            governor=self.governor,
+        )
 
     def run(
         self,
@@ -529,6 +456,7 @@ class Kiosk:
         if self.notifier is not None:
             self.notifier.watchdog()
         if start - self._last_report >= 1.0:
+            self._last_report = start
             try:
                 self._report(start)
             except Exception as exc:  # noqa: BLE001

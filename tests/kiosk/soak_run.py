@@ -9,7 +9,8 @@ import itertools
 import json
 import sys
 
-from exhibit.kiosk.app import Kiosk, _fd_count, _rss_kb, open_window
+from exhibit.kiosk.app import Kiosk, open_window
+from exhibit.kiosk.reporting import fd_count as _fd_count, rss_kb as _rss_kb
 from exhibit.kiosk.config import load_kiosk_config
 
 

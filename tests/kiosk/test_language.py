@@ -128,7 +128,7 @@ def test_the_health_file_says_the_language_and_the_session_writer_counts(headles
     run = HeadlessKiosk(headless, tmp_path)
     writer = SessionWriter(tmp_path / "sessions.db")
     run.kiosk.sessions = SessionLog(writer)
-    run.kiosk.health_path = tmp_path / "health.json"
+    run.kiosk.reporter.health_path = tmp_path / "health.json"
     run.target.post(Key("l", True))
     run.run(1.5)
     assert writer.ready.wait(5.0)  # recording only once the database is open
