@@ -363,19 +363,22 @@ case "$job" in
     [ -z "$bundle" ] || die "a bundle holds what \`run\` needs, not the tests' packages: run the tests from a checkout, with a network"
     install_system_packages "${apt_test[@]}"
     setup_venv test
-    options=()
-    if [ $# -eq 0 ]; then
-      # The whole suite: lint, format and types first (pyproject.toml's [tool.ruff], [tool.mypy]),
-      # then the tests on every core, a test file per worker (its module fixtures stay together).
-      say "ruff check, ruff format --check, mypy"
-      .venv/bin/ruff check --quiet exhibit tests
-      .venv/bin/ruff format --check --quiet exhibit tests
-      .venv/bin/mypy
-      options=(-n auto --dist loadfile)
-    fi
     # CI also runs the slow soak and fuzz tests.
-    [ "${CI:-}" = "true" ] && options+=(-m "")
-    exec .venv/bin/python -m pytest "${options[@]}" "$@"
+    chosen="not slow"
+    [ "${CI:-}" = "true" ] && chosen="slow or not slow"
+    if [ $# -gt 0 ]; then
+      exec .venv/bin/python -m pytest -m "$chosen" "$@"
+    fi
+    # The whole suite: lint, format and types first (pyproject.toml's [tool.ruff], [tool.mypy]);
+    # then the tests on every core, a test file per worker (its module fixtures stay together);
+    # under CI, then alone, the slow ones that time what a real screen does (marked serial).
+    say "ruff check, ruff format --check, mypy"
+    .venv/bin/ruff check --quiet exhibit tests
+    .venv/bin/ruff format --check --quiet exhibit tests
+    .venv/bin/mypy
+    [ "${CI:-}" = "true" ] || exec .venv/bin/python -m pytest -n auto --dist loadfile -m "$chosen"
+    .venv/bin/python -m pytest -n auto --dist loadfile -m "($chosen) and not serial"
+    exec .venv/bin/python -m pytest -m "($chosen) and serial"
     ;;
   lock) run_lock "$@" ;;
   bundle)

@@ -46,6 +46,9 @@ from PIL import Image
 
 from tests.deploy.unitfile import allowed_syscalls, environment, units, yes
 
+# Seconds of a real compositor and kiosk, with timing checks on the screen: CI runs them, alone.
+pytestmark = [pytest.mark.slow, pytest.mark.serial]
+
 REPO = Path(__file__).resolve().parents[2]
 SANDBOX = Path(__file__).with_name("sandbox_exec.py")
 PROGRAMS = {

@@ -74,6 +74,7 @@ def read(path):
         return None
 
 
+@pytest.mark.serial
 @pytest.mark.slow  # a 12 s run of the kiosk in a real window (CI runs it)
 def test_fullscreen_kiosk_keeps_drawing_after_losing_focus(tmp_path):
     kiosk = make_config(tmp_path, "wait 60\n")

@@ -62,6 +62,7 @@ def mode_changes(log: str) -> list[tuple[str, list[float]]]:
     return changes
 
 
+@pytest.mark.serial
 @pytest.mark.slow  # the kiosk run for seconds in a real window (CI runs it)
 def test_the_kiosk_draws_a_picture(kiosk_run):
     _, shot, _ = kiosk_run
@@ -70,6 +71,7 @@ def test_the_kiosk_draws_a_picture(kiosk_run):
     assert picture.std() > 10  # not a blank screen
 
 
+@pytest.mark.serial
 @pytest.mark.slow  # the kiosk run for seconds in a real window (CI runs it)
 def test_controller_input_takes_over_and_idle_returns_to_attract(kiosk_run):
     result, _, _ = kiosk_run
@@ -82,6 +84,7 @@ def test_controller_input_takes_over_and_idle_returns_to_attract(kiosk_run):
     assert left[1:] == taken_over[1:]  # only the deflected stick moved
 
 
+@pytest.mark.serial
 @pytest.mark.slow  # the kiosk run for seconds in a real window (CI runs it)
 def test_health_file_is_written(kiosk_run):
     _, _, tmp = kiosk_run
@@ -92,6 +95,7 @@ def test_health_file_is_written(kiosk_run):
     assert health["gl_errors"] == 0
 
 
+@pytest.mark.serial
 @pytest.mark.slow  # the kiosk run for seconds in a real window (CI runs it)
 def test_watchdog_pings_follow_the_frame_loop(tmp_path):
     """Under a test NOTIFY_SOCKET: READY after the first frame, then WATCHDOG every half period;
