@@ -43,26 +43,16 @@ from pathlib import Path
 
 
 from exhibit import scenes
-from exhibit.devices.config import load_config
-from exhibit.devices.hub import DeviceSet
-from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.errors import ExhibitError
 from exhibit.kiosk import journal
-from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.content import Content, nearest_level
-from exhibit.kiosk.governor import for_kiosk, mesh_levels
+from exhibit.kiosk.content import nearest_level
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
-from exhibit.kiosk.language import PREPARING, LanguageChoice, in_every_language, translator_for
-from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
-from exhibit.kiosk.reporting import Reporter
-from exhibit.kiosk.slice_inset import SliceInset
-from exhibit.kiosk.start_views import StartViews
+from exhibit.kiosk.language import PREPARING
+from exhibit.kiosk.assembly import KioskParts, assemble
+from exhibit.kiosk.preparing import Framers, Preparer
 from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.kiosk.warm_up import WarmUp
-from exhibit.render.framer import Framer
-from exhibit.render.inset import inset_rect
-from exhibit.render.layout import TextSizes, hud_layout
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo
 from exhibit.render.target import CloseRequest, Focus, Key, RenderTarget
@@ -99,8 +89,12 @@ class Kiosk:
         health_path: Path | None = None,
         sessions=None,
         preparer: Callable[[Framers], Preparer] | None = None,
+        parts: KioskParts | None = None,
     ) -> None:
-        journal.install()  # stderr is the journal (a service): structured fields from here on
+        """``parts``: the kiosk's parts, built by the caller (exhibit.kiosk.assembly); without
+        them they are assembled here from the other arguments."""
+        if parts is None:
+            parts = assemble(config, window, clock, notifier, health_path, preparer)
         self.config = config
         self.window = window
         self.clock = clock
@@ -108,99 +102,35 @@ class Kiosk:
         #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog), or None.
         self.sessions = sessions
         #: For the health file: [{"scene", "reason"}] and one line per problem, for people.
-        self.scenes_failed: list[dict] = []
-        self.problems: list[str] = []
-        for problem in getattr(config, "scene_problems", ()):  # broken files, left out
-            log.error("scene file left out: %s", problem)
-            self.problems.append(f"scene file left out: {problem}")
-        try:
-            if config.attract_dir is None:  # load_config always sets it
-                raise ExhibitError("no attract folder is set")
-            timelines = load_playlist(config.attract_dir)
-        except Exception as exc:  # noqa: BLE001 - attract mode can do without timelines
-            log.error("no attract timelines: %s", exc)
-            self.problems.append(f"no attract timelines: {exc}")
-            timelines = []
-        device_config = load_config(config.devices_config)
-        self.devices = DeviceSet(device_config, clock=clock).open()
-        mapper = Mapper(
-            device_config.mapping, ActivityDetector(threshold=device_config.activity_threshold)
-        )
-        self.governor = for_kiosk(config, window, clock())  # picture quality vs frame time
+        self.scenes_failed = parts.scenes_failed
+        self.problems = parts.problems
+        self.devices = parts.devices
+        self.governor = parts.governor
         #: Text sizes for the HUD, and the framing that keeps the picture clear of it.
-        self.text = TextSizes(
-            config.text.caption_cap, config.text.title_cap, config.text.infinity_beyond
-        )
-        #: The language on screen and its words (exhibit.kiosk.language).
-        self.translate = translator_for(config, self.problems)
-        self.language = LanguageChoice(
-            self.translate, config.language_switch_s, clock(), on_change=self._language_changed
-        )
-        versions = functools.partial(in_every_language, self.translate)
-        self.framer = Framer(
-            getattr(window, "size", config.size),
-            self.text,
-            config.drift_px,
-            hud=config.hud,
-            versions=versions,
-            words=self._words(),
-        )
-        #: The time-slice inset, in a corner (a panel for timelines that slice).
-        size = tuple(getattr(window, "size", config.size))
-        self.inset = SliceInset(
-            inset_rect(size, hud_layout(size, sizes=self.text).margin), window.renderer.upload
-        )
-        inset_framer = Framer(
-            size,
-            self.text,
-            config.drift_px,
-            hud=config.hud,
-            extra=(self.inset.rect,),
-            versions=versions,
-            words=self._words(),
-        )
+        self.text = parts.text
+        #: The language on screen and its words (exhibit.kiosk.language), and when it changes.
+        self.translate = parts.translate
+        self.language = parts.language
+        self.language.on_change = self._language_changed
         if sessions is not None:
             sessions.language = self.translate.language
+        self.framer = parts.framer
+        #: The time-slice inset, in a corner (a panel for timelines that slice).
+        self.inset = parts.inset
+        #: The scenes on the GPU: the first one now, the rest from the preparer.
+        self.content = parts.content
+        self.state: KioskState | None = parts.state
+        self.reporter = parts.reporter
+        self.started = parts.started
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
         self._fade_start: float | None = None
-        now = clock()
-        self.started = now
-        self.state: KioskState | None = None
-        #: The scenes on the GPU: the first one now, the rest from the preparer.
-        framers = Framers(self.framer, inset_framer)
-        jobs = scene_jobs(config, timelines, mesh_levels(self.governor))
-        self.content = Content(window.renderer.upload, jobs, self.problems, self.scenes_failed)
-        first = self.content.prepare_first(
-            jobs, framers, self.governor.quality.mesh, clock, notifier
-        )
-        if self.content.gpu:
-            self.state = KioskState(
-                Playlist(first),
-                mapper,
-                self.content.shown(config.scenes),
-                config.idle_timeout_s,
-                config.blend_s,
-                now,
-                framer=StartViews(self.framer, self.content),
-                reduced_motion=config.reduced_motion,
-            )
-            self.content.state = self.state
-            self.content.prepare_rest(jobs, framers, preparer, now)
-        else:
-            log.critical(
-                "no scene could be prepared: the kiosk shows a notice until it is "
-                "fixed and restarted"
-            )
-            self.problems.append("no scene could be prepared: the screen shows a notice")
-            self.content.prepare_rest(jobs, framers, None, now)
         self._log_fields: dict[str, str | None] = {}
         self._update_log_fields()
         self.stats = FrameStats()
         self.errors = FrameErrors()
         self.frames = 0
-        self._last_report = now
-        self.reporter = Reporter(notifier, health_path, self.started)
+        self._last_report = self.started
         self._quit = False
         self._install_input()
         #: Start-up work left for after the first frame, one piece per frame.
@@ -209,12 +139,9 @@ class Kiosk:
             self.warm.all()
 
     def _language_changed(self, language: str) -> None:
+        """The session under way records the language its visitor reads."""
         if self.sessions is not None:
             self.sessions.language = language
-
-    def _words(self) -> tuple:
-        """The numbers panel's words in every language shown, as _versions orders them."""
-        return tuple(self.translate.hud_words(code) for code in self.translate.order)
 
     def _warm_up_chores(self) -> list:
         """exhibit.kiosk.warm_up's chores: every title and caption panel in every language,

@@ -22,6 +22,7 @@ from exhibit import scenes
 from exhibit.kiosk import app, preparing
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import load_kiosk_config
+from exhibit.kiosk.governor import mesh_levels
 from exhibit.kiosk.language import PREPARING
 from exhibit.kiosk.preparing import InlinePreparer, Job, ProcessPreparer, run_job, scene_jobs
 from exhibit.render.framer import Framer
@@ -106,7 +107,7 @@ def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
     order = list(dict.fromkeys(name for name, _ in built.calls))
     assert order == ["hopf", "clifford-torus", "veronese"]
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
-    assert all(set(levels) == set(app.mesh_levels(k.governor)) for levels in k.content.gpu.values())
+    assert all(set(levels) == set(mesh_levels(k.governor)) for levels in k.content.gpu.values())
     assert k.content.prepared_at is not None and k.problems == []
 
 
@@ -382,3 +383,28 @@ def test_bench_startup_reports_rounds_ratios_and_the_prepared_time(tmp_path):
     assert report["ratios"]["warm_to_imports"] == round(report["warm_s"] / imports, 2)
     assert report["ratios"]["cold_to_warm"] == round(report["cold_s"] / report["warm_s"], 2)
     assert isinstance(report["goals_met"], bool)
+
+
+def test_the_kiosk_runs_with_the_parts_it_is_handed(tmp_path, built):
+    """The parts are built outside (exhibit.kiosk.assembly) and handed in: a kiosk given a
+    reporter of the test's own reports through it, and draws the content it was handed."""
+    from exhibit.kiosk.assembly import assemble
+
+    ticks = iter(np.arange(1e6) * 0.1)
+    clock = lambda: float(next(ticks))  # noqa: E731 - a clock of 0.1 s steps
+    window = Window()
+    config = _config(tmp_path)
+    parts = assemble(config, window, clock)
+
+    class Reports:
+        def __init__(self):
+            self.calls = []
+
+        def report(self, now, **what):
+            self.calls.append((now, what["frames"], what["state"].mode))
+
+    parts.reporter = Reports()
+    k = app.Kiosk(config, window, clock, parts=parts)
+    k.run(max_frames=20)
+    assert parts.reporter.calls and all(mode == "attract" for _, _, mode in parts.reporter.calls)
+    assert k.content is parts.content and len(window.drawn) > 0

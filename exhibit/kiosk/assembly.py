@@ -1,0 +1,152 @@
+"""The running kiosk's parts, built from its config and window and handed to exhibit.kiosk.app.
+Kiosk: the devices and the mapping, the frame governor, the languages, the framing, the
+time-slice inset, the scenes on the GPU (the first prepared now, the rest by the preparer), the
+attract/visitor state and the reports. A test or a review hands the Kiosk parts of its own."""
+
+from __future__ import annotations
+
+import functools
+import logging
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from exhibit.devices.config import load_config
+from exhibit.devices.hub import DeviceSet
+from exhibit.devices.mapping import ActivityDetector, Mapper
+from exhibit.errors import ExhibitError
+from exhibit.kiosk import journal
+from exhibit.kiosk.attract import Playlist, load_playlist
+from exhibit.kiosk.config import KioskConfig
+from exhibit.kiosk.content import Content
+from exhibit.kiosk.governor import Governor, for_kiosk, mesh_levels
+from exhibit.kiosk.language import LanguageChoice, Translator, in_every_language, translator_for
+from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
+from exhibit.kiosk.reporting import Reporter
+from exhibit.kiosk.slice_inset import SliceInset
+from exhibit.kiosk.start_views import StartViews
+from exhibit.kiosk.state import KioskState
+from exhibit.render.framer import Framer
+from exhibit.render.inset import inset_rect
+from exhibit.render.layout import TextSizes, hud_layout
+from exhibit.render.target import RenderTarget
+
+log = logging.getLogger("exhibit.kiosk")
+
+
+@dataclass
+class KioskParts:
+    """What a Kiosk runs with. ``state`` is None when no scene could be prepared (the window
+    then shows a notice); ``problems`` and ``scenes_failed`` are the health file's lists,
+    appended to as scenes arrive or fail."""
+
+    devices: DeviceSet
+    governor: Governor
+    text: TextSizes
+    translate: Translator
+    language: LanguageChoice
+    framer: Framer
+    inset: SliceInset
+    content: Content
+    state: KioskState | None
+    reporter: Reporter
+    started: float
+    problems: list[str] = field(default_factory=list)
+    scenes_failed: list[dict] = field(default_factory=list)
+
+
+def _timelines(config: KioskConfig, problems: list[str]) -> list:
+    try:
+        if config.attract_dir is None:  # load_config always sets it
+            raise ExhibitError("no attract folder is set")
+        return load_playlist(config.attract_dir)
+    except Exception as exc:  # noqa: BLE001 - attract mode can do without timelines
+        log.error("no attract timelines: %s", exc)
+        problems.append(f"no attract timelines: {exc}")
+        return []
+
+
+def assemble(
+    config: KioskConfig,
+    window: RenderTarget,
+    clock: Callable[[], float] = time.monotonic,
+    notifier=None,
+    health_path: Path | None = None,
+    preparer: Callable[[Framers], Preparer] | None = None,
+) -> KioskParts:
+    """The parts, the first scene prepared (the first frame needs it); ``preparer(framers)``
+    makes the preparer of the rest (exhibit.kiosk.preparing), None: all of them now."""
+    journal.install()  # stderr is the journal (a service): structured fields from here on
+    problems: list[str] = []
+    scenes_failed: list[dict] = []
+    for problem in getattr(config, "scene_problems", ()):  # broken files, left out
+        log.error("scene file left out: %s", problem)
+        problems.append(f"scene file left out: {problem}")
+    timelines = _timelines(config, problems)
+    device_config = load_config(config.devices_config)
+    devices = DeviceSet(device_config, clock=clock).open()
+    mapper = Mapper(
+        device_config.mapping, ActivityDetector(threshold=device_config.activity_threshold)
+    )
+    governor = for_kiosk(config, window, clock())  # picture quality vs frame time
+    text = TextSizes(config.text.caption_cap, config.text.title_cap, config.text.infinity_beyond)
+    translate = translator_for(config, problems)
+    language = LanguageChoice(translate, config.language_switch_s, clock())
+    # The framing keeps the picture clear of the panels in every language shown.
+    versions = functools.partial(in_every_language, translate)
+    words = tuple(translate.hud_words(code) for code in translate.order)
+    size = tuple(getattr(window, "size", config.size))
+    framer = Framer(size, text, config.drift_px, hud=config.hud, versions=versions, words=words)
+    inset = SliceInset(
+        inset_rect(size, hud_layout(size, sizes=text).margin), window.renderer.upload
+    )
+    inset_framer = Framer(
+        size,
+        text,
+        config.drift_px,
+        hud=config.hud,
+        extra=(inset.rect,),
+        versions=versions,
+        words=words,
+    )
+    started = clock()
+    framers = Framers(framer, inset_framer)
+    jobs = scene_jobs(config, timelines, mesh_levels(governor))
+    content = Content(window.renderer.upload, jobs, problems, scenes_failed)
+    first = content.prepare_first(jobs, framers, governor.quality.mesh, clock, notifier)
+    state = None
+    if content.gpu:
+        state = KioskState(
+            Playlist(first),
+            mapper,
+            content.shown(config.scenes),
+            config.idle_timeout_s,
+            config.blend_s,
+            started,
+            framer=StartViews(framer, content),
+            reduced_motion=config.reduced_motion,
+        )
+        content.state = state
+        content.prepare_rest(jobs, framers, preparer, started)
+    else:
+        log.critical(
+            "no scene could be prepared: the kiosk shows a notice until it is fixed and restarted"
+        )
+        problems.append("no scene could be prepared: the screen shows a notice")
+        content.prepare_rest(jobs, framers, None, started)
+    return KioskParts(
+        devices=devices,
+        governor=governor,
+        text=text,
+        translate=translate,
+        language=language,
+        framer=framer,
+        inset=inset,
+        content=content,
+        state=state,
+        reporter=Reporter(notifier, health_path, started),
+        started=started,
+        problems=problems,
+        scenes_failed=scenes_failed,
+    )
