@@ -290,6 +290,8 @@ class ProcessPreparer:
         self._queue: list[Job] = []
         self._restarts = 0
         self._leaving = False
+        #: A worker whose pipe has closed, not yet reaped.
+        self._exiting: multiprocessing.process.BaseProcess | None = None
 
     def _start(self) -> None:
         parent, child = self._context.Pipe()
@@ -312,7 +314,12 @@ class ProcessPreparer:
     @property
     def busy(self) -> bool:
         """Jobs waiting or under way, or a worker not yet gone."""
-        return self._in_flight is not None or bool(self._queue) or self._process is not None
+        return (
+            self._in_flight is not None
+            or bool(self._queue)
+            or self._process is not None
+            or self._exiting is not None
+        )
 
     def first(self, key) -> None:
         """The job for ``key`` (scene, params), if waiting, runs next."""
@@ -336,6 +343,8 @@ class ProcessPreparer:
 
     def results(self) -> list[Prepared]:
         out: list[Prepared] = []
+        if self._exiting is not None and not self._exiting.is_alive():
+            self._exiting = None  # is_alive() has reaped it: never waited for in a frame
         self._send()
         while True:
             try:
@@ -370,13 +379,13 @@ class ProcessPreparer:
         # _ENDED comes from the reader of a started worker's pipe
         assert process is not None and self._connection is not None
         self._connection.close()
-        process.join(timeout=1.0)  # it has closed its end: it is exiting, if not gone
         self._process, self._connection, self._in_flight = None, None, None
+        self._exiting = process  # it has closed its end: exiting, reaped by a later results()
         if self._leaving and job is None:
             self._leaving = False
             return []
         self._leaving = False
-        code = process.exitcode
+        code = process.exitcode  # None while it is still on its way out
         log.error(
             "the preparing process died (exit code %s) while preparing %s",
             code,
@@ -393,15 +402,16 @@ class ProcessPreparer:
         """Stop the worker: at once when it is busy (a half-built mesh is not worth waiting
         for; the cache never keeps half a file), else it exits when the pipe closes."""
         self._queue.clear()
-        process = self._process
         if self._connection is not None:
             self._connection.close()
-        if process is not None:
-            if self._in_flight is not None:
+        for process in (self._process, self._exiting):
+            if process is None:
+                continue
+            if process is self._process and self._in_flight is not None:
                 process.terminate()
             process.join(timeout=2)
             if process.is_alive():
                 process.kill()
                 process.join(timeout=2)
-        self._process = self._connection = self._in_flight = None
+        self._process = self._connection = self._in_flight = self._exiting = None
         self._leaving = False
