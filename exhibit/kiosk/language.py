@@ -41,7 +41,7 @@ SOURCE = "en"
 HUD_WORDS = ("4D axes", "sensor", "eye", "fov", "first contact")
 #: What the screen says while the scene a visitor chose is still being prepared (the kiosk's
 #: first seconds after a cold start); {title} is the scene's title, in the same language.
-PREPARING = "Preparing {title}…"
+PREPARING = "Preparing: {title}…"
 LanguageCode = Annotated[str, Field(pattern=r"^[a-z]{2,3}(-[A-Z]{2})?$")]
 #: The shortest time between two changes of language by attract mode's timer.
 MIN_SWITCH_S = 10.0
