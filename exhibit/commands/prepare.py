@@ -65,8 +65,14 @@ def run(args) -> int:
         print(json.dumps({"cache": str(cache_dir()), "scenes": report}, indent=2))
     else:
         print(f"mesh cache: {cache_dir()}")
+        repeated = {
+            r["scene"] for r in report if [q["scene"] for q in report].count(r["scene"]) > 1
+        }
         for r in report:
             what = f"failed: {r['error']}" if r["error"] else f"{r['seconds']:.2f} s"
-            print(f"  {r['scene']:<20} resolutions {', '.join(map(str, r['resolutions']))}: {what}")
+            # a scene shown with several parameter sets (the collision's figures) says which
+            given = ", ".join(f"{k}={v:g}" for k, v in r["params"].items())
+            name = f"{r['scene']} ({given})" if r["scene"] in repeated and given else r["scene"]
+            print(f"  {name:<20} resolutions {', '.join(map(str, r['resolutions']))}: {what}")
         print(f"{len(report) - len(failed)} of {len(report)} scenes ready")
     return 1 if failed else 0
