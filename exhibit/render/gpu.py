@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
+from exhibit.geometry.lemma2_marks import eligible_triangles
 from exhibit.surfaces.mesh import Mesh4D, Surface
 
 #: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
@@ -55,6 +56,8 @@ class GpuSurface:
     ibo: moderngl.Buffer
     triangle_count: int
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
+    #: The triangles that may mark Lemma 2 points (vaos["lemma2"]), when not all may.
+    lemma2_ibo: moderngl.Buffer | None = None
 
 
 @dataclass
@@ -79,10 +82,12 @@ class GpuMesh:
 
     def release(self) -> None:
         for s in self.surfaces:
-            for vao in s.vaos.values():
+            for vao in {id(v): v for v in s.vaos.values()}.values():  # "lemma2" may be shared
                 vao.release()
             s.vbo.release()
             s.ibo.release()
+            if s.lemma2_ibo is not None:
+                s.lemma2_ibo.release()
         for vao in self.vaos.values():
             vao.release()
         for buf in (self.lines, self.markers):
@@ -139,6 +144,18 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
             gpu.vaos[key] = ctx.vertex_array(
                 prog, [(vbo, fmt, *used)], index_buffer=ibo, index_element_size=4
+            )
+        # Lemma 2 marks skip the triangles next to singular points (geometry/lemma2_marks.py).
+        eligible = eligible_triangles(surface.positions, surface.normals, surface.triangles)
+        gpu.vaos["lemma2"] = gpu.vaos["silhouette"]
+        if len(eligible) < len(surface.triangles):
+            tris = np.ascontiguousarray(surface.triangles[eligible], dtype=np.int32)
+            # (With none eligible, one degenerate triangle: u cannot wind around it.)
+            gpu.lemma2_ibo = ctx.buffer(tris.tobytes() if len(tris) else bytes(12))
+            prog = programs["silhouette"]
+            fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
+            gpu.vaos["lemma2"] = ctx.vertex_array(
+                prog, [(vbo, fmt, *used)], index_buffer=gpu.lemma2_ibo, index_element_size=4
             )
         surfaces.append(gpu)
     for curve in mesh.curves:

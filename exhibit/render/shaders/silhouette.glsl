@@ -4,7 +4,8 @@
 //    the geometry shader finds the segment where s changes sign in each triangle (marching
 //    triangles, as exhibit.geometry.zero_set_segments) and emits it as a thick screen-space line.
 //  * Lemma 2: points where the projected normal vanishes (rho in the tangent plane, i.e.
-//    n1.rho1 = n2.rho1 = 0); generically isolated, found per triangle and marked with a disc.
+//    n1.rho1 = n2.rho1 = 0); generically isolated, claimed by the one triangle around which
+//    u = P_N rho1 winds (exhibit/geometry/lemma2_marks.py, its CPU mirror) and marked with a disc.
 //  * The slice S ∩ {x_a = c} (exhibit/surfaces/slice.py on the CPU): the zero set of
 //    h = u_slice_axis.p - u_slice_at over the scene's own coordinates, drawn as a bright, wide
 //    line (one opaque colour: a rim or a translucent halo drawn segment by segment would show
@@ -23,6 +24,7 @@ out float g_singular;
 out vec4 g_m1;
 out vec4 g_m2;
 out vec2 g_ab;
+flat out int g_id;
 out float g_h;
 uniform vec4 u_slice_axis;   // unit vector of the slicing axis (scene coordinates)
 uniform float u_slice_at;
@@ -41,6 +43,7 @@ void main() {
     g_m1 = m1;
     g_m2 = m2;
     g_ab = vec2(dot(m1, rho1), dot(m2, rho1));
+    g_id = gl_VertexID;   // the vertex's index: an edge's two triangles agree on its frame
 }
 #endif
 
@@ -54,6 +57,7 @@ in float g_singular[];
 in vec4 g_m1[];
 in vec4 g_m2[];
 in vec2 g_ab[];
+flat in int g_id[];
 in float g_h[];
 uniform vec4 u_slice_style;  // rgb, core width in px (0: no slice drawn)
 uniform vec4 u_ink;          // rgb, width in px (0: no silhouettes drawn)
@@ -95,6 +99,19 @@ bool crossing(float v[3], out vec4 c[2], out vec4 d[2]) {
     return n == 2;
 }
 
+// The angle by which u turns from corner i to corner j, seen in the normal frame of the corner
+// with the lower vertex index (exhibit.geometry.lemma2_marks.edge_turns).
+float edge_turn(int i, int j, vec4 u[3]) {
+    bool forward = g_id[i] < g_id[j];
+    int lo = forward ? i : j;
+    int hi = forward ? j : i;
+    vec2 a = vec2(dot(u[lo], g_m1[lo]), dot(u[lo], g_m2[lo]));
+    vec2 b = vec2(dot(u[hi], g_m1[lo]), dot(u[hi], g_m2[lo]));
+    float y = a.x * b.y - a.y * b.x, x = dot(a, b);
+    float t = (x == 0.0 && y == 0.0) ? 0.0 : atan(y, x);
+    return forward ? t : -t;
+}
+
 void main() {
     vec4 c[2];
     vec4 d[2];
@@ -106,26 +123,29 @@ void main() {
     if (u_ink.w > 0.0 && crossing(float[3](g_s[0], g_s[1], g_s[2]), c, d))
         emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0, 1.0);
 
-    // Lemma 2 point: the normal-plane part of rho1 vanishes. Express each vertex's (n1.rho,
-    // n2.rho) in vertex 0's normal frame (the pair is only defined up to rotation) and solve
-    // for the barycentric point where the linear interpolant is (0, 0).
+    // Lemma 2 point: the normal-plane part u of rho1 vanishes. The triangle claims it when u
+    // winds around its boundary; each edge's turn is measured in the normal frame of its
+    // lower-numbered vertex, so the two triangles at an edge compute the same angle and a zero
+    // is claimed once (solving each triangle's interpolant in a frame of its own claimed a
+    // zero near an edge twice or not at all). The disc sits at the interpolant's zero.
     if (u_pinch.w <= 0.0) return;
+    vec4 u[3];
+    for (int k = 0; k < 3; ++k) u[k] = g_ab[k].x * g_m1[k] + g_ab[k].y * g_m2[k];
+    float turn = 0.0;
+    for (int k = 0; k < 3; ++k) turn += edge_turn(k, (k + 1) % 3, u);
+    if (abs(turn) < 3.14159265) return;   // no winding: |turn| is 0 or a multiple of 2 pi
     vec2 A[3];
-    for (int k = 0; k < 3; ++k) {
-        vec4 u = g_ab[k].x * g_m1[k] + g_ab[k].y * g_m2[k];
-        A[k] = vec2(dot(u, g_m1[0]), dot(u, g_m2[0]));
-    }
+    for (int k = 0; k < 3; ++k) A[k] = vec2(dot(u[k], g_m1[0]), dot(u[k], g_m2[0]));
     vec2 e1 = A[1] - A[0], e2 = A[2] - A[0];
     float det = e1.x * e2.y - e1.y * e2.x;
     float scale = max(max(dot(A[0], A[0]), dot(A[1], A[1])), dot(A[2], A[2]));
     if (abs(det) <= 1e-6 * scale || scale <= 0.0) return;   // degenerate: a curve, not a point
     float l1 = (-A[0].x * e2.y + A[0].y * e2.x) / det;
     float l2 = (-e1.x * A[0].y + e1.y * A[0].x) / det;
-    float l0 = 1.0 - l1 - l2;
-    // Half-open test so a point on a shared edge is claimed by one triangle only.
-    if (l0 < 0.0 || l1 < 0.0 || l2 < 0.0 || l0 >= 1.0 || l1 >= 1.0) return;
-    vec4 cp = l0 * g_clip[0] + l1 * g_clip[1] + l2 * g_clip[2];
-    vec4 dp = l0 * g_dist[0] + l1 * g_dist[1] + l2 * g_dist[2];
+    vec3 l = max(vec3(1.0 - l1 - l2, l1, l2), vec3(0.0));
+    l /= max(l.x + l.y + l.z, 1e-30);
+    vec4 cp = l.x * g_clip[0] + l.y * g_clip[1] + l.z * g_clip[2];
+    vec4 dp = l.x * g_dist[0] + l.y * g_dist[1] + l.z * g_dist[2];
     if (any(lessThan(dp, vec4(0.0)))) return;
     // A Lemma 2 point lies on a fold of the 3D image, where the surface is seen edge-on: lift the
     // disc further towards the viewer so the surface it marks does not cut it in half.
