@@ -59,6 +59,9 @@ INTERSECTION_INK = (0.05, 0.05, 0.07)
 SLICE_COLOR = SLICE_MATERIAL.color
 SLICE_WIDTH = 4.0
 INTERSECTION_MAX_HALF_WIDTH = 0.5
+#: Texture units of the curves' surface depth (single-sampled, multisampled): apart, since
+#: samplers of two types may not share a unit.
+CENTRE_UNITS = (5, 6)
 
 
 @dataclass(frozen=True)
@@ -281,7 +284,21 @@ class Renderer:
         if options.curves:
             prog = self.programs["curves"]
             self.set_pipeline(prog, view, size)
-            self._set(prog, u_line_bias=LINE_BIAS, u_width_scale=scale * options.curve_width)
+            # Where the frame has the sheet buffer, curves are hidden where their centre is
+            # (line_fragment.glsl, CENTRE_TEST); the direct path has none.
+            centre_test = 0
+            if inked:
+                unit = CENTRE_UNITS[1 if sheets.samples else 0]
+                sheets.sheet_texture.use(unit)
+                centre_test = 2 if sheets.samples else 1
+            self._set(
+                prog,
+                u_line_bias=LINE_BIAS,
+                u_width_scale=scale * options.curve_width,
+                u_centre_test=centre_test,
+                u_surface_depth=CENTRE_UNITS[0],
+                u_surface_depth_ms=CENTRE_UNITS[1],
+            )
             for key, count in (("lines", gpu.line_count), ("markers", gpu.marker_count)):
                 if not count:
                     continue

@@ -10,7 +10,7 @@ import pytest
 from exhibit.geometry import ViewState
 from exhibit.render import RenderOptions
 from exhibit.surfaces.mesh import Material, Mesh4D, Surface
-from tests.geometry.test_lemma2_marks import SHIFTS, planted
+from tests.geometry.planted_lemma2 import SHIFTS, planted
 
 SIZE = (200, 200)
 DISCS_ONLY = RenderOptions(

@@ -32,5 +32,6 @@ void main() {
 #endif
 
 #if defined FRAGMENT_SHADER
+#define CENTRE_TEST
 #include "line_fragment.glsl"
 #endif
