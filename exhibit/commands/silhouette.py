@@ -12,13 +12,7 @@ from exhibit import scenes
 from exhibit.errors import ExhibitError
 from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
-from exhibit.scenes.implicit_scene import (
-    ImplicitPart,
-    cell_size,
-    exclusion_radius,
-    fixed_silhouette,
-)
-from exhibit.surfaces.double_zeros import touching_silhouette
+from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette
 from exhibit.surfaces.exact_silhouette import (
     EXCLUSION_RATIO,
     ParametricExact,
@@ -132,21 +126,8 @@ def smallest_ratio(surfaces, curves) -> float | None:
 def exact_silhouette_curves(surface, along, stats: RefineStats):
     exact = surface.exact
     if isinstance(exact, ImplicitPart):
-        # Sign changes of s, then the branches where s only touches zero (double zeros).
-        return fixed_silhouette(
-            exact, along, "silhouette", Material(), stats
-        ) + touching_silhouette(
-            exact.f1,
-            exact.f2,
-            exact.surface,
-            along,
-            cell_size(exact),
-            exact.result.singular_positions,
-            exclusion_radius(exact),
-            "silhouette (touching)",
-            Material(),
-            stats,
-        )
+        # Sign changes of s, and the branches where s only touches zero (double zeros).
+        return fixed_silhouette(exact, along, "silhouette", Material(), stats)
     if isinstance(exact, ParametricExact):
         return parametric_silhouette(surface, exact, along, "silhouette", Material(), stats)
     # Without the exact surface nothing can be refined: every traced point counts as dropped.

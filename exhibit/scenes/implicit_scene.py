@@ -10,6 +10,7 @@ import numpy as np
 from exhibit.geometry.silhouette import silhouette_function
 from exhibit.surfaces.crossings import find_crossings, join_at_crossings
 from exhibit.surfaces.curves import zero_set_curves
+from exhibit.surfaces.double_zeros import touching_silhouette
 from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, refine_curves
 from exhibit.surfaces.expressions import ScalarField, compile_field
 from exhibit.surfaces.implicit import ImplicitResult, polygonize
@@ -71,8 +72,10 @@ def fixed_silhouette(
     converge are dropped, points near a singular point or curve are excluded (singular points are
     never silhouettes), and curves are split there (`surfaces/exact_silhouette.py`). Where two
     branches cross, the crossing is solved for and every piece ends there
-    (`surfaces/crossings.py`). ``stats``,
-    when given, accumulates the counts."""
+    (`surfaces/crossings.py`). Branches where s touches zero without changing sign, which sign
+    changes cannot see, are found where |s| dips along the surface and refined the same way
+    (`surfaces/double_zeros.py`), named "NAME (touching)". ``stats``, when given, accumulates
+    the counts."""
     surface = part.surface
     if len(surface.triangles) == 0:
         return []
@@ -102,7 +105,21 @@ def fixed_silhouette(
         stats.add(counts)
     for i, curve in enumerate(refined):
         curve.name = name if i == 0 else f"{name} {i + 1}"
-    return refined
+    touching = touching_silhouette(
+        part.f1,
+        part.f2,
+        surface,
+        along,
+        edge,
+        part.result.singular_positions,
+        exclusion_radius(part),
+        f"{name} (touching)",
+        material,
+        stats,
+    )
+    for i, curve in enumerate(touching[1:], 2):
+        curve.name = f"{curve.name} {i}"
+    return refined + touching
 
 
 def cell_size(part: ImplicitPart) -> float:

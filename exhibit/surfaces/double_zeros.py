@@ -37,10 +37,11 @@ def dip_candidates(surface: Surface, values: np.ndarray, gradients: np.ndarray):
     """Edges (E, 2) on which |h| dips between two ends of the same sign, and the seed points
     (E, 4) where the linear interpolant of the edge derivative vanishes."""
     tris = np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)
-    edges = np.unique(
-        np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1), axis=0
-    )
     p = surface.positions
+    pairs = np.sort(np.concatenate([tris[:, [0, 1]], tris[:, [1, 2]], tris[:, [2, 0]]]), axis=1)
+    # one integer per edge: np.unique on rows (axis=0) sorts ten times slower, same order
+    keys = np.unique(pairs[:, 0] * len(p) + pairs[:, 1])
+    edges = np.stack([keys // len(p), keys % len(p)], axis=1)
     # h's derivative along the surface: a chord across a fold cuts below it, so the ambient
     # derivative of a linear h (the slice's t) along the chord would show no dip at all.
     tangential = surface_gradient(surface, gradients)

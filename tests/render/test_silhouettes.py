@@ -166,3 +166,99 @@ def test_lemma_2_discs_lie_on_top_of_the_silhouette_ink(gl):
     alone, inked = yellow(0.0), yellow(6.0)
     gpu.release()
     assert alone > 100 and inked >= alone, (alone, inked)
+
+
+def _figure_15_slice(gl, ats, size=(320, 240)):
+    """Figure 15's scene (the ball touches the pipe at t = 0 along x = 0, y² + z² = 1), the live
+    slice alone at each t in ``ats``: glowing pixels, the view, the surface."""
+    scene, preset = scenes.figure(15)
+    mesh = scene.build(preset.params, resolution=32)
+    mesh.curves.clear()
+    mesh.markers.clear()
+    gpu = gl.renderer.upload(mesh)
+    images = [
+        gl.image(gpu, preset.view.replace(slice_axis=3, slice_at=at), size, SLICE_ONLY, samples=0)
+        for at in ats
+    ]
+    gpu.release()
+    return images, preset.view.replace(slice_axis=3), mesh.surfaces[0]
+
+
+SLICE_ONLY = RenderOptions(
+    surfaces=False,
+    curves=False,
+    hud=False,
+    silhouettes=False,
+    pinch_points=False,
+    background=((0.0, 0.0, 0.0), (0.0, 0.0, 0.0)),
+    line_scale=1.0,
+)
+
+
+def _segment_pixels(segments, view, size):
+    ct = clip_transform(view, size[0] / size[1])
+    t = np.linspace(0.0, 1.0, 5)[None, :, None]
+    samples = segments[:, :1] + t * (segments[:, 1:] - segments[:, :1])
+    pixels, ok = ct.to_pixels(samples.reshape(-1, 4), *size)
+    return pixels[ok]
+
+
+def _nearest(a, b):
+    return np.linalg.norm(a[:, None] - b[None], axis=-1).min(axis=1)
+
+
+def test_the_live_slice_glows_at_exact_tangency(gl):
+    """At t = 0 the hyperplane is tangent to Figure 15's surface along the circle x = 0,
+    y² + z² = 1: h = t keeps its sign across it, so a sign-change test draws nothing. The
+    geometry shader's touching() (geometry/touching.py in numpy, the reference here) draws the
+    circle in the slice's colour, all of it but the ends at the two singular points (0, ±1, 0,
+    0)."""
+    from exhibit.geometry.touching import tangential_gradient, touching_segments
+    from exhibit.render.renderer import SLICE_COLOR
+
+    size = (320, 240)
+    (image,), view, surface = _figure_15_slice(gl, [0.0], size)
+    colour = np.abs(image.astype(float) - 255 * np.asarray(SLICE_COLOR)).max(axis=-1) < 40
+    glow = np.argwhere(colour)[:, ::-1] + 0.5
+    # the numpy mirror: segments on the circle, to the chord's height over the surface
+    axis = np.eye(4)[3]
+    segments = touching_segments(
+        surface.positions,
+        surface.triangles,
+        surface.positions @ axis,
+        tangential_gradient(axis, surface.normals),
+        surface.singular,
+    )
+    x, y, z, t = segments.reshape(-1, 4).T
+    assert np.sqrt(x**2 + t**2 + (np.hypot(y, z) - 1) ** 2).max() < 0.01
+    expected = _segment_pixels(segments, view, size)
+    assert len(glow) > 300 and len(expected) > 300
+    assert np.quantile(_nearest(glow, expected), 0.99) <= 3.0
+    assert np.quantile(_nearest(expected, glow), 0.99) <= 2.5
+    # the projected circle is in the slice's colour, except next to the singular points
+    phi = np.linspace(0, 2 * np.pi, 240, endpoint=False)
+    phi = phi[np.abs(np.sin(phi)) > np.sin(0.15)]
+    circle = np.stack([0 * phi, np.cos(phi), np.sin(phi), 0 * phi], 1)
+    pixels, ok = clip_transform(view, size[0] / size[1]).to_pixels(circle, *size)
+    assert ok.all() and _nearest(pixels, glow).max() <= 2.0
+
+
+@pytest.mark.parametrize("at", [-0.05, 0.05])
+def test_the_live_slice_off_tangency_is_the_sign_change_rule(gl, at):
+    """At t = ±0.05 the hyperplane is clearly off tangency: the glow is the sign changes' alone
+    (marching triangles, zero_set_segments), with no touching segment added."""
+    from exhibit.geometry.touching import tangential_gradient, touching_segments
+
+    size = (320, 240)
+    (image,), view, surface = _figure_15_slice(gl, [at], size)
+    glow = np.argwhere(image.max(axis=-1) > 60)[:, ::-1] + 0.5
+    axis = np.eye(4)[3]
+    h = surface.positions @ axis - at
+    gradient = tangential_gradient(axis, surface.normals)
+    assert len(touching_segments(surface.positions, surface.triangles, h, gradient)) == 0
+    expected = _segment_pixels(
+        zero_set_segments(surface.positions, surface.triangles, h), view, size
+    )
+    assert len(glow) > 300 and len(expected) > 100
+    assert _nearest(glow, expected).max() <= 3.5
+    assert np.quantile(_nearest(expected, glow), 0.99) <= 2.5

@@ -98,3 +98,28 @@ def test_a_simple_zero_is_not_reported_as_touching():
         Material(),
     )
     assert touching_silhouette(part.f1, part.f2, part.surface, (0, 2), cell_size(part)) == []
+
+
+def test_the_drawn_silhouette_has_the_touching_branch_too():
+    """The drawn scenes' fixed_silhouette (what the collision and offset scenes draw) finds the
+    touching circle of Figure 15's scene along y, z itself, with the same refinement as
+    `exhibit silhouette`. Before, it drew nothing nearer than 1.38 to it."""
+    from exhibit.scenes import collision
+    from exhibit.scenes.implicit_scene import fixed_silhouette
+
+    part = collision.build_part({"rc": 1.0, "rs": 1.0, "vc": 0.0, "vs": 1.0}, 24)
+    curves = fixed_silhouette(part, (1, 2), "silhouette along y and z", Material())
+    touching = [c for c in curves if "(touching)" in c.name]
+    assert touching
+    points = np.concatenate([c.points for c in touching])
+    x, y, z, t = points.T
+    # every point of the touching curves lies on the circle t = 0, x = 0, y² + z² = 1
+    distance = np.sqrt(x**2 + t**2 + (np.hypot(y, z) - 1) ** 2)
+    assert distance.max() < 1e-6
+    # and they cover it, except next to the singular points (y = ±1) and the crossings with
+    # the branch y = 0
+    phi = np.linspace(0, 2 * np.pi, 360, endpoint=False)
+    phi = phi[_angle_gap(phi, [0, np.pi / 2, np.pi, -np.pi / 2]) > 0.25]
+    circle = np.stack([0 * phi, np.cos(phi), np.sin(phi), 0 * phi], 1)
+    gap = np.linalg.norm(circle[:, None] - points[None], axis=-1).min(axis=1)
+    assert gap.max() < 0.1

@@ -9,7 +9,9 @@
 //  * The slice S ∩ {x_a = c} (exhibit/surfaces/slice.py on the CPU): the zero set of
 //    h = u_slice_axis.p - u_slice_at over the scene's own coordinates, drawn as a bright, wide
 //    line (one opaque colour: a rim or a translucent halo drawn segment by segment would show
-//    beads where neighbouring capsules overlap), singular points included.
+//    beads where neighbouring capsules overlap), singular points included. Where h touches
+//    zero without changing sign (the hyperplane tangent to the surface along a curve) `touching()`
+//    finds the dips of |h| on the triangle's edges (exhibit/geometry/touching.py in numpy).
 #include "pipeline.glsl"
 #include "lines_common.glsl"
 
@@ -26,11 +28,15 @@ out vec4 g_m2;
 out vec2 g_ab;
 flat out int g_id;
 out float g_h;
+out vec4 g_hp;               // the scene position, and h's gradient along the surface (the
+out vec4 g_hg;               // axis less its normal parts; normals are orthonormal or zero)
 uniform vec4 u_slice_axis;   // unit vector of the slicing axis (scene coordinates)
 uniform float u_slice_at;
 
 void main() {
     g_h = dot(u_slice_axis, in_pos) - u_slice_at;
+    g_hp = in_pos;
+    g_hg = u_slice_axis - dot(u_slice_axis, in_n1) * in_n1 - dot(u_slice_axis, in_n2) * in_n2;
     vec4 q = u_R * in_pos + u_t;
     vec4 m1 = u_R * in_n1;
     vec4 m2 = u_R * in_n2;
@@ -59,6 +65,8 @@ in vec4 g_m2[];
 in vec2 g_ab[];
 flat in int g_id[];
 in float g_h[];
+in vec4 g_hp[];
+in vec4 g_hg[];
 uniform vec4 u_slice_style;  // rgb, core width in px (0: no slice drawn)
 uniform vec4 u_ink;          // rgb, width in px (0: no silhouettes drawn)
 uniform vec4 u_pinch;        // rgb, diameter in px (0: Lemma 2 points not marked)
@@ -112,10 +120,43 @@ float edge_turn(int i, int j, vec4 u[3]) {
     return forward ? t : -t;
 }
 
+// The segment where h touches zero on this triangle without changing sign, or false: on each
+// edge whose ends have the same sign (neither singular), the cubic Hermite interpolant of h and
+// its derivatives along the surface; where |h| dips, its lowest value must be within
+// TOUCH_TOLERANCE of the derivative's change across the edge (about curvature x length^2).
+const float TOUCH_TOLERANCE = 0.02;
+bool touching(out vec4 c[2], out vec4 d[2]) {
+    int n = 0;
+    for (int i = 0; i < 3; ++i) {
+        int j = (i + 1) % 3;
+        float h0 = g_h[i], h1 = g_h[j];
+        if (n == 2 || (h0 > 0.0) != (h1 > 0.0) || h0 == 0.0 || h1 == 0.0) continue;
+        if (g_singular[i] + g_singular[j] > 0.0) continue;
+        vec4 e = g_hp[j] - g_hp[i];
+        float sg = h0 > 0.0 ? 1.0 : -1.0;
+        float d0 = dot(g_hg[i], e), d1 = dot(g_hg[j], e);
+        if (sg * d0 >= 0.0 || sg * d1 <= 0.0) continue;   // |h| does not dip
+        float a = 3.0 * (h1 - h0) - 2.0 * d0 - d1;
+        float b = 2.0 * (h0 - h1) + d0 + d1;
+        float lo = 0.0, hi = 1.0;
+        for (int k = 0; k < 16; ++k) {                     // the root of H' on [0, 1]
+            float m = 0.5 * (lo + hi);
+            if (sg * (d0 + m * (2.0 * a + 3.0 * b * m)) < 0.0) lo = m; else hi = m;
+        }
+        float t = 0.5 * (lo + hi);
+        if (abs(h0 + t * (d0 + t * (a + b * t))) > TOUCH_TOLERANCE * sg * (d1 - d0)) continue;
+        c[n] = mix(g_clip[i], g_clip[j], t);
+        d[n] = mix(g_dist[i], g_dist[j], t);
+        ++n;
+    }
+    return n == 2;
+}
+
 void main() {
     vec4 c[2];
     vec4 d[2];
-    if (u_slice_style.w > 0.0 && crossing(float[3](g_h[0], g_h[1], g_h[2]), c, d)) {
+    if (u_slice_style.w > 0.0
+        && (crossing(float[3](g_h[0], g_h[1], g_h[2]), c, d) || touching(c, d))) {
         emit_segment(c[0], c[1], d[0], d[1], u_slice_style, 10.0 * u_line_bias, 1.0);
     }
     if (g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;  // never silhouettes

@@ -1,0 +1,81 @@
+"""The live slice's rule for tangency (geometry/touching.py, mirrored by the geometry shader):
+where h touches zero without changing sign, segments along the touching curve; where it only
+comes near zero, or changes sign, none."""
+
+import numpy as np
+import pytest
+
+from exhibit.geometry.silhouette import zero_set_segments
+from exhibit.geometry.touching import (
+    TOUCH_TOLERANCE,
+    hermite_dip,
+    tangential_gradient,
+    touching_segments,
+)
+
+
+def parabolic_sheet(n: int = 24, kappa: float = 2.0):
+    """p(u, v) = (u, v, 0, κu²/2) over [-1, 1]² (κ the curvature of t across u = 0), triangulated
+    with the grid shifted off u = 0, with its orthonormal normals."""
+    s = np.linspace(-1, 1, n + 1) + 0.37 / n
+    U, V = (a.ravel() for a in np.meshgrid(s, s, indexing="ij"))
+    positions = np.stack([U, V, 0 * U, 0.5 * kappa * U**2], 1)
+    n1 = np.stack([0 * U, 0 * U, 1 + 0 * U, 0 * U], 1)
+    n2 = np.stack([-kappa * U, 0 * U, 0 * U, 1 + 0 * U], 1)
+    n2 /= np.linalg.norm(n2, axis=1, keepdims=True)
+    idx = np.arange((n + 1) ** 2).reshape(n + 1, n + 1)
+    a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
+    tris = np.concatenate([np.stack([a, b, c], -1), np.stack([a, c, d], -1)]).reshape(-1, 3)
+    return positions, np.stack([n1, n2], 1), tris
+
+
+def _segments(at: float, singular=None):
+    positions, normals, tris = parabolic_sheet()
+    axis = np.eye(4)[3]
+    values = positions @ axis - at
+    return touching_segments(
+        positions, tris, values, tangential_gradient(axis, normals), singular
+    ), positions
+
+
+def test_the_hermite_minimum_of_a_parabola_is_exact():
+    # h(λ) = (λ - 0.3)², h' = 2(λ - 0.3): a quadratic is its own cubic Hermite interpolant
+    dip, lam, value = hermite_dip(0.09, 0.49, -0.6, 1.4)
+    assert dip and abs(lam - 0.3) < 1e-4 and abs(value) < 1e-8
+    # the same shifted up by m: |H(λ*)| / (d1 - d0) = m / 2
+    dip, lam, value = hermite_dip(0.09 + 0.01, 0.49 + 0.01, -0.6, 1.4)
+    assert dip and abs(value - 0.01) < 1e-8
+    # no dip where |h| only rises or only falls, or where the ends differ in sign
+    assert not hermite_dip(0.1, 0.5, 0.2, 0.6)[0]
+    assert not hermite_dip(-0.1, 0.2, 0.1, 0.4)[0]
+    assert hermite_dip(-0.09, -0.49, 0.6, -1.4)[0]  # and a negative h's |h| dips too
+
+
+def test_a_touching_line_is_found_along_its_length():
+    segments, _ = _segments(0.0)
+    assert len(segments) > 20
+    points = segments.reshape(-1, 4)
+    u, v, z, t = points.T
+    # on u = 0; t is the chord's height over the sheet there, at most κ(ℓ/2)²/2 = 1.7e-3
+    assert np.abs(u).max() < 1e-3 and np.abs(t).max() < 2e-3
+    covered = np.histogram(v, bins=20, range=(-0.95, 0.95))[0]
+    assert covered.min() > 0
+
+
+@pytest.mark.parametrize("at", [1e-3, -0.05, 0.05])
+def test_near_tangency_it_draws_what_sign_changes_draw(at):
+    """Off tangency by m, an edge passes only while m ≤ TOUCH_TOLERANCE κℓ² (here 2e-4)."""
+    positions, _, tris = parabolic_sheet()
+    assert 1e-3 > TOUCH_TOLERANCE * 2.0 * (2 / 24) ** 2
+    segments, _ = _segments(at)
+    assert len(segments) == 0
+    crossings = zero_set_segments(positions, tris, positions[:, 3] - at)
+    assert (len(crossings) > 0) == (at > 0)
+
+
+def test_singular_vertices_are_skipped():
+    positions, _, _ = parabolic_sheet()
+    singular = np.abs(positions[:, 1]) < 0.5
+    segments, _ = _segments(0.0, singular)
+    assert len(segments) > 5
+    assert np.abs(segments[..., 1]).min() > 0.4
