@@ -171,7 +171,10 @@ def world_at(params: dict, c: float) -> Mesh4D:
         Material(color=(0.75, 0.78, 0.85)),
         adaptive=False,
     )
-    return Mesh4D([sphere], pipe + touching_curves(params, c))
+    # The touching curve first: curves are layered in the mesh's order (render/gpu.py LAYERS),
+    # and at the tangency moment it lies on the pipe's wire circle x = 0, which drew over it
+    # every few pixels (a dashed curve in the inset).
+    return Mesh4D([sphere], touching_curves(params, c) + pipe)
 
 
 #: |g| at most this (relative to the radii squared) at every angle: the ball touches the pipe

@@ -145,3 +145,32 @@ def test_the_ball_falls_on_screen_in_the_inset_and_the_main_view(collision):
     first = mesh.markers[0].position
     rows = _screen_y(collision.view, mesh.surfaces[0].positions)
     assert _screen_y(collision.view, [first])[0] < rows.min() + 0.1 * (rows.max() - rows.min())
+
+
+def test_the_touching_curve_at_tangency_is_drawn_whole_over_the_pipe(collision, gl):
+    """At rc = rs = 1, vc = 0, t = 0 the ball touches the pipe along its wire circle x = 0; the
+    touching curve comes first in the mesh's layers, so the pipe's wire no longer cuts it into
+    dashes. Along its projected front half, 98% of the samples have the slice colour (7% before)."""
+    from exhibit.geometry import clip_transform
+    from exhibit.render import RenderOptions
+    from exhibit.surfaces.slice import SLICE_MATERIAL
+
+    params = collision.resolve({"rc": 1, "rs": 1, "vc": 0, "vs": 1})
+    world = inset_mesh(collision, params, collision.build(params, 24), 3, 0.0)
+    size = (320, 320)
+    view = inset_view(collision.view, world, size)
+    gpu = gl.renderer.upload(world)
+    options = RenderOptions(hud=False, silhouettes=False, pinch_points=False)
+    image = gl.image(gpu, view, size, options, samples=0).astype(int)
+    gpu.release()
+    colour = np.array(SLICE_MATERIAL.color) * 255
+    near = np.abs(image - colour).max(axis=2) < 60
+    phi = np.linspace(0.0, 2 * np.pi, 400, endpoint=False)
+    circle = np.stack([0 * phi, np.cos(phi), np.sin(phi), 0 * phi], axis=1)
+    ct = clip_transform(view, 1.0)
+    pixels, ok = ct.to_pixels(circle, *size)
+    depth = ct.to_ndc(circle)[0][:, 2]
+    front = ok & (depth <= np.median(depth))  # the half nearer the eye
+    cover = [near[int(y), int(x)] for x, y in pixels[front]]  # y down, pixel i: [i, i + 1)
+    print("covered", np.mean(cover))
+    assert np.mean(cover) > 0.9, np.mean(cover)
