@@ -14,7 +14,7 @@ Around a singular point (zero normals: the sheets meet, the normal plane is unde
 winds as well, and the triangles next to it, which cannot resolve the normal plane's fast turn,
 show that winding as a zero that is no Lemma 2 point. Singular points are never silhouettes
 (the paper, section 4.2), so triangles within SINGULAR_REACH mean edges of a singular vertex
-mark nothing (`eligible_triangles`, applied when the mesh is uploaded).
+mark nothing (`marking_vertices`, a flag uploaded with each vertex).
 """
 
 from __future__ import annotations
@@ -86,25 +86,35 @@ def lemma2_marks(m1, m2, rays, triangles) -> tuple[np.ndarray, np.ndarray]:
     bary = np.clip(np.stack([1.0 - l1 - l2, l1, l2], axis=1), 0.0, None)
     bary /= np.maximum(bary.sum(axis=1, keepdims=True), 1e-300)
     singular = _dot(m1, m1) < SINGULAR_NORMAL**2
-    claimed = winds & solvable & ~singular[tris].any(axis=1)
+    # The shader's shortcut: u within 60° of its direction at corner 0 everywhere cannot wind.
+    length = np.sqrt(_dot(coords, coords))  # (T, 3)
+    close = [_dot(coords[:, k], c0) >= 0.5 * length[:, k] * length[:, 0] for k in (1, 2)]
+    straight = close[0] & close[1] & (length[:, 0] > 0)
+    claimed = winds & solvable & ~singular[tris].any(axis=1) & ~straight
     index = np.flatnonzero(claimed)
     return index, bary[index]
 
 
-def eligible_triangles(positions, normals, triangles, reach: float = SINGULAR_REACH) -> np.ndarray:
-    """Indices of the triangles that may mark Lemma 2 points: those with no vertex within
-    ``reach`` median edge lengths of a singular vertex (zero normals). A distance, not rings of
-    triangles: a singular vertex belongs to one sheet's triangles, and the other sheet passes
-    it as closely."""
+def marking_vertices(positions, normals, triangles, reach: float = SINGULAR_REACH) -> np.ndarray:
+    """(V,) bool: the vertices farther than ``reach`` median edge lengths from every singular
+    vertex (zero normals); a triangle may mark a Lemma 2 point only if all three are. A
+    distance, not rings of triangles: a singular vertex belongs to one sheet's triangles, and
+    the other sheet passes it as closely."""
     positions = np.asarray(positions, dtype=float)
     tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     n1 = np.asarray(normals, dtype=float)[:, 0]
     anchors = positions[_dot(n1, n1) < SINGULAR_NORMAL**2]
     if len(anchors) == 0 or len(tris) == 0:
-        return np.arange(len(tris))
+        return np.ones(len(positions), dtype=bool)
     edge = float(np.median(np.linalg.norm(positions[tris[:, 1]] - positions[tris[:, 0]], axis=1)))
     # |p - a|² = |p|² + |a|² - 2 p·a, one matrix product for all pairs.
     d2 = _dot(positions, positions)[:, None] + _dot(anchors, anchors)[None, :]
     d2 -= 2.0 * positions @ anchors.T
-    near = d2.min(axis=1) < (reach * edge) ** 2
-    return np.flatnonzero(~near[tris].any(axis=1))
+    return d2.min(axis=1) >= (reach * edge) ** 2
+
+
+def eligible_triangles(positions, normals, triangles, reach: float = SINGULAR_REACH) -> np.ndarray:
+    """Indices of the triangles that may mark Lemma 2 points (all three vertices marking)."""
+    tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
+    marking = marking_vertices(positions, normals, tris, reach)
+    return np.flatnonzero(marking[tris].all(axis=1))

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 import moderngl
 import numpy as np
 
-from exhibit.geometry.lemma2_marks import eligible_triangles
+from exhibit.geometry.lemma2_marks import marking_vertices
 from exhibit.surfaces.mesh import Mesh4D, Surface
 
 #: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
@@ -21,10 +21,20 @@ MARKER_MIN = 7.0
 MARKER_OUTLINE = (0.05, 0.05, 0.07)
 
 
+#: The per-vertex attributes of a surface, as uploaded: name, float count.
+SURFACE_ATTRIBUTES = (("in_pos", 4), ("in_n1", 4), ("in_n2", 4), ("in_mark", 1))
+
+
 def surface_vertices(surface: Surface) -> np.ndarray:
-    """(V, 12) float32: position, n1, n2 — the per-vertex data of the Lemma 1(c) pipeline."""
+    """(V, 13) float32: position, n1, n2 — the per-vertex data of the Lemma 1(c) pipeline —
+    and 1 where the vertex may mark Lemma 2 points (not next to a singular point, 0 there:
+    exhibit/geometry/lemma2_marks.py)."""
+    mark = marking_vertices(surface.positions, surface.normals, surface.triangles)
     return np.ascontiguousarray(
-        np.concatenate([surface.positions, surface.normals[:, 0], surface.normals[:, 1]], axis=1),
+        np.concatenate(
+            [surface.positions, surface.normals[:, 0], surface.normals[:, 1], mark[:, None]],
+            axis=1,
+        ),
         dtype=np.float32,
     )
 
@@ -56,8 +66,6 @@ class GpuSurface:
     ibo: moderngl.Buffer
     triangle_count: int
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
-    #: The triangles that may mark Lemma 2 points (vaos["lemma2"]), when not all may.
-    lemma2_ibo: moderngl.Buffer | None = None
 
 
 @dataclass
@@ -82,12 +90,10 @@ class GpuMesh:
 
     def release(self) -> None:
         for s in self.surfaces:
-            for vao in {id(v): v for v in s.vaos.values()}.values():  # "lemma2" may be shared
+            for vao in s.vaos.values():
                 vao.release()
             s.vbo.release()
             s.ibo.release()
-            if s.lemma2_ibo is not None:
-                s.lemma2_ibo.release()
         for vao in self.vaos.values():
             vao.release()
         for buf in (self.lines, self.markers):
@@ -96,15 +102,16 @@ class GpuMesh:
         self.surfaces, self.vaos, self.lines, self.markers = [], {}, None, None
 
 
-def _attribute_format(program: moderngl.Program, names: list[str]) -> tuple[str, list[str]]:
-    """'4f 4f 4f'-style format for vec4 attributes, skipping those the compiler removed."""
+def _attribute_format(program: moderngl.Program, attributes) -> tuple[str, list[str]]:
+    """'4f 4f 4f 1f'-style format for (name, float count) attributes, skipping those the
+    program does not use (or its compiler removed)."""
     parts, used = [], []
-    for name in names:
+    for name, count in attributes:
         if name in program:
-            parts.append("4f")
+            parts.append(f"{count}f")
             used.append(name)
         else:
-            parts.append("16x")
+            parts.append(f"{4 * count}x")
     return " ".join(parts), used
 
 
@@ -141,21 +148,9 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             "floor",
         ):
             prog = programs[key]
-            fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
+            fmt, used = _attribute_format(prog, SURFACE_ATTRIBUTES)
             gpu.vaos[key] = ctx.vertex_array(
                 prog, [(vbo, fmt, *used)], index_buffer=ibo, index_element_size=4
-            )
-        # Lemma 2 marks skip the triangles next to singular points (geometry/lemma2_marks.py).
-        eligible = eligible_triangles(surface.positions, surface.normals, surface.triangles)
-        gpu.vaos["lemma2"] = gpu.vaos["silhouette"]
-        if len(eligible) < len(surface.triangles):
-            tris = np.ascontiguousarray(surface.triangles[eligible], dtype=np.int32)
-            # (With none eligible, one degenerate triangle: u cannot wind around it.)
-            gpu.lemma2_ibo = ctx.buffer(tris.tobytes() if len(tris) else bytes(12))
-            prog = programs["silhouette"]
-            fmt, used = _attribute_format(prog, ["in_pos", "in_n1", "in_n2"])
-            gpu.vaos["lemma2"] = ctx.vertex_array(
-                prog, [(vbo, fmt, *used)], index_buffer=gpu.lemma2_ibo, index_element_size=4
             )
         surfaces.append(gpu)
     for curve in mesh.curves:

@@ -328,18 +328,15 @@ class Renderer:
                 u_slice_at=view.slice_at,
             )
             ctx.fbo.depth_mask = False
-            # Passes over the triangles: the ink, then the marks that must lie on top of it
-            # (the slice, then the Lemma 2 discs). With no depth writes, what a later triangle
-            # emits covers what an earlier one did, so one pass would let ink cross the discs;
-            # zero widths tell the geometry shader what to skip. The discs' pass runs over the
-            # triangles that may mark them (vaos["lemma2"]: not those next to singular points).
+            # Two passes over the same triangles: the ink, then the marks that must lie on top
+            # of it (the slice and the Lemma 2 discs). With no depth writes, what a later
+            # triangle emits covers what an earlier one did, so one pass would let ink cross
+            # the discs; zero widths tell the geometry shader what to skip.
             ink = options.silhouette_width if options.silhouettes else 0.0
-            passes = [(ink, 0.0, 0.0, "silhouette")] if ink > 0 else []
-            if sliced:
-                passes.append((0.0, SLICE_WIDTH, 0.0, "silhouette"))
-            if pinch > 0:
-                passes.append((0.0, 0.0, pinch, "lemma2"))
-            for ink_width, slice_width, pinch_size, key in passes:
+            passes = [(ink, 0.0, 0.0)] if ink > 0 else []
+            if sliced or pinch > 0:
+                passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
+            for ink_width, slice_width, pinch_size in passes:
                 self._set(
                     prog,
                     u_pinch=(1.0, 0.93, 0.2, pinch_size),
@@ -347,7 +344,7 @@ class Renderer:
                 )
                 for surface in gpu.surfaces:
                     prog["u_ink"] = (*darker(surface.color), ink_width)
-                    surface.vaos[key].render(moderngl.TRIANGLES)
+                    surface.vaos["silhouette"].render(moderngl.TRIANGLES)
             ctx.fbo.depth_mask = True
 
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)

@@ -19,6 +19,7 @@
 in vec4 in_pos;
 in vec4 in_n1;
 in vec4 in_n2;
+in float in_mark;            // 1 where the vertex may mark Lemma 2 points (0 next to a singular one)
 out vec4 g_clip;
 out vec4 g_dist;
 out float g_s;
@@ -27,6 +28,7 @@ out vec4 g_m1;
 out vec4 g_m2;
 out vec2 g_ab;
 flat out int g_id;
+out float g_mark;
 out float g_h;
 out vec4 g_hp;               // the scene position, and h's gradient along the surface (the
 out vec4 g_hg;               // axis less its normal parts; normals are orthonormal or zero)
@@ -50,6 +52,7 @@ void main() {
     g_m2 = m2;
     g_ab = vec2(dot(m1, rho1), dot(m2, rho1));
     g_id = gl_VertexID;   // the vertex's index: an edge's two triangles agree on its frame
+    g_mark = in_mark;
 }
 #endif
 
@@ -64,6 +67,7 @@ in vec4 g_m1[];
 in vec4 g_m2[];
 in vec2 g_ab[];
 flat in int g_id[];
+in float g_mark[];
 in float g_h[];
 in vec4 g_hp[];
 in vec4 g_hg[];
@@ -169,14 +173,19 @@ void main() {
     // lower-numbered vertex, so the two triangles at an edge compute the same angle and a zero
     // is claimed once (solving each triangle's interpolant in a frame of its own claimed a
     // zero near an edge twice or not at all). The disc sits at the interpolant's zero.
-    if (u_pinch.w <= 0.0) return;
+    if (u_pinch.w <= 0.0 || g_mark[0] * g_mark[1] * g_mark[2] == 0.0) return;
     vec4 u[3];
     for (int k = 0; k < 3; ++k) u[k] = g_ab[k].x * g_m1[k] + g_ab[k].y * g_m2[k];
+    vec2 A[3];
+    for (int k = 0; k < 3; ++k) A[k] = vec2(dot(u[k], g_m1[0]), dot(u[k], g_m2[0]));
+    // Most triangles: u points within 60 degrees of its direction at corner 0 at every corner,
+    // so it cannot wind (the arc tangents below are the pass's costliest part).
+    if (dot(A[1], A[0]) >= 0.5 * length(A[1]) * length(A[0])
+        && dot(A[2], A[0]) >= 0.5 * length(A[2]) * length(A[0])
+        && dot(A[0], A[0]) > 0.0) return;
     float turn = 0.0;
     for (int k = 0; k < 3; ++k) turn += edge_turn(k, (k + 1) % 3, u);
     if (abs(turn) < 3.14159265) return;   // no winding: |turn| is 0 or a multiple of 2 pi
-    vec2 A[3];
-    for (int k = 0; k < 3; ++k) A[k] = vec2(dot(u[k], g_m1[0]), dot(u[k], g_m2[0]));
     vec2 e1 = A[1] - A[0], e2 = A[2] - A[0];
     float det = e1.x * e2.y - e1.y * e2.x;
     float scale = max(max(dot(A[0], A[0]), dot(A[1], A[1])), dot(A[2], A[2]));
