@@ -107,10 +107,29 @@ def marking_vertices(positions, normals, triangles, reach: float = SINGULAR_REAC
     if len(anchors) == 0 or len(tris) == 0:
         return np.ones(len(positions), dtype=bool)
     edge = float(np.median(np.linalg.norm(positions[tris[:, 1]] - positions[tris[:, 0]], axis=1)))
+    radius = reach * edge
+    if not radius > 0:
+        return np.ones(len(positions), dtype=bool)
+    # Only vertices in a grid cell (of the radius' size) next to an anchor's can be near one:
+    # a hash of the cells first, exact distances for those few (this runs at upload).
+    lo = np.minimum(positions.min(axis=0), anchors.min(axis=0)) - radius
+    hi = np.maximum(positions.max(axis=0), anchors.max(axis=0)) + radius
+    span = np.floor((hi - lo) / radius).astype(np.int64) + 2
+
+    def code(points) -> np.ndarray:
+        """One integer per grid cell of a point (cells of the radius' size)."""
+        k = np.floor((points - lo) / radius).astype(np.int64)
+        return ((k[:, 0] * span[1] + k[:, 1]) * span[2] + k[:, 2]) * span[3] + k[:, 3]
+
+    steps = np.stack(np.meshgrid(*[(-1.0, 0.0, 1.0)] * 4, indexing="ij"), axis=-1).reshape(-1, 4)
+    near_cells = np.unique(code((anchors[:, None, :] + radius * steps[None]).reshape(-1, 4)))
+    candidates = np.flatnonzero(np.isin(code(positions), near_cells))
+    marking = np.ones(len(positions), dtype=bool)
+    p = positions[candidates]
     # |p - a|² = |p|² + |a|² - 2 p·a, one matrix product for all pairs.
-    d2 = _dot(positions, positions)[:, None] + _dot(anchors, anchors)[None, :]
-    d2 -= 2.0 * positions @ anchors.T
-    return d2.min(axis=1) >= (reach * edge) ** 2
+    d2 = _dot(p, p)[:, None] + _dot(anchors, anchors)[None, :] - 2.0 * p @ anchors.T
+    marking[candidates] = d2.min(axis=1) >= radius**2
+    return marking
 
 
 def eligible_triangles(positions, normals, triangles, reach: float = SINGULAR_REACH) -> np.ndarray:

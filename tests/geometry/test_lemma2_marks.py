@@ -9,7 +9,12 @@ import pytest
 
 from exhibit import scenes
 from exhibit.geometry import clip_transform
-from exhibit.geometry.lemma2_marks import eligible_triangles, lemma2_marks, turns
+from exhibit.geometry.lemma2_marks import (
+    eligible_triangles,
+    lemma2_marks,
+    marking_vertices,
+    turns,
+)
 from tests.geometry.planted_lemma2 import C, SHIFTS, planted
 
 
@@ -122,3 +127,20 @@ def test_marks_match_the_exact_lemma_2_points(figure):
         assert len(marks) == len(exact), view
         for mark in marks:
             assert min(np.linalg.norm(mark - y) for y in exact) < 0.05
+
+
+def test_marking_vertices_is_the_brute_force_distance_test():
+    """The grid hash finds exactly the vertices within the reach of a singular vertex."""
+    rng = np.random.default_rng(5)
+    positions = rng.uniform(-1.0, 1.0, (3000, 4))
+    normals = np.tile(np.eye(4)[:2], (3000, 1, 1))
+    normals[rng.choice(3000, 40, replace=False)] = 0.0  # singular vertices
+    triangles = rng.integers(0, 3000, (2000, 3))
+    marking = marking_vertices(positions, normals, triangles, reach=0.5)
+    edge = np.median(
+        np.linalg.norm(positions[triangles[:, 1]] - positions[triangles[:, 0]], axis=1)
+    )
+    anchors = positions[(normals[:, 0] ** 2).sum(axis=1) < 0.25]
+    d2 = ((positions[:, None] - anchors[None]) ** 2).sum(axis=2).min(axis=1)
+    assert np.array_equal(marking, d2 >= (0.5 * edge) ** 2)
+    assert 0 < (~marking).sum() < 3000
