@@ -27,6 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from exhibit.surfaces.newton import project_onto
+from exhibit.surfaces.singular import project_onto_singular_set
 
 
 def boundary_vertices(triangles: np.ndarray) -> np.ndarray:
@@ -149,23 +150,34 @@ def _project_near_singular(fields, points: np.ndarray, max_move: float):
     divided by its gradient's length (so a vanishing gradient still steers its field to zero,
     linearly at a double zero) and the pseudo-inverse drops singular values under 1e-6 (the
     dependent direction). Converged: |f_i|/|∇f_i| ≤ 1e-9 for every field, within ``max_move``.
+    (Next to the cusp's circle the first step can overshoot to u < 0, where v² = u³ has no
+    points but u = v = 0, and Gauss-Newton then creeps: those points are left to the singular
+    set's own projection.)
     Returns (positions, converged)."""
     x = points.copy()
     converged = np.zeros(len(x), dtype=bool)
+    going = np.ones(len(x), dtype=bool)
     for _ in range(200):
-        values = np.stack([f.value(x) for f in fields], axis=-1)  # (N, k)
-        jac = np.stack([f.gradient(x) for f in fields], axis=1)  # (N, k, 4)
+        idx = np.flatnonzero(going)
+        if len(idx) == 0:
+            break
+        xa = x[idx]
+        values = np.stack([f.value(xa) for f in fields], axis=-1)  # (A, k)
+        jac = np.stack([f.gradient(xa) for f in fields], axis=1)  # (A, k, 4)
         length = np.linalg.norm(jac, axis=-1)
         usable = np.isfinite(values).all(axis=1) & np.isfinite(jac).all(axis=(1, 2))
-        usable &= np.all(length > 0, axis=1)
-        length = np.where(usable[:, None], length, 1.0)
-        scaled = np.where(usable[:, None], values / length, 0.0)
-        converged = usable & np.all(np.abs(scaled) <= 1e-9, axis=1)
-        unit = np.where(usable[:, None, None], jac / length[..., None], 0.0)
+        # a field with a zero gradient is satisfied only where it vanishes (it gives no step)
+        flat = length == 0
+        usable &= np.all(~flat | (values == 0), axis=1)
+        length = np.where(~flat, length, 1.0)
+        scaled = np.where(usable[:, None] & ~flat, values / length, 0.0)
+        done = usable & np.all(np.abs(scaled) <= 1e-9, axis=1)
+        converged[idx[done]] = True
+        going[idx[done | ~usable]] = False
+        step_on = usable & ~done
+        unit = np.where(step_on[:, None, None], jac / length[..., None], 0.0)
         step = np.einsum("nik,nk->ni", np.linalg.pinv(unit, rcond=1e-6), scaled)
-        x = np.where(usable[:, None], x - step, x)
-        if np.all(converged | ~usable):
-            break
+        x[idx[step_on]] = xa[step_on] - step[step_on]
     within = np.linalg.norm(x - points, axis=1) <= max_move
     return x, converged & within
 
@@ -189,8 +201,15 @@ def distance_to_surface(fields, points, max_move: float, fallback=None, known=No
     if len(stuck):
         near, converged = _project_near_singular(fields, p[stuck], max_move)
         dist[stuck[converged]] = np.linalg.norm(near[converged] - p[stuck[converged]], axis=1)
-        if known is not None:
-            failed = stuck[~converged]
+        if known is not None and len(known) and len(fields) == 2:
+            # next to a singular curve the nearest point is often on it: Gauss-Newton on f1, f2
+            # and J's minors from the point lands there
+            on_set, found = project_onto_singular_set(fields[0], fields[1], p[stuck], max_move)
+            values = np.stack([f.value(on_set) for f in fields], axis=-1)
+            found &= np.all(np.abs(values) <= 1e-9, axis=1)
+            to_set = np.where(found, np.linalg.norm(on_set - p[stuck], axis=1), np.inf)
+            dist[stuck] = np.minimum(dist[stuck], to_set)
+            failed = stuck[~np.isfinite(dist[stuck])]
             dist[failed] = _nearest_distance(p[failed], np.asarray(known).reshape(-1, 4))
     for _ in range(FOOT_POINT_STEPS):
         idx = np.flatnonzero(ok & (dist > 0))
