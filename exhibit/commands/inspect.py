@@ -10,7 +10,7 @@ import numpy as np
 from exhibit import scenes
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.surfaces import analyse
-from exhibit.surfaces.metrics import boundary_box_distance, distance_to_mesh
+from exhibit.surfaces.metrics import boundary_box_distance, distance_to_mesh, surface_sag
 
 HELP = "build a scene and check its mesh: components, Euler characteristic, edges, residuals"
 
@@ -41,10 +41,17 @@ def part_report(surface) -> dict:
 
 def exactness(surface) -> dict:
     """For implicit parts: how far the boundary is from the box's faces (0: the surface is cut
-    exactly at the box, or closed) and how far the traced singular set is from the mesh."""
+    exactly at the box, or closed), how far the traced singular set is from the mesh, and how far
+    the vertices and the triangles between them are from the true surface (None where the part
+    has no exact f1 = f2 = 0 at hand)."""
     box = surface.info.get("box")
     if box is None:
-        return {"boundary_box_distance": None, "singular_gap": None}
+        return {
+            "boundary_box_distance": None,
+            "singular_gap": None,
+            "max_vertex_distance": None,
+            "max_sag": None,
+        }
     report: dict[str, float | None] = {
         "boundary_box_distance": boundary_box_distance(surface.positions, surface.triangles, *box)
     }
@@ -57,6 +64,19 @@ def exactness(surface) -> dict:
     else:
         report["singular_gap"] = float(
             distance_to_mesh(singular, surface.positions, surface.triangles).max()
+        )
+    if result is None:
+        report.update(max_vertex_distance=None, max_sag=None)
+    else:
+        exact = surface.exact
+        report.update(
+            surface_sag(
+                (exact.f1, exact.f2),
+                surface.positions,
+                surface.triangles,
+                float(surface.info["cell_size"]),
+                singular,
+            )
         )
     diagonal = float(np.linalg.norm(np.subtract(box[1], box[0])))
     report["box_diagonal"] = diagonal
@@ -85,6 +105,11 @@ def run(args) -> int:
             print(
                 f"    boundary off the box by {p['boundary_box_distance']:.1e}, singular set "
                 f"off the mesh by {gap} (box diagonal {p['box_diagonal']:.3g})"
+            )
+        if p["max_sag"] is not None:
+            print(
+                f"    vertices off the surface by at most {p['max_vertex_distance']:.1e}, "
+                f"triangles (edge midpoints, centroids) by at most {p['max_sag']:.2g}"
             )
     for curve in mesh.curves:
         closed = " (closed)" if curve.closed else ""

@@ -33,21 +33,28 @@ from typing import Callable
 
 import numpy as np
 
+from exhibit.surfaces import adaptive
 from exhibit.surfaces import progress as progress_line
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.mesh import Material, Surface
+from exhibit.surfaces.newton import (  # noqa: F401  (re-exported)
+    NEWTON_ITERATIONS,
+    NEWTON_TOLERANCE,
+    SINGULAR_RATIO,
+    CoordinatePlane,
+    project_onto,
+)
 from exhibit.surfaces.parametric import finite_directions, keep_vertices
 from exhibit.surfaces.singular import find_singular_points, trace_singular_set
 
-#: σ_min/σ_max of the Jacobian below which a vertex counts as a singular point.
-SINGULAR_RATIO = 1e-6
-NEWTON_ITERATIONS = 40
-#: Newton stops once max(|f1|, |f2|) at a vertex is below this (relative to the gradient size).
-NEWTON_TOLERANCE = 1e-13
 #: Corner values beyond this count as non-finite: the crossing test multiplies two of them.
 LARGEST_VALUE = 1e150
 #: Cells the grid reaches beyond the box on every side before the mesh is cut at the box.
 PAD = 1.5
+#: Edges whose midpoint is farther than this many cells off the surface are split
+#: (`adaptive.py`): 1/24 of a cell is what the regular parabola's pipe sags at most (0.0049 at
+#: resolution 48), so a regular surface is hardly touched and a pinch ends up as smooth.
+SAG_TOLERANCE = 1.0 / 24.0
 
 _PAIRS = list(itertools.combinations(range(4), 2))  # the 6 coordinate planes of a square
 _OTHERS = [tuple(d for d in range(4) if d not in pair) for pair in _PAIRS]
@@ -73,6 +80,8 @@ class PolygonizeStats:
     box_cut: tuple[int, int] = (0, 0)
     #: Vertices moved onto the traced singular set so the mesh reaches it.
     snapped: int = 0
+    #: Edges split where they sagged off the surface (of them, on the singular set).
+    refined: tuple[int, int] = (0, 0)
     levels: list[int] = field(default_factory=list)
 
 
@@ -224,81 +233,6 @@ def _labelled(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return positive, bary
 
 
-def _extreme_eigenvalues(gram: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Smallest and largest eigenvalues of symmetric (A, k, k) matrices. For k = 2 (a surface's
-    two fields) in closed form: LAPACK's per-matrix call overhead was a third of Newton's time;
-    the smallest is det/largest, which keeps its relative accuracy as it goes to zero."""
-    if gram.shape[-1] != 2:
-        eig = np.linalg.eigvalsh(gram)
-        return eig[:, 0], eig[:, -1]
-    a, b, c = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
-    largest = 0.5 * (a + c) + np.hypot(0.5 * (a - c), b)
-    smallest = (a * c - b * b) / np.maximum(largest, 1e-300)
-    return smallest, largest
-
-
-def _solve_gram(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
-    """gram⁻¹ rhs for symmetric (A, k, k) matrices that are well conditioned (the singular ones
-    are already set aside): Cramer's rule for k = 2, LAPACK otherwise."""
-    if gram.shape[-1] != 2:
-        return np.linalg.solve(gram, rhs[..., None])[..., 0]
-    a, b, c = gram[:, 0, 0], gram[:, 0, 1], gram[:, 1, 1]
-    det = a * c - b * b
-    return (
-        np.stack([c * rhs[:, 0] - b * rhs[:, 1], a * rhs[:, 1] - b * rhs[:, 0]], axis=1)
-        / det[:, None]
-    )
-
-
-@np.errstate(all="ignore")
-def project_onto(fields, points: np.ndarray, max_move: float):
-    """Newton-project points onto {f = 0 for f in fields} with the minimum-norm step
-    x <- x - Jᵀ(JJᵀ)⁻¹F (k fields, k <= 4).
-
-    Returns (positions, singular, unconverged): where σ_min/σ_max of J falls below
-    SINGULAR_RATIO, or a point would move more than ``max_move``, it keeps its start position;
-    so does a point where a value or the Jacobian is not finite (it counts as unconverged).
-    """
-    x = points.copy()
-    start = points.copy()
-    singular = np.zeros(len(x), dtype=bool)
-    failed = np.zeros(len(x), dtype=bool)
-    active = np.ones(len(x), dtype=bool)
-    for _ in range(NEWTON_ITERATIONS):
-        if not active.any():
-            break
-        idx = np.nonzero(active)[0]
-        xa = x[idx]
-        values = np.stack([f.value(xa) for f in fields], axis=-1)  # (A, k)
-        jac = np.stack([f.gradient(xa) for f in fields], axis=1)  # (A, k, 4)
-        gram = jac @ np.transpose(jac, (0, 2, 1))  # (A, k, k)
-        finite = np.isfinite(values).all(axis=1) & np.isfinite(gram).all(axis=(1, 2))
-        failed[idx[~finite]] = True
-        active[idx[~finite]] = False
-        idx, xa, values, jac, gram = (
-            idx[finite],
-            xa[finite],
-            values[finite],
-            jac[finite],
-            gram[finite],
-        )
-        smallest, largest = _extreme_eigenvalues(gram)
-        ratio = np.sqrt(np.maximum(smallest, 0.0) / np.maximum(largest, 1e-300))
-        is_singular = ratio < SINGULAR_RATIO
-        scale = np.sqrt(np.maximum(largest, 1e-300))
-        done = np.max(np.abs(values), axis=1) <= NEWTON_TOLERANCE * np.maximum(scale, 1.0)
-        singular[idx[is_singular]] = True
-        ok = ~is_singular & ~done
-        if ok.any():
-            solved = _solve_gram(gram[ok], values[ok])
-            x[idx[ok]] = xa[ok] - np.einsum("aki,ak->ai", jac[ok], solved)
-        active[idx[is_singular | done]] = False
-    runaway = ~(np.linalg.norm(x - start, axis=1) <= max_move) | failed
-    unconverged = (active | runaway) & ~singular
-    x[singular | runaway] = start[singular | runaway]
-    return x, singular, unconverged
-
-
 def reach_singular_set(
     surface: Surface, traced: np.ndarray, radius: float, enough: float, rounds: int = 3
 ) -> int:
@@ -339,21 +273,6 @@ def reach_singular_set(
     assert surface.singular is not None  # __post_init__ sets it
     surface.singular[moved] = True
     return int(moved.sum())
-
-
-class CoordinatePlane:
-    """The field x[axis] - bound (a box face, a slicing hyperplane) for project_onto and Newton."""
-
-    def __init__(self, axis: int, bound: float):
-        self.axis, self.bound = axis, bound
-
-    def value(self, points):
-        return points[..., self.axis] - self.bound
-
-    def gradient(self, points):
-        g = np.zeros(points.shape)
-        g[..., self.axis] = 1.0
-        return g
 
 
 def _box_depth(points, lo, hi, scale):
@@ -452,10 +371,13 @@ def polygonize(
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
     prune: bool = True,
+    follow_surface: bool = True,
 ) -> ImplicitResult:
     """Mesh {f1 = f2 = 0} within the box [domain_lo, domain_hi] at ``resolution`` cells per axis.
 
     ``prune=False`` visits every cell of the grid (n⁴): the baseline the benchmark compares with.
+    ``follow_surface=False`` skips the refinement of edges that sag off the surface (as the mesh
+    was before it, for comparisons).
     """
     started = time.perf_counter()
     if progress is None:
@@ -569,6 +491,23 @@ def polygonize(
         cell = float(h.max())
         singular_points = trace_singular_set(f1, f2, singular_points, cell / 4, 3 * cell)
         stats.snapped = reach_singular_set(surface, singular_points, 1.5 * cell, cell / 8)
+    if follow_surface and len(surface.triangles):
+        if progress is not None:
+            progress("following the surface")
+        cell = float(h.max())
+        assert surface.singular is not None  # __post_init__ sets it
+        positions, normals, singular, triangles, refined = adaptive.refine(
+            (f1, f2),
+            surface.positions,
+            surface.normals,
+            surface.singular,
+            surface.triangles,
+            SAG_TOLERANCE * cell,
+            singular_set=singular_points,
+            reach=1.5 * cell,
+        )
+        surface = Surface(name, positions, normals, triangles, surface.material, singular)
+        stats.refined = (refined.split, refined.onto_singular_set)
     stats.singular_points = len(singular_points)
     stats.seconds = time.perf_counter() - started
     surface.info = {
@@ -582,5 +521,6 @@ def polygonize(
         "cell_size": float(h.max()),
         "box_cut": list(stats.box_cut),
         "snapped_to_singular_set": stats.snapped,
+        "refined_edges": list(stats.refined),
     }
     return ImplicitResult(surface, stats, singular_points)

@@ -84,6 +84,16 @@ def find_singular_points(
 def _search_from(f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: float) -> np.ndarray:
     """Gauss-Newton on (f1, f2, minors) from each seed; the points it converges to within
     ``reach`` of their seed (the rest are dropped)."""
+    x, found = project_onto_singular_set(f1, f2, seeds, reach)
+    return x[found]
+
+
+@np.errstate(all="ignore")
+def project_onto_singular_set(
+    f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Gauss-Newton on (f1, f2, minors) from each seed: (the points reached, whether each
+    converged within ``reach`` of its seed)."""
     cache = f1.__dict__.setdefault("_singular_systems", {})
     system = cache.get(id(f2))
     if system is None:
@@ -112,7 +122,7 @@ def _search_from(f1: ScalarField, f2: ScalarField, seeds: np.ndarray, reach: flo
         & (np.abs(r).max(axis=1) <= TOLERANCE * scale)
         & (np.linalg.norm(x - seeds, axis=1) <= reach)
     )
-    return x[found]
+    return x, found
 
 
 def nearest_distance(a: np.ndarray, b: np.ndarray, chunk: int = 128) -> np.ndarray:

@@ -50,6 +50,8 @@ def test_inspect_reports_every_key(capsys):
         "boundary_box_distance",
         "singular_gap",
         "box_diagonal",
+        "max_vertex_distance",
+        "max_sag",
     }
     assert set(parts[0]) == keys
     assert parts[0]["boundary_box_distance"] == 0.0  # closed
