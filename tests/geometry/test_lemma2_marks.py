@@ -109,13 +109,20 @@ def marks_in_view(surface, view):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("figure", [16, 17])
+@pytest.mark.parametrize("figure", [15, 16, 17])
 def test_marks_match_the_exact_lemma_2_points(figure):
-    """In the figure's view and eleven random ones, one mark per exact point (found by Newton
-    from the marks of a mesh twice as fine), each within a cell of it."""
+    """In the figure's view and eleven random ones, every mark lies within a cell of an exact
+    Lemma 2 point (found by Newton from the marks of a mesh twice as fine), and every exact
+    point clear of the singular points' neighbourhood has exactly one mark. Figure 15's own
+    view had six marks for four points before the mesh followed the surface near its pinch."""
     scene, preset = scenes.figure(figure)
     coarse = scene.build(preset.params).surfaces[0]
     fine = scene.build(preset.params, resolution=2 * scene.default_resolution).surfaces[0]
+    tris = coarse.triangles
+    edge = np.median(
+        np.linalg.norm(coarse.positions[tris[:, 1]] - coarse.positions[tris[:, 0]], axis=1)
+    )
+    singular = coarse.positions[(coarse.normals[:, 0] ** 2).sum(axis=1) < 0.25]
     rng = np.random.default_rng(2)
     views = [preset.view] + [
         preset.view.replace(angles=tuple(rng.uniform(-np.pi, np.pi, 6))) for _ in range(11)
@@ -124,23 +131,9 @@ def test_marks_match_the_exact_lemma_2_points(figure):
         seeds, pose = marks_in_view(fine, view)
         exact = exact_points(fine.exact, seeds, *pose)
         marks, _ = marks_in_view(coarse, view)
-        assert len(marks) == len(exact), view
         for mark in marks:
-            assert min(np.linalg.norm(mark - y) for y in exact) < 0.05
-
-
-def test_marking_vertices_is_the_brute_force_distance_test():
-    """The grid hash finds exactly the vertices within the reach of a singular vertex."""
-    rng = np.random.default_rng(5)
-    positions = rng.uniform(-1.0, 1.0, (3000, 4))
-    normals = np.tile(np.eye(4)[:2], (3000, 1, 1))
-    normals[rng.choice(3000, 40, replace=False)] = 0.0  # singular vertices
-    triangles = rng.integers(0, 3000, (2000, 3))
-    marking = marking_vertices(positions, normals, triangles, reach=0.5)
-    edge = np.median(
-        np.linalg.norm(positions[triangles[:, 1]] - positions[triangles[:, 0]], axis=1)
-    )
-    anchors = positions[(normals[:, 0] ** 2).sum(axis=1) < 0.25]
-    d2 = ((positions[:, None] - anchors[None]) ** 2).sum(axis=2).min(axis=1)
-    assert np.array_equal(marking, d2 >= (0.5 * edge) ** 2)
-    assert 0 < (~marking).sum() < 3000
+            assert min(np.linalg.norm(mark - y) for y in exact) < 0.05, view
+        for point in exact:
+            if len(singular) and np.linalg.norm(singular - point, axis=1).min() < 5 * edge:
+                continue  # the marks stop SINGULAR_REACH edges short of the singular points
+            assert (np.linalg.norm(marks - point, axis=1) < 0.05).sum() == 1, view
