@@ -32,10 +32,10 @@ bool centre_hidden(vec2 centre) {
             ivec2 p = clamp(c + ivec2(dx, dy), ivec2(0), size - 1);
             vec4 g = surface_at(p);
             if (g.y <= 0.0) continue;   // empty
-            // The plane carried to the centre, less the depth it spans over a pixel (at a fold,
-            // seen edge-on, the front and back sheets are within that of each other).
+            // The plane carried to the centre, less half the depth it spans over a pixel: within
+            // a pixel of a fold, seen edge-on, the front and back sheets are that close.
             float z = g.y + dot(g.zw, centre - (vec2(p) + 0.5));
-            float slack = abs(g.z) + abs(g.w);
+            float slack = 0.5 * (abs(g.z) + abs(g.w));
             // gl_FragCoord.z is the line's depth at this point of its centre (constant across).
             if (gl_FragCoord.z > z + slack) return true;
         }
