@@ -144,6 +144,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             "surface_sheets",
             "surface_depth_sheets",
             "silhouette",
+            "silhouette_slice",
             "ids",
             "floor",
         ):

@@ -133,6 +133,9 @@ class Renderer:
             "intersect_ms": p(ctx, "intersect.glsl", ("MULTISAMPLE",)),
             "ids": p(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
             "silhouette": p(ctx, "silhouette.glsl"),
+            # With the slice's tangency test (and the two vec4 per vertex it needs): only
+            # frames that draw a slice pay for it.
+            "silhouette_slice": p(ctx, "silhouette.glsl", ("TOUCHING",)),
             "curves": p(ctx, "curves.glsl"),
             "overlay": p(ctx, "overlay.glsl"),
             "text": p(ctx, "text.glsl"),
@@ -313,38 +316,37 @@ class Renderer:
         # slice stay above the wire frames, the curves and the ink.
         sliced = view.slice_axis is not None
         if (options.silhouettes or sliced) and gpu.surfaces:
-            prog = self.programs["silhouette"]
-            self.set_pipeline(prog, view, size)
             axis = np.zeros(4)
             if sliced:
                 axis[view.slice_axis] = 1.0
             pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
-            self._set(
-                prog,
-                u_line_bias=LINE_BIAS,
-                u_width_scale=scale,
-                u_pass=1,
-                u_slice_axis=tuple(axis),
-                u_slice_at=view.slice_at,
-            )
             ctx.fbo.depth_mask = False
             # Two passes over the same triangles: the ink, then the marks that must lie on top
             # of it (the slice and the Lemma 2 discs). With no depth writes, what a later
             # triangle emits covers what an earlier one did, so one pass would let ink cross
-            # the discs; zero widths tell the geometry shader what to skip.
+            # the discs; zero widths tell the geometry shader what to skip. The slice's pass
+            # is the program with the tangency test ("silhouette_slice").
             ink = options.silhouette_width if options.silhouettes else 0.0
-            passes = [(ink, 0.0, 0.0)] if ink > 0 else []
+            passes = [("silhouette", ink, 0.0, 0.0)] if ink > 0 else []
             if sliced or pinch > 0:
-                passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
-            for ink_width, slice_width, pinch_size in passes:
+                key = "silhouette_slice" if sliced else "silhouette"
+                passes.append((key, 0.0, SLICE_WIDTH if sliced else 0.0, pinch))
+            for key, ink_width, slice_width, pinch_size in passes:
+                prog = self.programs[key]
+                self.set_pipeline(prog, view, size)
                 self._set(
                     prog,
+                    u_line_bias=LINE_BIAS,
+                    u_width_scale=scale,
+                    u_pass=1,
+                    u_slice_axis=tuple(axis),
+                    u_slice_at=view.slice_at,
                     u_pinch=(1.0, 0.93, 0.2, pinch_size),
                     u_slice_style=(*SLICE_COLOR, slice_width),
                 )
                 for surface in gpu.surfaces:
                     prog["u_ink"] = (*darker(surface.color), ink_width)
-                    surface.vaos["silhouette"].render(moderngl.TRIANGLES)
+                    surface.vaos[key].render(moderngl.TRIANGLES)
             ctx.fbo.depth_mask = True
 
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)

@@ -137,3 +137,20 @@ def test_marks_match_the_exact_lemma_2_points(figure):
             if len(singular) and np.linalg.norm(singular - point, axis=1).min() < 5 * edge:
                 continue  # the marks stop SINGULAR_REACH edges short of the singular points
             assert (np.linalg.norm(marks - point, axis=1) < 0.05).sum() == 1, view
+
+
+def test_marking_vertices_is_the_brute_force_distance_test():
+    """The grid hash finds exactly the vertices within the reach of a singular vertex."""
+    rng = np.random.default_rng(5)
+    positions = rng.uniform(-1.0, 1.0, (3000, 4))
+    normals = np.tile(np.eye(4)[:2], (3000, 1, 1))
+    normals[rng.choice(3000, 40, replace=False)] = 0.0  # singular vertices
+    triangles = rng.integers(0, 3000, (2000, 3))
+    marking = marking_vertices(positions, normals, triangles, reach=0.5)
+    edge = np.median(
+        np.linalg.norm(positions[triangles[:, 1]] - positions[triangles[:, 0]], axis=1)
+    )
+    anchors = positions[(normals[:, 0] ** 2).sum(axis=1) < 0.25]
+    d2 = ((positions[:, None] - anchors[None]) ** 2).sum(axis=2).min(axis=1)
+    assert np.array_equal(marking, d2 >= (0.5 * edge) ** 2)
+    assert 0 < (~marking).sum() < 3000

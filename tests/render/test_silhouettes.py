@@ -233,6 +233,13 @@ def test_the_live_slice_glows_at_exact_tangency(gl):
     assert np.sqrt(x**2 + t**2 + (np.hypot(y, z) - 1) ** 2).max() < 0.01
     expected = _segment_pixels(segments, view, size)
     assert len(glow) > 300 and len(expected) > 300
+    # The two singular points lie on the slice too: the mesh reaches them exactly (a vertex on
+    # each since it follows the surface there, with h = 0), and the sign-change rule glows
+    # there; the touching segments stop short of them.
+    singular, _ = clip_transform(view, size[0] / size[1]).to_pixels(
+        np.array([[0.0, 1.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0]]), *size
+    )
+    glow = glow[_nearest(glow, singular) > 4.0]
     assert np.quantile(_nearest(glow, expected), 0.99) <= 3.0
     assert np.quantile(_nearest(expected, glow), 0.99) <= 2.5
     # the projected circle is in the slice's colour, except next to the singular points

@@ -23,36 +23,40 @@ in float in_mark;            // 1 where the vertex may mark Lemma 2 points (0 ne
 out vec4 g_clip;
 out vec4 g_dist;
 out float g_s;
-out float g_singular;
+out float g_singular;        // 1 singular (zero normals), 0.5 next to one (no Lemma 2 mark), 0
 out vec4 g_m1;
 out vec4 g_m2;
 out vec2 g_ab;
 flat out int g_id;
-out float g_mark;
 out float g_h;
+#if defined TOUCHING
 out vec4 g_hp;               // the scene position, and h's gradient along the surface (the
 out vec4 g_hg;               // axis less its normal parts; normals are orthonormal or zero)
+#endif
 uniform vec4 u_slice_axis;   // unit vector of the slicing axis (scene coordinates)
 uniform float u_slice_at;
 
 void main() {
     g_h = dot(u_slice_axis, in_pos) - u_slice_at;
+#if defined TOUCHING
     g_hp = in_pos;
     g_hg = u_slice_axis - dot(u_slice_axis, in_n1) * in_n1 - dot(u_slice_axis, in_n2) * in_n2;
+#endif
     vec4 q = u_R * in_pos + u_t;
     vec4 m1 = u_R * in_n1;
     vec4 m2 = u_R * in_n2;
     vec4 rho1 = sensor_ray(q);
     vec4 rho2 = eye_ray(q);
     g_s = dot(m1, rho1) * dot(m2, rho2) - dot(m1, rho2) * dot(m2, rho1);
-    g_singular = dot(m1, m1) < 0.25 ? 1.0 : 0.0;   // normals are zero at singular points
+    // Normals are zero at singular points. (Packed into one value with the Lemma 2 flag: on
+    // llvmpipe the geometry stage's cost grows with every component a vertex hands it.)
+    g_singular = dot(m1, m1) < 0.25 ? 1.0 : (in_mark > 0.5 ? 0.0 : 0.5);
     g_clip = to_clip(in_pos);
     g_dist = line_distances(in_pos, g_clip);
     g_m1 = m1;
     g_m2 = m2;
     g_ab = vec2(dot(m1, rho1), dot(m2, rho1));
     g_id = gl_VertexID;   // the vertex's index: an edge's two triangles agree on its frame
-    g_mark = in_mark;
 }
 #endif
 
@@ -67,10 +71,11 @@ in vec4 g_m1[];
 in vec4 g_m2[];
 in vec2 g_ab[];
 flat in int g_id[];
-in float g_mark[];
 in float g_h[];
+#if defined TOUCHING
 in vec4 g_hp[];
 in vec4 g_hg[];
+#endif
 uniform vec4 u_slice_style;  // rgb, core width in px (0: no slice drawn)
 uniform vec4 u_ink;          // rgb, width in px (0: no silhouettes drawn)
 uniform vec4 u_pinch;        // rgb, diameter in px (0: Lemma 2 points not marked)
@@ -124,6 +129,7 @@ float edge_turn(int i, int j, vec4 u[3]) {
     return forward ? t : -t;
 }
 
+#if defined TOUCHING  // only the sliced frames' program (the slice at tangency)
 // The segment where h touches zero on this triangle without changing sign, or false: on each
 // edge whose ends have the same sign (neither singular), the cubic Hermite interpolant of h and
 // its derivatives along the surface; where |h| dips, its lowest value must be within
@@ -135,7 +141,7 @@ bool touching(out vec4 c[2], out vec4 d[2]) {
         int j = (i + 1) % 3;
         float h0 = g_h[i], h1 = g_h[j];
         if (n == 2 || (h0 > 0.0) != (h1 > 0.0) || h0 == 0.0 || h1 == 0.0) continue;
-        if (g_singular[i] + g_singular[j] > 0.0) continue;
+        if (max(g_singular[i], g_singular[j]) >= 1.0) continue;
         vec4 e = g_hp[j] - g_hp[i];
         float sg = h0 > 0.0 ? 1.0 : -1.0;
         float d0 = dot(g_hg[i], e), d1 = dot(g_hg[j], e);
@@ -155,15 +161,20 @@ bool touching(out vec4 c[2], out vec4 d[2]) {
     }
     return n == 2;
 }
+#endif
 
 void main() {
     vec4 c[2];
     vec4 d[2];
-    if (u_slice_style.w > 0.0
-        && (crossing(float[3](g_h[0], g_h[1], g_h[2]), c, d) || touching(c, d))) {
+#if defined TOUCHING
+    bool sliced = crossing(float[3](g_h[0], g_h[1], g_h[2]), c, d) || touching(c, d);
+#else
+    bool sliced = crossing(float[3](g_h[0], g_h[1], g_h[2]), c, d);
+#endif
+    if (u_slice_style.w > 0.0 && sliced) {
         emit_segment(c[0], c[1], d[0], d[1], u_slice_style, 10.0 * u_line_bias, 1.0);
     }
-    if (g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;  // never silhouettes
+    if (max(max(g_singular[0], g_singular[1]), g_singular[2]) >= 1.0) return;  // never silhouettes
     // Lemma 3 segment: the two edges whose ends have opposite signs of s.
     if (u_ink.w > 0.0 && crossing(float[3](g_s[0], g_s[1], g_s[2]), c, d))
         emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0, 1.0);
@@ -173,7 +184,7 @@ void main() {
     // lower-numbered vertex, so the two triangles at an edge compute the same angle and a zero
     // is claimed once (solving each triangle's interpolant in a frame of its own claimed a
     // zero near an edge twice or not at all). The disc sits at the interpolant's zero.
-    if (u_pinch.w <= 0.0 || g_mark[0] * g_mark[1] * g_mark[2] == 0.0) return;
+    if (u_pinch.w <= 0.0 || g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;
     vec4 u[3];
     for (int k = 0; k < 3; ++k) u[k] = g_ab[k].x * g_m1[k] + g_ab[k].y * g_m2[k];
     vec2 A[3];
