@@ -105,3 +105,27 @@ def touching_segments(positions, triangles, values, gradients, singular=None) ->
     rest[np.arange(len(rows)), first] = False
     second = np.argmax(rest, axis=1)
     return np.stack([points_[rows, first], points_[rows, second]], axis=1)
+
+
+#: The tangency test is worth running only near a critical value of x_a on the surface: where
+#: some vertex's tangential gradient |P_T e_a| is at most this (the axis within 60° of the
+#: normal plane) and its x_a within an edge's length of the slice.
+GATE_GRADIENT = 0.5
+
+
+def critical_values(positions, normals) -> tuple[np.ndarray, ...]:
+    """Per axis a, the sorted x_a of the regular vertices where |P_T e_a| ≤ GATE_GRADIENT: a
+    slice x_a = c can touch the surface only near these (normals orthonormal, so |P_T e_a|² =
+    1 − n1_a² − n2_a²)."""
+    positions = np.asarray(positions, dtype=float)
+    normals = np.asarray(normals, dtype=float)
+    regular = np.einsum("ij,ij->i", normals[:, 0], normals[:, 0]) > 0.25
+    tangential = 1.0 - normals[:, 0] ** 2 - normals[:, 1] ** 2  # (V, 4): |P_T e_a|² per axis
+    near = regular[:, None] & (tangential <= GATE_GRADIENT**2)
+    return tuple(np.sort(positions[near[:, a], a]) for a in range(positions.shape[1]))
+
+
+def near_critical(values: np.ndarray, at: float, band: float) -> bool:
+    """Whether a sorted array of critical values has one within ``band`` of ``at``."""
+    i = int(np.searchsorted(values, at - band))
+    return i < len(values) and values[i] <= at + band

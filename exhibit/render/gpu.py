@@ -13,6 +13,7 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.lemma2_marks import marking_vertices
+from exhibit.geometry.touching import critical_values
 from exhibit.surfaces.mesh import Mesh4D, Surface
 
 #: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
@@ -66,6 +67,10 @@ class GpuSurface:
     ibo: moderngl.Buffer
     triangle_count: int
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
+    #: Per axis, the sorted coordinates near which a slice may touch the surface, and the
+    #: longest edge: the slice's pass runs the tangency test only there (geometry/touching.py).
+    critical: tuple[np.ndarray, ...] = ()
+    longest_edge: float = 0.0
 
 
 @dataclass
@@ -138,6 +143,11 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         vbo = ctx.buffer(surface_vertices(surface).tobytes())
         ibo = ctx.buffer(np.ascontiguousarray(surface.triangles, dtype=np.int32).tobytes())
         gpu = GpuSurface(surface.name, surface.material.color, vbo, ibo, len(surface.triangles))
+        gpu.critical = critical_values(surface.positions, surface.normals)
+        p, t = surface.positions, surface.triangles
+        gpu.longest_edge = float(
+            max(np.linalg.norm(p[t[:, k]] - p[t[:, (k + 1) % 3]], axis=1).max() for k in range(3))
+        )
         for key in (
             "surface",
             "surface_depth",

@@ -17,6 +17,7 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.pipeline import ClipTransform, clip_transform
+from exhibit.geometry.touching import near_critical
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import GpuMesh, upload
@@ -325,27 +326,36 @@ class Renderer:
             # of it (the slice and the Lemma 2 discs). With no depth writes, what a later
             # triangle emits covers what an earlier one did, so one pass would let ink cross
             # the discs; zero widths tell the geometry shader what to skip. The slice's pass
-            # is the program with the tangency test ("silhouette_slice").
+            # runs the program with the tangency test ("silhouette_slice") on a surface only
+            # when the slice is near one of its critical values (GpuSurface.critical).
             ink = options.silhouette_width if options.silhouettes else 0.0
-            passes = [("silhouette", ink, 0.0, 0.0)] if ink > 0 else []
+            passes = [(ink, 0.0, 0.0)] if ink > 0 else []
             if sliced or pinch > 0:
-                key = "silhouette_slice" if sliced else "silhouette"
-                passes.append((key, 0.0, SLICE_WIDTH if sliced else 0.0, pinch))
-            for key, ink_width, slice_width, pinch_size in passes:
-                prog = self.programs[key]
-                self.set_pipeline(prog, view, size)
-                self._set(
-                    prog,
-                    u_line_bias=LINE_BIAS,
-                    u_width_scale=scale,
-                    u_pass=1,
-                    u_slice_axis=tuple(axis),
-                    u_slice_at=view.slice_at,
-                    u_pinch=(1.0, 0.93, 0.2, pinch_size),
-                    u_slice_style=(*SLICE_COLOR, slice_width),
-                )
+                passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
+            for ink_width, slice_width, pinch_size in passes:
                 for surface in gpu.surfaces:
-                    prog["u_ink"] = (*darker(surface.color), ink_width)
+                    key = "silhouette"
+                    if (
+                        slice_width
+                        and view.slice_axis is not None
+                        and near_critical(
+                            surface.critical[view.slice_axis], view.slice_at, surface.longest_edge
+                        )
+                    ):
+                        key = "silhouette_slice"
+                    prog = self.programs[key]
+                    self.set_pipeline(prog, view, size)
+                    self._set(
+                        prog,
+                        u_line_bias=LINE_BIAS,
+                        u_width_scale=scale,
+                        u_pass=1,
+                        u_slice_axis=tuple(axis),
+                        u_slice_at=view.slice_at,
+                        u_pinch=(1.0, 0.93, 0.2, pinch_size),
+                        u_slice_style=(*SLICE_COLOR, slice_width),
+                        u_ink=(*darker(surface.color), ink_width),
+                    )
                     surface.vaos[key].render(moderngl.TRIANGLES)
             ctx.fbo.depth_mask = True
 

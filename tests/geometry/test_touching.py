@@ -8,7 +8,9 @@ import pytest
 from exhibit.geometry.silhouette import zero_set_segments
 from exhibit.geometry.touching import (
     TOUCH_TOLERANCE,
+    critical_values,
     hermite_dip,
+    near_critical,
     tangential_gradient,
     touching_segments,
 )
@@ -79,3 +81,27 @@ def test_singular_vertices_are_skipped():
     segments, _ = _segments(0.0, singular)
     assert len(segments) > 5
     assert np.abs(segments[..., 1]).min() > 0.4
+
+
+def test_the_gate_lets_every_touching_slice_through():
+    """The renderer runs the tangency test only where the slice is within an edge of a critical
+    value (critical_values, near_critical): on Figure 15's surface every slice t = c that
+    touching_segments would light is gated on, and most of the sweep is not."""
+    from exhibit import scenes
+
+    scene, preset = scenes.figure(15)
+    surface = scene.build(preset.params, resolution=32).surfaces[0]
+    p, tris = surface.positions, surface.triangles
+    longest = max(
+        np.linalg.norm(p[tris[:, k]] - p[tris[:, (k + 1) % 3]], axis=1).max() for k in range(3)
+    )
+    critical = critical_values(p, surface.normals)[3]
+    gradient = tangential_gradient(np.eye(4)[3], surface.normals)
+    gated = []
+    for c in np.concatenate([np.linspace(-2.5, 2.5, 51), [-2.0, 0.0, 2.0]]):
+        on = near_critical(critical, c, longest)
+        lit = len(touching_segments(p, tris, p[:, 3] - c, gradient, surface.singular)) > 0
+        assert on or not lit, c
+        gated.append(on)
+    assert near_critical(critical, 0.0, longest) and not near_critical(critical, -1.0, longest)
+    assert np.mean(gated) < 0.5
