@@ -318,6 +318,20 @@ def trim_end_zigzags(points: np.ndarray, legs: int = 4) -> np.ndarray:
     return points[: len(points) - tail] if tail else points
 
 
+def drop_fragments(curves: list, cell: float) -> list:
+    """Longest first, the curves that neither lie within ``cell`` of those kept (a piece the
+    mesh traced twice) nor are shorter than ``cell`` (a degenerate one)."""
+    kept: list = []
+    for curve in sorted(curves, key=lambda c: -polyline_length(c.points, c.closed)):
+        points = np.concatenate([c.points for c in kept]) if kept else np.zeros((0, 4))
+        if near(curve.points, points, cell).all():
+            continue
+        if polyline_length(curve.points, curve.closed) < cell:
+            continue
+        kept.append(curve)
+    return kept
+
+
 def near(points: np.ndarray, others: np.ndarray, distance: float) -> np.ndarray:
     """True for each point within ``distance`` of one of ``others``."""
     out = np.zeros(len(points), dtype=bool)

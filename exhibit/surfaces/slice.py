@@ -24,6 +24,7 @@ import numpy as np
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.exact_silhouette import (
+    drop_fragments,
     ITERATIONS,
     NEWTON_TARGET,
     RESIDUAL_TOLERANCE,
@@ -187,29 +188,13 @@ def slice_curves(
         # A mesh vertex exactly on the hyperplane (one the mesh put on a singular point, where
         # the tangency circle passes) gives the sign-change trace a loop shorter than a cell
         # along the tangency curve: a duplicate, not a curve of its own.
-        out = drop_duplicates(out, mean_edge(surface), name)
+        out = drop_fragments(out, mean_edge(surface))
+        for i, curve in enumerate(out):
+            curve.name = name if i == 0 else f"{name} {i + 1}"
         total.refined = sum(len(c.points) + c.closed for c in out)  # the points exported
     if stats is not None:
         stats.add(total)
     return out
-
-
-def drop_duplicates(curves: list[Curve], cell: float, name: str) -> list[Curve]:
-    """Longest first, the curves not lying within ``cell`` of those kept, and not shorter than
-    ``cell``; renamed in order."""
-    from exhibit.surfaces.exact_silhouette import near, polyline_length
-
-    kept: list[Curve] = []
-    for curve in sorted(curves, key=lambda c: -polyline_length(c.points, c.closed)):
-        points = np.concatenate([c.points for c in kept]) if kept else np.zeros((0, 4))
-        if near(curve.points, points, cell).all():
-            continue
-        if polyline_length(curve.points, curve.closed) < cell:
-            continue
-        kept.append(curve)
-    for i, curve in enumerate(kept):
-        curve.name = name if i == 0 else f"{name} {i + 1}"
-    return kept
 
 
 def st_free(chains) -> bool:

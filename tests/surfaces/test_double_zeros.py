@@ -55,6 +55,28 @@ def test_the_tangency_circle_of_figure_15_is_a_silhouette_along_y_z(capsys):
     assert gap.max() < 0.1
 
 
+def test_no_fragment_of_the_touching_circle_is_exported():
+    """At the scene's resolution the mesh that follows the surface put vertices on the singular
+    points, and a touching piece 0.018 long (two points) was exported beside the circle's arcs:
+    every curve is now at least a cell long."""
+    argv = ["silhouette", "collision", "--along", "y,z", "--json"]
+    argv += ["--param", "rc=1", "--param", "rs=1", "--param", "vc=0", "--param", "vs=1"]
+    out = cli_json(argv)
+    lengths = [np.linalg.norm(np.diff(np.array(c), axis=0), axis=1).sum() for c in out["curves"]]
+    assert len(lengths) == 6 and min(lengths) > 4.0 / 48
+
+
+def cli_json(argv) -> dict:
+    """`exhibit ARGV` in this process, its JSON output."""
+    import contextlib
+    import io
+
+    buffer = io.StringIO()
+    with contextlib.redirect_stdout(buffer):
+        assert cli.main(argv) == 0
+    return json.loads(buffer.getvalue())
+
+
 def test_a_planted_double_zero_is_found_and_nothing_else():
     """x² + y² = 1, v = (u - x)³/3: along x, u, s = (∇f1·e_x)(∇f2·e_u) - (∇f1·e_u)(∇f2·e_x)
     = -2x(u - x)², a double zero on the curve u = x, v = 0 (and a simple one at x = 0, which
