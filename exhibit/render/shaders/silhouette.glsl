@@ -23,11 +23,14 @@ in float in_mark;            // 1 where the vertex may mark Lemma 2 points (0 ne
 out vec4 g_clip;
 out vec4 g_dist;
 out float g_s;
-out float g_singular;        // 1 singular (zero normals), 0.5 next to one (no Lemma 2 mark), 0
+// Two things in one value, since on llvmpipe the geometry stage's cost grows with every
+// component a vertex hands it (a flat int of its own made a frame 3-5 ms slower): the vertex's
+// index times 4 (exact below 2^22 vertices; an edge's two triangles agree on its frame by it)
+// plus 2 at a singular point (zero normals), 1 next to one (no Lemma 2 mark), 0 elsewhere.
+out float g_vertex;
 out vec4 g_m1;
 out vec4 g_m2;
 out vec2 g_ab;
-flat out int g_id;
 out float g_h;
 #if defined TOUCHING
 out vec4 g_hp;               // the scene position, and h's gradient along the surface (the
@@ -48,15 +51,13 @@ void main() {
     vec4 rho1 = sensor_ray(q);
     vec4 rho2 = eye_ray(q);
     g_s = dot(m1, rho1) * dot(m2, rho2) - dot(m1, rho2) * dot(m2, rho1);
-    // Normals are zero at singular points. (Packed into one value with the Lemma 2 flag: on
-    // llvmpipe the geometry stage's cost grows with every component a vertex hands it.)
-    g_singular = dot(m1, m1) < 0.25 ? 1.0 : (in_mark > 0.5 ? 0.0 : 0.5);
+    float flag = dot(m1, m1) < 0.25 ? 2.0 : (in_mark > 0.5 ? 0.0 : 1.0);
+    g_vertex = 4.0 * float(gl_VertexID) + flag;
     g_clip = to_clip(in_pos);
     g_dist = line_distances(in_pos, g_clip);
     g_m1 = m1;
     g_m2 = m2;
     g_ab = vec2(dot(m1, rho1), dot(m2, rho1));
-    g_id = gl_VertexID;   // the vertex's index: an edge's two triangles agree on its frame
 }
 #endif
 
@@ -66,11 +67,10 @@ layout(triangle_strip, max_vertices = 16) out;
 in vec4 g_clip[];
 in vec4 g_dist[];
 in float g_s[];
-in float g_singular[];
+in float g_vertex[];
 in vec4 g_m1[];
 in vec4 g_m2[];
 in vec2 g_ab[];
-flat in int g_id[];
 in float g_h[];
 #if defined TOUCHING
 in vec4 g_hp[];
@@ -99,6 +99,9 @@ void emit_segment(vec4 c0, vec4 c1, vec4 d0, vec4 d1, vec4 style, float lift, fl
     EndPrimitive();
 }
 
+// A corner's flag: 2 singular, 1 next to a singular point, 0 (see g_vertex).
+float flag_of(int k) { return g_vertex[k] - 4.0 * floor(0.25 * g_vertex[k]); }
+
 // The segment where a per-vertex value changes sign on this triangle, as clip positions and
 // clip distances at its two ends; false when it does not cross.
 bool crossing(float v[3], out vec4 c[2], out vec4 d[2]) {
@@ -116,18 +119,24 @@ bool crossing(float v[3], out vec4 c[2], out vec4 d[2]) {
     return n == 2;
 }
 
-// The angle by which u turns from corner i to corner j, seen in the normal frame of the corner
-// with the lower vertex index (exhibit.geometry.lemma2_marks.edge_turns).
-float edge_turn(int i, int j, vec4 u[3]) {
-    bool forward = g_id[i] < g_id[j];
-    int lo = forward ? i : j;
-    int hi = forward ? j : i;
-    vec2 a = vec2(dot(u[lo], g_m1[lo]), dot(u[lo], g_m2[lo]));
-    vec2 b = vec2(dot(u[hi], g_m1[lo]), dot(u[hi], g_m2[lo]));
+// How far outside a triangle (in barycentric coordinates) u's interpolant may vanish for the
+// triangle to be checked for a winding (exhibit.geometry.lemma2_marks.MARGIN).
+const float LEMMA2_MARGIN = 0.5;
+
+// The angle by which u turns from ua to ub, both seen in the normal frame (m1, m2) of ua's
+// corner (exhibit.geometry.lemma2_marks.edge_turns).
+float turn_in(vec4 ua, vec4 ub, vec4 m1, vec4 m2) {
+    vec2 a = vec2(dot(ua, m1), dot(ua, m2));
+    vec2 b = vec2(dot(ub, m1), dot(ub, m2));
     float y = a.x * b.y - a.y * b.x, x = dot(a, b);
-    float t = (x == 0.0 && y == 0.0) ? 0.0 : atan(y, x);
-    return forward ? t : -t;
+    return (x == 0.0 && y == 0.0) ? 0.0 : atan(y, x);
 }
+
+// The turn from corner i to corner j, measured from the corner with the lower vertex index.
+// Both orders are computed and one chosen, with constant indices only: indexing the corners'
+// arrays by a value known at run time made llvmpipe's geometry stage 5 ms slower a frame.
+#define EDGE_TURN(i, j) (g_vertex[i] < g_vertex[j] \
+    ? turn_in(u[i], u[j], g_m1[i], g_m2[i]) : -turn_in(u[j], u[i], g_m1[j], g_m2[j]))
 
 #if defined TOUCHING  // only the sliced frames' program (the slice at tangency)
 // The segment where h touches zero on this triangle without changing sign, or false: on each
@@ -141,7 +150,7 @@ bool touching(out vec4 c[2], out vec4 d[2]) {
         int j = (i + 1) % 3;
         float h0 = g_h[i], h1 = g_h[j];
         if (n == 2 || (h0 > 0.0) != (h1 > 0.0) || h0 == 0.0 || h1 == 0.0) continue;
-        if (max(g_singular[i], g_singular[j]) >= 1.0) continue;
+        if (max(flag_of(i), flag_of(j)) >= 2.0) continue;
         vec4 e = g_hp[j] - g_hp[i];
         float sg = h0 > 0.0 ? 1.0 : -1.0;
         float d0 = dot(g_hg[i], e), d1 = dot(g_hg[j], e);
@@ -174,7 +183,7 @@ void main() {
     if (u_slice_style.w > 0.0 && sliced) {
         emit_segment(c[0], c[1], d[0], d[1], u_slice_style, 10.0 * u_line_bias, 1.0);
     }
-    if (max(max(g_singular[0], g_singular[1]), g_singular[2]) >= 1.0) return;  // never silhouettes
+    if (max(max(flag_of(0), flag_of(1)), flag_of(2)) >= 2.0) return;  // never silhouettes
     // Lemma 3 segment: the two edges whose ends have opposite signs of s.
     if (u_ink.w > 0.0 && crossing(float[3](g_s[0], g_s[1], g_s[2]), c, d))
         emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0, 1.0);
@@ -184,26 +193,24 @@ void main() {
     // lower-numbered vertex, so the two triangles at an edge compute the same angle and a zero
     // is claimed once (solving each triangle's interpolant in a frame of its own claimed a
     // zero near an edge twice or not at all). The disc sits at the interpolant's zero.
-    if (u_pinch.w <= 0.0 || g_singular[0] + g_singular[1] + g_singular[2] > 0.0) return;
+    if (u_pinch.w <= 0.0 || flag_of(0) + flag_of(1) + flag_of(2) > 0.0) return;
     vec4 u[3];
     for (int k = 0; k < 3; ++k) u[k] = g_ab[k].x * g_m1[k] + g_ab[k].y * g_m2[k];
     vec2 A[3];
     for (int k = 0; k < 3; ++k) A[k] = vec2(dot(u[k], g_m1[0]), dot(u[k], g_m2[0]));
-    // Most triangles: u points within 60 degrees of its direction at corner 0 at every corner,
-    // so it cannot wind (the arc tangents below are the pass's costliest part).
-    if (dot(A[1], A[0]) >= 0.5 * length(A[1]) * length(A[0])
-        && dot(A[2], A[0]) >= 0.5 * length(A[2]) * length(A[0])
-        && dot(A[0], A[0]) > 0.0) return;
-    float turn = 0.0;
-    for (int k = 0; k < 3; ++k) turn += edge_turn(k, (k + 1) % 3, u);
-    if (abs(turn) < 3.14159265) return;   // no winding: |turn| is 0 or a multiple of 2 pi
     vec2 e1 = A[1] - A[0], e2 = A[2] - A[0];
     float det = e1.x * e2.y - e1.y * e2.x;
     float scale = max(max(dot(A[0], A[0]), dot(A[1], A[1])), dot(A[2], A[2]));
     if (abs(det) <= 1e-6 * scale || scale <= 0.0) return;   // degenerate: a curve, not a point
     float l1 = (-A[0].x * e2.y + A[0].y * e2.x) / det;
     float l2 = (-e1.x * A[0].y + e1.y * A[0].x) / det;
-    vec3 l = max(vec3(1.0 - l1 - l2, l1, l2), vec3(0.0));
+    vec3 l = vec3(1.0 - l1 - l2, l1, l2);
+    // Most triangles: the interpolant's zero is far outside, and u cannot wind around them
+    // (the margin covers the frames' differences; the arc tangents are the costly part).
+    if (min(l.x, min(l.y, l.z)) < -LEMMA2_MARGIN) return;
+    float turn = EDGE_TURN(0, 1) + EDGE_TURN(1, 2) + EDGE_TURN(2, 0);
+    if (abs(turn) < 3.14159265) return;   // no winding: |turn| is 0 or a multiple of 2 pi
+    l = max(l, vec3(0.0));
     l /= max(l.x + l.y + l.z, 1e-30);
     vec4 cp = l.x * g_clip[0] + l.y * g_clip[1] + l.z * g_clip[2];
     vec4 dp = l.x * g_dist[0] + l.y * g_dist[1] + l.z * g_dist[2];
