@@ -217,7 +217,12 @@ def test_cuts_mark_every_discontinuity_and_nothing_else(tmp_path, timeline):
 
 @pytest.mark.parametrize(
     "fit, zoomed, framed",
-    [(None, False, True), (None, True, True), (True, True, True), (False, False, False)],
+    [
+        (None, False, True),
+        pytest.param(None, True, True, marks=pytest.mark.slow),  # slow: CI runs them
+        pytest.param(True, True, True, marks=pytest.mark.slow),
+        (False, False, False),
+    ],
 )
 def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, framed):
     """Framing by the picture (render.framer) replaces hand-set zooms too, keeping every sampled
@@ -265,7 +270,10 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
         ), t
 
 
-@pytest.mark.parametrize("size", [(1920, 1080), (1280, 720)])
+@pytest.mark.parametrize(
+    "size",
+    [(1920, 1080), pytest.param((1280, 720), marks=pytest.mark.slow)],  # slow: CI runs it
+)
 def test_shipped_timelines_stay_in_the_free_area(size):
     """Every shipped timeline that is framed keeps the picture clear of its panels at every
     0.5 s of its run; the ones left alone are the curator-zoomed hypersphere only."""

@@ -17,7 +17,7 @@ def _json(capsys, *argv):
     return json.loads(capsys.readouterr().out)
 
 
-@pytest.mark.parametrize("r", [1.0, 2.0])
+@pytest.mark.parametrize("r", [1.0, pytest.param(2.0, marks=pytest.mark.slow)])  # slow: CI runs it
 def test_the_cusps_branches_reach_the_stated_exclusion(capsys, r):
     """On the cusp's pipe σ_min/σ_max of (∇g, ∇f) at the offset point of (t², t³) is about
     |t|³/(2r), so the exclusion σ_min/σ_max < EXCLUSION_RATIO leaves out |t| < (2r·ratio)^(1/3).

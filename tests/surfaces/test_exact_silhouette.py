@@ -76,7 +76,10 @@ def _cusp_check(points, r):
     )
 
 
-@pytest.mark.parametrize("r", [0.4, 1.0, 1.7])
+@pytest.mark.parametrize(
+    "r",
+    [0.4, 1.0, pytest.param(1.7, marks=pytest.mark.slow)],  # slow: CI runs it
+)
 def test_cusp_offset_curve_has_no_false_arcs(r):
     """The false arcs ran along the singular circle u = v = 0, x² + y² = r²: their (u, v) is at
     the cusp, where ∇f = 0. Every drawn point is now on the true offset curve."""
