@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from exhibit.surfaces.parametric import grid_triangles
+
 C = 0.3  # the planted Lemma 2 point lies at x = 0, w = C
 
 
@@ -24,17 +26,7 @@ def planted(n: int, shift: tuple[float, float]):
     # and the parametric ⊗ normals are: the winding compares neighbouring frames.
     flip = np.linalg.det(np.stack([t1, t2, normals[:, 0], normals[:, 1]], axis=1)) < 0
     normals[flip, 1] *= -1
-    tris = []
-    for i in range(n):
-        for j in range(n):
-            a, b, c, d = (
-                i * (n + 1) + j,
-                (i + 1) * (n + 1) + j,
-                (i + 1) * (n + 1) + j + 1,
-                i * (n + 1) + j + 1,
-            )
-            tris += [(a, b, c), (a, c, d)]
-    return positions, normals, np.array(tris)
+    return positions, normals, grid_triangles(n + 1, n + 1, False, False)
 
 
 # Shifts that put the point inside a triangle, on a grid line, on a diagonal, near a vertex.
