@@ -289,7 +289,7 @@ class Renderer:
             prog = self.programs["curves"]
             self.set_pipeline(prog, view, size)
             # Where the frame has the sheet buffer, curves are hidden where their centre is
-            # (line_fragment.glsl, CENTRE_TEST); the direct path has none.
+            # (centre_test.glsl, at each segment end); the direct path has none.
             centre_test = 0
             if inked:
                 unit = CENTRE_UNITS[1 if sheets.samples else 0]
@@ -333,6 +333,7 @@ class Renderer:
             if sliced or pinch > 0:
                 passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
             for ink_width, slice_width, pinch_size in passes:
+                ready: dict[str, moderngl.Program] = {}  # programs with this pass's uniforms set
                 for surface in gpu.surfaces:
                     key = "silhouette"
                     if (
@@ -343,19 +344,20 @@ class Renderer:
                         )
                     ):
                         key = "silhouette_slice"
-                    prog = self.programs[key]
-                    self.set_pipeline(prog, view, size)
-                    self._set(
-                        prog,
-                        u_line_bias=LINE_BIAS,
-                        u_width_scale=scale,
-                        u_pass=1,
-                        u_slice_axis=tuple(axis),
-                        u_slice_at=view.slice_at,
-                        u_pinch=(1.0, 0.93, 0.2, pinch_size),
-                        u_slice_style=(*SLICE_COLOR, slice_width),
-                        u_ink=(*darker(surface.color), ink_width),
-                    )
+                    if key not in ready:
+                        ready[key] = prog = self.programs[key]
+                        self.set_pipeline(prog, view, size)
+                        self._set(
+                            prog,
+                            u_line_bias=LINE_BIAS,
+                            u_width_scale=scale,
+                            u_pass=1,
+                            u_slice_axis=tuple(axis),
+                            u_slice_at=view.slice_at,
+                            u_pinch=(1.0, 0.93, 0.2, pinch_size),
+                            u_slice_style=(*SLICE_COLOR, slice_width),
+                        )
+                    ready[key]["u_ink"] = (*darker(surface.color), ink_width)
                     surface.vaos[key].render(moderngl.TRIANGLES)
             ctx.fbo.depth_mask = True
 
