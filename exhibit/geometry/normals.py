@@ -35,6 +35,14 @@ def complement_plane(u1, u2) -> tuple[np.ndarray, np.ndarray]:
     return _normalise_or_zero(w1), _normalise_or_zero(w2)
 
 
+def orthonormal_normals(n1, n2) -> np.ndarray:
+    """(..., 2, 4): an orthonormal pair spanning the same plane as n1, n2 (e.g. ∇f1, ∇f2),
+    made as the complement of the complement (zero where n1, n2 are dependent)."""
+    t1, t2 = complement_plane(n1, n2)
+    m1, m2 = complement_plane(t1, t2)
+    return np.stack([m1, m2], axis=-2)
+
+
 def _cross_with_basis(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """⊗(a, b, e_k) for k = 0..3, shape (..., 4, 4): each is made of the six 2x2 minors
     P_ij = a_i b_j - a_j b_i of (a, b), so they are computed once instead of four full ⊗s

@@ -15,6 +15,7 @@ import numpy as np
 from exhibit.geometry.lemma2_marks import marking_vertices
 from exhibit.geometry.touching import critical_values
 from exhibit.surfaces.mesh import Mesh4D, Surface
+from exhibit.surfaces.metrics import unique_edges
 
 #: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
 MARKER_SCALE = 3.5
@@ -38,12 +39,6 @@ def surface_vertices(surface: Surface) -> np.ndarray:
         ),
         dtype=np.float32,
     )
-
-
-def unique_edges(triangles: np.ndarray) -> np.ndarray:
-    """(E, 2) vertex pairs of the distinct edges of a triangle mesh (for wire-style surfaces)."""
-    edges = np.concatenate([triangles[:, [0, 1]], triangles[:, [1, 2]], triangles[:, [2, 0]]])
-    return np.unique(np.sort(edges, axis=1), axis=0)
 
 
 #: Depth layers of curves (curves.glsl's LAYER_STEP): the mesh's first wire meshes and curves

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from exhibit.geometry.normals import complement_plane
+from exhibit.geometry.normals import orthonormal_normals
 from exhibit.surfaces.metrics import distance_to_surface
 from exhibit.surfaces.newton import project_onto
 from exhibit.surfaces.parametric import finite_directions
@@ -62,9 +62,7 @@ def normal_pairs(fields, points: np.ndarray) -> np.ndarray:
     with np.errstate(all="ignore"):
         n1 = finite_directions(fields[0].gradient(points))
         n2 = finite_directions(fields[1].gradient(points))
-    t1, t2 = complement_plane(n1, n2)
-    m1, m2 = complement_plane(t1, t2)
-    return np.stack([m1, m2], axis=1)
+    return orthonormal_normals(n1, n2)
 
 
 def _edge_keys(edges: np.ndarray) -> np.ndarray:

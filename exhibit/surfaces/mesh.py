@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from exhibit.geometry.normals import complement_plane
+from exhibit.geometry.normals import complement_plane, orthonormal_normals
 
 STYLES = ("solid", "wire")
 
@@ -80,9 +80,8 @@ class Surface:
     @classmethod
     def from_normals(cls, name, positions, n1, n2, triangles, material=None) -> "Surface":
         """From two normals per vertex (e.g. ∇f1, ∇f2); they are orthonormalised here."""
-        t1, t2 = complement_plane(n1, n2)
-        m1, m2 = complement_plane(t1, t2)
-        return cls(name, positions, np.stack([m1, m2], axis=1), triangles, material or Material())
+        normals = orthonormal_normals(n1, n2)
+        return cls(name, positions, normals, triangles, material or Material())
 
     @classmethod
     def from_tangents(cls, name, positions, t1, t2, triangles, material=None) -> "Surface":
