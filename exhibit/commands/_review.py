@@ -66,6 +66,12 @@ def _conflicts(args) -> None:
     ):
         if given:
             raise ExhibitError(f"{flag} plays the kiosk: it takes no {name}")
+    if getattr(args, "verify", False):
+        if args.timeline is None:
+            raise ExhibitError("--verify goes with --timeline")
+        if args.out is not None:
+            raise ExhibitError("--verify measures the frames and writes none: leave out --out")
+        return
     if args.out is None:
         raise ExhibitError("--out is required")
 
@@ -77,9 +83,42 @@ def run(args) -> int:
     size = parse_size(args.size)
     config = base_config(args.config)
     language, _ = check_language(config, args.language)
+    if getattr(args, "verify", False):
+        return _verify(args, size, config)
     if args.timeline is not None:
         return _timeline(args, size, config, language)
     return _takeover(args, size, config, language)
+
+
+#: --verify's kiosk frames per second: enough for the kiosk's own timing (crossfades, held
+#: steps), few enough that a minute of timeline is seconds of work.
+VERIFY_FPS = 5
+
+
+def _verify(args, size, config) -> int:
+    """Every caption's claims measured on the frames; problems on stdout, progress on
+    stderr, exit 2 when a claim fails."""
+    import sys
+
+    from exhibit.kiosk.claims import verify
+    from exhibit.kiosk.review import read_timeline
+
+    read_timeline(args.timeline)  # one line if it is not a timeline
+    languages = (args.language,) if args.language else tuple(config.languages)
+    fps = args.fps or VERIFY_FPS
+
+    def progress(what: str) -> None:
+        print(f"verifying {what} ...", file=sys.stderr, flush=True)
+
+    verdict = verify(args.timeline, config, size, fps, languages, progress=progress)
+    for line in verdict.problems or []:
+        print(line)
+    played = f"{', '.join(languages)}, with and without reduced motion"
+    print(
+        f"{verdict.path}: {verdict.captions_with_claims} of {verdict.captions} captions make "
+        f"{verdict.claims} claims; {verdict.holding} of {verdict.checked} checks hold ({played})"
+    )
+    return 2 if verdict.problems else 0
 
 
 def _timeline(args, size, config, language) -> int:

@@ -112,6 +112,14 @@ def add_arguments(parser) -> None:
         "(one frame per caption)",
     )
     parser.add_argument(
+        "--verify",
+        action="store_true",
+        help="with --timeline: play it and measure every caption's claims (its `while`) on "
+        "the frames, in each language shown and with and without reduced motion (or "
+        "--language alone); prints each failing claim as 'file: keyframe N: claim: what was "
+        "measured' and exits 2; no --out",
+    )
+    parser.add_argument(
         "--takeover",
         metavar="SCENE",
         help="the frame a visitor sees --after seconds after taking over from "

@@ -53,6 +53,8 @@ from exhibit.kiosk.assembly import KioskParts, assemble
 from exhibit.kiosk.preparing import Framers, Preparer
 from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.kiosk.warm_up import WarmUp
+from exhibit.geometry.view import ViewState
+from exhibit.render.gpu import GpuMesh
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo
 from exhibit.render.target import CloseRequest, Focus, Key, RenderTarget
@@ -443,6 +445,12 @@ class Kiosk:
                 self.governor.recent_ms or 0.0,
                 self.governor.settings.target_ms,
             )
+
+    @property
+    def shown(self) -> tuple[GpuMesh, ViewState] | None:
+        """The mesh and view of the picture drawn last, None before one (a review measures
+        what it shows: exhibit.kiosk.claims)."""
+        return None if self._shown is None else (self._shown[0], self._shown[1])
 
     def release(self) -> None:
         """Free the GPU meshes this kiosk uploaded (each level once) and the inset's. The

@@ -21,6 +21,8 @@
     ease = "smooth"                           # into the next keyframe: smooth | linear | hold
     slice = -1.5                              # the slice axis = -1.5 glows on the surface
                                               # (exhibit.surfaces.slice); "off" ends it
+    hold_framing = true                       # keep the keyframe before's zoom and lens shift
+                                              # (the camera holds: what grows, grows on screen)
 
 A caption that describes the view states it in ``while``, so `exhibit check-config` can play the
 timeline and report where the caption is shown while the view says otherwise:
@@ -73,6 +75,8 @@ MOTIONS: tuple[Motion, ...] = get_args(Motion)
 #: Reduced motion: a stretch between keyframes plays as held poses about this long, each
 #: crossfaded into the next (a 1 s crossfade, then 3 s still).
 STEP_S = 4.0
+#: Objects one picture claim may name.
+MAX_CLAIMED = 16
 
 
 @dataclass(frozen=True)
@@ -89,6 +93,31 @@ class Condition:
     motion: str | None = None
     angles_within: float | None = None
     pose: tuple[float, ...] | None = None
+    #: What the caption says the picture shows, measured on the rendered frames by
+    #: `exhibit render --timeline --verify` (exhibit.kiosk.claims), never by colour.
+    picture: PictureClaims | None = None
+
+
+@dataclass(frozen=True)
+class PictureClaims:
+    """Claims about the named objects on screen while a caption is shown (each name: a
+    surface, curve or marker of the scene, or the start of such names: "offset curve" is every
+    piece of it). ``visible``: each shows at every moment; ``grows`` / ``shrinks``: its area
+    on screen at the caption's end against its start; ``outgrows`` (a, b): a grows far more
+    than b; ``fills``: (name, share) pairs, the object covers at least that share of the
+    screen at every moment."""
+
+    visible: tuple[str, ...] = ()
+    grows: tuple[str, ...] = ()
+    shrinks: tuple[str, ...] = ()
+    outgrows: tuple[str, str] | None = None
+    fills: tuple[tuple[str, float], ...] = ()
+
+    def names(self) -> tuple[str, ...]:
+        """Every object the claims name, once each, in order."""
+        named = [*self.visible, *self.grows, *self.shrinks, *(self.outgrows or ())]
+        named += [name for name, _ in self.fills]
+        return tuple(dict.fromkeys(named))
 
 
 @dataclass(frozen=True)
@@ -105,6 +134,9 @@ class Keyframe:
     caption_from: int = 0
     #: where the slice cuts (ViewState.slice_at), None: no slice
     slice_at: float | None = None
+    #: keeps the framing of the keyframe before (exhibit.kiosk.timeline_framing): the camera
+    #: holds, so what grows on the way here grows on screen
+    hold_framing: bool = False
 
 
 @dataclass(frozen=True)
@@ -196,25 +228,53 @@ class WhileSpec(Model):
     sensor_motion: Motion | None = None
     #: degrees the pose (six angles and the eye) may turn from the stating keyframe's
     angles_within: Annotated[float, Number(0, 180)] | None = None
+    #: What the picture shows (PictureClaims): objects by name.
+    visible: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
+    grows: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
+    shrinks: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
+    outgrows: Annotated[list[Name], Field(min_length=2, max_length=2)] | None = None
+    fills: (
+        Annotated[
+            dict[Name, Annotated[float, Number(0.001, 1.0)]],
+            Field(min_length=1, max_length=MAX_CLAIMED),
+        ]
+        | None
+    ) = None
 
     @model_validator(mode="after")
     def _not_empty(self):
-        if (
-            self.sensor_distance is None
-            and self.sensor_motion is None
-            and self.angles_within is None
-        ):
+        if all(getattr(self, name) is None for name in type(self).model_fields):
             raise ValueError(
-                "states no condition: give sensor_distance, sensor_motion or angles_within"
+                "states no condition: give sensor_distance, sensor_motion, angles_within, "
+                "visible, grows, shrinks, outgrows or fills"
             )
         return self
+
+    def picture(self) -> PictureClaims | None:
+        """The claims about the picture, None when it makes none."""
+        if not any((self.visible, self.grows, self.shrinks, self.outgrows, self.fills)):
+            return None
+        return PictureClaims(
+            tuple(self.visible or ()),
+            tuple(self.grows or ()),
+            tuple(self.shrinks or ()),
+            None if self.outgrows is None else (self.outgrows[0], self.outgrows[1]),
+            tuple((self.fills or {}).items()),
+        )
 
     def condition(self, pose: tuple[float, ...]) -> Condition:
         """The condition, with ``pose`` (the stating keyframe's angles and eye, radians)."""
         d = self.sensor_distance
         r = None if d is None else (distance_to_r(d[1]), distance_to_r(d[0]))
         within = None if self.angles_within is None else float(self.angles_within)
-        return Condition(r, d, self.sensor_motion, within, None if within is None else tuple(pose))
+        return Condition(
+            r,
+            d,
+            self.sensor_motion,
+            within,
+            None if within is None else tuple(pose),
+            self.picture(),
+        )
 
 
 class KeyframeSpec(Model):
@@ -227,6 +287,7 @@ class KeyframeSpec(Model):
     while_: WhileSpec | None = Field(None, alias="while")
     ease: Ease = "smooth"
     slice: Annotated[float, Number(-1e6, 1e6)] | Literal["off"] | None = None
+    hold_framing: bool = False
 
 
 class TimelineFile(Model):
@@ -331,6 +392,7 @@ def load_timeline(path: Path) -> Timeline:
             else None
             if raw.slice == "off"
             else float(raw.slice),
+            raw.hold_framing and i > 0,
         )
         frames.append(previous)
     if problems:

@@ -159,11 +159,12 @@ class _TimelineFramer:
         spills."""
         frames = timeline.keyframes
         pose = _Poses(timeline)
-        views = []
+        views, boxes = [], []
         for i, k in enumerate(frames):
             own = pose(k.t)
             if fills[i]:
                 views.append(own)
+                boxes.append(None)
                 continue
             lo = k.t - 0.5 * (k.t - frames[i - 1].t) if i and not fills[i - 1] else k.t
             hi = (
@@ -176,6 +177,16 @@ class _TimelineFramer:
             for b in near[1:]:
                 box = box.union(b)
             views.append(fit(own, box, self.size, [area]))
+            boxes.append(box)
+        groups = held_groups(frames, fills)
+        for group in groups:  # one framing for keyframes that hold it: fitted to them all
+            union = boxes[group[0]]
+            for i in group[1:]:
+                union = union.union(boxes[i])
+            held = fit(views[group[0]], union, self.size, [area])
+            for i in group:
+                views[i] = views[i].replace(half_height=held.half_height, center=held.center)
+        group_of = {i: g for g in groups for i in g}
         checked = [t for t in times if framed_stretch(t)]
         for _ in range(MAX_GROWTH_STEPS):  # between keyframes: zoom out where it spills
             framed = FramedTimeline.of(timeline, views, fills)
@@ -190,11 +201,25 @@ class _TimelineFramer:
                     spills |= {j for j in (i, i + 1) if j < len(frames) and not fills[j]}
             if not spills:
                 return framed
+            spills |= {j for i in spills for j in group_of.get(i, ())}
             views = [
                 zoom_about(v, GROWTH, area, self.size) if i in spills else v
                 for i, v in enumerate(views)
             ]
         return None
+
+
+def held_groups(frames, fills) -> list[list[int]]:
+    """Runs of keyframes that share one framing: a keyframe that says ``hold_framing`` joins
+    the one before, unless either fills the world (those keep their own view)."""
+    groups: list[list[int]] = []
+    for i, k in enumerate(frames):
+        if i and k.hold_framing and not fills[i] and not fills[i - 1]:
+            if groups and groups[-1][-1] == i - 1:
+                groups[-1].append(i)
+            else:
+                groups.append([i - 1, i])
+    return groups
 
 
 def sample_times(timeline: Timeline) -> list[float]:

@@ -47,7 +47,7 @@ LAYERS = 20
 CURVE_ATTRIBUTES = ("in_p0", "in_p1", "in_style", "in_layer")
 
 
-def _segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
+def segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
     """One instance row per segment: p0 (4), p1 (4), rgb and width, depth layer."""
     n = len(starts)
     style = np.tile(np.array([*color, width, min(layer, LAYERS - 1)], dtype=np.float64), (n, 1))
@@ -83,6 +83,9 @@ class GpuMesh:
     radius: float = 1.0
     #: A few hundred of the surfaces' vertices (the renderer's depth scale for intersections).
     sample: np.ndarray | None = None
+    #: Buffers a pass made for this mesh on first use (the object-id pass's curves), freed
+    #: with it.
+    buffers: dict[str, moderngl.Buffer] = field(default_factory=dict)
 
     @property
     def triangle_count(self) -> int:
@@ -96,13 +99,14 @@ class GpuMesh:
             s.ibo.release()
         for vao in self.vaos.values():
             vao.release()
-        for buf in (self.lines, self.markers):
+        for buf in (self.lines, self.markers, *self.buffers.values()):
             if buf is not None:
                 buf.release()
+        self.buffers = {}
         self.surfaces, self.vaos, self.lines, self.markers = [], {}, None, None
 
 
-def _attribute_format(program: moderngl.Program, attributes) -> tuple[str, list[str]]:
+def attribute_format(program: moderngl.Program, attributes) -> tuple[str, list[str]]:
     """'4f 4f 4f 1f'-style format for (name, float count) attributes, skipping those the
     program does not use (or its compiler removed)."""
     parts, used = [], []
@@ -124,7 +128,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             edges = unique_edges(surface.triangles)
             p = surface.positions
             rows.append(
-                _segment_rows(
+                segment_rows(
                     p[edges[:, 0]],
                     p[edges[:, 1]],
                     surface.material.color,
@@ -150,11 +154,10 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             "surface_depth_sheets",
             "silhouette",
             "silhouette_slice",
-            "ids",
             "floor",
         ):
             prog = programs[key]
-            fmt, used = _attribute_format(prog, SURFACE_ATTRIBUTES)
+            fmt, used = attribute_format(prog, SURFACE_ATTRIBUTES)
             gpu.vaos[key] = ctx.vertex_array(
                 prog, [(vbo, fmt, *used)], index_buffer=ibo, index_element_size=4
             )
@@ -163,7 +166,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         segments = curve.segments()
         if len(segments):
             rows.append(
-                _segment_rows(
+                segment_rows(
                     segments[:, 0],
                     segments[:, 1],
                     curve.material.color,
@@ -186,8 +189,8 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         for m in mesh.markers:
             width = max(MARKER_SCALE * m.material.line_width, MARKER_MIN)
             p = m.position[None]
-            marker_rows.append(_segment_rows(p, p, MARKER_OUTLINE, width + 3.0))
-            marker_rows.append(_segment_rows(p, p, m.material.color, width))
+            marker_rows.append(segment_rows(p, p, MARKER_OUTLINE, width + 3.0))
+            marker_rows.append(segment_rows(p, p, m.material.color, width))
         data = np.concatenate(marker_rows).astype(np.float32)
         markers = ctx.buffer(data.tobytes())
         marker_count = len(data)

@@ -149,10 +149,14 @@ class Headless:
     def ids(self, gpu, view, size) -> np.ndarray:
         """(height, width) int triangle ids + 1 (0 = background), no multisampling."""
         self.activate()
-        target = self.target(size, 0)
-        self.renderer.render_ids(gpu, view, target.framebuffer)
-        rgb = target.read().astype(np.int64)
-        return rgb[..., 0] | (rgb[..., 1] << 8) | (rgb[..., 2] << 16)
+        return self.renderer.ids.triangles(gpu, view, size)
+
+    def objects(self, gpu, view, size, options=None):
+        """Each named object's pixels in front (exhibit.render.passes.ids.ObjectCoverage)."""
+        from exhibit.render.options import RenderOptions
+
+        self.activate()
+        return self.renderer.ids.objects(gpu, view, size, options or RenderOptions())
 
     def release(self) -> None:
         self.activate()

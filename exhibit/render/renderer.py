@@ -132,7 +132,6 @@ class Renderer:
             "intersect": p(ctx, "intersect.glsl", ("TILES",)),
             "intersect_gate": p(ctx, "intersect.glsl", ("GATE",)),
             "intersect_ms": p(ctx, "intersect.glsl", ("MULTISAMPLE",)),
-            "ids": p(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
             "silhouette": p(ctx, "silhouette.glsl"),
             # With the slice's tangency test (and the two vec4 per vertex it needs): only
             # frames that draw a slice pay for it.
@@ -169,6 +168,7 @@ class Renderer:
         #: The last view's clip transform, so one frame computes it once for every pass.
         self._ct_key: tuple | None = None
         self._ct: ClipTransform | None = None
+        self._ids = None
 
     # ------------------------------------------------------------------ meshes
 
@@ -493,27 +493,17 @@ class Renderer:
         for enum in (GL_CLIP_DISTANCE0, GL_CLIP_DISTANCE1):
             (self.ctx.enable_direct if on else self.ctx.disable_direct)(enum)
 
-    # ------------------------------------------------------------------ triangle ids (tests)
+    # ------------------------------------------------------------------ object ids
 
-    def render_ids(self, gpu: GpuMesh, view: ViewState, framebuffer: moderngl.Framebuffer) -> None:
-        """Every triangle in a unique flat colour (id + 1, surfaces numbered in order)."""
-        ctx = self.ctx
-        framebuffer.use()
-        width, height = framebuffer.size
-        ctx.viewport = (0, 0, width, height)
-        framebuffer.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-        ctx.disable(moderngl.BLEND)
-        ctx.enable(moderngl.DEPTH_TEST)
-        prog = self.programs["ids"]
-        self.set_pipeline(prog, view, (width, height))
-        self.clip_distances(True)
-        offset = 0
-        for surface in gpu.surfaces:
-            prog["u_id_offset"] = offset
-            surface.vaos["ids"].render(moderngl.TRIANGLES)
-            offset += surface.triangle_count
-        self.clip_distances(False)
-        ctx.disable(moderngl.DEPTH_TEST)
+    @property
+    def ids(self):
+        """The object-id pass (exhibit.render.passes.ids), compiled on first use: only reviews
+        and tests read ids, so the kiosk's start does not pay for it."""
+        if self._ids is None:
+            from exhibit.render.passes.ids import ObjectIdPass
+
+            self._ids = ObjectIdPass(self.ctx, self)
+        return self._ids
 
     # ------------------------------------------------------------------ HUD
 
@@ -630,6 +620,8 @@ class Renderer:
         self.text.release()
         self.atlas.release()
         self.hud.release()
+        if self._ids is not None:
+            self._ids.release()
         for vao in [*self._empty.values(), self._overlay_vao, *self._glyph_vaos.values()]:
             vao.release()
         self._overlay_buffer.release()

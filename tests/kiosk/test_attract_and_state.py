@@ -310,7 +310,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     assert unframed == []
     assert following, "no timeline was framed keyframe by keyframe"
     # Figure 8's moment in the hypersphere timeline (the sensor at distance 2) is kept as written.
-    assert filling == [("hopf", 26.0), ("hopf", 33.0)]
+    assert filling == [("hopf", 30.0), ("hopf", 37.0)]
 
 
 # ---------------------------------------------------------------------- the time slice

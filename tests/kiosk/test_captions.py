@@ -149,7 +149,8 @@ t = 20
         (
             "{}",
             "keyframe[0].while",
-            "states no condition: give sensor_distance, sensor_motion or angles_within",
+            "states no condition: give sensor_distance, sensor_motion, angles_within, visible, "
+            "grows, shrinks, outgrows or fills",
         ),
         ("{ angles_within = -1 }", "keyframe[0].while.angles_within", "must lie in [0, 180]"),
         ('{ angles_within = "start" }', "keyframe[0].while.angles_within", "must be a number"),
@@ -172,7 +173,8 @@ t = 20
         (
             "{ sensor_distans = 2 }",
             "keyframe[0].while.sensor_distans",
-            "unknown key (allowed: angles_within, sensor_distance, sensor_motion)",
+            "unknown key (allowed: angles_within, fills, grows, outgrows, sensor_distance, "
+            "sensor_motion, shrinks, visible)",
         ),
         ("3", "keyframe[0].while", "must be a table"),
     ],
@@ -281,7 +283,7 @@ def test_shipped_timelines_keep_their_captions_true():
     # the captions that state a distance or a motion say so
     stated = {k.caption: k.condition for k in hopf.keyframes if k.condition}
     assert len(stated) >= 5
-    assert all(c.sensor_r or c.motion for c in stated.values())
+    assert all(c.sensor_r or c.motion or c.picture for c in stated.values())
     for caption, condition in stated.items():
         if "distance 2" in caption:
             assert condition.sensor_distance == (1.9, 2.1)

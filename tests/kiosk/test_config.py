@@ -144,7 +144,7 @@ LINKED = [
         "keyframe[1].t",
         "must lie in [0, 86400]",
     ),
-    ("attract/01-hypersphere.toml", "t = 14\n", "t = 5\n", "keyframe[2].t", "later than"),
+    ("attract/01-hypersphere.toml", "t = 15\n", "t = 5\n", "keyframe[2].t", "later than"),
     (
         "attract/01-hypersphere.toml",
         "sensor_distance = 3\n",
@@ -156,7 +156,7 @@ LINKED = [
         "attract/01-hypersphere.toml",
         'caption = "Closer still."',
         'caption = "Closer still."\nease = "bounce"',
-        "keyframe[3].ease",
+        "keyframe[4].ease",
         "'smooth', 'linear' or 'hold'",
     ),
     (

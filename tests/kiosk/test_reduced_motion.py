@@ -12,9 +12,9 @@ import pytest
 from tests.golden.kiosk_frames import FakeClock
 from tests.kiosk.support import IDLE_S, FakeWindow, HeadlessKiosk, kiosk
 
-#: The shipped 01-hypersphere timeline's keyframes after t = 0 (it lasts 52 s, then loops).
-KEYFRAMES = [7.0, 14.0, 21.0, 26.0, 33.0, 40.0]
-LOOP_S = 52.0
+#: The shipped 01-hypersphere timeline's keyframes after t = 0 (it lasts 56 s, then loops).
+KEYFRAMES = [7.0, 15.0, 18.0, 22.0, 30.0, 37.0, 44.0]
+LOOP_S = 56.0
 
 
 def _camera(view):
@@ -82,8 +82,8 @@ def test_reduced_motion_holds_each_pose_and_crossfades_to_the_next(tmp_path, mon
         want = playlist.at(t, stepped=True)[1]
         assert window.views[index].angles == pytest.approx(want.angles)
         assert window.views[index].sensor_r == pytest.approx(want.sensor_r)
-    # "Now the 4D viewpoint moves closer" (7..14 s) stays true: closer a step at a time
-    closer = [v.sensor_r for (t, _, _), v in zip(frames, window.views) if 7.0 <= t < 14.0]
+    # "Now the 4D viewpoint moves closer" (7..18 s) stays true: closer a step at a time
+    closer = [v.sensor_r for (t, _, _), v in zip(frames, window.views) if 7.0 <= t < 18.0]
     assert all(b >= a for a, b in zip(closer, closer[1:])) and closer[-1] > closer[0]
     # the text panels hold still
     assert set(window.drifts) == {(0.0, 0.0)}

@@ -26,7 +26,7 @@ SIZE = (320, 180)
 FPS = 4
 #: Two captions the German catalogue translates (the hypersphere timeline's first two).
 FIRST = "Three doughnuts on the surface of a 4D ball, seen from infinitely far away in 4D."
-SECOND = "Now the 4D viewpoint moves closer."
+SECOND = "Now the 4D viewpoint moves closer: the green doughnut grows far more than the red one."
 
 
 @pytest.fixture

@@ -38,12 +38,17 @@ void main() {
 #endif
 
 #if defined FRAGMENT_SHADER
-#if defined TRIANGLE_IDS
+#if defined TRIANGLE_IDS || defined OBJECT_IDS
 uniform int u_id_offset;
 out vec4 f_color;
 void main() {
+#if defined OBJECT_IDS
+    // The whole surface in one flat colour, its object id (exhibit/render/passes/ids.py).
+    int id = u_id_offset;
+#else
     // Each triangle in a unique flat colour (id + 1; 0 is the background): tests read it back.
     int id = gl_PrimitiveID + u_id_offset + 1;
+#endif
     f_color = vec4(float(id & 255), float((id >> 8) & 255), float((id >> 16) & 255), 255.0) / 255.0;
 }
 #else

@@ -1,0 +1,151 @@
+"""Captions proved on the picture (exhibit.kiosk.claims, `exhibit render --timeline --verify`):
+claims measured on the frames the kiosk draws, through the object-id pass, never by colour."""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+
+import pytest
+
+from exhibit.kiosk.attract import load_timeline
+from exhibit.kiosk.claims import claim_runs, count_claims, verify
+from exhibit.kiosk.review import base_config
+from exhibit.resources import shipped
+
+#: Small frames: the claims compare shares of the screen, which hardly depend on the size.
+SIZE = (480, 270)
+FPS = 4
+SHIPPED = sorted(Path(shipped("configs", "attract")).glob("*.toml"))
+
+GREEN, RED, WHITE = "torus Z=-√2/2", "torus Z=√2/2", "torus Z=0"
+
+
+def _timeline(tmp_path, keyframes: str, head: str = 'scene = "hopf"\npreset = "figure-6"\n'):
+    path = tmp_path / "planted.toml"
+    path.write_text(head + keyframes, encoding="utf-8")
+    return path
+
+
+def _verify(path, language="en", reduced=(False,), headless=None):
+    config = dataclasses.replace(base_config(), languages=("en", "de"))
+    return verify(path, config, SIZE, FPS, (language,), reduced, headless=headless)
+
+
+def test_a_planted_false_claim_fails_with_its_file_and_keyframe(tmp_path, headless):
+    """The sensor stays at infinity while the caption says green grows, and the first caption
+    says a curve no scene has is visible: both are reported, each with its file and keyframe;
+    the true claims beside them hold."""
+    path = _timeline(
+        tmp_path,
+        f"""
+[[keyframe]]
+t = 0
+sensor_distance = "inf"
+caption = "Three doughnuts."
+while = {{ visible = ["{GREEN}", "{RED}", "the moon"] }}
+
+[[keyframe]]
+t = 4
+caption = "The green doughnut grows."
+while = {{ grows = ["{GREEN}"], visible = ["{WHITE}"] }}
+
+[[keyframe]]
+t = 8
+""",
+    )
+    verdict = _verify(path, headless=headless)
+    assert verdict.claims == 5 and verdict.captions_with_claims == 2
+    assert len(verdict.problems) == 2, verdict.problems
+    moon, grows = verdict.problems
+    assert moon.startswith(f"{path}: keyframe 0: 'the moon': no object of the scene")
+    assert grows.startswith(f"{path}: keyframe 1: grows {GREEN}: its area on screen went from")
+    assert grows.endswith("(x1.00, t = 4.2..8.0 s), not x1.25 or more (en)")
+
+
+def test_growth_and_filling_are_measured_on_the_frames(tmp_path, headless):
+    """The sensor moving in from infinity to 3 with the framing held: green grows, and far more
+    than red (the paper: "the circumference of the green 2-surface enlarges significantly
+    while the red one enlarges only moderately"); red does not outgrow green. At distance 2
+    green fills the world."""
+    path = _timeline(
+        tmp_path,
+        f"""
+[[keyframe]]
+t = 0
+sensor_distance = "inf"
+caption = "Closer."
+while = {{ grows = ["{GREEN}"], outgrows = ["{GREEN}", "{RED}"] }}
+
+[[keyframe]]
+t = 6
+sensor_distance = 3
+hold_framing = true
+caption = "Red outgrows green."
+while = {{ outgrows = ["{RED}", "{GREEN}"] }}
+
+[[keyframe]]
+t = 10
+sensor_distance = 2
+half_height = 5
+caption = "Green fills the world."
+while = {{ fills = {{ "{GREEN}" = 0.9 }} }}
+
+[[keyframe]]
+t = 14
+""",
+    )
+    verdict = _verify(path, headless=headless)
+    assert len(verdict.problems) == 1, verdict.problems
+    assert verdict.problems[0].startswith(f"{path}: keyframe 1: outgrows {RED}, {GREEN}: grew x")
+
+
+def test_the_id_pass_names_each_object_and_ignores_colour(headless):
+    """Two objects of one colour (the hypersphere's x axis and red doughnut share (0.78, 0.14,
+    0.02)) are counted apart, and curves behind a surface are not counted."""
+    from exhibit import scenes
+
+    scene = scenes.get("hopf")
+    preset = scene.preset("figure-6")
+    mesh = scene.build(scene.resolve(dict(preset.params)), 16)
+    gpu = headless.renderer.upload(mesh)
+    try:
+        coverage = headless.objects(gpu, preset.view, (320, 180))
+        colours = {s.name: s.material.color for s in mesh.surfaces}
+        colours.update({c.name: c.material.color for c in mesh.curves})
+        assert colours["x axis"] == colours[RED]
+        assert coverage.pixels["x axis"] > 0 and coverage.pixels[RED] > 1000
+        ids = headless.renderer.ids.objects(gpu, preset.view, (320, 180))
+        assert ids == coverage  # the same frame twice: the same counts
+        total = sum(coverage.pixels.values())
+        assert 0 < total < 320 * 180
+    finally:
+        gpu.release()
+
+
+def test_every_shipped_caption_about_the_picture_states_its_claims():
+    """Each shipped timeline makes claims, and each caption that names an object or a motion
+    ("grows", "closer", "fills", "visible", a colour) carries a condition."""
+    words = ("grow", "closer", "farther", "fills", "red", "green", "white", "blue", "yellow")
+    for path in SHIPPED:
+        timeline = load_timeline(path)
+        assert sum(count_claims(r.condition) for r in claim_runs(timeline)) > 0, path
+        for k in timeline.keyframes:
+            if any(w in k.caption.lower() for w in words):
+                assert k.condition is not None, (path.name, k.caption)
+
+
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+def test_the_shipped_timelines_hold_their_claims_in_english(path, headless):
+    verdict = _verify(path, "en", (False,), headless=headless)
+    assert verdict.problems == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("reduced", [False, True], ids=["moving", "reduced-motion"])
+@pytest.mark.parametrize("language", ["en", "de"])
+@pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
+def test_the_shipped_timelines_hold_their_claims_everywhere(path, language, reduced, headless):
+    """Every shipped timeline, in English and German, with and without reduced motion (CI)."""
+    verdict = _verify(path, language, (reduced,), headless=headless)
+    assert verdict.problems == []
