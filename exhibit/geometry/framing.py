@@ -191,6 +191,20 @@ def _centered(bounds: Bounds, size, area, half: float) -> tuple[float, float]:
     )
 
 
+def fitting_half_height(bounds: Bounds, size: tuple[int, int], area) -> float | None:
+    """The ``half_height`` at which ``bounds`` just fits ``area`` (a pixel rectangle), not
+    limited by MAX_ZOOM; None for an empty area."""
+    return _half_height(bounds, size, area)
+
+
+def centered_in(
+    view: ViewState, bounds: Bounds, size: tuple[int, int], area, half_height: float
+) -> ViewState:
+    """``view`` at ``half_height`` with the lens shift that puts the middle of ``bounds`` at
+    the middle of ``area`` (a pixel rectangle)."""
+    return view.replace(half_height=half_height, center=_centered(bounds, size, area, half_height))
+
+
 def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> ViewState:
     """``view`` zoomed out by ``factor`` about the middle of ``area`` (a pixel rectangle): what
     was there stays there, everything else moves towards it."""

@@ -20,6 +20,7 @@ from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content
+from exhibit.kiosk.follow import Aims
 from exhibit.kiosk.governor import Governor, for_kiosk, mesh_levels
 from exhibit.kiosk.language import LanguageChoice, Translator, in_every_language, translator_for
 from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
@@ -126,6 +127,7 @@ def assemble(
             started,
             framer=StartViews(framer, content),
             reduced_motion=config.reduced_motion,
+            follow=Aims(framer, content),
         )
         content.state = state
         content.prepare_rest(jobs, framers, preparer, started)

@@ -6,12 +6,15 @@ by events and a clock, so it is tested without a window or devices.
   visitor from the pose on screen, so nothing jumps.
 * A "next-scene" button, or one bound to nothing, moves to the next scene of the content list
   (Mapper.switches_scene).
+* While a visitor turns, the zoom and lens shift follow the picture so it stays in the free
+  area with a fair share of it (exhibit.kiosk.follow), when the kiosk hands a ``follow``.
 * After ``idle_timeout_s`` without real input, attract mode returns, gliding from the visitor's
   view into the timeline over ``blend_s`` when the scene is the same.
 * Reduced motion (``[accessibility] reduced_motion``): the camera never glides by itself. Attract
   mode moves in slow, held steps (Timeline.at's ``stepped``) and every change of pose is a cut
   (crossfaded by the kiosk); so is the return from a visitor, and the takeover's reframing
-  jumps to its end. What a visitor turns still turns smoothly.
+  jumps to its end, and the framing follows a visitor's picture in rare steps (cuts) only.
+  What a visitor turns still turns smoothly.
 
 Either list may be empty when the kiosk skipped scenes that failed to load (never both): with no
 timeline, attract mode slowly turns the first scene of the content list; with no content list,
@@ -29,6 +32,7 @@ from exhibit.devices.base import Event, Kind
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Playlist
+from exhibit.kiosk.follow import Aimer, Follow
 
 ATTRACT, VISITOR = "attract", "visitor"
 #: Seconds per turn of θ1 in attract mode when there is no timeline to play.
@@ -96,10 +100,14 @@ class KioskState:
         now: float,
         framer=unframed,
         reduced_motion: bool = False,
+        follow: Aimer | None = None,
     ):
         """``framer(scene name, params, view) -> view`` frames a scene's start view for the
-        screen (zoom and lens shift only). ``reduced_motion``: no glides of the camera but a
-        visitor's own (the module docstring)."""
+        screen (zoom and lens shift only). ``follow(scene name, params, view, reference
+        sensor) -> Aim | None`` (exhibit.kiosk.follow.Aims) says where the framing of a
+        visitor's pose should go; None: the framing stays as the takeover left it.
+        ``reduced_motion``: no glides of the camera but a visitor's own (the module
+        docstring)."""
         self.playlist = playlist
         self.framer = framer
         self.mapper = mapper
@@ -114,6 +122,8 @@ class KioskState:
         self._reframe: tuple | None = None
         #: Reduced motion: this step's takeover jumped to the reframing's end (a cut).
         self._jumped = False
+        #: The zoom and lens shift following a visitor's picture (None: they stay).
+        self._follow = Follow(follow, reduced_motion) if follow is not None else None
         self._position = 0.0
         self.frame = self._attract_frame(now)
 
@@ -193,6 +203,8 @@ class KioskState:
         self.content = tuple(c for c in self.content if c != name)
         if self.frame.scene != name or self.mode == ATTRACT:
             return
+        if self._follow is not None:
+            self._follow.stop()
         if self.content:
             self.frame = self._next_scene()
         else:
@@ -279,6 +291,8 @@ class KioskState:
 
         if self._home_pressed(events):
             self._reframe = None
+            if self._follow is not None:
+                self._follow.stop()
         if self.mode == ATTRACT:
             if active_now or switches:
                 self.mode = VISITOR  # take over from the pose on screen: no jump
@@ -287,13 +301,20 @@ class KioskState:
                 self.frame = self._attract_frame(now)
                 return self.frame
         view = self._reframing(view, now)
+        if self._follow is not None and self._reframe is None:
+            view, jumped = self._follow(self.frame.scene, self.frame.params, view, now)
+            self._jumped = self._jumped or jumped
         self.frame = self._visitor_frame(self.frame.scene, self.frame.params, view)
         for _ in range(switches):
             self._reframe = None
             self.frame = self._next_scene()
+        if switches and self._follow is not None:
+            self._follow.stop()
         if activity.idle_for(now) > self.idle_timeout_s and not switches:
             self.mode = ATTRACT
             self._reframe = None
+            if self._follow is not None:
+                self._follow.stop()
             if not self.reduced_motion:  # with reduced motion, a cut (update)
                 self._blend_from = (self.frame.view, now, self.frame.scene)
             self.playlist.restart(now)
