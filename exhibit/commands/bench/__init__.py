@@ -31,7 +31,7 @@ if "numpy" not in sys.modules:
     for _name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(_name, "1")
 
-HELP = "benchmarks: " + ", ".join(["mesh", "render", "kiosk", "startup", "input"])
+HELP = "benchmarks: " + ", ".join(["mesh", "render", "kiosk", "startup", "input", "governor"])
 
 #: benchmark name -> module providing HELP, add_arguments, run
 BENCHMARKS = {
@@ -40,6 +40,7 @@ BENCHMARKS = {
     "kiosk": "exhibit.commands.bench.kiosk",
     "startup": "exhibit.commands.bench.startup",
     "input": "exhibit.commands.bench.input",
+    "governor": "exhibit.commands.bench.governor",
 }
 
 
