@@ -320,8 +320,10 @@ class Kiosk:
         duration: float | None = None,
         screenshot: Path | None = None,
         max_frames: int | None = None,
+        until: Callable[[], bool] | None = None,
     ) -> int:
-        """Run until the maintenance keys (or duration / max_frames, for tests and staff).
+        """Run until the maintenance keys (or duration / max_frames, for tests and staff, or
+        ``until()`` returning True after a frame, for benchmarks).
 
         Returns 0, or FAILING_EXIT after FAILING_EXIT_S in which every frame raised. READY goes
         to systemd after the first frame drawn; the watchdog is pinged after every frame, drawn
@@ -357,6 +359,8 @@ class Kiosk:
                 if duration is not None and start - self.started >= duration:
                     break
                 if max_frames is not None and frames >= max_frames:
+                    break
+                if until is not None and until():
                     break
                 # a failed frame did not wait for vsync: no busy loop; a held picture leaves
                 # the CPU to the scene a visitor waits for
