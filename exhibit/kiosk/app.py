@@ -32,6 +32,7 @@ Why one module of this size: what each frame does, in order, reads best in one p
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import gc
 import logging
@@ -68,6 +69,10 @@ FAILING_EXIT = 70  # EX_SOFTWARE
 SLOW_FRAME_MS = 100.0
 #: Seconds of a crossfade between timelines and between scenes.
 CROSSFADE_S = 1.0
+#: While a visitor waits for a scene still being prepared, the picture on screen is held (it does
+#: not change) and redrawn this often: on software GL a frame takes the CPU the preparing
+#: needs.
+HOLD_FRAME_S = 0.2
 #: What the screen says when no scene could be prepared (the second line is for staff).
 NOTICE = (
     "This exhibit is resting for a moment.",
@@ -127,6 +132,8 @@ class Kiosk:
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
         self._fade_start: float | None = None
+        #: While a visitor waits for a scene being prepared: (scene, when the wait began).
+        self._waiting: tuple[str, float] | None = None
         self._log_fields: dict[str, str | None] = {}
         self._update_log_fields()
         self.stats = FrameStats()
@@ -315,8 +322,10 @@ class Kiosk:
         duration: float | None = None,
         screenshot: Path | None = None,
         max_frames: int | None = None,
+        until: Callable[[], bool] | None = None,
     ) -> int:
-        """Run until the maintenance keys (or duration / max_frames, for tests and staff).
+        """Run until the maintenance keys (or duration / max_frames, for tests and staff, or
+        ``until()`` returning True after a frame, for benchmarks).
 
         Returns 0, or FAILING_EXIT after FAILING_EXIT_S in which every frame raised. READY goes
         to systemd after the first frame drawn; the watchdog is pinged after every frame, drawn
@@ -353,9 +362,13 @@ class Kiosk:
                     break
                 if max_frames is not None and frames >= max_frames:
                     break
-                spare = min_frame - (self.clock() - start)
-                if spare > 0 and (not self.config.vsync or not drawn):
-                    time.sleep(spare)  # a failed frame did not wait for vsync: no busy loop
+                if until is not None and until():
+                    break
+                # a failed frame did not wait for vsync: no busy loop; a held picture leaves
+                # the CPU to the scene a visitor waits for
+                spare = (HOLD_FRAME_S if self.waiting else min_frame) - (self.clock() - start)
+                if spare > 0 and (not self.config.vsync or not drawn or self.waiting):
+                    time.sleep(spare)
             if screenshot is not None:
                 self._screenshot(screenshot)
         finally:
@@ -403,6 +416,41 @@ class Kiosk:
             words=tr.hud_words(language),
         )
 
+    @property
+    def waiting(self) -> bool:
+        """Whether a visitor waits for a scene still being prepared (the picture is held)."""
+        return self._waiting is not None
+
+    def _fade(self, now: float) -> float:
+        """The outgoing picture's opacity in the crossfade under way (0: none)."""
+        if self._fade_start is None:
+            return 0.0
+        u = (now - self._fade_start) / CROSSFADE_S
+        if u >= 1.0:
+            self._fade_start = None
+            return 0.0
+        return 1.0 - u * u * (3.0 - 2.0 * u)
+
+    def _hold(self, frame, title: str, now: float) -> None:
+        """A visitor chose a scene still being prepared: it is prepared first, and until it
+        comes the picture on screen stays, with a notice in the caption panel (in the
+        visitor's language) saying what comes. Only with nothing shown yet, the notice
+        screen."""
+        if self._waiting is None or self._waiting[0] != frame.scene:
+            log.info("scene %s is being prepared: the picture on screen is held", frame.scene)
+            self._waiting = (frame.scene, now)
+        self.content.wanted((frame.scene, frame.params))
+        words = self.translate(PREPARING).replace("{title}", title)
+        if self._shown is None:
+            self.window.notice([words], self.drift(now))
+            self._fade_start = None
+            return
+        gpu, view, options, hud = self._shown
+        options = dataclasses.replace(options, hud=True, hud_drift=self.drift(now))
+        hud = dataclasses.replace(hud, note=words)
+        self.window.draw(gpu, view, options, hud, fade=self._fade(now))
+        self._shown = (gpu, view, options, hud)
+
     def _draw(self, frame, now: float) -> None:
         hud = self._hud(frame.title, frame.caption, frame.scene)
         quality = self.governor.quality
@@ -411,26 +459,26 @@ class Kiosk:
         )
         self.governor.observe(frame.mode, frame.scene, frame.view, now)
         levels = self.content.levels((frame.scene, frame.params))
-        if not levels:  # a visitor chose a scene still being prepared: it comes next
-            self.content.wanted((frame.scene, frame.params))
-            self.window.notice(
-                [self.translate(PREPARING).replace("{title}", hud.title)], self.drift(now)
-            )
-            self._shown = self._fade_start = None
+        if not levels:
+            self._hold(frame, hud.title, now)
             return
         gpu = nearest_level(levels, quality.mesh)
-        if frame.cut and self._shown is not None:
-            # Crossfade: the outgoing picture, drawn once more offscreen, fades out over the
-            # new one (never a black frame, never a hard cut).
+        arrived = self._waiting is not None
+        if arrived:
+            assert self._waiting is not None
+            log.info(
+                "scene %s shown after %.1f s of preparing",
+                frame.scene,
+                now - self._waiting[1],
+            )
+            self._waiting = None
+        if (frame.cut or arrived) and self._shown is not None:
+            # Crossfade: the outgoing picture (the held one, with its notice, when a visitor
+            # waited), drawn once more offscreen, fades out over the new one (never a black
+            # frame, never a hard cut).
             self.window.capture(*self._shown)
             self._fade_start = now
-        fade = 0.0
-        if self._fade_start is not None:
-            u = (now - self._fade_start) / CROSSFADE_S
-            if u >= 1.0:
-                self._fade_start = None
-            else:
-                fade = 1.0 - u * u * (3.0 - 2.0 * u)
+        fade = self._fade(now)
         inset = (
             self.inset.for_frame(frame, self.content.mesh(frame.scene, frame.params))
             if self.config.hud

@@ -234,10 +234,13 @@ def _portable(prepared: Prepared) -> Prepared:
     return dataclasses.replace(prepared, meshes=plain)
 
 
-def _worker(connection, framers: Framers) -> None:
-    """The worker process: jobs in, Prepared out, until a None job or the end of the pipe."""
+def _worker(connection, framers: Framers, nice: int = WORKER_NICE) -> None:
+    """The worker process: jobs in, Prepared out, until a None job or the end of the pipe.
+    ``nice``: how much it yields to the frame loop (0: the urgent worker, for the scene a
+    visitor waits for)."""
     try:
-        os.nice(WORKER_NICE)
+        if nice:
+            os.nice(nice)
     except OSError:  # a system call filter without setpriority: the same priority, then
         pass
     from exhibit.kiosk import journal
@@ -272,15 +275,36 @@ def _read(connection, inbox: queue.SimpleQueue) -> None:
             return
 
 
+@dataclass
+class _Urgent:
+    """The worker for the scene a visitor waits for: its job, process, pipe and inbox."""
+
+    job: Job
+    process: BaseProcess
+    connection: Connection
+    inbox: queue.SimpleQueue
+
+
 class ProcessPreparer:
     """Runs jobs in a worker process (multiprocessing "spawn": the kiosk has GL and X or
     Wayland connections open, which a forked child must not share). One job at a time, so
     the kiosk can reorder what waits (a visitor who asks for a scene first). results() never
     blocks: a reader thread receives. The worker leaves when nothing is left to do, or by
-    itself when the kiosk dies (the end of its pipe)."""
+    itself when the kiosk dies (the end of its pipe).
 
-    def __init__(self, framers: Framers = Framers()):
+    The worker runs at nice WORKER_NICE, and a process cannot lower its niceness again without
+    privilege (CAP_SYS_NICE). So the scene a visitor waits for (first()) goes to an urgent
+    worker of its own at the kiosk's priority (``urgent``; the default): on a machine busy
+    with other work, a niced worker gets a tenth of a core, and the visitor would wait minutes.
+    Should the niced worker already be preparing that scene, both go on and the first result
+    counts (the niced one takes only what the rest of the machine leaves)."""
+
+    def __init__(self, framers: Framers = Framers(), urgent: bool = True):
         self.framers = framers
+        self.urgent = urgent
+        self._urgent: _Urgent | None = None
+        #: Keys an urgent worker delivered first: the niced worker's result for them is dropped.
+        self._delivered: set[tuple] = set()
         self._context = multiprocessing.get_context("spawn")
         #: the worker and the kiosk's end of its pipe: both set, or both None
         self._process: BaseProcess | None = None
@@ -292,19 +316,24 @@ class ProcessPreparer:
         self._leaving = False
         #: A worker whose pipe has closed, not yet reaped.
         self._exiting: multiprocessing.process.BaseProcess | None = None
+        #: Urgent workers done or stopped, not yet reaped.
+        self._stopped: list[BaseProcess] = []
+
+    def _spawn(self, nice: int, name: str) -> tuple[BaseProcess, Connection, queue.SimpleQueue]:
+        parent, child = self._context.Pipe()
+        process = self._context.Process(
+            target=_worker, args=(child, self.framers, nice), name=name, daemon=True
+        )
+        process.start()
+        child.close()
+        inbox: queue.SimpleQueue = queue.SimpleQueue()
+        threading.Thread(
+            target=_read, args=(parent, inbox), daemon=True, name=f"{name}-reader"
+        ).start()
+        return process, parent, inbox
 
     def _start(self) -> None:
-        parent, child = self._context.Pipe()
-        self._process = self._context.Process(
-            target=_worker, args=(child, self.framers), name="exhibit-prepare", daemon=True
-        )
-        self._process.start()
-        child.close()
-        self._connection = parent
-        self._inbox = queue.SimpleQueue()
-        threading.Thread(
-            target=_read, args=(parent, self._inbox), daemon=True, name="exhibit-prepare-reader"
-        ).start()
+        self._process, self._connection, self._inbox = self._spawn(WORKER_NICE, "exhibit-prepare")
 
     def submit(self, job: Job) -> None:
         """Queued; the worker starts at the first results() (after the kiosk's first frame:
@@ -319,22 +348,70 @@ class ProcessPreparer:
             or bool(self._queue)
             or self._process is not None
             or self._exiting is not None
+            or self._urgent is not None
         )
 
     def first(self, key) -> None:
-        """The job for ``key`` (scene, params), if waiting, runs next."""
+        """The job for ``key`` (scene, params), if waiting, runs next: in an urgent worker of
+        its own (``urgent``), else next in the niced one. Called every frame while a visitor
+        waits: an urgent worker starts once per scene."""
         self._queue.sort(key=lambda job: job.key != key)
+        if not self.urgent or (self._urgent is not None and self._urgent.job.key == key):
+            return
+        job = next((j for j in self.pending() if j.key == key), None)
+        if job is None or key in self._delivered:
+            return
+        self._stop_urgent()  # a visitor who moved on: the scene they left waits its turn
+        process, connection, inbox = self._spawn(0, "exhibit-prepare-now")
+        self._urgent = _Urgent(job, process, connection, inbox)
+        try:
+            connection.send(job)
+        except OSError:
+            pass  # it died at once: its reader says so
+        log.info("scene %s: prepared now, for a visitor who waits", job.scene)
+
+    def _stop_urgent(self) -> None:
+        urgent, self._urgent = self._urgent, None
+        if urgent is None:
+            return
+        urgent.connection.close()
+        urgent.process.terminate()  # reaped by its reader's end or at close()
+        self._stopped.append(urgent.process)
+
+    def _urgent_results(self) -> list[Prepared]:
+        """The urgent worker's result, once: the job leaves the queue (or the niced worker's
+        result for it will be dropped); a worker that died leaves the job to the niced one."""
+        urgent = self._urgent
+        if urgent is None:
+            return []
+        try:
+            item = urgent.inbox.get_nowait()
+        except queue.Empty:
+            return []
+        self._urgent = None
+        urgent.connection.close()
+        self._stopped.append(urgent.process)
+        if item is _ENDED:
+            log.warning("the urgent preparing process died: %s waits its turn", urgent.job.scene)
+            return []
+        key = urgent.job.key
+        self._queue = [job for job in self._queue if job.key != key]
+        if self._in_flight is not None and self._in_flight.key == key:
+            self._delivered.add(key)
+        return [item]
 
     def pending(self) -> list[Job]:
         """The jobs not done: the one under way first."""
         return ([self._in_flight] if self._in_flight is not None else []) + self._queue
 
     def _send(self) -> None:
-        if self._in_flight is not None or not self._queue or self._leaving:
+        urgent = self._urgent.job.key if self._urgent is not None else None
+        ready = [i for i, job in enumerate(self._queue) if job.key != urgent]
+        if self._in_flight is not None or not ready or self._leaving:
             return
         if self._process is None:
             self._start()
-        self._in_flight = self._queue.pop(0)
+        self._in_flight = self._queue.pop(ready[0])
         assert self._connection is not None  # set with the process
         try:
             self._connection.send(self._in_flight)  # a Job is small: the pipe takes it at once
@@ -345,6 +422,8 @@ class ProcessPreparer:
         out: list[Prepared] = []
         if self._exiting is not None and not self._exiting.is_alive():
             self._exiting = None  # is_alive() has reaped it: never waited for in a frame
+        self._stopped = [p for p in self._stopped if p.is_alive()]  # reaped likewise
+        out += self._urgent_results()
         self._send()
         while True:
             try:
@@ -355,7 +434,12 @@ class ProcessPreparer:
                 out += self._ended()
             else:
                 self._in_flight = None
-                out.append(item)
+                if item.job.key in self._delivered:
+                    self._delivered.discard(item.job.key)  # the urgent worker was first
+                else:
+                    if self._urgent is not None and self._urgent.job.key == item.job.key:
+                        self._stop_urgent()  # the niced worker was first
+                    out.append(item)
                 self._send()
         if (
             self._in_flight is None
@@ -402,9 +486,10 @@ class ProcessPreparer:
         """Stop the worker: at once when it is busy (a half-built mesh is not worth waiting
         for; the cache never keeps half a file), else it exits when the pipe closes."""
         self._queue.clear()
+        self._stop_urgent()
         if self._connection is not None:
             self._connection.close()
-        for process in (self._process, self._exiting):
+        for process in (self._process, self._exiting, *self._stopped):
             if process is None:
                 continue
             if process is self._process and self._in_flight is not None:
@@ -414,4 +499,5 @@ class ProcessPreparer:
                 process.kill()
                 process.join(timeout=2)
         self._process = self._connection = self._in_flight = self._exiting = None
+        self._stopped = []
         self._leaving = False

@@ -222,3 +222,38 @@ def test_for_kiosk_target_and_mesh_levels():
     )
     g = for_kiosk(config, window, now=0.0)
     assert g.settings.target_ms == 40.0 and g.settings.step_interval_s == 10.0
+
+
+@pytest.mark.parametrize("fps, within", [(1, 4.0), (2, 2.5), (5, 1.5)])
+def test_a_few_frames_a_second_step_down_within_seconds(fps, within):
+    """The window is time, not a count of frames: at 1 fps three frames of a second decide
+    (a count of 5 frames in 2 s never did), so each step comes within a few seconds."""
+    g = governor()
+    m = Machine(g, steady([1000.0 / fps] * len(LADDER)))
+    m.run(within)
+    assert [i for _, i in m.changes] == [1]
+    m.run(3 * within)
+    assert g.index >= 4, "a step every few seconds"
+
+
+def test_one_long_frame_is_not_slowness():
+    """A single hitch of 3 s (a page-in) among 12 ms frames: the median of the window, which
+    holds at least min_frames frames, stays at 12 ms."""
+    g = governor()
+    frames = iter(range(10**6))
+    m = Machine(g, lambda level, now: 3000.0 if next(frames) == 300 else 12.0)
+    m.run(30)
+    assert g.index == 0 and not m.changes
+
+
+def test_bench_governor_reports_each_frame_rate(capsys):
+    """`exhibit bench governor --json`: its plumbing, not its numbers."""
+    import json
+
+    from exhibit.cli import main
+
+    assert main(["bench", "governor", "--fps", "1", "5", "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert [row["fps"] for row in report["results"]] == [1.0, 5.0]
+    assert all(row["first_step_s"] is not None for row in report["results"])
+    assert report["baseline_60fps_steps"] == 0

@@ -11,7 +11,14 @@ import pytest
 from exhibit.cli import main
 from exhibit.errors import ConfigError
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.kiosk.language import SOURCE, Catalogue, Translator, coverage_problems, load_catalogue
+from exhibit.kiosk.language import (
+    PREPARING,
+    SOURCE,
+    Catalogue,
+    Translator,
+    coverage_problems,
+    load_catalogue,
+)
 from exhibit.render.target import Key
 
 SHIPPED = Path(__file__).resolve().parents[2] / "configs"
@@ -35,6 +42,11 @@ def test_the_shipped_german_catalogue_covers_every_text_the_kiosk_shows():
     assert coverage_problems(config) == []
     de = load_catalogue(SHIPPED / "languages" / "de.toml")
     assert de.text["When a ball meets a pipe"] == "Wenn eine Kugel auf ein Rohr trifft"
+    # issue 31: a title ending in a relative clause needs no comma inside German quotes
+    title = de.text["The offset of a cusp, and a circle that should not be there"]
+    assert de.text[PREPARING].replace("{title}", title) == (
+        "„Die Parallelkurve einer Spitze und ein Kreis, der nicht dazugehört“ wird vorbereitet …"
+    )
 
 
 def site(tmp_path: Path, catalogue: str, code: str = "xx", extra: str = "") -> Path:

@@ -32,15 +32,19 @@ from tests.xvfb import xvfb
 
 
 class Window(FakeWindow):
-    """FakeWindow that keeps the notice screens' words."""
+    """FakeWindow that keeps the notice screens' words and each frame's HUD."""
 
     def __init__(self):
         super().__init__()
-        self.notice_lines = []
+        self.notice_lines, self.huds = [], []
 
     def notice(self, lines, drift=(0.0, 0.0)):
         super().notice(lines, drift)
         self.notice_lines.append(lines)
+
+    def draw(self, gpu, view, options, hud, fade=0.0, inset=None):
+        super().draw(gpu, view, options, hud, fade, inset)
+        self.huds.append(hud)
 
 
 def _config(tmp_path):
@@ -133,23 +137,115 @@ def test_warm_up_runs_one_piece_per_frame_after_the_first(tmp_path, built):
     assert len(k.warm.chores) == pieces - 3
 
 
-def test_a_visitor_who_asks_for_a_scene_not_ready_sees_preparing_then_it(tmp_path, built):
+def test_a_visitor_who_asks_for_a_scene_not_ready_keeps_the_picture_with_a_notice(tmp_path, built):
+    """Issue 31: never the dark notice screen once a picture was shown. The picture on screen
+    stays, its caption panel saying what is being prepared; that scene goes first; when it
+    comes, the held picture (notice and all) crossfades into it."""
     window = Window()
     k = _kiosk(tmp_path, window)
     k.step()
+    held, before = window.drawn[-1], window.huds[-1]
     keyboard = k.devices.keyboard
     keyboard.key("n", True)  # the next scene: the Clifford torus, not prepared yet
     keyboard.key("n", False)
     k.content.preparer._queue.reverse()  # it waits behind others...
-    k.step()
-    assert k.state.frame.scene == "clifford-torus"
-    title = scenes.get("clifford-torus").title
-    assert window.notice_lines[-1] == [PREPARING.replace("{title}", title)]
+    for _ in range(3):
+        k.step()
+        assert k.state.frame.scene == "clifford-torus" and k.waiting
+        assert window.notices == 0, "not the notice screen"
+        assert window.drawn[-1] == held, "the picture on screen stays"
+        hud = window.huds[-1]
+        title = scenes.get("clifford-torus").title
+        assert (hud.title, hud.caption) == (before.title, before.caption), "its words stay true"
+        assert hud.note == PREPARING.replace("{title}", title)
     assert k.content.preparer._queue[0].scene == "clifford-torus", "...and goes first"
-    drawn = len(window.drawn)
     k.content.collect(k.clock(), k.started)
     k.step()
-    assert len(window.drawn) == drawn + 1 and window.notices == 1
+    assert not k.waiting and window.drawn[-1].startswith("mesh clifford-torus")
+    assert window.captured[-1] == held and window.fades[-1] > 0.9, "a crossfade from it"
+    assert window.huds[-1].note == "" and window.notices == 0
+
+
+def test_with_nothing_shown_yet_the_notice_screen_says_what_is_prepared(tmp_path, built):
+    window = Window()
+    k = _kiosk(tmp_path, window)
+    k.devices.keyboard.key("n", True)  # before the first frame
+    k.devices.keyboard.key("n", False)
+    k.step()
+    title = scenes.get("clifford-torus").title
+    assert window.notice_lines == [[PREPARING.replace("{title}", title)]] and k.waiting
+    assert k.content.preparer._queue[0].scene == "clifford-torus"
+
+
+class _Process:
+    def __init__(self):
+        self.alive = True
+
+    def is_alive(self):
+        return self.alive
+
+    def terminate(self):
+        self.alive = False
+
+    def join(self, timeout=None):
+        pass
+
+
+class _Connection:
+    def __init__(self):
+        self.sent, self.closed = [], False
+
+    def send(self, item):
+        self.sent.append(item)
+
+    def close(self):
+        self.closed = True
+
+
+def test_the_scene_a_visitor_waits_for_gets_a_worker_at_full_priority(monkeypatch):
+    """The niced worker cannot be made un-niced again (that needs privilege): the wanted scene
+    goes to an urgent worker at nice 0, started once; the first result for it counts."""
+    import queue
+
+    workers = []
+
+    def spawn(self, nice, name):
+        worker = (nice, _Process(), _Connection(), queue.SimpleQueue())
+        workers.append(worker)
+        return worker[1:]
+
+    monkeypatch.setattr(ProcessPreparer, "_spawn", spawn)
+    a, b, c = (Job(name, (), ((0, 8),)) for name in ("a", "b", "c"))
+    p = ProcessPreparer()
+    for job in (a, b, c):
+        p.submit(job)
+    assert p.results() == [] and len(workers) == 1
+    niced, urgent = workers[0], None
+    assert niced[0] == preparing.WORKER_NICE and niced[2].sent == [a]
+    for _ in range(3):  # every frame while the visitor waits
+        p.first(c.key)
+    assert len(workers) == 2
+    urgent = workers[1]
+    assert urgent[0] == 0 and urgent[2].sent == [c]
+    urgent[3].put(preparing.Prepared(c))
+    assert [r.job for r in p.results()] == [c]
+    assert urgent[2].closed and p.pending() == [a, b], "c is done"
+    niced[3].put(preparing.Prepared(a))
+    assert [r.job for r in p.results()] == [a] and niced[2].sent == [a, b]
+    # the niced worker is already preparing the one wanted: both go on, the first counts
+    p.first(b.key)
+    assert len(workers) == 3 and workers[2][2].sent == [b]
+    workers[2][3].put(preparing.Prepared(b))
+    assert [r.job for r in p.results()] == [b]
+    niced[3].put(preparing.Prepared(b))
+    assert p.results() == [], "the niced worker's late result is dropped"
+    # without urgent workers: the queue's order only
+    p = ProcessPreparer(urgent=False)
+    for job in (a, b, c):
+        p.submit(job)
+    p.results()
+    p.first(c.key)
+    assert len(workers) == 4 and p._queue[0] is c
 
 
 def test_a_scene_that_fails_later_is_left_out_and_the_visitor_moves_on(tmp_path, built):

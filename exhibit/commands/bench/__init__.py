@@ -31,7 +31,9 @@ if "numpy" not in sys.modules:
     for _name in BLAS_THREAD_VARIABLES:
         os.environ.setdefault(_name, "1")
 
-HELP = "benchmarks: " + ", ".join(["mesh", "render", "kiosk", "startup", "input"])
+HELP = "benchmarks: " + ", ".join(
+    ["mesh", "render", "kiosk", "startup", "input", "governor", "next-scene"]
+)
 
 #: benchmark name -> module providing HELP, add_arguments, run
 BENCHMARKS = {
@@ -40,6 +42,8 @@ BENCHMARKS = {
     "kiosk": "exhibit.commands.bench.kiosk",
     "startup": "exhibit.commands.bench.startup",
     "input": "exhibit.commands.bench.input",
+    "governor": "exhibit.commands.bench.governor",
+    "next-scene": "exhibit.commands.bench.next_scene",
 }
 
 
