@@ -18,6 +18,7 @@ from exhibit.kiosk.attract import load_timeline, timeline_paths
 from exhibit.kiosk.captions import caption_problems
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
 from exhibit.kiosk.language import Catalogue, coverage_problems
+from exhibit.render.layout import PINCH_KEY
 
 HELP = "check the kiosk configuration and all the files it names; exit 2 on any problem"
 
@@ -110,7 +111,13 @@ def _layout_problems(config) -> list[str]:
     texts = shown_texts(config.scenes, timelines)
     t = config.text
     sizes = TextSizes(t.caption_cap, t.title_cap, t.infinity_beyond)
-    hud = {"4D axes": "gizmo", "sensor": "numbers", "eye": "numbers", "fov": "numbers"}
+    hud = {
+        "4D axes": "gizmo",
+        "sensor": "numbers",
+        "eye": "numbers",
+        "fov": "numbers",
+        PINCH_KEY: "numbers",
+    }
 
     def kind(english: str, where: str) -> str:
         if where == "the HUD":

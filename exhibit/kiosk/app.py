@@ -194,7 +194,7 @@ class Kiosk:
             return False
         options = RenderOptions(hud=self.config.hud, quality=quality, text=self.text)
         gpu = nearest_level(levels, quality.mesh)
-        hud = self._hud(frame.title, frame.caption, frame.scene)
+        hud = self._hud(frame.title, frame.caption, frame.scene, tags=frame.tags)
         self.window.capture(gpu, frame.view, options, hud)
         self.window.draw(gpu, frame.view, options, hud, fade=0.5)
         return True
@@ -405,7 +405,14 @@ class Kiosk:
                 self.errors.failed(exc, start)
         return drawn
 
-    def _hud(self, title: str, caption: str, scene: str, language: str | None = None) -> HudInfo:
+    def _hud(
+        self,
+        title: str,
+        caption: str,
+        scene: str,
+        language: str | None = None,
+        tags: tuple[tuple[str, str], ...] = (),
+    ) -> HudInfo:
         """The HUD's words in the language on screen (or ``language``)."""
         tr = self.translate
         return HudInfo(
@@ -414,6 +421,7 @@ class Kiosk:
             axes=scenes.get(scene).axes,
             axes_label=tr("4D axes", language),
             words=tr.hud_words(language),
+            tags=tuple((name, tr(words, language)) for name, words in tags),
         )
 
     @property
@@ -452,7 +460,7 @@ class Kiosk:
         self._shown = (gpu, view, options, hud)
 
     def _draw(self, frame, now: float) -> None:
-        hud = self._hud(frame.title, frame.caption, frame.scene)
+        hud = self._hud(frame.title, frame.caption, frame.scene, tags=frame.tags)
         quality = self.governor.quality
         options = RenderOptions(
             hud=self.config.hud, hud_drift=self.drift(now), quality=quality, text=self.text

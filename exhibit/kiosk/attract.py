@@ -18,6 +18,8 @@
     caption = "..."                           # shown from this keyframe on
     while = { sensor_distance = [2.9, 3.1] }  # optional: what the caption says of the view
     while = { angles_within = 5 }             # ... or: the pose turns at most 5 degrees
+    while = { grows = ["torus Z=-√2/2"] }     # ... or what the picture shows (claims, below)
+    labels = { "torus Z=-√2/2" = "green doughnut" }  # tag a named object with words
     ease = "smooth"                           # into the next keyframe: smooth | linear | hold
     slice = -1.5                              # the slice axis = -1.5 glows on the surface
                                               # (exhibit.surfaces.slice); "off" ends it
@@ -137,6 +139,9 @@ class Keyframe:
     #: keeps the framing of the keyframe before (exhibit.kiosk.timeline_framing): the camera
     #: holds, so what grows on the way here grows on screen
     hold_framing: bool = False
+    #: objects the caption names, tagged on screen with words (exhibit.render.object_tags):
+    #: (object name, or the start of names, English words); they belong to the caption
+    labels: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -288,6 +293,7 @@ class KeyframeSpec(Model):
     ease: Ease = "smooth"
     slice: Annotated[float, Number(-1e6, 1e6)] | Literal["off"] | None = None
     hold_framing: bool = False
+    labels: Annotated[dict[Name, Name], Field(max_length=MAX_CLAIMED)] | None = None
 
 
 class TimelineFile(Model):
@@ -393,6 +399,7 @@ def load_timeline(path: Path) -> Timeline:
             if raw.slice == "off"
             else float(raw.slice),
             raw.hold_framing and i > 0,
+            _labels(previous, raw),
         )
         frames.append(previous)
     if problems:
@@ -407,6 +414,14 @@ def load_timeline(path: Path) -> Timeline:
         spec.fit,
         slice_axis,
     )
+
+
+def _labels(previous: Keyframe, raw: KeyframeSpec) -> tuple[tuple[str, str], ...]:
+    """The tags in force from this keyframe: its own, else the caption's it keeps (a new
+    caption without ``labels`` has none)."""
+    if raw.labels is not None:
+        return tuple(raw.labels.items())
+    return previous.labels if raw.caption is None else ()
 
 
 def _condition(previous: Keyframe, raw: KeyframeSpec, pose: tuple[float, ...]) -> Condition | None:
@@ -478,12 +493,21 @@ class Playlist:
     def at(self, now: float, stepped: bool = False) -> tuple[Timeline, ViewState, str]:
         """The timeline playing at ``now``, its view and caption (``stepped``: Timeline.at's,
         for reduced motion)."""
+        timeline, t = self._locate(now)
+        view, caption = timeline.at(t, stepped)
+        return timeline, view, caption
+
+    def keyframe_at(self, now: float) -> Keyframe:
+        """The keyframe in force at ``now`` (its caption is the one shown)."""
+        timeline, t = self._locate(now)
+        return timeline.keyframes[timeline.index_at(min(max(t, 0.0), timeline.duration))]
+
+    def _locate(self, now: float) -> tuple[Timeline, float]:
+        """The timeline playing at ``now`` and the time into it."""
         t = (now - self.started) % self._total if self._total > 0 else 0.0
         for timeline in self.timelines:
             if t <= timeline.duration:
-                view, caption = timeline.at(t, stepped)
-                return timeline, view, caption
+                return timeline, t
             t -= timeline.duration
         last = self.timelines[-1]
-        view, caption = last.at(last.duration)
-        return last, view, caption
+        return last, last.duration

@@ -29,6 +29,7 @@ from typing import Annotated, Iterable
 from pydantic import Field, field_validator
 
 from exhibit.errors import ConfigError
+from exhibit.render.layout import PINCH_KEY
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Caption, Name, Number, Text
 
@@ -38,7 +39,7 @@ SOURCE = "en"
 #: Words the HUD itself shows, beside the scenes' and timelines' own: the gizmo's caption,
 #: the numbers panel's labels, and the words of marker labels (exhibit.scenes.collision's
 #: "first contact, t = ..."; the formula after the comma is not translated).
-HUD_WORDS = ("4D axes", "sensor", "eye", "fov", "first contact")
+HUD_WORDS = ("4D axes", "sensor", "eye", "fov", "first contact", PINCH_KEY)
 #: What the screen says while the scene a visitor chose is still being prepared (the kiosk's
 #: first seconds after a cold start); {title} is the scene's title, in the same language.
 PREPARING = "Preparing: {title}…"
@@ -227,10 +228,14 @@ def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
         scene = scenes.get(name)
         texts.setdefault(scene.title, f"scene {name}: title")
         texts.setdefault(scene.caption, f"scene {name}: caption")
+        for obj, words in scene.labels:
+            texts.setdefault(words, f"scene {name}: label of {obj}")
     for timeline in timelines:
         texts.setdefault(scenes.get(timeline.scene).title, f"scene {timeline.scene}: title")
         for i, keyframe in enumerate(timeline.keyframes):
             texts.setdefault(keyframe.caption, f"{timeline.path}: keyframe[{i}].caption")
+            for obj, words in keyframe.labels:
+                texts.setdefault(words, f"{timeline.path}: keyframe[{i}].labels.{obj}")
     for word in HUD_WORDS:
         texts.setdefault(word, "the HUD")
     texts.setdefault(PREPARING, "the screen while a scene is prepared")

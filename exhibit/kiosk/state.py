@@ -57,6 +57,8 @@ class Frame:
     timeline: str = ""
     #: This frame does not continue the previous one: crossfade into it.
     cut: bool = False
+    #: Objects the caption names, tagged on screen: (object name, English words).
+    tags: tuple[tuple[str, str], ...] = ()
 
 
 def _blend(a: ViewState, b: ViewState, u: float) -> ViewState:
@@ -136,10 +138,12 @@ class KioskState:
             name, params = timeline.scene, tuple(sorted(timeline.params.items()))
             scene = scenes.get(name)
             label = timeline.path or timeline.name
+            tags = self.playlist.keyframe_at(now).labels
         else:
             name = self.content[0]
             scene = scenes.get(name)
             params, caption = tuple(sorted(scene.resolve().items())), scene.caption
+            tags = scene.labels
             turn = (now - self.playlist.started) / TURN_S % 1.0
             if self.reduced_motion:
                 turn = math.floor(turn * TURN_STEPS) / TURN_STEPS
@@ -153,11 +157,13 @@ class KioskState:
                 self._blend_from = None
             else:
                 view = _blend(start_view, view, max(u, 0.0))
-        return Frame(ATTRACT, name, params, view, scene.title, caption, label)
+        return Frame(ATTRACT, name, params, view, scene.title, caption, label, tags=tags)
 
     def _visitor_frame(self, scene_name: str, params, view: ViewState) -> Frame:
         scene = scenes.get(scene_name)
-        return Frame(VISITOR, scene_name, params, view, scene.title, scene.caption)
+        return Frame(
+            VISITOR, scene_name, params, view, scene.title, scene.caption, tags=scene.labels
+        )
 
     def _reframe_from(self, view: ViewState, now: float) -> None:
         """A visitor took over: the scene's caption replaces the timeline's, and its panel is

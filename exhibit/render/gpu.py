@@ -17,6 +17,12 @@ from exhibit.geometry.touching import critical_values
 from exhibit.surfaces.mesh import Mesh4D, Surface
 from exhibit.surfaces.metrics import unique_edges
 
+#: NDC depth by which curves are pulled towards the viewer (surfaces are also pushed back by a
+#: slope-scaled polygon offset), so a curve lying on a surface is not half-buried in it.
+LINE_BIAS = 2e-4
+#: Texture units of the curves' surface depth (single-sampled, multisampled): apart, since
+#: samplers of two types may not share a unit.
+CENTRE_UNITS = (5, 6)
 #: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
 MARKER_SCALE = 3.5
 MARKER_MIN = 7.0

@@ -26,6 +26,7 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
+from exhibit.render.object_tags import TagAnchors
 from exhibit.render.layout import (
     HudLayout,
     Rect,
@@ -33,8 +34,10 @@ from exhibit.render.layout import (
     free_rectangles,
     gizmo_caption_rect,
     gizmo_labels,
+    PINCH_KEY,
     gizmo_tips,
     hud_layout,
+    key_swatch,
     status_lines,
 )
 from exhibit.render.text import block_image, has_greek, line_height, text_width
@@ -47,6 +50,9 @@ PANEL = (0.0, 0.0, 0.0, 0.88)
 INK = (0.96, 0.96, 0.93, 1.0)
 DIM = (0.8, 0.82, 0.86, 1.0)
 HALO = (0.02, 0.02, 0.03, 0.85)
+#: The live Lemma 2 points' discs (silhouette.glsl's u_pinch) and the key's disc beside its
+#: words.
+PINCH_COLOR = (1.0, 0.93, 0.2)
 #: The axis colours of Figures 6-8's scene (x red, y amber, z green, w blue), from the palette
 #: every visitor can tell apart (exhibit.scenes.palette).
 AXIS_COLORS = (palette.RED, palette.AMBER, palette.MINT, palette.BLUE)
@@ -79,8 +85,8 @@ AXES_CAPTION = (0.75, 0.77, 0.8, 1.0)
 
 class TextMark(NamedTuple):
     """One piece of text drawn in a frame, for the contrast checks (tests/golden/contrast.py):
-    what it is (``kind``: title, caption, numbers, axis letter, axes caption, marker label,
-    inset label), its words, the box its glyphs cover and the colour they are drawn in (rgba,
+    what it is (``kind``: title, caption, numbers, key, axis letter, axes caption, marker
+    label, object tag, inset label), its words, the box its glyphs cover and the colour they are drawn in (rgba,
     alpha as drawn, a fade included)."""
 
     kind: str
@@ -111,6 +117,10 @@ class Hud:
         self.gizmo_labels: list[tuple[str, Rect]] = []
         #: Every piece of text of the latest HUD (TextMark), for the contrast checks.
         self.texts: list[TextMark] = []
+        #: The latest object tags drawn: (words, Rect, point (x, y), hidden), for checks.
+        self.tags: list[tuple[str, Rect, tuple[float, float], bool]] = []
+        #: Where each tagged object's leader line ends, kept while it stays in front.
+        self._anchors = TagAnchors()
         #: False: every glyph is left out (halos and panels stay), so a check can see what
         #: lies behind the text; never in a kiosk.
         self.ink = True
@@ -253,11 +263,27 @@ class Hud:
                 rows,
             )
 
+        key = hud.word(PINCH_KEY) if PINCH_KEY in dict(hud.words) else ""
+        key_items = []
+        if key:  # the key under the numbers: a yellow disc, then what it means
+            y = status.y0 - dy + pad + 3 * mono_h
+            swatch = key_swatch(body)
+            h = line_height("sans", body)
+            centre = (status.x0 + dx + pad + 0.45 * swatch, y + 0.55 * h)
+            key_items = [
+                (centre, centre, HALO, 0.62 * body + 3.0),
+                (centre, centre, (*PINCH_COLOR, 1.0), 0.62 * body),
+            ]
+            self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, y, INK, rows)
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
-        items += self._marker_labels(gpu, view, size, layout, rows, hud.word)
+        # Labels keep off the picture where there is room (wire frames would cross them).
+        picture = self._anchors.picture_box(gpu, r.clip_transform(view, size), size)
+        items += self._marker_labels(gpu, view, size, layout, rows, hud.word, picture)
+        items += self._object_tags(gpu, view, size, layout, rows, hud.tags, picture)
         if alpha < 1.0:
             rows = [(*row[:11], row[11] * alpha) for row in rows]
             items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in items]
+            key_items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in key_items]
             self.texts = [
                 t
                 if t.kind in ("title", "caption")
@@ -266,6 +292,7 @@ class Hud:
             ]
         r._overlay(items, viewport)
         r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
+        r._overlay(key_items, viewport)  # on its panel, which the glyph quads drew
         r.ctx.disable(moderngl.BLEND)
 
     def _gizmo(
@@ -302,7 +329,14 @@ class Hud:
         return items
 
     def _marker_labels(
-        self, gpu, view, size, layout: HudLayout, rows: list, word=lambda english: english
+        self,
+        gpu,
+        view,
+        size,
+        layout: HudLayout,
+        rows: list,
+        word=lambda english: english,
+        picture: Rect | None = None,
     ) -> list[tuple]:
         """Labelled markers above the surfaces, labels placed on screen and off the panels;
         ``word`` translates their words (HudInfo.word)."""
@@ -326,7 +360,7 @@ class Hud:
             color = (*m.material.color, 1.0)
             disc = max(9.0, 11.0 * scale)
             text = marker_text(m.label, word)
-            label = place_label(text, (x, y), body, layout, taken)
+            label = place_beside(text, (x, y), body, layout, taken, picture)
             taken.append(label.grow(0.3 * body))
             # The leader: from the point to the label's nearest edge, when not right beside it.
             nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
@@ -341,6 +375,49 @@ class Hud:
                 "marker label", text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows
             )
             self.labels.append((text, label, (float(x), float(y)), bool(covered)))
+        return items
+
+    def _object_tags(
+        self, gpu, view, size, layout: HudLayout, rows: list, tags, picture: Rect | None
+    ) -> list[tuple]:
+        """A short label for each object a caption names (``tags``: (object name, or the
+        start of names, words in the language on screen)): words, not colour alone. The tag
+        sits off the panels and, where there is room, off the picture, with a leader line to
+        a point of the object that is in front (exhibit.render.object_tags)."""
+        self.tags = []
+        if not tags:
+            return []
+        r = self.renderer
+        width, height = size
+        ct = r.clip_transform(view, size)
+        body = layout.body_px
+        scale = height / 720.0
+        taken = [p.grow(0.3 * body) for p in layout.panels] + [
+            rect.grow(0.3 * body) for _, rect, _, _ in self.labels
+        ]
+        if picture is not None:
+            taken.append(picture)
+        items: list[tuple] = []
+        for name, words in tags:
+            anchor = self._anchors.anchor(gpu, name, ct, size)
+            if anchor is None:
+                continue
+            (x, y), rgb, covered = anchor
+            color = (*legible(rgb), 1.0)
+            label = place_beside(words, (x, y), body, layout, taken, picture)
+            taken.append(label.grow(0.3 * body))
+            nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
+            items.append(((x, y), (nx, ny), HALO, max(4.0, 5.0 * scale)))
+            items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
+            dot = max(7.0, 8.0 * scale)
+            items.append(((x, y), (x, y), HALO, dot + max(4.0, 4.0 * scale)))
+            items.append(((x, y), (x, y), color, dot))
+            if covered:
+                items.append(((x, y), (x, y), HALO, 0.5 * dot))
+            self._halo_text(
+                "object tag", words, "bold", body, label.x0 + 0.25 * body, label.y0, INK, rows
+            )
+            self.tags.append((words, label, (float(x), float(y)), bool(covered)))
         return items
 
     def _text(self, kind, text, style, px, x, y, color, rows) -> None:
@@ -380,6 +457,24 @@ def marker_text(label: str, word) -> str:
     words, the formula reads the same in every language."""
     words, comma, formula = label.partition(", ")
     return word(words) + comma + formula
+
+
+def place_beside(
+    text: str,
+    point: tuple[float, float],
+    px: int,
+    layout: HudLayout,
+    taken: list[Rect],
+    picture: Rect | None,
+) -> Rect:
+    """:func:`place_label` off the ``picture`` too, where there is room for it; else on the
+    picture (it fills the screen), still off everything in ``taken``."""
+    if picture is None:
+        return place_label(text, point, px, layout, taken)
+    label = place_label(text, point, px, layout, [*taken, picture])
+    if any(label.overlaps(t) for t in (*taken, picture)):
+        label = place_label(text, point, px, layout, taken)
+    return label
 
 
 def place_label(

@@ -32,6 +32,10 @@ MIN_CAPTION_CAP = 1.0 / 45.0
 INFINITY_BEYOND = 1000.0
 #: The tallest check-config lets a title or caption make that panel (exhibit check-config).
 PANEL_LIMIT = 0.4
+#: The key's line under the numbers (the kiosk shows it; HudInfo.words carries it in the
+#: language on screen): the live Lemma 2 points are yellow discs in every scene with a surface,
+#: and a visitor must be told what they are, in words and with a disc beside them.
+PINCH_KEY = "pinch point of the 3D picture (Lemma 2)"
 #: The widest check-config lets a word of the numbers panel make it (the English panel is 45 %
 #: of a 1280x720 screen, the German 55 %).
 NUMBERS_LIMIT = 0.6
@@ -171,6 +175,11 @@ def widest_status(
     ]
 
 
+def key_swatch(body_px: int) -> float:
+    """The room the key's yellow disc takes before its words."""
+    return 1.2 * body_px
+
+
 def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[str]:
     """A caption paragraph's lines: one line when it fits the ``room`` beside the gizmo (a
     short caption broken in two reads as a narrow column and costs the picture height);
@@ -284,7 +293,9 @@ def hud_layout(
     lines = [(t, "bold", title_px) for t in title_lines] + [
         (t, "sans", body_px) for t in caption_lines
     ]
-    status_h = 3 * line_height("mono", body_px) + 2 * pad
+    key = dict(words).get(PINCH_KEY, "")
+    key_h = line_height("sans", body_px) if key else 0
+    status_h = 3 * line_height("mono", body_px) + key_h + 2 * pad
     if clip:  # never over the numbers panel
         lines = _clip(lines, height - 3 * margin - status_h - 2 * pad, room)
         title_lines = tuple(t for t, s, _ in lines if s == "bold")
@@ -299,7 +310,8 @@ def hud_layout(
     advance = text_width("0", "mono", body_px)
     widest = widest_status(words, sizes.infinity_beyond)
     status_w = max(len(t) for t in widest) * advance + 2 + 2 * pad
-    status_h = 3 * line_height("mono", body_px) + 2 * pad
+    if key:
+        status_w = max(status_w, key_swatch(body_px) + text_width(key, "sans", body_px) + 2 * pad)
     status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
     return HudLayout(
         (width, height),
@@ -378,7 +390,7 @@ def text_problems(
             sizes=sizes,
             words=tuple(
                 (english, text if english == word else english)
-                for english in ("sensor", "eye", "fov")
+                for english in ("sensor", "eye", "fov", PINCH_KEY)
             ),
         ).status_block
         if panel.width > NUMBERS_LIMIT * width:

@@ -20,8 +20,8 @@ from exhibit.geometry.pipeline import ClipTransform, clip_transform
 from exhibit.geometry.touching import near_critical
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
-from exhibit.render.gpu import GpuMesh, upload
-from exhibit.render.hud import Hud
+from exhibit.render.gpu import CENTRE_UNITS, LINE_BIAS, GpuMesh, upload
+from exhibit.render.hud import PINCH_COLOR, Hud
 from exhibit.render.options import RenderOptions
 from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
 from exhibit.surfaces.mesh import Mesh4D
@@ -29,9 +29,6 @@ from exhibit.surfaces.slice import SLICE_MATERIAL
 
 GL_CLIP_DISTANCE0 = 0x3000
 GL_CLIP_DISTANCE1 = 0x3001
-#: NDC depth by which curves are pulled towards the viewer (surfaces are also pushed back by a
-#: slope-scaled polygon offset), so a curve lying on a surface is not half-buried in it.
-LINE_BIAS = 2e-4
 OVERLAY_FLOATS = 9  # a (2), b (2), rgba (4), width (1)
 GLYPH_FLOATS = 12  # rect (4), texel rect (4), rgba (4)
 #: Blending for everything drawn over the scene: straight alpha in, premultiplied out, so an
@@ -60,9 +57,6 @@ INTERSECTION_INK = (0.05, 0.05, 0.07)
 SLICE_COLOR = SLICE_MATERIAL.color
 SLICE_WIDTH = 4.0
 INTERSECTION_MAX_HALF_WIDTH = 0.5
-#: Texture units of the curves' surface depth (single-sampled, multisampled): apart, since
-#: samplers of two types may not share a unit.
-CENTRE_UNITS = (5, 6)
 
 
 @dataclass(frozen=True)
@@ -80,6 +74,9 @@ class HudInfo:
     #: panel's "sensor", "eye", "fov" and the words of marker labels ("first contact").
     #: A tuple, not a dict, so the HUD can key its caches by it.
     words: tuple[tuple[str, str], ...] = ()
+    #: Objects the caption names, each tagged on screen with words in the language on screen
+    #: (exhibit.render.object_tags): (object name or the start of names, words).
+    tags: tuple[tuple[str, str], ...] = ()
 
     def word(self, english: str) -> str:
         """``english`` in the language on screen (itself when there is no translation)."""
@@ -354,7 +351,7 @@ class Renderer:
                             u_pass=1,
                             u_slice_axis=tuple(axis),
                             u_slice_at=view.slice_at,
-                            u_pinch=(1.0, 0.93, 0.2, pinch_size),
+                            u_pinch=(*PINCH_COLOR, pinch_size),
                             u_slice_style=(*SLICE_COLOR, slice_width),
                         )
                     ready[key]["u_ink"] = (*darker(surface.color), ink_width)

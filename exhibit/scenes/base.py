@@ -77,6 +77,9 @@ class Scene:
     #: Whether parameter values make sense together beyond each one's range: (params) -> None,
     #: or the reason they do not (the collision with nothing moving). Scene.resolve asks it.
     check: Callable[[dict], str | None] | None = None
+    #: Objects the scene's caption names, tagged on screen with words in the visitor's language
+    #: (object name or the start of names, English words): words, not colour alone.
+    labels: tuple[tuple[str, str], ...] = ()
 
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError

@@ -79,6 +79,11 @@ SCENE = Scene(
         "'latitude' fill a doughnut. Here are three such doughnuts and two circles. Bring the "
         "4D viewpoint closer and watch the green doughnut swell."
     ),
+    labels=(
+        ("torus Z=-√2/2", "green doughnut"),
+        ("fibre Z=1", "circle"),
+        ("fibre Z=-1", "circle"),
+    ),
     parameters=(Parameter("axis_length", 1.6, 0.1, 10.0, "half-length of the drawn axes"),),
     build_mesh=build,
     view=_view(math.inf),

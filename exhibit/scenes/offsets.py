@@ -162,6 +162,7 @@ PARABOLA = Scene(
         "sharp corners and a loop. Lifted into 4D it becomes the red outline of a smooth "
         "tube: no corners, no crossing."
     ),
+    labels=(("offset curve", "offset curve"),),
     parameters=PARAMETERS,
     build_mesh=build_parabola,
     view=_ortho(),
@@ -181,6 +182,7 @@ CUSP = Scene(
         "red curve, but the tube pinches along a yellow circle of singular points: the "
         "extra circle the usual equations wrongly add to the offset."
     ),
+    labels=(("offset curve", "offset curve"), ("circle of singular points", "singular points")),
     parameters=PARAMETERS,
     build_mesh=build_cusp,
     view=_ortho(),
@@ -200,6 +202,7 @@ TRACED = Scene(
         "along the time axis its red outline has two kinds of branches: the offset curve, "
         "and the circle at t = 0."
     ),
+    labels=(("silhouette along t", "outline along t"),),
     parameters=PARAMETERS,
     build_mesh=build_traced,
     view=ViewState(eye_azimuth=0.5, eye_incidence=-1.1, eye_r=0.0, half_height=2.2),

@@ -149,3 +149,20 @@ def test_the_shipped_timelines_hold_their_claims_everywhere(path, language, redu
     """Every shipped timeline, in English and German, with and without reduced motion (CI)."""
     verdict = _verify(path, language, (reduced,), headless=headless)
     assert verdict.problems == []
+
+
+def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
+    """01-hypersphere's first caption names three doughnuts: in German their tags say so in
+    German, and the key under the numbers too; the next caption tags only green and red."""
+    from exhibit.kiosk.review import KioskPlayer
+
+    path = shipped("configs", "attract", "01-hypersphere.toml")
+    with KioskPlayer(SIZE, timeline=path, language="de", headless=headless) as player:
+        player.run_to(2.0, FPS)
+        first = [words for words, *_ in headless.renderer.hud.tags]
+        keys = [t.text for t in headless.renderer.hud.texts if t.kind == "key"]
+        player.run_to(10.0, FPS)
+        second = [words for words, *_ in headless.renderer.hud.tags]
+    assert first == ["grüner Donut", "weißer Donut", "roter Donut"]
+    assert keys == ["Zwickelpunkt des 3D-Bildes (Lemma 2)"]
+    assert second == ["grüner Donut", "roter Donut"]

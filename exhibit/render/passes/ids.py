@@ -20,7 +20,15 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.view import ViewState
-from exhibit.render.gpu import CURVE_ATTRIBUTES, MARKER_MIN, MARKER_SCALE, GpuMesh, segment_rows
+from exhibit.render.gpu import (
+    CENTRE_UNITS,
+    CURVE_ATTRIBUTES,
+    LINE_BIAS,
+    MARKER_MIN,
+    MARKER_SCALE,
+    GpuMesh,
+    segment_rows,
+)
 from exhibit.render.options import RenderOptions
 
 #: Object ids are 24-bit colours; 0 is the background.
@@ -196,16 +204,11 @@ class ObjectIdPass:
     def _curves(self, gpu, view, size, options: RenderOptions, first_id: int) -> None:
         """Wire surfaces, curves and markers, each segment in its object's id, opaque cores
         only (the picture's pass 0), depth-tested against the surfaces."""
-        if "object_ids" not in gpu.vaos:
+        if "object_ids" not in gpu.buffers and "object_ids_markers" not in gpu.buffers:
             self._upload_lines(gpu, first_id)
-        vao = gpu.vaos.get("object_ids")
-        if vao is None:
-            return
-        count = gpu.buffers["object_ids"].size // (13 * 4)
         prog = self.programs["curves"]
         self.renderer.set_pipeline(prog, view, size)
         from exhibit.render import shaders
-        from exhibit.render.renderer import CENTRE_UNITS, LINE_BIAS
 
         shaders.set_uniforms(
             prog,
@@ -220,7 +223,14 @@ class ObjectIdPass:
             },
         )
         self.ctx.depth_func = "<="
-        vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+        for key in ("object_ids", "object_ids_markers"):
+            if key == "object_ids_markers":
+                # The HUD draws a labelled marker again above the surfaces (a ring where it is
+                # behind one): it is never hidden.
+                self.ctx.disable(moderngl.DEPTH_TEST)
+            if key in gpu.vaos:
+                count = gpu.buffers[key].size // (13 * 4)
+                gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
         self.ctx.depth_func = "<"
 
     def _upload_lines(self, gpu: GpuMesh, first_id: int) -> None:
@@ -252,18 +262,20 @@ class ObjectIdPass:
                     )
                 )
             next_id += 1
+        markers = []
         for marker in mesh.markers:
             width = max(MARKER_SCALE * marker.material.line_width, MARKER_MIN) + 3.0
             p = marker.position[None]
-            rows.append(segment_rows(p, p, _id_colour(next_id), width))
+            markers.append(segment_rows(p, p, _id_colour(next_id), width))
             next_id += 1
-        if not rows:
-            return
-        data = np.concatenate(rows).astype(np.float32)
-        buffer = gpu.buffers["object_ids"] = self.ctx.buffer(data.tobytes())
-        gpu.vaos["object_ids"] = self.ctx.vertex_array(
-            self.programs["curves"], [(buffer, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
-        )
+        for key, parts in (("object_ids", rows), ("object_ids_markers", markers)):
+            if not parts:
+                continue
+            data = np.concatenate(parts).astype(np.float32)
+            buffer = gpu.buffers[key] = self.ctx.buffer(data.tobytes())
+            gpu.vaos[key] = self.ctx.vertex_array(
+                self.programs["curves"], [(buffer, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
+            )
 
     # ------------------------------------------------------------------ lifetime
 

@@ -1,0 +1,87 @@
+"""Words, not colour alone: a caption's named objects are tagged on screen, the tag's leader
+ends on the object where it is in front, and the pinch points' key stands under the numbers."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from exhibit import scenes
+from exhibit.render import HudInfo, RenderOptions
+from exhibit.render.layout import PINCH_KEY
+from exhibit.render.passes.ids import object_names
+
+SIZE = (960, 540)
+GREEN, RED, WHITE = "torus Z=-√2/2", "torus Z=√2/2", "torus Z=0"
+TAGS = ((GREEN, "green doughnut"), (WHITE, "white doughnut"), (RED, "red doughnut"))
+
+
+def _hopf(gl, resolution=24):
+    scene = scenes.get("hopf")
+    preset = scene.preset("figure-6")
+    mesh = scene.build(scene.resolve(dict(preset.params)), resolution)
+    return gl.renderer.upload(mesh), preset.view
+
+
+def test_each_tag_points_at_its_own_object_and_keeps_off_the_panels(gl):
+    """Each leader ends on a pixel of the object it names (read back through the object-id
+    pass, never by colour), and no tag lies on a panel or on another tag."""
+    gpu, view = _hopf(gl)
+    try:
+        hud = HudInfo(title="Hopf tori", caption="Three doughnuts.", tags=TAGS)
+        gl.image(gpu, view, SIZE, RenderOptions(), hud, samples=0)
+        drawn = list(gl.renderer.hud.tags)
+        layout = gl.renderer.hud.layout
+        ids = gl.renderer.ids
+        ids.objects(gpu, view, SIZE)  # the id frame of this view, read below
+        framebuffer = ids._targets[SIZE][0]
+        rgb = np.frombuffer(framebuffer.read(components=3, alignment=1), dtype=np.uint8)
+        image = rgb.reshape(SIZE[1], SIZE[0], 3)[::-1].astype(np.int64)
+        id_image = image[..., 0] | (image[..., 1] << 8) | (image[..., 2] << 16)
+        names = object_names(gpu)
+    finally:
+        gpu.release()
+    assert [words for words, *_ in drawn] == [w for _, w in TAGS]
+    for (words, rect, (x, y), covered), (name, _) in zip(drawn, TAGS):
+        assert not covered, words
+        x0, y0 = int(round(x)), int(round(y))
+        near = id_image[max(0, y0 - 2) : y0 + 3, max(0, x0 - 2) : x0 + 3]
+        seen = {names[i - 1] for i in np.unique(near) if i}
+        assert name in seen, (words, seen)
+        assert not any(rect.overlaps(p) for p in layout.panels), words
+    rects = [rect for _, rect, *_ in drawn]
+    assert not any(a.overlaps(b) for i, a in enumerate(rects) for b in rects[i + 1 :])
+
+
+def test_a_tag_for_an_object_off_the_screen_is_left_out(gl):
+    gpu, view = _hopf(gl, 12)
+    try:
+        far = view.replace(center=(1000.0, 0.0))  # the lens shifted far from the picture
+        hud = HudInfo(caption="Three doughnuts.", tags=((GREEN, "green doughnut"),))
+        gl.image(gpu, far, SIZE, RenderOptions(), hud, samples=0)
+        assert gl.renderer.hud.tags == []
+        hud = HudInfo(caption="Nothing.", tags=(("no such object", "moon"),))
+        gl.image(gpu, view, SIZE, RenderOptions(), hud, samples=0)
+        assert gl.renderer.hud.tags == []
+    finally:
+        gpu.release()
+
+
+def test_the_pinch_points_key_stands_under_the_numbers_in_the_language_shown(gl):
+    """The kiosk's HUD words carry the key: a yellow disc and its words, inside the numbers
+    panel; without them (a figure rendered for the paper) there is no key."""
+    gpu, view = _hopf(gl, 12)
+    try:
+        german = "Zwickelpunkt des 3D-Bildes (Lemma 2)"
+        hud = HudInfo(caption="Drei Donuts.", words=((PINCH_KEY, german),))
+        gl.image(gpu, view, SIZE, RenderOptions(), hud, samples=0)
+        keys = [t for t in gl.renderer.hud.texts if t.kind == "key"]
+        status = gl.renderer.hud.layout.status_block
+        gl.image(gpu, view, SIZE, RenderOptions(), HudInfo(caption="Drei Donuts."), samples=0)
+        none = [t for t in gl.renderer.hud.texts if t.kind == "key"]
+    finally:
+        gpu.release()
+    assert [k.text for k in keys] == [german]
+    box = keys[0].rect
+    assert status.x0 <= box.x0 and box.x1 <= status.x1 and status.y0 <= box.y0
+    assert box.y1 <= status.y1
+    assert none == []
