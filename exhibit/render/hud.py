@@ -86,8 +86,8 @@ AXES_CAPTION = (0.75, 0.77, 0.8, 1.0)
 class TextMark(NamedTuple):
     """One piece of text drawn in a frame, for the contrast checks (tests/golden/contrast.py):
     what it is (``kind``: title, caption, numbers, key, axis letter, axes caption, marker
-    label, object tag, inset label), its words, the box its glyphs cover and the colour they are drawn in (rgba,
-    alpha as drawn, a fade included)."""
+    label, object tag, inset label), its words, the box its glyphs cover and the colour they
+    are drawn in (rgba, alpha as drawn, a fade included)."""
 
     kind: str
     text: str
