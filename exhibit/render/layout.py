@@ -446,7 +446,7 @@ def gizmo_labels(
     px = layout.body_px
     tips = gizmo_tips(rotation, layout)
     taken = [gizmo_caption_rect(caption, layout)]
-    gap = max(1.0, 0.08 * px)
+    gap = max(2.0, 0.25 * px)  # letters on halos: apart by more than the halos
     out: dict[int, tuple[str, Rect]] = {}
     for i in np.argsort(-np.asarray(rotation)[2], kind="stable"):
         label = axes[i]
