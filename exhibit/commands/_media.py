@@ -1,12 +1,17 @@
-"""What `exhibit render`'s outputs share: sizes, and MP4s through ffmpeg."""
+"""What `exhibit render`'s outputs share: sizes, the checks on --out and the writes to it (all
+through exhibit.schema.files: never through a link, FIFO, device or folder), and MP4s through
+ffmpeg."""
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
+import tempfile
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
+from exhibit.schema.files import UnsafePath, check_output, output_folder, write_atomic
 
 MAX_PIXELS = 8192
 
@@ -31,6 +36,43 @@ def parse_size(text: str) -> tuple[int, int]:
     )
 
 
+def out_file(text: str) -> Path:
+    """--out FILE checked before any work: a file name in a folder that exists and can be
+    written, with nothing but a regular file at the name (no folder, FIFO, device or symbolic
+    link); else an ExhibitError naming it and why."""
+    try:
+        check_output(text)
+    except UnsafePath as exc:
+        raise ExhibitError(f"--out: {exc}") from None
+    return Path(text)
+
+
+def out_folder(text: str) -> Path:
+    """--out DIR checked and made before any work: a folder that can be written (or none yet);
+    else an ExhibitError naming it and why (a file, FIFO or dangling link there, read-only)."""
+    try:
+        return output_folder(text)
+    except UnsafePath as exc:
+        raise ExhibitError(f"--out: {exc}") from None
+
+
+def write_out(path: str | os.PathLike, data: bytes | str, sync: bool = True) -> None:
+    """``data`` to the output ``path`` through the one safe writer, never through a link there;
+    an ExhibitError names the path and why it could not be written."""
+    try:
+        write_atomic(path, data, links=False, sync=sync)
+    except OSError as exc:
+        why = exc.strerror or exc
+        raise ExhibitError(f"--out: cannot write {os.fspath(path)}: {why}") from None
+
+
+def save_frame(image, path: str | os.PathLike, sync: bool = True) -> None:
+    """One picture (an array or a PIL image) as a PNG at ``path`` (:func:`write_out`)."""
+    from exhibit.render.offscreen import png_bytes
+
+    write_out(path, png_bytes(image), sync=sync)
+
+
 def need_ffmpeg(instead: str) -> None:
     """An ExhibitError unless ffmpeg is on PATH (``instead``: what to write without it)."""
     if shutil.which("ffmpeg") is None:
@@ -41,7 +83,18 @@ def need_ffmpeg(instead: str) -> None:
 
 
 def encode_mp4(folder: Path, out: Path, fps: float = 25) -> None:
-    """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg)."""
+    """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg),
+    encoded in a private folder and written to ``out`` by :func:`write_out`."""
+    private = Path(tempfile.mkdtemp(prefix="exhibit-mp4-"))
+    try:
+        encoded = private / "out.mp4"
+        _ffmpeg(folder, encoded, fps)
+        write_out(out, encoded.read_bytes())
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
+
+
+def _ffmpeg(folder: Path, out: Path, fps: float) -> None:
     result = subprocess.run(
         [
             "ffmpeg",

@@ -15,8 +15,12 @@ from exhibit.commands import _arg_types as _args
 from exhibit.commands._media import (
     encode_mp4,
     need_ffmpeg,  # noqa: F401
+    out_file,
+    out_folder,
     parse_size,
+    save_frame,
     whole_number as _int,
+    write_out,
 )
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import parse_overrides
@@ -256,20 +260,18 @@ def run(args) -> int:
     if frames is None:
         if out.suffix.lower() != ".png":
             raise ExhibitError(f"--out: {out} must end in .png (use --frames for animations)")
-        if not out.parent.is_dir():
-            raise ExhibitError(f"--out: folder {out.parent} does not exist")
+        out = out_file(args.out)  # "d.png/", a FIFO, a link, read-only: one line, before GL
     kind = "folder"
     if frames is not None:
         kind = {".gif": "gif", ".mp4": "mp4"}.get(out.suffix.lower(), "folder")
-        if kind != "folder" and not out.parent.is_dir():
-            raise ExhibitError(f"--out: folder {out.parent} does not exist")
-        if kind == "folder" and out.exists() and not out.is_dir():
-            raise ExhibitError(f"--out: {out} exists and is not a folder")
+        if args.out.endswith("/"):
+            kind = "folder"
         if kind == "mp4":
             need_ffmpeg("a .gif or a folder")
+        out = out_file(args.out) if kind != "folder" else out_folder(args.out)
     end_r = 1.0 / _distance(args.sensor_to, "--sensor-to")
 
-    from exhibit.render import Headless, HudInfo, RenderOptions, save_png
+    from exhibit.render import Headless, HudInfo, RenderOptions
 
     options = RenderOptions(
         silhouettes=not args.no_silhouettes,
@@ -305,7 +307,7 @@ def run(args) -> int:
             finally:
                 if inset_gpu is not None:
                     inset_gpu.release()
-            save_png(picture, out)
+            save_frame(picture, out)
             print(out)
             return 0
         images = []
@@ -359,16 +361,23 @@ def _window(scene, params, view, note, size, resolution, samples) -> int:
 
 
 def _write_animation(images, out: Path, kind: str) -> None:
+    """The frames as a GIF, an MP4 or numbered PNGs in a folder (checked by out_file and
+    out_folder), every file through the one safe writer (exhibit.commands._media)."""
+    import io
+
     from PIL import Image
 
     if kind == "gif":
         pictures = [Image.fromarray(im) for im in images]
-        pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=80, loop=0)
+        buffer = io.BytesIO()
+        pictures[0].save(
+            buffer, format="GIF", save_all=True, append_images=pictures[1:], duration=80, loop=0
+        )
+        write_out(out, buffer.getvalue())
         return
     folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
-    folder.mkdir(parents=True, exist_ok=True)
     for i, image in enumerate(images):
-        Image.fromarray(image).save(folder / f"frame_{i:04d}.png")
+        save_frame(image, folder / f"frame_{i:04d}.png", sync=False)
     if kind == "mp4":
         try:
             encode_mp4(folder, out)
