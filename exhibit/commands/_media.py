@@ -8,6 +8,8 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
@@ -34,6 +36,31 @@ def parse_size(text: str) -> tuple[int, int]:
         whole_number(parts[0], "--size width", 16, MAX_PIXELS),
         whole_number(parts[1], "--size height", 16, MAX_PIXELS),
     )
+
+
+@contextmanager
+def gl_errors(size: tuple[int, int]) -> Iterator[None]:
+    """A GL error while drawing frames of ``size`` (a framebuffer the driver will not make, out
+    of memory) as one line, exit 2, instead of a traceback: a smaller --size is the fix."""
+    import moderngl
+
+    try:
+        yield
+    except moderngl.Error as exc:
+        raise ExhibitError(
+            f"--size {size[0]}x{size[1]}: the GL renderer cannot draw it ({exc}); "
+            "try a smaller --size"
+        ) from None
+
+
+def check_gl_size(ctx, size: tuple[int, int], samples: int = 0) -> None:
+    """An ExhibitError when ``ctx`` cannot draw frames of ``size`` (exhibit.render.offscreen:
+    the GL's largest side, and the largest texture a frame needs)."""
+    from exhibit.render.offscreen import size_problem
+
+    problem = size_problem(ctx, size, samples)
+    if problem is not None:
+        raise ExhibitError(f"--size: {problem}")
 
 
 def out_file(text: str) -> Path:

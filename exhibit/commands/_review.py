@@ -23,6 +23,7 @@ from pathlib import Path
 from exhibit import scenes
 from exhibit.commands._media import (
     encode_mp4,
+    gl_errors,
     need_ffmpeg,
     out_file,
     out_folder,
@@ -144,7 +145,10 @@ def _timeline(args, size, config, language) -> int:
     if kind == "mp4":
         need_ffmpeg("a folder (DIR/) or a .png contact sheet")
     out = check_out(args.out, kind)
-    with KioskPlayer(size, timeline=args.timeline, language=language, config=config) as player:
+    with (
+        gl_errors(size),
+        KioskPlayer(size, timeline=args.timeline, language=language, config=config) as player,
+    ):
         if kind == "sheet":
             spans = player.captions()
             if not spans:
@@ -208,9 +212,12 @@ def _takeover(args, size, config, language) -> int:
     out = out_file(args.out)  # no folder, FIFO, link...; a folder that exists and is writable
     after, fps = args.after, args.fps or 10
     timeline = shipped_timeline(args.takeover, config.attract_dir)
-    with KioskPlayer(
-        size, timeline=timeline, scene=args.takeover, language=language, config=config
-    ) as player:
+    with (
+        gl_errors(size),
+        KioskPlayer(
+            size, timeline=timeline, scene=args.takeover, language=language, config=config
+        ) as player,
+    ):
         frame = player.takeover(after, fps)
         save_frame(frame.image, out)
     print(out)

@@ -13,7 +13,9 @@ from pathlib import Path
 from exhibit import scenes
 from exhibit.commands import _arg_types as _args
 from exhibit.commands._media import (
+    check_gl_size,
     encode_mp4,
+    gl_errors,
     need_ffmpeg,  # noqa: F401
     out_file,
     out_folder,
@@ -297,24 +299,26 @@ def run(args) -> int:
         view = framer.view(mesh, view, scene.title, [(scene.caption, note)])
     headless = Headless()
     try:
-        gpu = headless.renderer.upload(mesh)
-        if frames is None:
-            inset_gpu, drawn = None, None
-            if inset is not None:
-                inset_gpu, drawn = _inset(headless, scene, params, mesh, view, inset)
-            try:
-                picture = headless.still(gpu, view, size, options, hud, samples, inset=drawn)
-            finally:
-                if inset_gpu is not None:
-                    inset_gpu.release()
-            save_frame(picture, out)
-            print(out)
-            return 0
-        images = []
-        for i in range(frames):
-            t = i / (frames - 1) if frames > 1 else 0.0
-            frame_view = view.replace(sensor_r=(1 - t) * view.sensor_r + t * end_r)
-            images.append(headless.image(gpu, frame_view, size, options, hud, samples))
+        check_gl_size(headless.ctx, size, samples if frames is None else 0)
+        with gl_errors(size):  # a framebuffer the driver will not make: one line
+            gpu = headless.renderer.upload(mesh)
+            if frames is None:
+                inset_gpu, drawn = None, None
+                if inset is not None:
+                    inset_gpu, drawn = _inset(headless, scene, params, mesh, view, inset)
+                try:
+                    picture = headless.still(gpu, view, size, options, hud, samples, inset=drawn)
+                finally:
+                    if inset_gpu is not None:
+                        inset_gpu.release()
+                save_frame(picture, out)
+                print(out)
+                return 0
+            images = []
+            for i in range(frames):
+                t = i / (frames - 1) if frames > 1 else 0.0
+                frame_view = view.replace(sensor_r=(1 - t) * view.sensor_r + t * end_r)
+                images.append(headless.image(gpu, frame_view, size, options, hud, samples))
     finally:
         headless.release()
     _write_animation(images, out, kind)

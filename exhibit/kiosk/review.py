@@ -249,6 +249,11 @@ class KioskPlayer:
 
                 headless = Headless()
             self.headless = headless
+            from exhibit.render.offscreen import size_problem
+
+            problem = size_problem(headless.ctx, config.size)  # the pinned level: no MSAA
+            if problem is not None:
+                raise ExhibitError(f"--size: {problem}")
             self.clock = FakeClock(0.0)
             self.window = HeadlessTarget(headless, config.size)
             quiet = self.timeline is None  # no timeline is what we asked for, not a problem
