@@ -16,6 +16,14 @@ from exhibit.errors import ExhibitError
 from exhibit.schema.files import UnsafePath, check_output, output_folder, write_atomic
 
 MAX_PIXELS = 8192
+#: The most a render job may draw, frames x pixels: about 18,000 frames of 1280 x 720 (12
+#: minutes at 25 fps; hours of llvmpipe time), or 256 of the largest size. A longer job is
+#: refused before it starts, with what it would have drawn.
+MAX_JOB_PIXELS = 1 << 34
+#: The most frames a render job may draw, whatever their size (each is a kiosk step and a PNG).
+MAX_JOB_FRAMES = 50_000
+#: A job's progress without a terminal: a line on stderr this often (seconds).
+PROGRESS_EVERY_S = 10.0
 
 
 def whole_number(text: str, name: str, low: int, high: int) -> int:
@@ -98,6 +106,61 @@ def save_frame(image, path: str | os.PathLike, sync: bool = True) -> None:
     from exhibit.render.offscreen import png_bytes
 
     write_out(path, png_bytes(image), sync=sync)
+
+
+def check_job(frames: int, size: tuple[int, int], what: str) -> None:
+    """An ExhibitError, before any drawing, when ``frames`` frames of ``size`` are more than
+    MAX_JOB_FRAMES or MAX_JOB_PIXELS (``what``: how to make it smaller)."""
+    pixels = frames * size[0] * size[1]
+    if frames > MAX_JOB_FRAMES or pixels > MAX_JOB_PIXELS:
+        raise ExhibitError(
+            f"this job would draw {frames} frames of {size[0]}x{size[1]} ({pixels:.3g} pixels), "
+            f"over the limit of {MAX_JOB_FRAMES} frames and {MAX_JOB_PIXELS:.3g} pixels: {what}"
+        )
+
+
+class Progress:
+    """Progress of a long job on stderr: a tqdm bar on a terminal, else a line every
+    PROGRESS_EVERY_S seconds ("rendering: 120/900 frames"); nothing for a job that ends sooner.
+    Call it with the frames done since the last call; use as a context manager."""
+
+    def __init__(self, total: int, what: str = "rendering", unit: str = "frames"):
+        import sys
+        import time
+
+        self.total, self.what, self.unit, self.done = total, what, unit, 0
+        self._clock = time.monotonic
+        self._next = self._clock() + PROGRESS_EVERY_S
+        self._stream = sys.stderr
+        self._bar = None
+        if self._stream.isatty():
+            try:
+                from tqdm import tqdm
+            except ImportError:  # an environment from before tqdm was locked: the lines
+                tqdm = None
+            if tqdm is not None:
+                self._bar = tqdm(total=total, desc=what, unit=unit[:-1], leave=False)
+
+    def __call__(self, n: int = 1) -> None:
+        self.done += n
+        if self._bar is not None:
+            self._bar.update(n)
+            return
+        now = self._clock()
+        if now >= self._next:
+            self._next = now + PROGRESS_EVERY_S
+            print(
+                f"{self.what}: {self.done}/{self.total} {self.unit}",
+                file=self._stream,
+                flush=True,
+            )
+
+    def __enter__(self) -> "Progress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._bar is not None:
+            self._bar.close()
 
 
 def need_ffmpeg(instead: str) -> None:

@@ -22,6 +22,8 @@ from pathlib import Path
 
 from exhibit import scenes
 from exhibit.commands._media import (
+    Progress,
+    check_job,
     encode_mp4,
     gl_errors,
     need_ffmpeg,
@@ -145,17 +147,21 @@ def _timeline(args, size, config, language) -> int:
     if kind == "mp4":
         need_ffmpeg("a folder (DIR/) or a .png contact sheet")
     out = check_out(args.out, kind)
+    from exhibit.kiosk.review import caption_spans, play_schedule
+
+    spans = caption_spans(timeline)
+    if kind == "sheet" and not spans:
+        raise ExhibitError(f"--timeline: {timeline.path} shows no caption for a contact sheet")
+    kept = [s.settled for s in spans] if kind == "sheet" else None
+    schedule = play_schedule(timeline.duration, fps, kept)
+    check_job(len(schedule), size, "a lower --fps, a smaller --size or a shorter timeline")
     with (
         gl_errors(size),
         KioskPlayer(size, timeline=args.timeline, language=language, config=config) as player,
     ):
         if kind == "sheet":
-            spans = player.captions()
-            if not spans:
-                raise ExhibitError(
-                    f"--timeline: {timeline.path} shows no caption for a contact sheet"
-                )
-            frames = list(player.play(fps, times=[s.settled for s in spans]))
+            with Progress(len(schedule)) as progress:
+                frames = list(player.play(fps, times=kept, progress=progress))
             sheet = contact_sheet(
                 frames, f"{timeline.name} ({Path(timeline.path).name}), language {language}"
             )
@@ -165,17 +171,18 @@ def _timeline(args, size, config, language) -> int:
         folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
         try:
             index = []
-            for i, frame in enumerate(player.play(fps)):
-                name = f"frame_{i:04d}.png"
-                save_frame(frame.image, folder / name, sync=False)
-                index.append(
-                    {
-                        "file": name,
-                        "t": round(frame.t, 4),
-                        "caption": frame.caption,
-                        "mode": frame.mode,
-                    }
-                )
+            with Progress(len(schedule)) as progress:
+                for i, frame in enumerate(player.play(fps, progress=progress)):
+                    name = f"frame_{i:04d}.png"
+                    save_frame(frame.image, folder / name, sync=False)
+                    index.append(
+                        {
+                            "file": name,
+                            "t": round(frame.t, 4),
+                            "caption": frame.caption,
+                            "mode": frame.mode,
+                        }
+                    )
             if kind == "folder":
                 write_out(
                     folder / "index.json",
@@ -203,7 +210,7 @@ def _timeline(args, size, config, language) -> int:
 
 
 def _takeover(args, size, config, language) -> int:
-    from exhibit.kiosk.review import KioskPlayer, shipped_timeline
+    from exhibit.kiosk.review import KioskPlayer, shipped_timeline, takeover_frames
 
     scenes.get(args.takeover)  # "no scene named ..." before any GL work
     out = Path(args.out)
@@ -211,6 +218,7 @@ def _takeover(args, size, config, language) -> int:
         raise ExhibitError(f"--out: {out} must end in .png")
     out = out_file(args.out)  # no folder, FIFO, link...; a folder that exists and is writable
     after, fps = args.after, args.fps or 10
+    check_job(takeover_frames(after, fps), size, "a lower --fps, a smaller --size or less --after")
     timeline = shipped_timeline(args.takeover, config.attract_dir)
     with (
         gl_errors(size),
@@ -218,7 +226,9 @@ def _takeover(args, size, config, language) -> int:
             size, timeline=timeline, scene=args.takeover, language=language, config=config
         ) as player,
     ):
-        frame = player.takeover(after, fps)
+        with Progress(takeover_frames(after, fps)) as progress:
+            player.on_step = progress
+            frame = player.takeover(after, fps)
         save_frame(frame.image, out)
     print(out)
     return 0
