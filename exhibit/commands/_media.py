@@ -5,6 +5,7 @@ ffmpeg."""
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import subprocess
 import tempfile
@@ -27,10 +28,10 @@ PROGRESS_EVERY_S = 10.0
 
 
 def whole_number(text: str, name: str, low: int, high: int) -> int:
-    try:
-        value = int(text)
-    except (TypeError, ValueError):
-        raise ExhibitError(f"{name}: {text!r} is not a whole number") from None
+    """A whole number written with the ASCII digits 0-9 (int() reads "１２８０" and "٣")."""
+    if not isinstance(text, str) or re.fullmatch(r"\s*[+-]?[0-9]{1,18}\s*", text, re.ASCII) is None:
+        raise ExhibitError(f"{name}: {text!r} is not a whole number written with the digits 0-9")
+    value = int(text)
     if not low <= value <= high:
         raise ExhibitError(f"{name}: {value} must lie in [{low}, {high}]")
     return value

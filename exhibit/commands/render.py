@@ -179,6 +179,8 @@ def _floats(text: str, count: int, name: str) -> list[float]:
     values = []
     for item in items:
         try:
+            if not item.isascii():  # float() reads "１２" and "٣"
+                raise ValueError(item)
             value = float(item)
         except ValueError:
             raise ExhibitError(f"{name}: {item!r} is not a number") from None
@@ -229,6 +231,8 @@ def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
     if not sep or name not in axes:
         raise ExhibitError(f"--slice: {text!r} is not AXIS=C with AXIS one of {', '.join(axes)}")
     try:
+        if not value.isascii():  # float() reads "１２" and "٣"
+            raise ValueError(value)
         at = float(value)
     except ValueError:
         raise ExhibitError(f"--slice: {value.strip()!r} is not a number") from None
