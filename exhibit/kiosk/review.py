@@ -10,6 +10,9 @@ changes language by itself. It steps the kiosk on a fake clock and hands back th
 
 `exhibit render --timeline` and `--takeover` (exhibit.commands.render) are built on it, and so
 are the golden tests of what a visitor sees after taking over (tests/golden/test_takeover.py).
+
+Why one module of this size: the player, the schedule of the frames it draws and the review's
+config share one fake clock and one kiosk, and split apart each would reach into the other.
 """
 
 from __future__ import annotations

@@ -6,7 +6,11 @@ blocking, must be a regular file (a symlink to one is fine: deployments link con
 up to a size cap, and must be UTF-8 TOML. Numbers inside texts are ASCII digits only
 (:func:`parse_int`: "²", "①" or "٣" are not numbers), JSON from a file or a database row is
 bounded in size and depth (:func:`loads_json`), and every file exhibit writes goes through
-:func:`write_atomic`, which never writes through a device, FIFO or folder.
+:func:`write_atomic`, which never writes through a device, FIFO or folder (and outputs a person
+names are checked before the work that fills them: :func:`check_output`, :func:`output_folder`).
+
+Why one module of this size: it is the one file-safety module (ARCHITECTURE.md): every read and
+write of a file exhibit does not own goes through these few functions, which share their checks.
 """
 
 from __future__ import annotations
