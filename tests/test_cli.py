@@ -169,3 +169,31 @@ def test_numeric_options_are_finite_or_refused(option, text):
     for v in value if isinstance(value, list) else [value]:
         assert not math.isnan(v) and v >= 0
         assert math.isfinite(v) or flag == "--distances"
+
+
+@pytest.mark.parametrize(
+    "argv, message",
+    [
+        (["render", "hopf", "--size", "１２８０x720", "--out", "x.png"], "--size width"),
+        (["render", "hopf", "--size", "64x٣6", "--out", "x.png"], "--size height"),
+        (["render", "hopf", "--samples", "٣", "--out", "x.png"], "--samples"),
+        (["render", "hopf", "--resolution", "١٢", "--out", "x.png"], "--resolution"),
+        (["render", "--figure", "６", "--out", "x.png"], "--figure"),
+        (["render", "hopf", "--angles", "١,0,0,0,0,0", "--out", "x.png"], "--angles"),
+        (["render", "hopf", "--sensor-distance", "３", "--out", "x.png"], "--sensor-distance"),
+        (["render", "hopf", "--param", "axis_length=٣", "--out", "x.png"], "axis_length"),
+        (["render", "hopf", "--slice", "t=٣", "--out", "x.png"], "--slice"),
+        (["render", "--takeover", "hopf", "--after", "３", "--out", "x.png"], "--after"),
+        (["render", "--takeover", "hopf", "--fps", "١٠", "--out", "x.png"], "--fps"),
+    ],
+)
+def test_cli_numbers_are_ascii_digits_only(capsys, tmp_path, monkeypatch, argv, message):
+    """Issue 33: int() and float() read "１２８０" and "٣"; a flag takes what a file takes."""
+    monkeypatch.chdir(tmp_path)
+    try:
+        code = main(argv)
+    except SystemExit as exc:  # argparse's own refusal
+        code = exc.code
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and message in err, err
+    assert not (tmp_path / "x.png").exists()

@@ -1,5 +1,7 @@
 """argparse types for numeric options, on the config layer's limits: a flag can carry no more
-than a file can (NaN, inf, 1e-320 and 1e308 are refused as ``argument --x: reason``, exit 2)."""
+than a file can (NaN, inf, 1e-320 and 1e308 are refused as ``argument --x: reason``, exit 2),
+and numbers are written with the ASCII digits only, as device inputs and files are
+("１２８０" and "٣" are refused)."""
 
 from __future__ import annotations
 
@@ -17,6 +19,10 @@ T = TypeVar("T", int, float)
 def _argtype(check: Callable[[Any], T], name: str) -> Callable[[str], T]:
     def parse(text: str) -> T:
         value: object = text
+        if not text.isascii():  # int() and float() read "１２８０" and "٣" as numbers
+            raise argparse.ArgumentTypeError(
+                f"{text!r} is not a number written with the ASCII digits 0-9"
+            )
         if text.strip().lower() not in ("inf", "+inf"):
             try:
                 value = int(text) if text.strip().lstrip("+-").isdigit() else float(text)

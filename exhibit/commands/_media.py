@@ -1,21 +1,37 @@
-"""What `exhibit render`'s outputs share: sizes, and MP4s through ffmpeg."""
+"""What `exhibit render`'s outputs share: sizes, the checks on --out and the writes to it (all
+through exhibit.schema.files: never through a link, FIFO, device or folder), and MP4s through
+ffmpeg."""
 
 from __future__ import annotations
 
+import os
+import re
 import shutil
 import subprocess
+import tempfile
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
+from exhibit.schema.files import UnsafePath, check_output, output_folder, write_atomic
 
 MAX_PIXELS = 8192
+#: The most a render job may draw, frames x pixels: about 18,000 frames of 1280 x 720 (12
+#: minutes at 25 fps; hours of llvmpipe time), or 256 of the largest size. A longer job is
+#: refused before it starts, with what it would have drawn.
+MAX_JOB_PIXELS = 1 << 34
+#: The most frames a render job may draw, whatever their size (each is a kiosk step and a PNG).
+MAX_JOB_FRAMES = 50_000
+#: A job's progress without a terminal: a line on stderr this often (seconds).
+PROGRESS_EVERY_S = 10.0
 
 
 def whole_number(text: str, name: str, low: int, high: int) -> int:
-    try:
-        value = int(text)
-    except (TypeError, ValueError):
-        raise ExhibitError(f"{name}: {text!r} is not a whole number") from None
+    """A whole number written with the ASCII digits 0-9 (int() reads "１２８０" and "٣")."""
+    if not isinstance(text, str) or re.fullmatch(r"\s*[+-]?[0-9]{1,18}\s*", text, re.ASCII) is None:
+        raise ExhibitError(f"{name}: {text!r} is not a whole number written with the digits 0-9")
+    value = int(text)
     if not low <= value <= high:
         raise ExhibitError(f"{name}: {value} must lie in [{low}, {high}]")
     return value
@@ -31,6 +47,123 @@ def parse_size(text: str) -> tuple[int, int]:
     )
 
 
+@contextmanager
+def gl_errors(size: tuple[int, int]) -> Iterator[None]:
+    """A GL error while drawing frames of ``size`` (a framebuffer the driver will not make, out
+    of memory) as one line, exit 2, instead of a traceback: a smaller --size is the fix."""
+    import moderngl
+
+    try:
+        yield
+    except moderngl.Error as exc:
+        raise ExhibitError(
+            f"--size {size[0]}x{size[1]}: the GL renderer cannot draw it ({exc}); "
+            "try a smaller --size"
+        ) from None
+
+
+def check_gl_size(ctx, size: tuple[int, int], samples: int = 0) -> None:
+    """An ExhibitError when ``ctx`` cannot draw frames of ``size`` (exhibit.render.offscreen:
+    the GL's largest side, and the largest texture a frame needs)."""
+    from exhibit.render.offscreen import size_problem
+
+    problem = size_problem(ctx, size, samples)
+    if problem is not None:
+        raise ExhibitError(f"--size: {problem}")
+
+
+def out_file(text: str) -> Path:
+    """--out FILE checked before any work: a file name in a folder that exists and can be
+    written, with nothing but a regular file at the name (no folder, FIFO, device or symbolic
+    link); else an ExhibitError naming it and why."""
+    try:
+        check_output(text)
+    except UnsafePath as exc:
+        raise ExhibitError(f"--out: {exc}") from None
+    return Path(text)
+
+
+def out_folder(text: str) -> Path:
+    """--out DIR checked and made before any work: a folder that can be written (or none yet);
+    else an ExhibitError naming it and why (a file, FIFO or dangling link there, read-only)."""
+    try:
+        return output_folder(text)
+    except UnsafePath as exc:
+        raise ExhibitError(f"--out: {exc}") from None
+
+
+def write_out(path: str | os.PathLike, data: bytes | str, sync: bool = True) -> None:
+    """``data`` to the output ``path`` through the one safe writer, never through a link there;
+    an ExhibitError names the path and why it could not be written."""
+    try:
+        write_atomic(path, data, links=False, sync=sync)
+    except OSError as exc:
+        why = exc.strerror or exc
+        raise ExhibitError(f"--out: cannot write {os.fspath(path)}: {why}") from None
+
+
+def save_frame(image, path: str | os.PathLike, sync: bool = True) -> None:
+    """One picture (an array or a PIL image) as a PNG at ``path`` (:func:`write_out`)."""
+    from exhibit.render.offscreen import png_bytes
+
+    write_out(path, png_bytes(image), sync=sync)
+
+
+def check_job(frames: int, size: tuple[int, int], what: str) -> None:
+    """An ExhibitError, before any drawing, when ``frames`` frames of ``size`` are more than
+    MAX_JOB_FRAMES or MAX_JOB_PIXELS (``what``: how to make it smaller)."""
+    pixels = frames * size[0] * size[1]
+    if frames > MAX_JOB_FRAMES or pixels > MAX_JOB_PIXELS:
+        raise ExhibitError(
+            f"this job would draw {frames} frames of {size[0]}x{size[1]} ({pixels:.3g} pixels), "
+            f"over the limit of {MAX_JOB_FRAMES} frames and {MAX_JOB_PIXELS:.3g} pixels: {what}"
+        )
+
+
+class Progress:
+    """Progress of a long job on stderr: a tqdm bar on a terminal, else a line every
+    PROGRESS_EVERY_S seconds ("rendering: 120/900 frames"); nothing for a job that ends sooner.
+    Call it with the frames done since the last call; use as a context manager."""
+
+    def __init__(self, total: int, what: str = "rendering", unit: str = "frames"):
+        import sys
+        import time
+
+        self.total, self.what, self.unit, self.done = total, what, unit, 0
+        self._clock = time.monotonic
+        self._next = self._clock() + PROGRESS_EVERY_S
+        self._stream = sys.stderr
+        self._bar = None
+        if self._stream.isatty():
+            try:
+                from tqdm import tqdm
+            except ImportError:  # an environment from before tqdm was locked: the lines
+                tqdm = None
+            if tqdm is not None:
+                self._bar = tqdm(total=total, desc=what, unit=unit[:-1], leave=False)
+
+    def __call__(self, n: int = 1) -> None:
+        self.done += n
+        if self._bar is not None:
+            self._bar.update(n)
+            return
+        now = self._clock()
+        if now >= self._next:
+            self._next = now + PROGRESS_EVERY_S
+            print(
+                f"{self.what}: {self.done}/{self.total} {self.unit}",
+                file=self._stream,
+                flush=True,
+            )
+
+    def __enter__(self) -> "Progress":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        if self._bar is not None:
+            self._bar.close()
+
+
 def need_ffmpeg(instead: str) -> None:
     """An ExhibitError unless ffmpeg is on PATH (``instead``: what to write without it)."""
     if shutil.which("ffmpeg") is None:
@@ -41,7 +174,18 @@ def need_ffmpeg(instead: str) -> None:
 
 
 def encode_mp4(folder: Path, out: Path, fps: float = 25) -> None:
-    """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg)."""
+    """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg),
+    encoded in a private folder and written to ``out`` by :func:`write_out`."""
+    private = Path(tempfile.mkdtemp(prefix="exhibit-mp4-"))
+    try:
+        encoded = private / "out.mp4"
+        _ffmpeg(folder, encoded, fps)
+        write_out(out, encoded.read_bytes())
+    finally:
+        shutil.rmtree(private, ignore_errors=True)
+
+
+def _ffmpeg(folder: Path, out: Path, fps: float) -> None:
     result = subprocess.run(
         [
             "ffmpeg",

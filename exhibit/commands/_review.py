@@ -15,12 +15,24 @@ from __future__ import annotations
 
 import json
 import math
+import os
 import shutil
 import tempfile
 from pathlib import Path
 
 from exhibit import scenes
-from exhibit.commands._media import encode_mp4, need_ffmpeg, parse_size
+from exhibit.commands._media import (
+    Progress,
+    check_job,
+    encode_mp4,
+    gl_errors,
+    need_ffmpeg,
+    out_file,
+    out_folder,
+    parse_size,
+    save_frame,
+    write_out,
+)
 from exhibit.errors import ExhibitError
 
 #: Contact sheet geometry: tiles at most TILE_W wide, up to COLUMNS a row, GAP between them, a
@@ -37,18 +49,23 @@ INK = (235, 235, 235)
 def output_kind(out: str) -> str:
     """ "folder" (ends in / or is a folder), "mp4" or "sheet" (.png); else an ExhibitError."""
     path = Path(out)
-    if out.endswith(("/", "\\")) or path.is_dir():
-        if path.exists() and not path.is_dir():
-            raise ExhibitError(f"--out: {path} exists and is not a folder")
-        return "folder"
+    if out.endswith(("/", "\\")) or os.path.isdir(path):  # no OSError: a 300-byte name
+        return "folder"  # what is there is check_out's to say
     kind = {".mp4": "mp4", ".png": "sheet"}.get(path.suffix.lower())
     if kind is None:
         raise ExhibitError(
             f"--out: {out} must be a folder (ending in /), an .mp4 or a .png contact sheet"
         )
-    if not path.parent.is_dir():
+    if not os.path.isdir(path.parent):
         raise ExhibitError(f"--out: folder {path.parent} does not exist")
     return kind
+
+
+def check_out(out: str, kind: str) -> Path:
+    """--out checked (and a folder made) before any GL work, by the one safe writer's checks
+    (exhibit.commands._media): a FIFO, a folder named as FILE.png, a dangling or any symbolic
+    link at a file's name, /proc, an over-long name or a read-only folder is one line."""
+    return out_folder(out) if kind == "folder" else out_file(out)
 
 
 def _conflicts(args) -> None:
@@ -129,40 +146,46 @@ def _timeline(args, size, config, language) -> int:
     fps = args.fps or (10 if kind == "sheet" else 25)  # checked by argparse (_args.number)
     if kind == "mp4":
         need_ffmpeg("a folder (DIR/) or a .png contact sheet")
-    out = Path(args.out)
-    with KioskPlayer(size, timeline=args.timeline, language=language, config=config) as player:
+    out = check_out(args.out, kind)
+    from exhibit.kiosk.review import caption_spans, play_schedule
+
+    spans = caption_spans(timeline)
+    if kind == "sheet" and not spans:
+        raise ExhibitError(f"--timeline: {timeline.path} shows no caption for a contact sheet")
+    kept = [s.settled for s in spans] if kind == "sheet" else None
+    schedule = play_schedule(timeline.duration, fps, kept)
+    check_job(len(schedule), size, "a lower --fps, a smaller --size or a shorter timeline")
+    with (
+        gl_errors(size),
+        KioskPlayer(size, timeline=args.timeline, language=language, config=config) as player,
+    ):
         if kind == "sheet":
-            spans = player.captions()
-            if not spans:
-                raise ExhibitError(
-                    f"--timeline: {timeline.path} shows no caption for a contact sheet"
-                )
-            frames = list(player.play(fps, times=[s.settled for s in spans]))
+            with Progress(len(schedule)) as progress:
+                frames = list(player.play(fps, times=kept, progress=progress))
             sheet = contact_sheet(
                 frames, f"{timeline.name} ({Path(timeline.path).name}), language {language}"
             )
-            sheet.save(out)
+            save_frame(sheet, out)
             print(out)
             return 0
         folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
         try:
-            folder.mkdir(parents=True, exist_ok=True)
             index = []
-            from PIL import Image
-
-            for i, frame in enumerate(player.play(fps)):
-                name = f"frame_{i:04d}.png"
-                Image.fromarray(frame.image).save(folder / name)
-                index.append(
-                    {
-                        "file": name,
-                        "t": round(frame.t, 4),
-                        "caption": frame.caption,
-                        "mode": frame.mode,
-                    }
-                )
+            with Progress(len(schedule)) as progress:
+                for i, frame in enumerate(player.play(fps, progress=progress)):
+                    name = f"frame_{i:04d}.png"
+                    save_frame(frame.image, folder / name, sync=False)
+                    index.append(
+                        {
+                            "file": name,
+                            "t": round(frame.t, 4),
+                            "caption": frame.caption,
+                            "mode": frame.mode,
+                        }
+                    )
             if kind == "folder":
-                (folder / "index.json").write_text(
+                write_out(
+                    folder / "index.json",
                     json.dumps(
                         {
                             "timeline": timeline.path,
@@ -176,7 +199,6 @@ def _timeline(args, size, config, language) -> int:
                         indent=1,
                     )
                     + "\n",
-                    encoding="utf-8",
                 )
             else:
                 encode_mp4(folder, out, fps)
@@ -188,23 +210,26 @@ def _timeline(args, size, config, language) -> int:
 
 
 def _takeover(args, size, config, language) -> int:
-    from PIL import Image
-
-    from exhibit.kiosk.review import KioskPlayer, shipped_timeline
+    from exhibit.kiosk.review import KioskPlayer, shipped_timeline, takeover_frames
 
     scenes.get(args.takeover)  # "no scene named ..." before any GL work
     out = Path(args.out)
     if out.suffix.lower() != ".png":
         raise ExhibitError(f"--out: {out} must end in .png")
-    if not out.parent.is_dir():
-        raise ExhibitError(f"--out: folder {out.parent} does not exist")
+    out = out_file(args.out)  # no folder, FIFO, link...; a folder that exists and is writable
     after, fps = args.after, args.fps or 10
+    check_job(takeover_frames(after, fps), size, "a lower --fps, a smaller --size or less --after")
     timeline = shipped_timeline(args.takeover, config.attract_dir)
-    with KioskPlayer(
-        size, timeline=timeline, scene=args.takeover, language=language, config=config
-    ) as player:
-        frame = player.takeover(after, fps)
-        Image.fromarray(frame.image).save(out)
+    with (
+        gl_errors(size),
+        KioskPlayer(
+            size, timeline=timeline, scene=args.takeover, language=language, config=config
+        ) as player,
+    ):
+        with Progress(takeover_frames(after, fps)) as progress:
+            player.on_step = progress
+            frame = player.takeover(after, fps)
+        save_frame(frame.image, out)
     print(out)
     return 0
 

@@ -13,7 +13,7 @@ from exhibit.kiosk.attract import load_playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
 from exhibit.kiosk.preparing import run_job, scene_jobs
-from exhibit.scenes.cache import cache_dir
+from exhibit.scenes.cache import cache_dir, entry_path, entry_problem
 from exhibit.surfaces import progress
 
 HELP = "build the mesh cache the kiosk loads at start (run before the service starts)"
@@ -41,6 +41,19 @@ def mesh_levels_for(config) -> list[int]:
     )
 
 
+def _not_cached(job, resolutions: list[int]) -> str | None:
+    """Why a scene built without an error left no mesh in the cache (the cache only warns when
+    it cannot store one: a warm start is what prepare promises), or None."""
+    from exhibit import scenes
+
+    scene = scenes.get(job.scene)
+    for resolution in resolutions:
+        problem = entry_problem(entry_path(scene, dict(job.params), resolution))
+        if problem is not None:
+            return f"not cached: {problem}"
+    return None
+
+
 def run(args) -> int:
     config = load_kiosk_config(args.config)
     timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
@@ -51,13 +64,14 @@ def run(args) -> int:
             progress.report(f"preparing scene {i}/{len(jobs)}: {job.scene}")
             start = time.perf_counter()
             prepared = run_job(job)
+            resolutions = sorted({r for _, r in job.levels})
             report.append(
                 {
                     "scene": job.scene,
                     "params": dict(job.params),
-                    "resolutions": sorted({r for _, r in job.levels}),
+                    "resolutions": resolutions,
                     "seconds": round(time.perf_counter() - start, 2),
-                    "error": prepared.error,
+                    "error": prepared.error or _not_cached(job, resolutions),
                 }
             )
     failed = [r for r in report if r["error"]]

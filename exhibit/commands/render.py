@@ -13,10 +13,16 @@ from pathlib import Path
 from exhibit import scenes
 from exhibit.commands import _arg_types as _args
 from exhibit.commands._media import (
+    check_gl_size,
     encode_mp4,
+    gl_errors,
     need_ffmpeg,  # noqa: F401
+    out_file,
+    out_folder,
     parse_size,
+    save_frame,
     whole_number as _int,
+    write_out,
 )
 from exhibit.errors import ExhibitError
 from exhibit.scenes.base import parse_overrides
@@ -173,6 +179,8 @@ def _floats(text: str, count: int, name: str) -> list[float]:
     values = []
     for item in items:
         try:
+            if not item.isascii():  # float() reads "１２" and "٣"
+                raise ValueError(item)
             value = float(item)
         except ValueError:
             raise ExhibitError(f"{name}: {item!r} is not a number") from None
@@ -223,6 +231,8 @@ def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
     if not sep or name not in axes:
         raise ExhibitError(f"--slice: {text!r} is not AXIS=C with AXIS one of {', '.join(axes)}")
     try:
+        if not value.isascii():  # float() reads "１２" and "٣"
+            raise ValueError(value)
         at = float(value)
     except ValueError:
         raise ExhibitError(f"--slice: {value.strip()!r} is not a number") from None
@@ -256,20 +266,18 @@ def run(args) -> int:
     if frames is None:
         if out.suffix.lower() != ".png":
             raise ExhibitError(f"--out: {out} must end in .png (use --frames for animations)")
-        if not out.parent.is_dir():
-            raise ExhibitError(f"--out: folder {out.parent} does not exist")
+        out = out_file(args.out)  # "d.png/", a FIFO, a link, read-only: one line, before GL
     kind = "folder"
     if frames is not None:
         kind = {".gif": "gif", ".mp4": "mp4"}.get(out.suffix.lower(), "folder")
-        if kind != "folder" and not out.parent.is_dir():
-            raise ExhibitError(f"--out: folder {out.parent} does not exist")
-        if kind == "folder" and out.exists() and not out.is_dir():
-            raise ExhibitError(f"--out: {out} exists and is not a folder")
+        if args.out.endswith("/"):
+            kind = "folder"
         if kind == "mp4":
             need_ffmpeg("a .gif or a folder")
+        out = out_file(args.out) if kind != "folder" else out_folder(args.out)
     end_r = 1.0 / _distance(args.sensor_to, "--sensor-to")
 
-    from exhibit.render import Headless, HudInfo, RenderOptions, save_png
+    from exhibit.render import Headless, HudInfo, RenderOptions
 
     options = RenderOptions(
         silhouettes=not args.no_silhouettes,
@@ -295,24 +303,26 @@ def run(args) -> int:
         view = framer.view(mesh, view, scene.title, [(scene.caption, note)])
     headless = Headless()
     try:
-        gpu = headless.renderer.upload(mesh)
-        if frames is None:
-            inset_gpu, drawn = None, None
-            if inset is not None:
-                inset_gpu, drawn = _inset(headless, scene, params, mesh, view, inset)
-            try:
-                picture = headless.still(gpu, view, size, options, hud, samples, inset=drawn)
-            finally:
-                if inset_gpu is not None:
-                    inset_gpu.release()
-            save_png(picture, out)
-            print(out)
-            return 0
-        images = []
-        for i in range(frames):
-            t = i / (frames - 1) if frames > 1 else 0.0
-            frame_view = view.replace(sensor_r=(1 - t) * view.sensor_r + t * end_r)
-            images.append(headless.image(gpu, frame_view, size, options, hud, samples))
+        check_gl_size(headless.ctx, size, samples if frames is None else 0)
+        with gl_errors(size):  # a framebuffer the driver will not make: one line
+            gpu = headless.renderer.upload(mesh)
+            if frames is None:
+                inset_gpu, drawn = None, None
+                if inset is not None:
+                    inset_gpu, drawn = _inset(headless, scene, params, mesh, view, inset)
+                try:
+                    picture = headless.still(gpu, view, size, options, hud, samples, inset=drawn)
+                finally:
+                    if inset_gpu is not None:
+                        inset_gpu.release()
+                save_frame(picture, out)
+                print(out)
+                return 0
+            images = []
+            for i in range(frames):
+                t = i / (frames - 1) if frames > 1 else 0.0
+                frame_view = view.replace(sensor_r=(1 - t) * view.sensor_r + t * end_r)
+                images.append(headless.image(gpu, frame_view, size, options, hud, samples))
     finally:
         headless.release()
     _write_animation(images, out, kind)
@@ -359,16 +369,23 @@ def _window(scene, params, view, note, size, resolution, samples) -> int:
 
 
 def _write_animation(images, out: Path, kind: str) -> None:
+    """The frames as a GIF, an MP4 or numbered PNGs in a folder (checked by out_file and
+    out_folder), every file through the one safe writer (exhibit.commands._media)."""
+    import io
+
     from PIL import Image
 
     if kind == "gif":
         pictures = [Image.fromarray(im) for im in images]
-        pictures[0].save(out, save_all=True, append_images=pictures[1:], duration=80, loop=0)
+        buffer = io.BytesIO()
+        pictures[0].save(
+            buffer, format="GIF", save_all=True, append_images=pictures[1:], duration=80, loop=0
+        )
+        write_out(out, buffer.getvalue())
         return
     folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
-    folder.mkdir(parents=True, exist_ok=True)
     for i, image in enumerate(images):
-        Image.fromarray(image).save(folder / f"frame_{i:04d}.png")
+        save_frame(image, folder / f"frame_{i:04d}.png", sync=False)
     if kind == "mp4":
         try:
             encode_mp4(folder, out)

@@ -10,6 +10,9 @@ changes language by itself. It steps the kiosk on a fake clock and hands back th
 
 `exhibit render --timeline` and `--takeover` (exhibit.commands.render) are built on it, and so
 are the golden tests of what a visitor sees after taking over (tests/golden/test_takeover.py).
+
+Why one module of this size: the player, the schedule of the frames it draws and the review's
+config share one fake clock and one kiosk, and split apart each would reach into the other.
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ import tempfile
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Iterable, Iterator
+from typing import Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -95,6 +98,48 @@ def caption_spans(timeline: Timeline) -> list[CaptionSpan]:
         else:
             spans.append(CaptionSpan(keyframe.t, frames[i + 1].t, keyframe.caption))
     return [s for s in spans if s.text and s.end > s.start]
+
+
+def play_schedule(
+    duration: float, fps: float, times: Iterable[float] | None = None
+) -> list[tuple[float, bool]]:
+    """The kiosk frames a review draws, as (time, kept): every frame of the ``fps`` grid from 0
+    to ``duration`` (all kept), or, with ``times``, each of those times (kept) after the grid's
+    frames in the LEAD_S before it (not kept). What a frame shows depends on the time alone but
+    for a crossfade under way (exhibit.kiosk.app.CROSSFADE_S, begun at a cut), so these few
+    frames show each kept time as the whole timeline played at ``fps`` would: a contact sheet of
+    a day-long timeline draws a few frames a caption, not the day."""
+    end = float(duration)
+    count = max(1, int(round(end * fps)))
+    if times is None:
+        return [(min(i / fps, end), True) for i in range(count + 1)]
+    lead = lead_s(fps)
+    wanted = sorted({min(max(float(t), 0.0), end) for t in times})
+    out: list[tuple[float, bool]] = []
+    done = -1.0
+    for t in wanted:
+        first = max(0, math.ceil(max(t - lead, done) * fps - 1e-9))
+        i = first
+        while i / fps < t - 1e-9 and i <= count:
+            if i / fps > done:
+                out.append((i / fps, False))
+            i += 1
+        out.append((t, True))
+        done = t
+    return out
+
+
+def takeover_frames(after: float, fps: float, attract_s: float = ATTRACT_S) -> int:
+    """About how many frames :meth:`KioskPlayer.takeover` draws (for the job's size check)."""
+    return math.ceil((attract_s + after) * fps) + 3
+
+
+def lead_s(fps: float) -> float:
+    """How long before a kept time :func:`play_schedule` starts stepping: a crossfade and two
+    frames (the cut that starts it may fall between two)."""
+    from exhibit.kiosk.app import CROSSFADE_S
+
+    return CROSSFADE_S + 2.0 / fps
 
 
 def read_timeline(path: str | Path) -> Timeline:
@@ -224,6 +269,8 @@ class KioskPlayer:
         self.language, catalogues = check_language(config, language)
         self._tmp = Path(tempfile.mkdtemp(prefix="exhibit-review-"))
         self._own_headless = headless is None
+        #: Called with 1 after each kiosk frame (a long job's progress).
+        self.on_step: Callable[[int], object] | None = None
         try:
             attract = self._tmp / "attract"
             attract.mkdir()
@@ -249,6 +296,11 @@ class KioskPlayer:
 
                 headless = Headless()
             self.headless = headless
+            from exhibit.render.offscreen import size_problem
+
+            problem = size_problem(headless.ctx, config.size)  # the pinned level: no MSAA
+            if problem is not None:
+                raise ExhibitError(f"--size: {problem}")
             self.clock = FakeClock(0.0)
             self.window = HeadlessTarget(headless, config.size)
             quiet = self.timeline is None  # no timeline is what we asked for, not a problem
@@ -286,6 +338,8 @@ class KioskPlayer:
         self.clock.t = max(float(t), self.clock.t)
         self.kiosk.step()
         self.started = True
+        if self.on_step is not None:
+            self.on_step(1)
 
     def run_to(self, t: float, fps: float) -> None:
         """Frames at ``fps`` up to time ``t``, the last exactly at ``t``."""
@@ -318,22 +372,26 @@ class KioskPlayer:
         assert keyboard is not None  # keyboard_only() gave the review kiosk one
         keyboard.key(name, pressed, t=self.clock())
 
-    def play(self, fps: float, times: Iterable[float] | None = None) -> Iterator[ReviewFrame]:
+    def schedule(
+        self, fps: float, times: Iterable[float] | None = None
+    ) -> list[tuple[float, bool]]:
+        """The frames :meth:`play` draws: (time, kept) (see :func:`play_schedule`)."""
+        return play_schedule(self.duration, fps, times)
+
+    def play(
+        self, fps: float, times: Iterable[float] | None = None, progress=None
+    ) -> Iterator[ReviewFrame]:
         """The timeline from t = 0 to its end at ``fps`` frames a second, every frame (or only
-        those at ``times``, the kiosk still stepping at ``fps`` between them). The last frame
-        is taken just before the end, where the playlist would loop back to the start."""
+        those at ``times``, each after the few frames on the ``fps`` grid a crossfade into it
+        needs: :func:`play_schedule`). The last frame is taken just before the end, where the
+        playlist would loop back to the start. ``progress(n)`` is called after each frame."""
         end = self.duration
-        count = max(1, int(round(end * fps)))
-        grid = [min(i / fps, end) for i in range(count + 1)]
-        wanted = None if times is None else sorted({min(max(float(t), 0.0), end) for t in times})
-        if wanted is not None:
-            grid = sorted(set(grid) | set(wanted))
         last = end - 1e-4 if end > 0 else 0.0
-        for t in grid:
-            if t > end:
-                break
+        if progress is not None:
+            self.on_step = progress
+        for t, kept in self.schedule(fps, times):
             self.step_to(min(t, last))
-            if wanted is None or t in wanted:
+            if kept:
                 shown = self.frame()
                 shown.t = t
                 yield shown

@@ -22,6 +22,50 @@ if TYPE_CHECKING:
 DEFAULT_SAMPLES = 4
 
 
+#: The most bytes one texture may take: llvmpipe, the software GL the kiosk runs on, leaves a
+#: framebuffer with a larger attachment incomplete (INCOMPLETE_ATTACHMENT or UNSUPPORTED), and
+#: a GPU driver's share of memory is no larger in practice.
+MAX_TEXTURE_BYTES = 1 << 30
+#: Bytes a pixel takes in the largest target of a frame: the intersection curves' sheet buffer
+#: (exhibit.render.frame.SceneTarget), RGBA 32-bit floats, once per MSAA sample.
+SHEET_BYTES_PER_PIXEL = 16
+
+
+def size_limits(ctx: moderngl.Context) -> tuple[int, int]:
+    """(the longest side, in pixels, any target may have; the most samples) for ``ctx``: the
+    least of GL_MAX_TEXTURE_SIZE, GL_MAX_RENDERBUFFER_SIZE and GL_MAX_VIEWPORT_DIMS."""
+    info = ctx.info
+    sides = [info.get("GL_MAX_TEXTURE_SIZE"), info.get("GL_MAX_RENDERBUFFER_SIZE")]
+    sides += list(info.get("GL_MAX_VIEWPORT_DIMS") or ())
+    known = [int(v) for v in sides if isinstance(v, (int, float)) and v > 0]
+    return (min(known) if known else 4096), max(0, int(ctx.max_samples))
+
+
+def size_problem(ctx: moderngl.Context, size: tuple[int, int], samples: int = 0) -> str | None:
+    """Why frames of ``size`` with ``samples`` MSAA samples cannot be drawn on ``ctx`` (a side
+    over the GL's limits, or a target over MAX_TEXTURE_BYTES), in words; None when they can."""
+    width, height = int(size[0]), int(size[1])
+    side, most_samples = size_limits(ctx)
+    if max(width, height) > side:
+        return (
+            f"{width}x{height} is larger than this GL renderer draws: at most {side} pixels a "
+            "side (GL_MAX_TEXTURE_SIZE, GL_MAX_RENDERBUFFER_SIZE, GL_MAX_VIEWPORT_DIMS)"
+        )
+    layers = max(1, min(samples, most_samples) if samples > 1 else 1)
+    needed = width * height * SHEET_BYTES_PER_PIXEL * layers
+    if needed > MAX_TEXTURE_BYTES:
+        most = int((MAX_TEXTURE_BYTES / (SHEET_BYTES_PER_PIXEL * layers)) ** 0.5)
+        with_samples = f" with {layers} samples" if layers > 1 else ""
+        return (
+            f"{width}x{height}{with_samples} needs a {needed / (1 << 30):.1f} GiB buffer for the "
+            f"intersection curves, over the {MAX_TEXTURE_BYTES >> 30} GiB one texture may hold "
+            f"(at most about {most}x{most}{with_samples}"
+            + ("; fewer --samples allow more" if layers > 1 else "")
+            + ")"
+        )
+    return None
+
+
 class Offscreen:
     """A colour + depth framebuffer of one size (multisampled, resolved on read)."""
 
@@ -169,5 +213,19 @@ class Headless:
         self.ctx.release()
 
 
-def save_png(image: np.ndarray, path) -> None:
-    Image.fromarray(image).save(path)
+def png_bytes(image) -> bytes:
+    """A picture (an RGB(A) array or a PIL image) as the bytes of a PNG file."""
+    import io
+
+    picture = image if isinstance(image, Image.Image) else Image.fromarray(image)
+    buffer = io.BytesIO()
+    picture.save(buffer, format="PNG")
+    return buffer.getvalue()
+
+
+def save_png(image, path, sync: bool = True) -> None:
+    """A picture to a PNG at ``path`` through the one safe writer (exhibit.schema.files): never
+    through a symbolic link, FIFO, device or folder there (UnsafePath, an OSError)."""
+    from exhibit.schema.files import write_atomic
+
+    write_atomic(path, png_bytes(image), links=False, sync=sync)

@@ -95,6 +95,8 @@ class Scene:
             try:
                 if isinstance(raw, bool):  # true is not 1.0 to a curator
                     raise TypeError
+                if isinstance(raw, str) and not raw.isascii():  # float() reads "٣" and "１"
+                    raise ValueError(raw)
                 value = float(raw)
             except (TypeError, ValueError, OverflowError):
                 raise ExhibitError(
@@ -157,9 +159,13 @@ def parse_resolution(text) -> int | None:
     if text is None:
         return None
     try:
+        if isinstance(text, str) and not text.isascii():  # int() reads "１２" and "٣"
+            raise ValueError(text)
         value = int(text)
     except (TypeError, ValueError):
-        raise ExhibitError(f"--resolution must be a whole number, got {text!r}") from None
+        raise ExhibitError(
+            f"--resolution must be a whole number written with the digits 0-9, got {text!r}"
+        ) from None
     if not MIN_RESOLUTION <= value <= MAX_RESOLUTION:
         raise ExhibitError(
             f"--resolution must lie in [{MIN_RESOLUTION}, {MAX_RESOLUTION}], got {value}"

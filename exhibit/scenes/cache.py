@@ -19,6 +19,7 @@ import hashlib
 import json
 import logging
 import os
+import stat
 import time
 from pathlib import Path
 from typing import Mapping
@@ -68,6 +69,38 @@ def cache_key(scene: Scene, params: Mapping[str, float], resolution: int) -> str
     return hashlib.sha256(description.encode()).hexdigest()[:24]
 
 
+def entry_path(
+    scene: Scene,
+    overrides: Mapping[str, object] | None = None,
+    resolution: int | None = None,
+    directory: Path | None = None,
+) -> Path:
+    """Where the cache keeps the scene's mesh with these parameters at ``resolution``."""
+    params = scene.resolve(overrides)
+    resolution = int(resolution or scene.default_resolution)
+    folder = Path(directory) if directory else cache_dir()
+    return folder / f"{scene.name}-{cache_key(scene, params, resolution)}.npz"
+
+
+def entry_problem(path: Path) -> str | None:
+    """Why the cache holds no usable entry at ``path`` (`exhibit prepare` checks what it
+    stored: a cache folder that is a file, a link to a device, read-only or full stores
+    nothing, and build_cached only warns), or None when a regular, non-empty file is there."""
+    try:
+        info = os.lstat(path)
+    except OSError as exc:
+        why = files.check_file_ref(path.parent, want_dir=True)
+        if why is not None:
+            return f"mesh cache {why}"
+        return (
+            f"nothing stored in the mesh cache {path.parent} "
+            f"({exc.strerror or exc}: is it read-only or full?)"
+        )
+    if not stat.S_ISREG(info.st_mode) or info.st_size == 0:
+        return f"the mesh cache entry {path} is not a complete file"
+    return None
+
+
 def build_cached(
     scene: Scene,
     overrides: Mapping[str, object] | None = None,
@@ -81,8 +114,8 @@ def build_cached(
     """
     params = scene.resolve(overrides)
     resolution = int(resolution or scene.default_resolution)
-    folder = Path(directory) if directory else cache_dir()
-    path = folder / f"{scene.name}-{cache_key(scene, params, resolution)}.npz"
+    path = entry_path(scene, params, resolution, directory)
+    folder = path.parent
     try:
         data = files.read_regular(path, MAX_CACHE_BYTES, follow=False)
         return Mesh4D.from_bytes(data), True

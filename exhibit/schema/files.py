@@ -6,7 +6,11 @@ blocking, must be a regular file (a symlink to one is fine: deployments link con
 up to a size cap, and must be UTF-8 TOML. Numbers inside texts are ASCII digits only
 (:func:`parse_int`: "²", "①" or "٣" are not numbers), JSON from a file or a database row is
 bounded in size and depth (:func:`loads_json`), and every file exhibit writes goes through
-:func:`write_atomic`, which never writes through a device, FIFO or folder.
+:func:`write_atomic`, which never writes through a device, FIFO or folder (and outputs a person
+names are checked before the work that fills them: :func:`check_output`, :func:`output_folder`).
+
+Why one module of this size: it is the one file-safety module (ARCHITECTURE.md): every read and
+write of a file exhibit does not own goes through these few functions, which share their checks.
 """
 
 from __future__ import annotations
@@ -281,16 +285,29 @@ def open_folder(
     return fd
 
 
-def _check_at(dir_fd: int, name: str, shown: str) -> None:
+def _check_at(dir_fd: int, name: str, shown: str, links: bool = True) -> None:
     """UnsafePath when ``name`` in the folder exists and is not a regular file: a folder, FIFO,
     device, socket, or a symbolic link to one (a unit masked by a link to /dev/null, say). A
-    link to a regular file, or a dangling one, is replaced by the rename, never written through."""
+    link to a regular file, or a dangling one, is replaced by the rename, never written through;
+    ``links=False`` refuses any symbolic link there (an output a person named: whatever the link
+    points at, they may have meant it). A name the system refuses (over 255 bytes, a loop of
+    links in its folders) is UnsafePath too, with the system's reason."""
     try:
         info = os.stat(name, dir_fd=dir_fd, follow_symlinks=False)
     except FileNotFoundError:
         return
+    except OSError as exc:
+        raise UnsafePath(f"{shown}: {exc.strerror or exc}") from None
     link = ""
     if stat.S_ISLNK(info.st_mode):
+        if not links:
+            try:
+                to = os.readlink(name, dir_fd=dir_fd)
+            except OSError:
+                to = "?"
+            raise UnsafePath(
+                f"{shown} is a symbolic link (to {to}): refusing to write through it or replace it"
+            )
         try:
             info = os.stat(name, dir_fd=dir_fd)
         except OSError:
@@ -302,20 +319,107 @@ def _check_at(dir_fd: int, name: str, shown: str) -> None:
         )
 
 
-def check_target(path: str | os.PathLike, root: str | os.PathLike | None = None) -> None:
+def check_target(
+    path: str | os.PathLike, root: str | os.PathLike | None = None, links: bool = True
+) -> None:
     """What :func:`write_atomic` checks before writing, without writing or creating anything:
     UnsafePath for a bad name, a symlinked folder below ``root``, or something at ``path`` that
-    is not a regular file (nor a link to one). A folder that does not exist yet is fine (it
-    would be created)."""
+    is not a regular file (nor a link to one; with ``links=False`` no link at all). A folder
+    that does not exist yet is fine (it would be created); one that cannot be opened (a loop of
+    links, a file in the way) is UnsafePath."""
     folder, name = split_target(path)
     try:
         fd = open_folder(folder, root)
     except FileNotFoundError:
         return
+    except UnsafePath:
+        raise
+    except OSError as exc:
+        raise UnsafePath(f"{folder}: {exc.strerror or exc}") from None
     try:
-        _check_at(fd, name, os.fspath(path))
+        _check_at(fd, name, os.fspath(path), links)
     finally:
         os.close(fd)
+
+
+def _probe(fd: int, shown: str) -> None:
+    """UnsafePath unless a file can be created in the folder ``fd`` (created and removed: the
+    one test that holds for root, read-only mounts and /proc alike)."""
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
+    tmp = f".exhibit-probe.{secrets.token_hex(6)}.tmp"
+    try:
+        os.close(os.open(tmp, flags, 0o600, dir_fd=fd))
+    except OSError as exc:
+        raise UnsafePath(f"{shown}: cannot write there: {exc.strerror or exc}") from None
+    try:
+        os.unlink(tmp, dir_fd=fd)
+    except OSError:
+        pass
+
+
+def check_output(path: str | os.PathLike) -> None:
+    """An output file a person named (``exhibit render --out FILE``), checked before the work
+    that fills it: a file name (not "dir/"), in a folder that exists and can be written, with
+    nothing at the name but a regular file (no folder, FIFO, device, nor a symbolic link of any
+    kind: it is never written through). UnsafePath says which and why, in one line."""
+    folder, name = split_target(path)
+    shown = os.fspath(path)
+    try:
+        fd = open_folder(folder)
+    except FileNotFoundError:
+        raise UnsafePath(f"folder {folder} does not exist") from None
+    except OSError as exc:
+        raise UnsafePath(f"{folder}: {exc.strerror or exc}") from None
+    try:
+        _check_at(fd, name, shown, links=False)
+        _probe(fd, folder)
+    finally:
+        os.close(fd)
+
+
+def output_folder(path: str | os.PathLike, create: bool = True) -> Path:
+    """An output folder a person named (``exhibit render --frames N --out DIR``), checked and
+    (``create``) made before the work that fills it: UnsafePath when something else is there (a
+    file, a FIFO, a device, a dangling symbolic link) or it cannot be written (read-only,
+    /proc). A link to a folder is followed: the trailing name says it is meant as a folder."""
+    text = os.fspath(path)
+    if isinstance(text, bytes):
+        text = os.fsdecode(text)
+    if text == "":
+        raise UnsafePath("an empty folder name")
+    folder = Path(text)
+    try:
+        info = os.lstat(folder)
+    except FileNotFoundError:
+        info = None
+    except OSError as exc:
+        raise UnsafePath(f"{text}: {exc.strerror or exc}") from None
+    if info is not None and stat.S_ISLNK(info.st_mode):
+        try:
+            info = os.stat(folder)
+        except OSError as exc:
+            why = "a dangling symbolic link" if isinstance(exc, FileNotFoundError) else None
+            raise UnsafePath(
+                f"{text} is {why}" if why else f"{text}: {exc.strerror or exc}"
+            ) from None
+    if info is not None and not stat.S_ISDIR(info.st_mode):
+        raise UnsafePath(f"{text} is {_kind(info.st_mode)}, not a folder")
+    if info is None:
+        if not create:
+            raise UnsafePath(f"folder {text} does not exist")
+        try:
+            os.makedirs(folder, exist_ok=True)
+        except OSError as exc:
+            raise UnsafePath(f"{text}: cannot make the folder: {exc.strerror or exc}") from None
+    try:
+        fd = os.open(folder, os.O_RDONLY | os.O_DIRECTORY | os.O_CLOEXEC)
+    except OSError as exc:
+        raise UnsafePath(f"{text}: {exc.strerror or exc}") from None
+    try:
+        _probe(fd, text)
+    finally:
+        os.close(fd)
+    return folder
 
 
 def write_atomic(
@@ -326,6 +430,7 @@ def write_atomic(
     sync: bool = True,
     make_folder: bool = False,
     heal: bool = False,
+    links: bool = True,
 ) -> None:
     """Replace the file at ``path`` with ``data`` at once: a reader sees the old file or the new
     one, never a part. The one way exhibit writes a file.
@@ -343,7 +448,9 @@ def write_atomic(
     reads it half written. ``make_folder`` creates missing folders. ``heal`` (a cache entry,
     never a file a person made): whatever is at ``path`` is replaced by the rename, not refused
     (a FIFO, a device node or a link planted there; an empty folder is removed first). Raises
-    OSError (a missing or read-only folder, a full disk), leaving no temporary file behind."""
+    OSError (a missing or read-only folder, a full disk), leaving no temporary file behind.
+    ``links=False``: a symbolic link at ``path`` is refused too, not replaced (an output a person
+    named, :func:`check_output`)."""
     folder, name = split_target(path)
     shown = os.fspath(path)
     if isinstance(data, str):
@@ -351,10 +458,10 @@ def write_atomic(
     fd = open_folder(folder, root, create=make_folder)
     try:
         if not heal:
-            _check_at(fd, name, shown)
+            _check_at(fd, name, shown, links)
         flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW | os.O_CLOEXEC
         for _ in range(100):
-            tmp = f".{name}.{secrets.token_hex(6)}.tmp"
+            tmp = f".{name[:40]}.{secrets.token_hex(6)}.tmp"  # as short as NAME_MAX needs
             try:
                 out = os.open(tmp, flags, 0o600, dir_fd=fd)
                 break
@@ -373,7 +480,7 @@ def write_atomic(
             finally:
                 os.close(out)
             if not heal:
-                _check_at(fd, name, shown)  # nothing swapped in meanwhile
+                _check_at(fd, name, shown, links)  # nothing swapped in meanwhile
             try:
                 os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
             except IsADirectoryError:

@@ -372,6 +372,26 @@ def test_the_metrics_file_is_not_written_through_a_planted_link(tmp_path, capsys
     assert not prom.is_symlink() and "exhibit_up 1" in prom.read_text()
 
 
+@pytest.mark.parametrize("case", ["300-byte name", "looping link", "loop in the folder"])
+def test_status_prometheus_refuses_a_name_the_system_cannot_open(tmp_path, capsys, case):
+    """Issue 33: these were internal errors (ENAMETOOLONG, ELOOP) with a traceback's line."""
+    health = tmp_path / "health.json"
+    write_health(health, sample())
+    (tmp_path / "loop").symlink_to(tmp_path / "loop")
+    prom = {
+        "300-byte name": tmp_path / ("a" * 300 + ".prom"),
+        "looping link": tmp_path / "loop",
+        "loop in the folder": tmp_path / "loop" / "exhibit.prom",
+    }[case]
+    code = run_status("--file", str(health), "--prometheus", str(prom))
+    err = capsys.readouterr().err
+    assert err.count("\n") <= 1 and "internal error" not in err
+    if case == "looping link":  # the link itself is replaced by the file, never followed
+        assert code == 0 and not prom.is_symlink() and "exhibit_up 1" in prom.read_text()
+    else:
+        assert code == 2 and "--prometheus" in err
+
+
 def test_status_prometheus_with_json_prints_the_json_too(tmp_path, capsys):
     health, prom = tmp_path / "health.json", tmp_path / "exhibit.prom"
     write_health(health, sample())

@@ -504,3 +504,34 @@ def test_the_kiosk_runs_with_the_parts_it_is_handed(tmp_path, built):
     k.run(max_frames=20)
     assert parts.reporter.calls and all(mode == "attract" for _, _, mode in parts.reporter.calls)
     assert k.content is parts.content and len(window.drawn) > 0
+
+
+@pytest.mark.parametrize("case", ["a regular file", "a link to a device", "read-only"])
+def test_exhibit_prepare_fails_when_it_cached_nothing(tmp_path, monkeypatch, capsys, case):
+    """Issue 33: prepare said "2 of 2 scenes ready" and exit 0 with nothing in the cache (the
+    cache only warns when it cannot store); install and update took that as a warm cache."""
+    from exhibit.cli import main
+
+    cache = tmp_path / "cache"
+    if case == "a regular file":
+        cache.write_text("not a folder")
+    elif case == "a link to a device":
+        cache.symlink_to("/dev/null")
+    else:
+        cache.mkdir()
+        if os.geteuid() == 0:  # root writes through the mode bits: a store that fails instead
+            from exhibit.scenes import cache as mesh_cache
+
+            def refuse(folder, path, data):
+                raise PermissionError(13, "Read-only file system")
+
+            monkeypatch.setattr(mesh_cache, "store", refuse)
+        else:
+            cache.chmod(0o555)
+    monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(cache))
+    path = make_config(tmp_path, "")
+    assert main(["prepare", "--config", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "0 of 2 scenes ready" in out and "not cached: " in out
+    if case != "read-only":
+        assert "not a folder" in out

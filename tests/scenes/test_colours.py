@@ -150,3 +150,22 @@ def test_luminance_and_contrast_are_wcags():
     assert contrast_ratio((0.2, 0.2, 0.2), (0.9, 0.9, 0.9)) == pytest.approx(
         contrast_ratio((0.9, 0.9, 0.9), (0.2, 0.2, 0.2))
     )
+
+
+def test_check_colours_names_a_curator_scene_that_does_not_load(tmp_path):
+    """Issue 33: a broken curator scene was skipped without a word, exit 0."""
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    broken = folder / "broken.toml"
+    broken.write_text('name = "broken"\ntitle = 3\n')
+    env = {**os.environ, "EXHIBIT_SCENE_PATH": str(folder)}
+    result = subprocess.run(
+        [sys.executable, "-m", "exhibit", "scenes", "--check-colours"],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+    )
+    assert result.returncode == 2, result.stdout + result.stderr
+    assert f"{broken}: colours: not checked, the scene does not load" in result.stdout
+    assert "hopf                 OK: " in result.stdout
