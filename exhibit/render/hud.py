@@ -395,8 +395,6 @@ class Hud:
         taken = [p.grow(0.3 * body) for p in layout.panels] + [
             rect.grow(0.3 * body) for _, rect, _, _ in self.labels
         ]
-        if picture is not None:
-            taken.append(picture)
         items: list[tuple] = []
         for name, words in tags:
             anchor = self._anchors.anchor(gpu, name, ct, size)

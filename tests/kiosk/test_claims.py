@@ -166,3 +166,17 @@ def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
     assert first == ["grüner Donut", "weißer Donut", "roter Donut"]
     assert keys == ["Zwickelpunkt des 3D-Bildes (Lemma 2)"]
     assert second == ["grüner Donut", "roter Donut"]
+
+
+def test_tags_keep_off_the_panels_when_the_picture_fills_the_world(headless):
+    """Figure 8's moment in the hypersphere timeline: no room beside the picture, so the green
+    doughnut's tag goes on it, still off every panel."""
+    from exhibit.kiosk.review import KioskPlayer
+
+    path = shipped("configs", "attract", "01-hypersphere.toml")
+    with KioskPlayer((1280, 720), timeline=path, headless=headless) as player:
+        player.run_to(31.5, FPS)
+        tags = list(headless.renderer.hud.tags)
+        panels = headless.renderer.hud.layout.panels
+    assert [words for words, *_ in tags] == ["green doughnut"]
+    assert not any(tags[0][1].overlaps(p) for p in panels)
