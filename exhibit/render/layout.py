@@ -30,6 +30,9 @@ from exhibit.render.text import ellipsize, font, line_height, text_width, units,
 MIN_CAPTION_CAP = 1.0 / 45.0
 #: Beyond this sensor or eye distance the HUD shows ∞ (a number of 26163.17 means nothing).
 INFINITY_BEYOND = 1000.0
+#: A caption's comfortable line length, in font sizes (at least 0.42 of the width): about 60
+#: characters, so a two-sentence caption is two lines, not a narrow column of three or four.
+CAPTION_MEASURE = 28
 #: The tallest check-config lets a title or caption make that panel (exhibit check-config).
 PANEL_LIMIT = 0.4
 #: The key's line under the numbers (the kiosk shows it; HudInfo.words carries it in the
@@ -285,7 +288,7 @@ def hud_layout(
     # The panel is at least as wide as the title: a caption uses that width before it wraps
     # into a column narrower than the heading above it.
     heading = max((text_width(t, "bold", title_px) for t in title_lines), default=0.0)
-    measure = min(room, max(0.42 * width, 22 * body_px, heading))
+    measure = min(room, max(0.42 * width, CAPTION_MEASURE * body_px, heading))
     caption_lines: list[str] = []
     for paragraph in captions:
         if paragraph:

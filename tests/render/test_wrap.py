@@ -4,7 +4,7 @@ one line, a long one uses the fewest lines its measure needs, evened out (pure: 
 import pytest
 
 from exhibit import scenes
-from exhibit.render.layout import hud_layout
+from exhibit.render.layout import CAPTION_MEASURE, hud_layout
 from exhibit.render.text import text_width, wrap, wrap_balanced
 
 SPACED = (
@@ -51,7 +51,7 @@ def test_a_long_caption_takes_the_fewest_lines_of_its_measure_evened(size):
     caption = scenes.get("collision").caption * 2
     layout = hud_layout(size, "A title", (caption,))
     px = layout.body_px
-    measure = max(0.42 * size[0], 22 * px)
+    measure = max(0.42 * size[0], CAPTION_MEASURE * px)
     lines = layout.caption_lines
     assert " ".join(lines) == " ".join(caption.split())
     assert len(lines) == len(wrap(caption, "sans", px, measure)) > 1
