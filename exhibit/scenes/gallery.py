@@ -96,6 +96,7 @@ CLIFFORD = Scene(
         "sheet of paper rolled up twice, and it lies on a 4D ball. Turn the knobs: it never "
         "stretches, it only looks as if it does."
     ),
+    labels=(("circle b", "lines drawn on it"),),
     parameters=(Parameter("radius", 1.0, 0.2, 3.0, "radius of the 3-sphere it lies on"),),
     build_mesh=_clifford,
     view=ViewState(
