@@ -104,12 +104,14 @@ class Condition:
 class PictureClaims:
     """Claims about the named objects on screen while a caption is shown (each name: a
     surface, curve or marker of the scene, or the start of such names: "offset curve" is every
-    piece of it). ``visible``: each shows at every moment; ``grows`` / ``shrinks``: its area
+    piece of it; or a live mark: "outline", "pinch points", "slice"). ``visible``: each shows
+    at every moment; ``absent``: none of it shows at any moment; ``grows`` / ``shrinks``: its area
     on screen at the caption's end against its start; ``outgrows`` (a, b): a grows far more
     than b; ``fills``: (name, share) pairs, the object covers at least that share of the
     screen at every moment."""
 
     visible: tuple[str, ...] = ()
+    absent: tuple[str, ...] = ()
     grows: tuple[str, ...] = ()
     shrinks: tuple[str, ...] = ()
     outgrows: tuple[str, str] | None = None
@@ -117,7 +119,8 @@ class PictureClaims:
 
     def names(self) -> tuple[str, ...]:
         """Every object the claims name, once each, in order."""
-        named = [*self.visible, *self.grows, *self.shrinks, *(self.outgrows or ())]
+        named = [*self.visible, *self.absent, *self.grows, *self.shrinks]
+        named += list(self.outgrows or ())
         named += [name for name, _ in self.fills]
         return tuple(dict.fromkeys(named))
 
@@ -235,6 +238,7 @@ class WhileSpec(Model):
     angles_within: Annotated[float, Number(0, 180)] | None = None
     #: What the picture shows (PictureClaims): objects by name.
     visible: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
+    absent: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
     grows: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
     shrinks: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
     outgrows: Annotated[list[Name], Field(min_length=2, max_length=2)] | None = None
@@ -251,16 +255,19 @@ class WhileSpec(Model):
         if all(getattr(self, name) is None for name in type(self).model_fields):
             raise ValueError(
                 "states no condition: give sensor_distance, sensor_motion, angles_within, "
-                "visible, grows, shrinks, outgrows or fills"
+                "visible, absent, grows, shrinks, outgrows or fills"
             )
         return self
 
     def picture(self) -> PictureClaims | None:
         """The claims about the picture, None when it makes none."""
-        if not any((self.visible, self.grows, self.shrinks, self.outgrows, self.fills)):
+        if not any(
+            (self.visible, self.absent, self.grows, self.shrinks, self.outgrows, self.fills)
+        ):
             return None
         return PictureClaims(
             tuple(self.visible or ()),
+            tuple(self.absent or ()),
             tuple(self.grows or ()),
             tuple(self.shrinks or ()),
             None if self.outgrows is None else (self.outgrows[0], self.outgrows[1]),

@@ -45,6 +45,8 @@ VISIBLE_PART = 0.3
 #: ... unless what shows covers this much of the screen anyway (a big surface mostly behind
 #: another is still plainly there).
 PLAINLY_VISIBLE = 3e-3
+#: "absent": at most this share of the screen (a few pixels of a mark at its first instant).
+ABSENT_SHARE = 2e-5
 #: "grows" / "shrinks": the area at the caption's end against its start, at least x GROWTH
 #: (at most / GROWTH); "outgrows": the first's growth at least OUTGROWTH x the second's.
 GROWTH = 1.25
@@ -101,7 +103,8 @@ def count_claims(condition: Condition) -> int:
     p = condition.picture
     if p is None:
         return views
-    return views + len(p.visible) + len(p.grows) + len(p.shrinks) + bool(p.outgrows) + len(p.fills)
+    named = len(p.visible) + len(p.absent) + len(p.grows) + len(p.shrinks) + len(p.fills)
+    return views + named + bool(p.outgrows)
 
 
 def id_size(size: tuple[int, int]) -> tuple[int, int]:
@@ -208,8 +211,10 @@ def _picture_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
         return min(VISIBLE_SHARE, VISIBLE_PART * whole) if whole else VISIBLE_SHARE
 
     def shown_part(name: str, s: Sample) -> float:
+        """What shows of it against its footprint (a live mark has none: all of it shows)."""
         whole = sum(s.footprint.get(n, 0) for n in matched[name])
-        return _area(s, matched[name]) / whole if whole else 0.0
+        area = _area(s, matched[name])
+        return area / whole if whole else float(area > 0)
 
     for name in claims.visible:
         if not matched[name]:
@@ -234,6 +239,16 @@ def _picture_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
                 f"{head}: visible {name}: {100 * least:.0f} % of it shows at t = "
                 f"{_spans(times, hidden)} (the rest is behind other objects), less than "
                 f"{100 * VISIBLE_PART:.0f} % and under {100 * PLAINLY_VISIBLE:.1f} % of the screen"
+            )
+    for name in claims.absent:
+        if not matched[name]:
+            continue
+        bad = [j for j, s in enumerate(seen) if share(name, s) > ABSENT_SHARE]
+        if bad:
+            most = max(share(name, seen[j]) for j in bad)
+            out.append(
+                f"{head}: absent {name}: covers {100 * most:.3f} % of the screen at t = "
+                f"{_spans(times, bad)}, more than {100 * ABSENT_SHARE:.3f} %"
             )
     for name, low in claims.fills:
         if not matched[name]:

@@ -23,6 +23,9 @@ LINE_BIAS = 2e-4
 #: Texture units of the curves' surface depth (single-sampled, multisampled): apart, since
 #: samplers of two types may not share a unit.
 CENTRE_UNITS = (5, 6)
+#: The slice curve drawn live, 4 px wide at 720 px (a little wider than the curve in the
+#: inset: it lies on a shaded surface).
+SLICE_WIDTH = 4.0
 #: Markers are discs this many times their material's line width across (at least MARKER_MIN px).
 MARKER_SCALE = 3.5
 MARKER_MIN = 7.0

@@ -397,7 +397,7 @@ class Hud:
         ]
         items: list[tuple] = []
         for name, words in tags:
-            anchor = self._anchors.anchor(gpu, name, ct, size)
+            anchor = self._anchors.anchor(gpu, name, ct, size, taken)
             if anchor is None:
                 continue
             (x, y), rgb, covered = anchor

@@ -39,6 +39,10 @@ def _sample(points: np.ndarray, count: int) -> np.ndarray:
     return points[:: max(1, len(points) // count)] if len(points) else points
 
 
+def _inside(x: float, y: float, rect: Rect) -> bool:
+    return rect.x0 <= x <= rect.x1 and rect.y0 <= y <= rect.y1
+
+
 class TagAnchors:
     """Per mesh and tag, the 4D point its leader line ends on (see the module docstring)."""
 
@@ -46,11 +50,15 @@ class TagAnchors:
         self._kept: dict[tuple[int, str], tuple[np.ndarray, int]] = {}
         self._points: dict[tuple[int, str], tuple[np.ndarray, tuple[float, ...]]] = {}
         self._frame = 0
+        self._last_ct = None
 
     def picture_box(self, gpu, ct, size) -> Rect | None:
         """The surfaces' box on screen (from a sample of their points), None when none shows;
-        called once a frame (it counts the frames for CHECK_FRAMES)."""
-        self._frame += 1
+        called once a frame. It counts the frames for CHECK_FRAMES, a view drawn again (a
+        crossfade's capture, a check's redraw) not counted: the same view gets the same tags."""
+        if ct is not self._last_ct:
+            self._frame += 1
+            self._last_ct = ct
         points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
         if not points:
             return None
@@ -61,9 +69,10 @@ class TagAnchors:
         p = pixels[ok]
         return Rect(*p.min(axis=0), *p.max(axis=0))
 
-    def anchor(self, gpu, name: str, ct, size):
+    def anchor(self, gpu, name: str, ct, size, panels=()):
         """((x, y) pixels, rgb, hidden) for the object ``name`` in this frame, None when no
-        part of it is on the screen."""
+        part of it is on the screen off the ``panels`` (a leader from under a panel would cross
+        its words)."""
         key = (id(gpu.mesh), name)
         if key not in self._points:
             surfaces, curves, markers = _parts(gpu.mesh, name)
@@ -86,6 +95,7 @@ class TagAnchors:
             point, since = kept
             (x, y), ok = (v[0] for v in ct.to_pixels(point[None], width, height))
             on_screen = ok and 0 <= x < width and 0 <= y < height
+            on_screen = on_screen and not any(_inside(x, y, p) for p in panels)
             if on_screen and (self._frame - since) % CHECK_FRAMES:
                 return (float(x), float(y)), rgb, False
             if on_screen and not hidden(point[None], gpu.mesh.surfaces, ct)[0]:
@@ -93,6 +103,13 @@ class TagAnchors:
         pixels, ok = ct.to_pixels(points, width, height)
         ok &= (pixels[:, 0] >= 0) & (pixels[:, 0] < width)
         ok &= (pixels[:, 1] >= 0) & (pixels[:, 1] < height)
+        for p in panels:
+            ok &= ~(
+                (pixels[:, 0] >= p.x0)
+                & (pixels[:, 0] <= p.x1)
+                & (pixels[:, 1] >= p.y0)
+                & (pixels[:, 1] <= p.y1)
+            )
         if not ok.any():
             self._kept.pop(key, None)
             return None

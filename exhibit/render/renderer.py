@@ -20,7 +20,7 @@ from exhibit.geometry.pipeline import ClipTransform, clip_transform
 from exhibit.geometry.touching import near_critical
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
-from exhibit.render.gpu import CENTRE_UNITS, LINE_BIAS, GpuMesh, upload
+from exhibit.render.gpu import CENTRE_UNITS, LINE_BIAS, SLICE_WIDTH, GpuMesh, upload
 from exhibit.render.hud import PINCH_COLOR, Hud
 from exhibit.render.options import RenderOptions
 from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
@@ -52,10 +52,9 @@ SHEET_OFFSET = 16.0
 MIN_CROSSING = 0.2
 DEPTH_SAMPLE = 256
 INTERSECTION_INK = (0.05, 0.05, 0.07)
-#: The slice curve drawn live (ViewState.slice_axis/slice_at): the slice's colour, 4 px wide
-#: at 720 px (a little wider than the curve in the inset: it lies on a shaded surface).
+#: The slice curve drawn live (ViewState.slice_axis/slice_at): the slice's colour (its width:
+#: gpu.SLICE_WIDTH).
 SLICE_COLOR = SLICE_MATERIAL.color
-SLICE_WIDTH = 4.0
 INTERSECTION_MAX_HALF_WIDTH = 0.5
 
 

@@ -13,8 +13,8 @@ from exhibit.kiosk.claims import claim_runs, count_claims, verify
 from exhibit.kiosk.review import base_config
 from exhibit.resources import shipped
 
-#: Small frames: the claims compare shares of the screen, which hardly depend on the size.
-SIZE = (480, 270)
+#: The id frames of any screen from 640x360 up (claims.ID_HEIGHT): curves as wide as there.
+SIZE = (640, 360)
 FPS = 4
 SHIPPED = sorted(Path(shipped("configs", "attract")).glob("*.toml"))
 
@@ -89,7 +89,7 @@ t = 10
 sensor_distance = 2
 half_height = 5
 caption = "Green fills the world."
-while = {{ fills = {{ "{GREEN}" = 0.9 }} }}
+while = {{ fills = {{ "{GREEN}" = 0.85 }} }}
 
 [[keyframe]]
 t = 14
@@ -180,3 +180,25 @@ def test_tags_keep_off_the_panels_when_the_picture_fills_the_world(headless):
         panels = headless.renderer.hud.layout.panels
     assert [words for words, *_ in tags] == ["green doughnut"]
     assert not any(tags[0][1].overlaps(p) for p in panels)
+
+
+def test_the_id_pass_counts_the_live_marks(headless):
+    """The silhouette pass's marks have ids of their own: the outline and the Lemma 2 discs
+    in any view, the slice only with one, growing as Figure 17's ball sinks into the pipe."""
+    from exhibit import scenes
+
+    scene = scenes.get("collision")
+    preset = scene.preset("figure-17")
+    mesh = scene.build(scene.resolve(dict(preset.params)), 16)
+    gpu = headless.renderer.upload(mesh)
+    try:
+        plain = headless.objects(gpu, preset.view, (320, 180))
+        sliced = [
+            headless.objects(gpu, preset.view.replace(slice_axis=3, slice_at=at), (320, 180))
+            for at in (-2.6, -1.5, 0.0)
+        ]
+    finally:
+        gpu.release()
+    assert plain.pixels["outline"] > 0 and plain.pixels["slice"] == 0
+    before, early, middle = (c.pixels["slice"] for c in sliced)
+    assert before == 0 < early < middle

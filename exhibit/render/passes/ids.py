@@ -26,6 +26,7 @@ from exhibit.render.gpu import (
     LINE_BIAS,
     MARKER_MIN,
     MARKER_SCALE,
+    SLICE_WIDTH,
     GpuMesh,
     segment_rows,
 )
@@ -33,6 +34,9 @@ from exhibit.render.options import RenderOptions
 
 #: Object ids are 24-bit colours; 0 is the background.
 MAX_OBJECTS = (1 << 24) - 1
+#: The marks the silhouette pass finds live, after the mesh's own objects: the Lemma 3
+#: outlines, the Lemma 2 points' discs and the glowing slice (when the view has one).
+MARKS = ("outline", "pinch points", "slice")
 
 
 @dataclass(frozen=True)
@@ -58,6 +62,7 @@ def object_names(gpu: GpuMesh) -> list[str]:
         + wires
         + [c.name for c in mesh.curves]
         + [m.name for m in mesh.markers]
+        + list(MARKS)
     )
 
 
@@ -83,6 +88,8 @@ class ObjectIdPass:
             "object_ids": shaders.program(ctx, "surface.glsl", ("OBJECT_IDS",)),
             "ids": shaders.program(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
             "curves": shaders.program(ctx, "curves.glsl"),
+            "silhouette": shaders.program(ctx, "silhouette.glsl"),
+            "silhouette_slice": shaders.program(ctx, "silhouette.glsl", ("TOUCHING",)),
         }
         self._targets: dict[tuple[int, int], tuple] = {}
 
@@ -111,6 +118,7 @@ class ObjectIdPass:
         self.ctx.polygon_offset = (0.0, 0.0)
         self.renderer.clip_distances(False)
         self._curves(gpu, view, size, options, first_id=len(gpu.surfaces) + 1)
+        self._marks(gpu, view, size, options, first_id=len(names) - len(MARKS) + 1)
         ids = self._end(framebuffer, size)
         counts = np.bincount(ids.ravel(), minlength=len(names) + 1)
         pixels: dict[str, int] = {}
@@ -192,11 +200,13 @@ class ObjectIdPass:
     def _surface_vao(self, surface, key: str) -> moderngl.VertexArray:
         from exhibit.render.gpu import SURFACE_ATTRIBUTES, attribute_format
 
-        vao = surface.vaos.get(key)
+        # kept on the surface under a name of this pass's own (its "silhouette" is the
+        # picture's, bound to the renderer's program)
+        vao = surface.vaos.get("ids:" + key)
         if vao is None:
             prog = self.programs[key]
             fmt, used = attribute_format(prog, SURFACE_ATTRIBUTES)
-            vao = surface.vaos[key] = self.ctx.vertex_array(
+            vao = surface.vaos["ids:" + key] = self.ctx.vertex_array(
                 prog, [(surface.vbo, fmt, *used)], index_buffer=surface.ibo, index_element_size=4
             )
         return vao
@@ -231,6 +241,60 @@ class ObjectIdPass:
             if key in gpu.vaos:
                 count = gpu.buffers[key].size // (13 * 4)
                 gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+        self.ctx.depth_func = "<"
+
+    def _marks(self, gpu, view, size, options: RenderOptions, first_id: int) -> None:
+        """The silhouette pass's marks as the picture draws them (depth-tested, no depth
+        writes, after the curves), each kind in its own id: outlines, Lemma 2 discs, the slice.
+        Opaque cores only (pass 0)."""
+        from exhibit.geometry.touching import near_critical
+        from exhibit.render import shaders
+
+        if not gpu.surfaces:
+            return
+        sliced = view.slice_axis is not None
+        axis = np.zeros(4)
+        if sliced:
+            axis[view.slice_axis] = 1.0
+        outline, pinch, slice_ = (_id_colour(first_id + k) for k in range(3))
+        ink = options.silhouette_width if options.silhouettes else 0.0
+        disc = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
+        self.ctx.depth_func = "<="
+        self.ctx.fbo.depth_mask = False
+        # As the picture: the outlines, then the discs and the slice on top of them.
+        for ink_width, slice_width, disc_width in (
+            (ink, 0.0, 0.0),
+            (0.0, SLICE_WIDTH if sliced else 0.0, disc),
+        ):
+            if not (ink_width or slice_width or disc_width):
+                continue
+            for surface in gpu.surfaces:
+                key = "silhouette"
+                if (
+                    slice_width
+                    and view.slice_axis is not None
+                    and near_critical(
+                        surface.critical[view.slice_axis], view.slice_at, surface.longest_edge
+                    )
+                ):
+                    key = "silhouette_slice"
+                prog = self.programs[key]
+                self.renderer.set_pipeline(prog, view, size)
+                shaders.set_uniforms(
+                    prog,
+                    {
+                        "u_line_bias": LINE_BIAS,
+                        "u_width_scale": options.width_scale(size[1]),
+                        "u_pass": 0,
+                        "u_slice_axis": tuple(axis),
+                        "u_slice_at": view.slice_at,
+                        "u_pinch": (*pinch, disc_width),
+                        "u_slice_style": (*slice_, slice_width),
+                        "u_ink": (*outline, ink_width),
+                    },
+                )
+                self._surface_vao(surface, key).render(moderngl.TRIANGLES)
+        self.ctx.fbo.depth_mask = True
         self.ctx.depth_func = "<"
 
     def _upload_lines(self, gpu: GpuMesh, first_id: int) -> None:
