@@ -12,7 +12,7 @@ import pytest
 
 from exhibit.cli import main
 from exhibit.commands import install as inst
-from exhibit.commands.update import Kiosk
+from exhibit.commands.update import LOCK, Kiosk
 from exhibit.errors import ExhibitError
 from tests.deploy.unitfile import environment, units
 
@@ -28,7 +28,7 @@ class Runner:
         self.commands: list[list[str]] = []
         self.fail = fail or {}
 
-    def __call__(self, command):
+    def __call__(self, command, timeout=None):
         self.commands.append(command)
         for word, (code, err) in self.fail.items():
             if word in command:
@@ -103,9 +103,9 @@ def test_config_and_cache_come_first_as_the_service_user_then_switch_install_res
     seen = {}
 
     class Watching(Runner):
-        def __call__(self, command):
+        def __call__(self, command, timeout=None):
             seen[len(self.commands)] = os.path.realpath(root / "opt/exhibit")
-            return super().__call__(command)
+            return super().__call__(command, timeout)
 
     runner = Watching()
     kiosk(root, runner).update(f"{RELEASES}/new")
@@ -198,16 +198,70 @@ def test_a_refused_config_or_a_failed_cache_build_switches_nothing(root, word, m
     assert not any("try-restart" in c for c in runner.commands)
 
 
-def test_a_failed_install_after_the_switch_says_how_to_go_back(root):
+class FailsOn(Runner):
+    """Fails ``word``'s command (exit 1, ``err``) while PREFIX is the release ``bad``."""
+
+    def __init__(self, root, word: str, bad: str, err: str = "udevadm failed"):
+        super().__init__()
+        self.root, self.word, self.bad, self.err = root, word, bad, err
+
+    def __call__(self, command, timeout=None):
+        now = os.path.basename(os.path.realpath(self.root / "opt/exhibit"))
+        if self.word in command and now == self.bad:
+            self.commands.append(command)
+            return subprocess.CompletedProcess(command, 1, "", self.err + "\n")
+        return super().__call__(command, timeout)
+
+
+@pytest.mark.parametrize("word", ["--prefix", "try-restart"])
+def test_a_failed_install_or_restart_after_the_switch_rolls_back_by_itself(root, word):
+    make_release(root, "a")
+    make_release(root, "b")
+    k = kiosk(root, Runner())
+    k.update(f"{RELEASES}/a")
+    checkout = k.previous()
+    runner = FailsOn(root, word, "b")
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/b")
+    what = "exhibit install" if word == "--prefix" else "the restart"
+    assert str(info.value) == (
+        f"b: {what} failed: udevadm failed; rolled back: /opt/exhibit is a again"
+    )
+    assert (k.current(), k.previous()) == ("a", checkout)  # both links as they were
+    # the old release's units and process are back too: its install and restart ran again
+    failed = runner.index(word)
+    assert runner.index("install", "--prefix") <= failed
+    assert any("install" in c for c in runner.commands[failed + 1 :])
+    assert ["systemctl", "try-restart", "exhibit.service"] in runner.commands[failed + 1 :]
+
+
+def test_a_failed_first_update_goes_back_to_the_moved_checkout(root):
+    make_release(root, "new")
+    runner = FailsOn(root, "--prefix", "new")
+    with pytest.raises(ExhibitError, match="rolled back: /opt/exhibit is 0.1.0-checkout-"):
+        kiosk(root, runner).update(f"{RELEASES}/new")
+    assert kiosk(root, Runner()).current().startswith("0.1.0-checkout-")
+    assert not os.path.lexists(root / "opt/exhibit-releases/previous")  # none before, none now
+
+
+def test_when_the_old_release_fails_too_the_message_says_both(root):
     make_release(root, "new")
     runner = Runner(fail={"--prefix": (1, "exhibit install: error: udevadm failed\n")})
     with pytest.raises(
         ExhibitError,
-        match=r"now new, but exhibit install failed: exhibit "
-        r"install: error: udevadm failed; .* "
-        r"/opt/exhibit/.venv/bin/exhibit rollback",
+        match=r"^new: exhibit install failed: .*udevadm failed; /opt/exhibit is "
+        r"0.1.0-checkout-\S+ again, but its exhibit install failed: .* fix that and run "
+        r"/opt/exhibit/.venv/bin/exhibit install --prefix /opt/exhibit$",
     ):
         kiosk(root, runner).update(f"{RELEASES}/new")
+
+
+def test_a_failed_install_on_a_fresh_machine_says_there_is_nothing_to_go_back_to(tmp_path):
+    root = tmp_path / "root"
+    make_release(root, "first")
+    runner = Runner(fail={"--prefix": (1, "udevadm failed\n")})
+    with pytest.raises(ExhibitError, match="now first, but exhibit install failed: udevadm "):
+        kiosk(root, runner, user=False).update(f"{RELEASES}/first")
 
 
 def test_a_fresh_machine_gets_its_first_release_and_install_makes_the_user(tmp_path):
@@ -232,14 +286,18 @@ def test_old_releases_are_pruned_but_never_the_current_or_previous(root):
             k.rollback()  # current r3, previous r4
         k.update(f"{RELEASES}/{name}", keep=3 if name != "r5" else 2)
         if name == "r4":  # r4, r3 and the newest other one (r2): not r1, not the checkout
-            assert sorted(p.name for p in (root / "opt/exhibit-releases").iterdir()) == [
+            assert listing(root) == [
                 "previous",
                 "r2",
                 "r3",
                 "r4",
             ]
-    left = sorted(p.name for p in (root / "opt/exhibit-releases").iterdir())
-    assert left == ["previous", "r3", "r5"]
+    assert listing(root) == ["previous", "r3", "r5"]
+
+
+def listing(root):
+    """PREFIX-releases/, less the lock file (never a half-removed release: no dot-folders)."""
+    return sorted(p.name for p in (root / "opt/exhibit-releases").iterdir() if p.name != LOCK)
 
 
 @pytest.mark.parametrize(
