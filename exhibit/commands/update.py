@@ -34,6 +34,7 @@ same way.
 
 from __future__ import annotations
 
+import errno
 import os
 import re
 import shutil
@@ -369,9 +370,21 @@ class Kiosk:
             for link in (self.host(self.prefix), self.host(f"{self.releases}/{PREVIOUS}")):
                 for line in files.clean_switch_leftovers(link):
                     self.out(f"note: {line}")
+            self._clean_checkout_links()
             yield
         finally:
             os.close(fd)
+
+    def _clean_checkout_links(self) -> None:
+        """Remove the link a killed :meth:`_move_checkout` left in PREFIX-releases/ (NAME ->
+        PREFIX-releases/NAME: only ever meant to be seen from PREFIX's folder)."""
+        folder, base = self.host(self.releases), os.path.basename(self.releases)
+        try:
+            for entry in os.scandir(folder):
+                if entry.is_symlink() and os.readlink(entry.path) == f"{base}/{entry.name}":
+                    os.unlink(entry.path)
+        except OSError:
+            pass
 
     def _check_release(self, name: str) -> None:
         path = self.host(f"{self.releases}/{name}")
@@ -486,7 +499,20 @@ class Kiosk:
         target = self.host(f"{self.releases}/{name}")
         self.out(f"moving the checkout {self.prefix} to {self.releases}/{name}")
         try:
-            os.rename(self.host(self.prefix), target)
+            # a link at the checkout's new place, pointing there as seen from PREFIX's folder,
+            # exchanged with the checkout in one step: PREFIX is never missing
+            os.symlink(f"{os.path.basename(self.releases)}/{name}", target)
+            try:
+                files.exchange(self.host(self.prefix), target)
+            except OSError as exc:
+                if exc.errno not in (errno.EINVAL, errno.ENOSYS):
+                    target.unlink()
+                    raise
+                target.unlink()  # no exchange on this file system: two renames
+                os.rename(self.host(self.prefix), target)
+                files.replace_link(
+                    self.host(self.prefix), f"{os.path.basename(self.releases)}/{name}"
+                )
         except OSError as exc:
             raise ExhibitError(
                 f"cannot move {self.prefix} to {self.releases}/{name}: "

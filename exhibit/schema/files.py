@@ -625,3 +625,20 @@ def hold_lock(path: str | os.PathLike, holder: str) -> int:
         os.close(fd)
         raise
     return fd
+
+
+def exchange(a: str | os.PathLike, b: str | os.PathLike) -> None:
+    """Swap the two names ``a`` and ``b`` in one step (Linux renameat2 RENAME_EXCHANGE; a
+    folder and a symbolic link alike), so no reader ever finds either missing. OSError as the
+    system gives it; errno.ENOSYS where the C library lacks renameat2, EINVAL where the file
+    system cannot exchange (the caller then renames in two steps)."""
+    import ctypes
+
+    try:
+        call = ctypes.CDLL(None, use_errno=True).renameat2
+    except AttributeError:
+        raise OSError(errno.ENOSYS, "renameat2 is not available") from None
+    at_fdcwd, rename_exchange = -100, 2
+    if call(at_fdcwd, os.fsencode(a), at_fdcwd, os.fsencode(b), rename_exchange) != 0:
+        code = ctypes.get_errno()
+        raise OSError(code, os.strerror(code), os.fspath(a), None, os.fspath(b))
