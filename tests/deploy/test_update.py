@@ -714,3 +714,12 @@ def test_a_kill_at_any_moment_leaves_a_working_prefix_and_the_next_run_finishes(
         assert valid(root) == "b"
         n += 1
     assert n > 5  # it did die at each step of a whole update
+
+
+def test_the_time_limits_in_deployment_md_are_the_codes():
+    text = " ".join((inst.SOURCE_DIR.parent / "docs/DEPLOYMENT.md").read_text().split())
+    limits = update.TIMEOUTS
+    assert (limits["check-config"], limits["prepare"], limits["install"]) == (300, 3600, 3600)
+    assert limits["restart"] == 420
+    assert "(check-config 5 min, prepare and install 1 h, the restart 7 min:" in text
+    assert f"which one holds `/opt/exhibit-releases/{LOCK}`" in text
