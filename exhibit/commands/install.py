@@ -44,6 +44,8 @@ HOME = "/var/lib/exhibit"
 CACHE_ROOT = "/var/cache/exhibit"
 #: exhibit.service's EnvironmentFile=, relative to the root
 SITE_ENVIRONMENT = "etc/exhibit/environment"
+#: the most the site's environment file may hold (a FIFO or a device there is refused)
+MAX_ENVIRONMENT_BYTES = 1 << 16
 #: the PATH systemd gives a service
 SERVICE_PATH = "/usr/local/sbin:/usr/local/bin:/usr/sbin:/usr/bin:/sbin:/bin"
 #: groups exhibit.service's SupplementaryGroups= names; a missing one stops the service (216/GROUP)
@@ -225,12 +227,13 @@ def unit_environment(text: str) -> list[str]:
 
 def environment_file(path: Path) -> list[str]:
     """The KEY=VALUE lines of a systemd EnvironmentFile (none when it does not exist, as the unit's
-    ``-`` prefix allows); ExhibitError when it cannot be read."""
+    ``-`` prefix allows); ExhibitError when it cannot be read: not UTF-8, over 64 KiB, or not a
+    regular file (a FIFO would block the read forever, a device never end it)."""
     try:
-        text = path.read_text(encoding="utf-8")
+        text = read_regular(path, MAX_ENVIRONMENT_BYTES).decode("utf-8")
     except FileNotFoundError:
         return []
-    except (OSError, UnicodeDecodeError) as exc:
+    except (OSError, ValueError) as exc:  # NotAFile, TooLarge, UnicodeDecodeError
         raise ExhibitError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
     words = []
     for line in text.splitlines():

@@ -1,8 +1,11 @@
 """`exhibit rollback [--prefix DIR]`: switch a deployed kiosk back to the release before the
 current one (docs/DEPLOYMENT.md, "8. Updating"): the site config checked with it, its mesh cache
 built as the service's user, PREFIX switched in one rename, its `exhibit install` run and
-exhibit.service restarted. The release rolled back from becomes the previous one, so a second
-rollback undoes the first. The releases are made by `./bootstrap.sh update`
+exhibit.service restarted, as a transaction like an update's (the same lock, time limits and
+switch back when install or restart fails). A `previous` that names the running release, or
+anything but a release in PREFIX-releases/, is refused in one line, changing nothing. The
+release rolled back from becomes the previous one, so a second rollback undoes the first.
+The releases are made by `./bootstrap.sh update`
 (exhibit/commands/update.py)."""
 
 from __future__ import annotations

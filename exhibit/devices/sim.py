@@ -44,6 +44,7 @@ from typing import Any, Protocol
 
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
+from exhibit.schema.files import replace_link
 
 __all__ = ["SimController", "Step", "parse_script", "ScriptPlayer"]
 
@@ -250,13 +251,7 @@ class SimController:
             os.set_blocking(master, False)
             self._master, self._slave = master, slave
             self.tty = os.ttyname(slave)
-            tmp = self.link.with_name(self.link.name + ".new")
-            try:
-                tmp.unlink()
-            except FileNotFoundError:
-                pass
-            os.symlink(self.tty, tmp)
-            os.replace(tmp, self.link)
+            replace_link(self.link, self.tty)
             self.plugged = True
             self.rx.reset()
             self._boot(self.clock(), p.ResetCause.POWER_ON)

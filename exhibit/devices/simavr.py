@@ -30,6 +30,7 @@ from pathlib import Path
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
 from exhibit.devices.sim import ScriptPlayer, Step
+from exhibit.schema.files import replace_link
 
 __all__ = [
     "Harness",
@@ -339,10 +340,7 @@ class FirmwareController:
                     h.adc(ch, mv)
                 for n in BUTTON_PINS:
                     h.button(n, bool(self._buttons >> (n - 1) & 1))
-                tmp = self.link.with_name(self.link.name + ".new")
-                tmp.unlink(missing_ok=True)
-                os.symlink(h.pty, tmp)
-                os.replace(tmp, self.link)
+                replace_link(self.link, h.pty)
                 if run:
                     h.run()
             except BaseException:

@@ -5,15 +5,19 @@ restart, and one command back. No real systemctl or runuser: the commands are re
 
 from __future__ import annotations
 
+import errno
 import os
 import subprocess
+import time
 
 import pytest
 
 from exhibit.cli import main
 from exhibit.commands import install as inst
-from exhibit.commands.update import Kiosk
+from exhibit.commands import rollback, update
+from exhibit.commands.update import LOCK, Kiosk
 from exhibit.errors import ExhibitError
+from exhibit.schema import files
 from tests.deploy.unitfile import environment, units
 
 PREFIX = "/opt/exhibit"
@@ -28,7 +32,7 @@ class Runner:
         self.commands: list[list[str]] = []
         self.fail = fail or {}
 
-    def __call__(self, command):
+    def __call__(self, command, timeout=None):
         self.commands.append(command)
         for word, (code, err) in self.fail.items():
             if word in command:
@@ -103,9 +107,9 @@ def test_config_and_cache_come_first_as_the_service_user_then_switch_install_res
     seen = {}
 
     class Watching(Runner):
-        def __call__(self, command):
+        def __call__(self, command, timeout=None):
             seen[len(self.commands)] = os.path.realpath(root / "opt/exhibit")
-            return super().__call__(command)
+            return super().__call__(command, timeout)
 
     runner = Watching()
     kiosk(root, runner).update(f"{RELEASES}/new")
@@ -198,16 +202,70 @@ def test_a_refused_config_or_a_failed_cache_build_switches_nothing(root, word, m
     assert not any("try-restart" in c for c in runner.commands)
 
 
-def test_a_failed_install_after_the_switch_says_how_to_go_back(root):
+class FailsOn(Runner):
+    """Fails ``word``'s command (exit 1, ``err``) while PREFIX is the release ``bad``."""
+
+    def __init__(self, root, word: str, bad: str, err: str = "udevadm failed"):
+        super().__init__()
+        self.root, self.word, self.bad, self.err = root, word, bad, err
+
+    def __call__(self, command, timeout=None):
+        now = os.path.basename(os.path.realpath(self.root / "opt/exhibit"))
+        if self.word in command and now == self.bad:
+            self.commands.append(command)
+            return subprocess.CompletedProcess(command, 1, "", self.err + "\n")
+        return super().__call__(command, timeout)
+
+
+@pytest.mark.parametrize("word", ["--prefix", "try-restart"])
+def test_a_failed_install_or_restart_after_the_switch_rolls_back_by_itself(root, word):
+    make_release(root, "a")
+    make_release(root, "b")
+    k = kiosk(root, Runner())
+    k.update(f"{RELEASES}/a")
+    checkout = k.previous()
+    runner = FailsOn(root, word, "b")
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/b")
+    what = "exhibit install" if word == "--prefix" else "the restart"
+    assert str(info.value) == (
+        f"b: {what} failed: udevadm failed; rolled back: /opt/exhibit is a again"
+    )
+    assert (k.current(), k.previous()) == ("a", checkout)  # both links as they were
+    # the old release's units and process are back too: its install and restart ran again
+    failed = runner.index(word)
+    assert runner.index("install", "--prefix") <= failed
+    assert any("install" in c for c in runner.commands[failed + 1 :])
+    assert ["systemctl", "try-restart", "exhibit.service"] in runner.commands[failed + 1 :]
+
+
+def test_a_failed_first_update_goes_back_to_the_moved_checkout(root):
+    make_release(root, "new")
+    runner = FailsOn(root, "--prefix", "new")
+    with pytest.raises(ExhibitError, match="rolled back: /opt/exhibit is 0.1.0-checkout-"):
+        kiosk(root, runner).update(f"{RELEASES}/new")
+    assert kiosk(root, Runner()).current().startswith("0.1.0-checkout-")
+    assert not os.path.lexists(root / "opt/exhibit-releases/previous")  # none before, none now
+
+
+def test_when_the_old_release_fails_too_the_message_says_both(root):
     make_release(root, "new")
     runner = Runner(fail={"--prefix": (1, "exhibit install: error: udevadm failed\n")})
     with pytest.raises(
         ExhibitError,
-        match=r"now new, but exhibit install failed: exhibit "
-        r"install: error: udevadm failed; .* "
-        r"/opt/exhibit/.venv/bin/exhibit rollback",
+        match=r"^new: exhibit install failed: .*udevadm failed; /opt/exhibit is "
+        r"0.1.0-checkout-\S+ again, but its exhibit install failed: .* fix that and run "
+        r"/opt/exhibit/.venv/bin/exhibit install --prefix /opt/exhibit$",
     ):
         kiosk(root, runner).update(f"{RELEASES}/new")
+
+
+def test_a_failed_install_on_a_fresh_machine_says_there_is_nothing_to_go_back_to(tmp_path):
+    root = tmp_path / "root"
+    make_release(root, "first")
+    runner = Runner(fail={"--prefix": (1, "udevadm failed\n")})
+    with pytest.raises(ExhibitError, match="now first, but exhibit install failed: udevadm "):
+        kiosk(root, runner, user=False).update(f"{RELEASES}/first")
 
 
 def test_a_fresh_machine_gets_its_first_release_and_install_makes_the_user(tmp_path):
@@ -232,14 +290,18 @@ def test_old_releases_are_pruned_but_never_the_current_or_previous(root):
             k.rollback()  # current r3, previous r4
         k.update(f"{RELEASES}/{name}", keep=3 if name != "r5" else 2)
         if name == "r4":  # r4, r3 and the newest other one (r2): not r1, not the checkout
-            assert sorted(p.name for p in (root / "opt/exhibit-releases").iterdir()) == [
+            assert listing(root) == [
                 "previous",
                 "r2",
                 "r3",
                 "r4",
             ]
-    left = sorted(p.name for p in (root / "opt/exhibit-releases").iterdir())
-    assert left == ["previous", "r3", "r5"]
+    assert listing(root) == ["previous", "r3", "r5"]
+
+
+def listing(root):
+    """PREFIX-releases/, less the lock file (never a half-removed release: no dot-folders)."""
+    return sorted(p.name for p in (root / "opt/exhibit-releases").iterdir() if p.name != LOCK)
 
 
 @pytest.mark.parametrize(
@@ -292,3 +354,372 @@ def test_cli_needs_root(capsys, monkeypatch):
     monkeypatch.setattr(os, "geteuid", lambda: 1000)
     assert main(["rollback"]) == 2
     assert "rollback needs root" in capsys.readouterr().err
+
+
+# ---------------------------------------------------------------------- hostile states (issue 33)
+
+
+def real_runner(root):
+    """update's own runner (time limits, decoding) on the commands as the kiosk would run them,
+    less what needs root: runuser's user switch and the cache folder's `install -d`."""
+
+    def run(command, timeout=None):
+        if command[:4] == ["runuser", "-u", "exhibit", "--"]:
+            command = command[4:]
+        if command[:2] == ["install", "-d"]:
+            return subprocess.CompletedProcess(command, 0, "", "")
+        command = [str(root / c.lstrip("/")) if c.startswith(RELEASES) else c for c in command]
+        return update._run(command, timeout)
+
+    return run
+
+
+def script_release(root, name, script):
+    release = make_release(root, name)
+    (release / ".venv/bin/exhibit").write_bytes(b"#!/bin/sh\n" + script)
+    return release
+
+
+def nothing_changed(root):
+    assert not (root / "opt/exhibit").is_symlink()  # the old checkout is where it was
+    assert not os.path.lexists(root / "opt/exhibit-releases/previous")
+
+
+def test_a_release_that_prints_bytes_that_are_not_utf8_is_reported_not_a_traceback(root):
+    script_release(root, "new", b"printf 'display.monitor: bad \\377\\376\\n' >&2; exit 2\n")
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, real_runner(root)).update(f"{RELEASES}/new")
+    assert str(info.value) == (
+        "the site configuration failed (display.monitor: bad \ufffd\ufffd); nothing was switched"
+    )
+    nothing_changed(root)
+
+
+def test_a_prepare_that_never_returns_is_stopped_and_nothing_is_switched(root, tmp_path):
+    """`exhibit prepare` starts a child and never returns: both are stopped (the whole process
+    group) at the step's time limit, here shortened to 1 s."""
+    pid = tmp_path / "pid"
+    script_release(
+        root, "new", f'[ "$1" = prepare ] || exit 0\nsleep 600 & echo $! > {pid}\nwait\n'.encode()
+    )
+    k = kiosk(root, real_runner(root))
+    k.timeouts["prepare"] = 1
+    with pytest.raises(ExhibitError) as info:
+        k.update(f"{RELEASES}/new")
+    assert str(info.value) == (
+        "building the mesh cache failed (no answer within 1 s: stopped); nothing was switched"
+    )
+    nothing_changed(root)
+    child = int(pid.read_text())
+    deadline = time.monotonic() + 60  # only bounds a hang: the kill was sent already
+    while time.monotonic() < deadline and alive(child):
+        time.sleep(0.05)
+    assert not alive(child)
+
+
+def alive(pid: int) -> bool:
+    """The process exists and is not a zombie."""
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def test_a_restart_that_times_out_after_the_switch_rolls_back(root):
+    rolled_forward(root)
+    make_release(root, "c")
+
+    class Hangs(Runner):
+        def __call__(self, command, timeout=None):
+            now = os.path.basename(os.path.realpath(root / "opt/exhibit"))
+            if "try-restart" in command and now == "c":
+                self.commands.append(command)
+                raise subprocess.TimeoutExpired(command, timeout or 0)
+            return super().__call__(command, timeout)
+
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, Hangs()).update(f"{RELEASES}/c")
+    assert str(info.value) == (
+        f"c: the restart failed: no answer within {update.TIMEOUTS['restart']} s: stopped; "
+        "rolled back: /opt/exhibit is b again"
+    )
+    assert os.readlink(root / "opt/exhibit") == "exhibit-releases/b"
+    assert os.readlink(root / "opt/exhibit-releases/previous") == "a"
+
+
+@pytest.mark.parametrize("kind", ["fifo", "device", "folder"])
+def test_a_site_environment_that_is_not_a_file_is_refused_by_name(root, kind):
+    env = root / "etc/exhibit/environment"
+    env.unlink()
+    if kind == "fifo":
+        os.mkfifo(env)  # reading it would block forever
+    elif kind == "device":
+        env.symlink_to("/dev/zero")  # reading it would never end
+    else:
+        env.mkdir()
+    make_release(root, "new")
+    runner = Runner()
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/new")
+    what = {"fifo": "a FIFO", "device": "a character device", "folder": "a folder"}[kind]
+    assert str(info.value) == f"cannot read {env}: {what}, not a regular file"
+    assert runner.commands == []
+    nothing_changed(root)
+
+
+def test_stale_switch_links_and_an_empty_switch_folder_are_cleaned(root):
+    """What a killed switch may leave beside /opt/exhibit, and the old fixed temporary name as
+    a folder: the update goes on, the links and the empty folder gone."""
+    (root / "opt/.exhibit.exhibit-switch").mkdir()
+    (root / "opt/.exhibit.0123456789ab.exhibit-switch").symlink_to("exhibit-releases/gone")
+    make_release(root, "new")
+    (root / "opt/exhibit-releases/.previous.exhibit-switch").symlink_to("gone")
+    assert kiosk(root, Runner()).update(f"{RELEASES}/new") == 0
+    assert sorted(p.name for p in (root / "opt").iterdir()) == ["exhibit", "exhibit-releases"]
+    assert not os.path.lexists(root / "opt/exhibit-releases/.previous.exhibit-switch")
+
+
+def test_a_stale_switch_folder_with_something_in_it_is_left_and_named(root):
+    stale = root / "opt/.exhibit.exhibit-switch"
+    stale.mkdir()
+    (stale / "notes.txt").write_text("someone's\n")
+    make_release(root, "new")
+    lines = []
+    assert kiosk(root, Runner(), lines).update(f"{RELEASES}/new") == 0
+    assert (stale / "notes.txt").exists()
+    assert any(f"{stale} cannot be removed" in line and "left as it is" in line for line in lines)
+
+
+@pytest.mark.parametrize("kind", ["folder", "empty folder", "file"])
+def test_a_previous_that_is_not_a_link_is_refused_before_anything_changes(root, kind):
+    """Today a folder at previous failed the update after PREFIX had switched: install and
+    restart never ran."""
+    make_release(root, "new")
+    previous = root / "opt/exhibit-releases/previous"
+    if kind == "file":
+        previous.write_text("x")
+    else:
+        previous.mkdir()
+        if kind == "folder":
+            (previous / "keep").write_text("x")
+    runner = Runner()
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/new")
+    what = "a file" if kind == "file" else "a folder"
+    assert str(info.value).startswith(
+        f"{RELEASES}/previous is {what}, not a link to a release: nothing was changed"
+    )
+    assert runner.commands == []
+    assert not (root / "opt/exhibit").is_symlink()
+
+
+def test_a_prefix_linked_to_something_that_is_not_a_release_is_refused(root):
+    make_release(root, "new")
+    elsewhere = root / "srv/exhibit"
+    elsewhere.mkdir(parents=True)
+    os.rename(root / "opt/exhibit", elsewhere / "x")
+    (root / "opt/exhibit").symlink_to("../srv/exhibit/x")
+    with pytest.raises(ExhibitError, match="/opt/exhibit -> ../srv/exhibit/x is not a release in"):
+        kiosk(root, Runner()).update(f"{RELEASES}/new")
+    assert os.readlink(root / "opt/exhibit") == "../srv/exhibit/x"
+
+
+@pytest.mark.parametrize("how", ["busy", "mount point"])
+def test_a_release_that_cannot_be_pruned_is_kept_and_the_update_is_done(root, monkeypatch, how):
+    k = kiosk(root, Runner())
+    for i, name in enumerate(["r1", "r2", "r3"]):
+        make_release(root, name)
+        os.utime(root / "opt/exhibit-releases" / name, (2e9 + i, 2e9 + i))
+        k.update(f"{RELEASES}/{name}")
+    make_release(root, "r4")
+    r1 = root / "opt/exhibit-releases/r1"
+    if how == "busy":
+        real = update.shutil.rmtree
+
+        def rmtree(path, *args, **kwargs):
+            if path.name.startswith(".r1."):
+                raise OSError(errno.EBUSY, "Device or resource busy")
+            real(path, *args, **kwargs)
+
+        monkeypatch.setattr(update.shutil, "rmtree", rmtree)
+    else:
+        real_ismount = os.path.ismount
+        monkeypatch.setattr(
+            os.path, "ismount", lambda p: os.fspath(p) == os.fspath(r1) or real_ismount(p)
+        )
+    lines = []
+    assert kiosk(root, Runner(), lines).update(f"{RELEASES}/r4", keep=2) == 0
+    assert (k.current(), k.previous()) == ("r4", "r3")
+    if how == "busy":
+        assert any("could not remove all of /opt/exhibit-releases/r1" in x for x in lines)
+        # renamed first: a half-removed release is never taken for a release
+        assert not r1.exists() and (root / "opt/exhibit-releases/.r1.exhibit-removing").is_dir()
+        monkeypatch.undo()
+        make_release(root, "r5")
+        kiosk(root, Runner()).update(f"{RELEASES}/r5", keep=2)  # the next prune finishes it
+        assert listing(root) == ["previous", "r4", "r5"]
+    else:
+        assert "note: kept the old release /opt/exhibit-releases/r1: it is a mount point" in lines
+        assert (r1 / ".venv/bin/exhibit").exists()  # nothing inside it removed either
+
+
+def test_only_one_update_or_rollback_at_a_time(root):
+    make_release(root, "new")
+    lock = root / "opt/exhibit-releases" / LOCK
+    fd = files.hold_lock(lock, "pid 4242, exhibit update /opt/exhibit-releases/other\n")
+    try:
+        runner = Runner()
+        for command in (lambda k: k.update(f"{RELEASES}/new"), lambda k: k.rollback()):
+            with pytest.raises(ExhibitError) as info:
+                command(kiosk(root, runner))
+            assert str(info.value) == (
+                "another update or rollback is running (pid 4242, exhibit update "
+                "/opt/exhibit-releases/other): nothing was changed; wait for it, or see "
+                f"{RELEASES}/{LOCK}"
+            )
+        assert runner.commands == []
+        nothing_changed(root)
+    finally:
+        os.close(fd)
+    assert kiosk(root, Runner()).update(f"{RELEASES}/new") == 0  # the lock went with its holder
+
+
+def rolled_forward(root):
+    """a, then b: current b, previous a."""
+    for name in ("a", "b"):
+        make_release(root, name)
+        kiosk(root, Runner()).update(f"{RELEASES}/{name}")
+
+
+@pytest.mark.parametrize(
+    "target, message",
+    [
+        ("b", "previous -> b is the running release: nothing to roll back to"),
+        ("../exhibit-releases/", "previous -> ../exhibit-releases/ is not a release in"),
+        (".", "previous -> . is not a release in"),
+        ("../exhibit/x", "previous -> ../exhibit/x is not a release in"),
+        ("gone", "previous -> gone is not a release in"),
+        ("previous", "previous -> previous is not a release in"),
+    ],
+)
+def test_rollback_to_the_running_release_or_to_what_is_not_a_release_is_refused(
+    root, target, message
+):
+    rolled_forward(root)
+    link = root / "opt/exhibit-releases/previous"
+    link.unlink()
+    link.symlink_to(target)
+    runner = Runner()
+    with pytest.raises(ExhibitError, match=message) as info:
+        kiosk(root, runner).rollback()
+    assert str(info.value).endswith("nothing was changed")
+    assert runner.commands == []  # no install, no restart
+    assert os.readlink(root / "opt/exhibit") == "exhibit-releases/b"
+    assert os.readlink(link) == target
+
+
+def test_rollback_cli_refusal_is_one_line_exit_2(root, monkeypatch, capsys):
+    rolled_forward(root)
+    link = root / "opt/exhibit-releases/previous"
+    link.unlink()
+    link.symlink_to("b")
+    monkeypatch.setattr(os, "geteuid", lambda: 0)
+    monkeypatch.setattr(
+        rollback,
+        "Kiosk",
+        lambda prefix: kiosk(root, Runner()),  # the same, under the root
+    )
+    assert main(["rollback"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "is the running release" in err
+
+
+# ---------------------------------------------------------------------- kill -9 at any moment
+
+#: What changes the prefix's files; a kill -9 can come before any one of these calls.
+_MUTATIONS = ("rename", "replace", "symlink", "unlink", "rmdir", "mkdir")
+
+
+def killed_at(root, n: int, action) -> bool:
+    """Run ``action`` in a forked child that dies (os._exit: no cleanup, no finally, as with
+    kill -9) just before its ``n``-th change to the files; False when it finished first."""
+    pid = os.fork()
+    if pid == 0:  # the child
+        code = 1
+        try:
+            count = [0]
+            real_exchange = files.exchange
+
+            def dies(real):
+                def call(*args, **kwargs):
+                    count[0] += 1
+                    if count[0] == n:
+                        os._exit(137)
+                    return real(*args, **kwargs)
+
+                return call
+
+            for name in _MUTATIONS:
+                setattr(os, name, dies(getattr(os, name)))
+            files.exchange = dies(real_exchange)  # type: ignore[assignment]
+            action()
+            code = 0
+        finally:  # never back into pytest in the child, whatever happened
+            os._exit(code)
+    _, status = os.waitpid(pid, 0)
+    code = os.waitstatus_to_exitcode(status)
+    assert code in (0, 137), code
+    return code == 137
+
+
+def valid(root) -> str:
+    """The release PREFIX runs ("" for the plain checkout); fails unless PREFIX and previous
+    both name working releases."""
+    prefix, releases = root / "opt/exhibit", root / "opt/exhibit-releases"
+    assert (prefix / ".venv/bin/exhibit").exists(), "PREFIX does not run"
+    previous = releases / "previous"
+    if os.path.lexists(previous):
+        assert previous.is_symlink() and (previous / ".venv/bin/exhibit").exists()
+        assert os.path.dirname(os.path.realpath(previous)) == str(releases)
+    if not prefix.is_symlink():
+        return ""
+    assert os.path.dirname(os.path.realpath(prefix)) == str(releases)
+    return os.path.basename(os.path.realpath(prefix))
+
+
+@pytest.mark.parametrize("first", [True, False])
+def test_a_kill_at_any_moment_leaves_a_working_prefix_and_the_next_run_finishes(tmp_path, first):
+    """Each change an update makes, in turn, is where it dies: PREFIX still runs the old
+    release or the new one, and the same update run again finishes the job."""
+    n = 1
+    while True:
+        root = tmp_path / f"run{n}"
+        make_release(root, "exhibit", version="0.1.0", folder="opt")
+        (root / "etc/exhibit").mkdir(parents=True)
+        for name in [] if first else ["old1", "old2", "a"]:  # an old one to prune, too
+            make_release(root, name)
+            kiosk(root, Runner()).update(f"{RELEASES}/{name}")
+        make_release(root, "b")
+        before = valid(root)
+        if not killed_at(root, n, lambda: kiosk(root, Runner()).update(f"{RELEASES}/b", keep=2)):
+            break
+        now = valid(root)
+        # the old release (the checkout, maybe moved into the releases already) or the new one
+        assert now in (before, "b") or (before == "" and now.startswith("0.1.0-checkout-")), n
+        try:
+            kiosk(root, Runner()).update(f"{RELEASES}/b", keep=2)
+        except ExhibitError as exc:
+            assert "is the current release already" in str(exc)
+        assert valid(root) == "b"
+        n += 1
+    assert n > 5  # it did die at each step of a whole update
+
+
+def test_the_time_limits_in_deployment_md_are_the_codes():
+    text = " ".join((inst.SOURCE_DIR.parent / "docs/DEPLOYMENT.md").read_text().split())
+    limits = update.TIMEOUTS
+    assert (limits["check-config"], limits["prepare"], limits["install"]) == (300, 3600, 3600)
+    assert limits["restart"] == 420
+    assert "(check-config 5 min, prepare and install 1 h, the restart 7 min:" in text
+    assert f"which one holds `/opt/exhibit-releases/{LOCK}`" in text
