@@ -336,6 +336,7 @@ update_kiosk() {
     die "setting up $release failed (see above); nothing was changed"
   fi
   "$release/.venv/bin/python" -m compileall -q "$release/exhibit" >/dev/null   # no __pycache__ writes later
+  say "$release is set up; its exhibit update now checks the site config and builds the mesh cache with it, then switches $prefix to it, installs and restarts"
   exec "$release/.venv/bin/exhibit" update "$release" --prefix "$prefix" "${args[@]}"
 }
 
@@ -383,6 +384,8 @@ case "$job" in
   lock) run_lock "$@" ;;
   bundle)
     [ $# -le 1 ] || die "usage: ./bootstrap.sh bundle [DIR]"
+    # An option is no folder name (rm, mkdir and mv would each read it as theirs).
+    case "${1:-}" in -*) die "bundle takes no options, only a folder: usage: ./bootstrap.sh bundle [DIR] (./$1 for a folder called $1)" ;; esac
     make_bundle "$@"
     ;;
   update) update_kiosk "$@" ;;

@@ -38,9 +38,10 @@ keyframe sets a new caption (with its own ``while``, or none); a keyframe may al
 
 A timeline lasts until its last keyframe; the playlist plays the files in name order and loops.
 Limits: t 0..86400 s, angles and eye -3600..3600 degrees, sensor_distance "inf" or 0.05..1e6,
-half_height 0.001..1000, params -1e6..1e6 (and the scene's own range), captions up to 2000
-characters, slice -1e6..1e6 or "off" (it carries over like the other keys; between two slice
-values it moves with the keyframes' ease, and a keyframe without one holds the previous).
+half_height 0.001..1000, params -1e6..1e6 (and the scene's own range and checks: a curator's
+formulas must be buildable at them), captions up to 2000 characters, slice -1e6..1e6 or "off"
+(it carries over like the other keys; between two slice values it moves with the keyframes'
+ease, and a keyframe without one holds the previous).
 
 Why one module of this size: the timeline file format and its player share every keyframe rule."""
 

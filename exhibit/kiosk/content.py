@@ -121,6 +121,7 @@ class Content:
             for job in pending:
                 self.preparer.submit(job)
             return
+        self._status(getattr(preparer, "status", lambda: None)())
         for prepared in results:
             self.take_in(prepared, now)
             if prepared.error is None:
@@ -134,6 +135,18 @@ class Content:
         if not preparer.busy and self.prepared_at is None:
             self.prepared_at = now
             log.info("every scene is prepared (%.1f s after start)", now - started)
+
+    #: How the preparer's own line in ``problems`` begins (exhibit.kiosk.preparing.status).
+    STATUS = "preparing process "
+
+    def _status(self, line: str | None) -> None:
+        """The preparer's line in the health file's problems (workers replaced, scenes to try
+        again), kept current in place."""
+        kept = [p for p in self.problems if not p.startswith(self.STATUS)]
+        if line is not None:
+            kept.append(line)
+        if kept != self.problems:
+            self.problems[:] = kept
 
     def wanted(self, key: tuple) -> None:
         """A visitor is waiting for this scene: it is prepared next."""
@@ -168,6 +181,8 @@ class Content:
         if prepared.error is not None:
             self._failed(job, prepared.error, now)
             return []
+        if job.key in self.failed:
+            self._restored(job)
         waited = job.key not in self.gpu
         self.gpu.setdefault(job.key, {}).update(uploaded)
         state = self.state
@@ -205,14 +220,34 @@ class Content:
             return
         self.failed.add(job.key)
         log.error("scene %s skipped: %s", job.scene, reason)
-        if {"scene": job.scene, "reason": reason} not in self.scenes_failed:
-            self.scenes_failed.append({"scene": job.scene, "reason": reason})
-            self.problems.append(f"scene {job.scene} skipped: {reason}")
+        # one entry a scene: a scene tried again and failing again replaces its own
+        self._forget(job)
+        self.scenes_failed.append({"scene": job.scene, "reason": reason})
+        self.problems.append(f"scene {job.scene} skipped: {reason}")
         for t in job.timelines:
             log.warning("attract timeline %s skipped: its scene %s failed", t.name, t.scene)
             self.problems.append(f"attract timeline {t.name} skipped (scene {t.scene})")
         if self.state is not None:
             self.state.drop(job.scene, now)
+
+    def _forget(self, job: Job) -> None:
+        """The job's scene off the health file's lists of failures (in place: the kiosk's)."""
+        timelines = {f"attract timeline {t.name} skipped (scene {t.scene})" for t in job.timelines}
+        self.scenes_failed[:] = [f for f in self.scenes_failed if f.get("scene") != job.scene]
+        self.problems[:] = [
+            p
+            for p in self.problems
+            if not p.startswith(f"scene {job.scene} skipped: ") and p not in timelines
+        ]
+
+    def _restored(self, job: Job) -> None:
+        """A scene that failed (its worker died or stalled) and was tried again came: off the
+        lists of failures, and back in the content list."""
+        self.failed.discard(job.key)
+        self._forget(job)
+        log.info("scene %s prepared after all: it is shown again", job.scene)
+        if self.state is not None:
+            self.state.restore(job.scene)
 
     def release(self) -> None:
         """Free every uploaded mesh (each once)."""

@@ -13,13 +13,17 @@ imports exactly this."""
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import logging
+import math
 import multiprocessing
 import os
 import queue
 import threading
-from collections.abc import Iterable, Sequence
+import time
+from collections import deque
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
@@ -37,9 +41,23 @@ log = logging.getLogger("exhibit.kiosk")
 
 #: How much the worker process yields to the frame loop (os.nice increment).
 WORKER_NICE = 10
-#: A worker process that dies (killed for memory, a crash in a native library) is started again
-#: this many times; then the jobs left fail with the reason.
-WORKER_RESTARTS = 2
+#: A worker process that dies (killed for memory, a crash in a native library) or stalls is
+#: replaced, at most WORKER_RESTARTS times in any RESTART_WINDOW_S: a kiosk runs for months, so
+#: the limit is a rate, never a count for the life of the process. Beyond it the jobs wait (none
+#: is dropped) until the window allows the next start.
+WORKER_RESTARTS = 3
+RESTART_WINDOW_S = 3600.0
+#: A worker with a job under way is stalled when it has used no CPU time for STALL_S (stopped by
+#: SIGSTOP, blocked on a disk that does not answer; a niced worker on a busy machine still gets
+#: some) or has spent JOB_DEADLINE_S on one job (a cold build takes seconds to minutes): it is
+#: killed and replaced, and named in the health file. Looked at every CHECK_EVERY_S.
+STALL_S = 120.0
+JOB_DEADLINE_S = 1800.0
+CHECK_EVERY_S = 1.0
+#: A job failed by its worker's death or stall is tried again after RETRY_S, doubling with each
+#: failure up to RETRY_MAX_S (the scene is left out meanwhile, and back when it arrives).
+RETRY_S = 60.0
+RETRY_MAX_S = 3600.0
 
 Params = tuple[tuple[str, float], ...]
 
@@ -266,13 +284,61 @@ _ENDED = object()
 
 def _read(connection, inbox: queue.SimpleQueue) -> None:
     """The kiosk's reader thread: a result is read whole here, off the frame loop (a worker
-    at a lower priority may take its time writing megabytes), and handed over whole."""
+    at a lower priority may take its time writing megabytes), and handed over whole. At the
+    end of the pipe it closes the kiosk's end itself: a worker stopped or replaced is left to
+    it, since closing a pipe under a thread blocked reading it could hand its file descriptor
+    number to the next worker's pipe while this thread still reads it."""
     while True:
         try:
             inbox.put(connection.recv())
-        except (EOFError, OSError):
+        except Exception:  # noqa: BLE001 - the end, or the kiosk closed this end (TypeError)
+            with contextlib.suppress(OSError):
+                connection.close()
             inbox.put(_ENDED)
             return
+
+
+def worker_progress(pid: int | None) -> tuple[str, float] | None:
+    """A process's state letter ("T": stopped) and the CPU seconds it has used, from /proc;
+    None where that cannot be read (not Linux, gone): then only JOB_DEADLINE_S applies."""
+    if not pid:
+        return None
+    try:
+        with open(f"/proc/{int(pid)}/stat", "rb") as file:
+            text = file.read(4096).decode("ascii", "replace")
+        fields = text[text.rindex(")") + 2 :].split()
+        return fields[0], (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+@dataclass
+class _Watch:
+    """A worker's job under way, watched for progress: when it was sent, when the worker's CPU
+    time last moved, that CPU time, and when it was last looked at."""
+
+    sent_at: float
+    progress_at: float
+    cpu: float | None = None
+    checked_at: float = -math.inf
+
+    def stalled(self, process: BaseProcess, now: float) -> str | None:
+        """Why the worker counts as stalled now, or None."""
+        if now - self.checked_at < CHECK_EVERY_S:
+            return None
+        self.checked_at = now
+        seen = worker_progress(getattr(process, "pid", None))
+        if seen is not None:
+            state, cpu = seen
+            if self.cpu is not None and cpu > self.cpu:
+                self.progress_at = now
+            self.cpu = cpu
+            if now - self.progress_at >= STALL_S:
+                stopped = " (stopped)" if state in ("T", "t") else ""
+                return f"no progress for {now - self.progress_at:.0f} s{stopped}"
+        if now - self.sent_at >= JOB_DEADLINE_S:
+            return f"still on one job after {now - self.sent_at:.0f} s"
+        return None
 
 
 @dataclass
@@ -283,6 +349,7 @@ class _Urgent:
     process: BaseProcess
     connection: Connection
     inbox: queue.SimpleQueue
+    watch: _Watch
 
 
 class ProcessPreparer:
@@ -297,11 +364,32 @@ class ProcessPreparer:
     worker of its own at the kiosk's priority (``urgent``; the default): on a machine busy
     with other work, a niced worker gets a tenth of a core, and the visitor would wait minutes.
     Should the niced worker already be preparing that scene, both go on and the first result
-    counts (the niced one takes only what the rest of the machine leaves)."""
+    counts (the niced one takes only what the rest of the machine leaves).
 
-    def __init__(self, framers: Framers = Framers(), urgent: bool = True):
+    For a kiosk that runs for months: a worker that dies or stalls (STALL_S, JOB_DEADLINE_S) is
+    replaced at most WORKER_RESTARTS times an hour, its job fails (the kiosk leaves the scene out
+    and says so) and is tried again later (RETRY_S, doubling); status() is the line for the
+    health file. ``clock``: monotonic seconds (tests pass a fake one)."""
+
+    def __init__(
+        self,
+        framers: Framers = Framers(),
+        urgent: bool = True,
+        clock: Callable[[], float] = time.monotonic,
+    ):
         self.framers = framers
         self.urgent = urgent
+        self.clock = clock
+        self._watch: _Watch | None = None
+        #: When workers died or stalled, within the last RESTART_WINDOW_S.
+        self._deaths: deque[float] = deque()
+        self._died = self._stalls = 0
+        self._last_loss = ""
+        self._held = False
+        #: Jobs a worker's death or stall failed, by key: (when to try again, the job), and
+        #: how many times each has failed so.
+        self._retries: dict[tuple, tuple[float, Job]] = {}
+        self._attempts: dict[tuple, int] = {}
         self._urgent: _Urgent | None = None
         #: Keys an urgent worker delivered first: the niced worker's result for them is dropped.
         self._delivered: set[tuple] = set()
@@ -312,7 +400,6 @@ class ProcessPreparer:
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._in_flight: Job | None = None
         self._queue: list[Job] = []
-        self._restarts = 0
         self._leaving = False
         #: A worker whose pipe has closed, not yet reaped.
         self._exiting: multiprocessing.process.BaseProcess | None = None
@@ -349,6 +436,7 @@ class ProcessPreparer:
             or self._process is not None
             or self._exiting is not None
             or self._urgent is not None
+            or bool(self._retries)
         )
 
     def first(self, key) -> None:
@@ -363,19 +451,23 @@ class ProcessPreparer:
             return
         self._stop_urgent()  # a visitor who moved on: the scene they left waits its turn
         process, connection, inbox = self._spawn(0, "exhibit-prepare-now")
-        self._urgent = _Urgent(job, process, connection, inbox)
+        now = self.clock()
+        self._urgent = _Urgent(job, process, connection, inbox, _Watch(now, now))
         try:
             connection.send(job)
         except OSError:
             pass  # it died at once: its reader says so
         log.info("scene %s: prepared now, for a visitor who waits", job.scene)
 
-    def _stop_urgent(self) -> None:
+    def _stop_urgent(self, kill: bool = False) -> None:
         urgent, self._urgent = self._urgent, None
         if urgent is None:
             return
-        urgent.connection.close()
-        urgent.process.terminate()  # reaped by its reader's end or at close()
+        # its pipe is left to its reader, which closes it at the end (_read)
+        if kill:  # a stopped process acts on SIGTERM only once continued
+            urgent.process.kill()
+        else:
+            urgent.process.terminate()  # reaped by its reader's end or at close()
         self._stopped.append(urgent.process)
 
     def _urgent_results(self) -> list[Prepared]:
@@ -387,9 +479,20 @@ class ProcessPreparer:
         try:
             item = urgent.inbox.get_nowait()
         except queue.Empty:
+            why = urgent.watch.stalled(urgent.process, self.clock())
+            if why is not None:
+                self._stalls += 1
+                self._last_loss = (
+                    f"urgent pid {getattr(urgent.process, 'pid', '?')} stalled "
+                    f"preparing {urgent.job.scene}: {why}"
+                )
+                log.error("the preparing process (%s): it waits its turn", self._last_loss)
+                self._stop_urgent(kill=True)
             return []
         self._urgent = None
-        urgent.connection.close()
+        if item is not _ENDED:
+            with contextlib.suppress(OSError):
+                urgent.connection.send(None)  # done: it leaves, and its reader closes the pipe
         self._stopped.append(urgent.process)
         if item is _ENDED:
             log.warning("the urgent preparing process died: %s waits its turn", urgent.job.scene)
@@ -404,43 +507,133 @@ class ProcessPreparer:
         """The jobs not done: the one under way first."""
         return ([self._in_flight] if self._in_flight is not None else []) + self._queue
 
-    def _send(self) -> None:
+    def _send(self, now: float) -> None:
         urgent = self._urgent.job.key if self._urgent is not None else None
         ready = [i for i, job in enumerate(self._queue) if job.key != urgent]
         if self._in_flight is not None or not ready or self._leaving:
             return
         if self._process is None:
+            if not self._may_start(now):
+                return
             self._start()
         self._in_flight = self._queue.pop(ready[0])
+        self._watch = _Watch(now, now)
         assert self._connection is not None  # set with the process
         try:
             self._connection.send(self._in_flight)  # a Job is small: the pipe takes it at once
         except OSError:
             pass  # the worker is gone: the reader says so
 
+    def _may_start(self, now: float) -> bool:
+        """Whether a worker may start now: not when WORKER_RESTARTS workers died or stalled
+        within the last RESTART_WINDOW_S (the jobs wait; logged once a hold)."""
+        while self._deaths and now - self._deaths[0] >= RESTART_WINDOW_S:
+            self._deaths.popleft()
+        held = len(self._deaths) > WORKER_RESTARTS
+        if held and not self._held:
+            log.error(
+                "the preparing process was replaced %d times within %.0f s: the next start "
+                "waits %.0f s (%d scenes wait)",
+                len(self._deaths),
+                RESTART_WINDOW_S,
+                self._deaths[0] + RESTART_WINDOW_S - now,
+                len(self._queue),
+            )
+        self._held = held
+        return not held
+
+    def _due(self, now: float) -> None:
+        """Jobs to try again whose time has come, back in the queue."""
+        for key, (at, job) in list(self._retries.items()):
+            if at <= now:
+                del self._retries[key]
+                if all(j.key != key for j in self.pending()):
+                    log.info("scene %s: tried again", job.scene)
+                    self._queue.append(job)
+
+    def _stalled(self, now: float) -> list[Prepared]:
+        """The niced worker, if it is stalled under a job: killed (SIGKILL reaches a stopped
+        process), its pipe and inbox left, and its job failed to be tried again."""
+        process, job, watch = self._process, self._in_flight, self._watch
+        if process is None or job is None or watch is None:
+            return []
+        why = watch.stalled(process, now)
+        if why is None:
+            return []
+        process.kill()
+        # its pipe is left to its reader, which closes it at the end (_read); the reader's
+        # word of that end goes to an inbox nobody reads
+        self._inbox = queue.SimpleQueue()
+        self._process, self._connection, self._in_flight = None, None, None
+        self._stopped.append(process)  # reaped by a later results()
+        self._leaving = False
+        self._stalls += 1
+        self._last_loss = f"pid {getattr(process, 'pid', '?')} stalled preparing {job.scene}: {why}"
+        log.error("the preparing process (%s): it is replaced", self._last_loss)
+        return self._lost(job, f"the preparing process stalled ({why})", now)
+
+    def _lost(self, job: Job | None, error: str, now: float) -> list[Prepared]:
+        """A worker died or stalled (counted against the rate of restarts) under ``job``,
+        which fails now and is tried again later."""
+        self._deaths.append(now)
+        if job is None:
+            return []
+        tries = self._attempts[job.key] = self._attempts.get(job.key, 0) + 1
+        delay = min(RETRY_S * 2 ** (tries - 1), RETRY_MAX_S)
+        self._retries[job.key] = (now + delay, job)
+        return [Prepared(job, error=f"{error}; tried again in {delay:.0f} s")]
+
+    def status(self) -> str | None:
+        """One line for the health file about workers replaced and scenes waiting to be tried
+        again, or None while no worker has been lost."""
+        if not (self._died or self._stalls):
+            return None
+        parts = [
+            f"preparing process replaced {self._died + self._stalls} times "
+            f"({self._died} died, {self._stalls} stalled); last: {self._last_loss}"
+        ]
+        if self._held:
+            parts.append(f"restarts held: {WORKER_RESTARTS} within {RESTART_WINDOW_S:.0f} s")
+        if self._retries:
+            now = self.clock()
+            parts.append(
+                "to try again: "
+                + ", ".join(
+                    f"{job.scene} in {max(0.0, at - now):.0f} s"
+                    for at, job in self._retries.values()
+                )
+            )
+        return "; ".join(parts)
+
     def results(self) -> list[Prepared]:
         out: list[Prepared] = []
+        now = self.clock()
         if self._exiting is not None and not self._exiting.is_alive():
             self._exiting = None  # is_alive() has reaped it: never waited for in a frame
         self._stopped = [p for p in self._stopped if p.is_alive()]  # reaped likewise
         out += self._urgent_results()
-        self._send()
+        out += self._stalled(now)
+        self._due(now)
+        self._send(now)
         while True:
             try:
                 item = self._inbox.get_nowait()
             except queue.Empty:
                 break
             if item is _ENDED:
-                out += self._ended()
+                out += self._ended(now)
+                self._send(now)  # a new worker, if the rate of restarts allows
             else:
                 self._in_flight = None
+                if item.error is None:
+                    self._attempts.pop(item.job.key, None)
                 if item.job.key in self._delivered:
                     self._delivered.discard(item.job.key)  # the urgent worker was first
                 else:
                     if self._urgent is not None and self._urgent.job.key == item.job.key:
                         self._stop_urgent()  # the niced worker was first
                     out.append(item)
-                self._send()
+                self._send(now)
         if (
             self._in_flight is None
             and not self._queue
@@ -455,10 +648,10 @@ class ProcessPreparer:
                 pass
         return out
 
-    def _ended(self) -> list[Prepared]:
+    def _ended(self, now: float) -> list[Prepared]:
         """The worker's end of the pipe closed: it left as asked, or it died under a job,
-        which then fails; the worker starts again for the rest (up to WORKER_RESTARTS times;
-        then they fail too)."""
+        which then fails and is tried again later; a worker starts again for the rest
+        (WORKER_RESTARTS an hour at most: then they wait)."""
         process, job = self._process, self._in_flight
         # _ENDED comes from the reader of a started worker's pipe
         assert process is not None and self._connection is not None
@@ -475,17 +668,18 @@ class ProcessPreparer:
             code,
             job.scene if job else "nothing",
         )
-        self._restarts += 1
-        failed = [job] if job is not None else []
-        if self._restarts > WORKER_RESTARTS:
-            failed += self._queue
-            self._queue = []
-        return [Prepared(j, error=f"the preparing process died (exit code {code})") for j in failed]
+        self._died += 1
+        self._last_loss = (
+            f"pid {getattr(process, 'pid', '?')} died (exit code {code}) preparing "
+            f"{job.scene if job else 'nothing'}"
+        )
+        return self._lost(job, f"the preparing process died (exit code {code})", now)
 
     def close(self) -> None:
         """Stop the worker: at once when it is busy (a half-built mesh is not worth waiting
         for; the cache never keeps half a file), else it exits when the pipe closes."""
         self._queue.clear()
+        self._retries.clear()
         self._stop_urgent()
         if self._connection is not None:
             self._connection.close()

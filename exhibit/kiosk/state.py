@@ -114,6 +114,9 @@ class KioskState:
         self.framer = framer
         self.mapper = mapper
         self.content = content
+        #: The content list as given, in its order (a scene dropped and prepared after all
+        #: comes back in its place).
+        self._all_content = tuple(content)
         self.idle_timeout_s = idle_timeout_s
         self.blend_s = blend_s
         self.reduced_motion = reduced_motion
@@ -218,6 +221,12 @@ class KioskState:
             self._reframe = None
             self.playlist.restart(now)
             self.frame = self._attract_frame(now)
+
+    def restore(self, name: str) -> None:
+        """Scene ``name``, dropped, can be shown after all: back in the content list."""
+        if name in self._all_content and name not in self.content:
+            keep = {*self.content, name}
+            self.content = tuple(c for c in self._all_content if c in keep)
 
     def _scene_switches(self, events: list[Event]) -> int:
         return sum(1 for e in events if self.mapper.switches_scene(e))

@@ -55,7 +55,7 @@ HALO = (0.02, 0.02, 0.03, 0.85)
 PINCH_COLOR = (1.0, 0.93, 0.2)
 #: The axis colours of Figures 6-8's scene (x red, y amber, z green, w blue), from the palette
 #: every visitor can tell apart (exhibit.scenes.palette).
-AXIS_COLORS = (palette.RED, palette.AMBER, palette.MINT, palette.BLUE)
+AXIS_COLORS = (palette.RED, palette.AMBER, palette.LAVENDER, palette.BLUE)
 #: The relative luminance (WCAG) every coloured word is lifted to: 7:1 (AAA) against the panel
 #: over white (0.12 grey, luminance 0.014) needs 0.40; this leaves a margin.
 LEGIBLE = 0.45

@@ -10,7 +10,7 @@ import numpy as np
 from exhibit.geometry.hopf import hopf_torus, hopf_torus_tangents
 from exhibit.geometry.view import ViewState
 from exhibit.scenes.base import Parameter, Preset, Scene
-from exhibit.scenes.palette import AMBER, BLUE, GREEN, GREY, MINT, PURPLE, RED
+from exhibit.scenes.palette import AMBER, BLUE, GREEN, GREY, LAVENDER, PURPLE, RED
 from exhibit.surfaces.mesh import Curve, Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 
@@ -21,7 +21,7 @@ TORI = (
     ("torus Z=√2/2", math.sqrt(0.5), RED),
 )
 FIBRES = (("fibre Z=-1", -1.0, PURPLE), ("fibre Z=1", 1.0, BLUE))
-AXES = (("x axis", 0, RED), ("y axis", 1, AMBER), ("z axis", 2, MINT), ("w axis", 3, BLUE))
+AXES = (("x axis", 0, RED), ("y axis", 1, AMBER), ("z axis", 2, LAVENDER), ("w axis", 3, BLUE))
 
 
 def build(params: dict, resolution: int) -> Mesh4D:

@@ -12,7 +12,9 @@ RED = (0.78, 0.14, 0.02)  # the red doughnut, the offset curves, the x axis
 PURPLE = (0.69, 0.36, 0.70)  # a Hopf fibre (was magenta)
 BLUE = (0.05, 0.13, 0.72)  # the other fibre, silhouettes, the w axis
 AMBER = (0.9, 0.76, 0.19)  # the y axis
-MINT = (0.11, 0.88, 0.61)  # the z axis, lighter than the green doughnut it crosses
+# the z axis: light, and apart from everything in Figures 6-8 in every vision (ΔE 18 at least);
+# the mint it was, (0.11, 0.88, 0.61), was ΔE 10.8 from the green doughnut under tritanopia
+LAVENDER = (0.7, 0.7, 0.95)
 WIRE = (0.3, 0.85, 0.75)  # the collision's pipe, a wire frame
 ORANGE = (0.85, 0.55, 0.25)  # the collision surface
 SKY = (0.55, 0.7, 0.9)  # the offset pipes

@@ -193,9 +193,12 @@ def load_scene_file(path: Path) -> Scene:
         problem("surface", "at least one [[surface]] table is needed")
     defaults = {p.name: p.default for p in parameters}
     specs = []
+    formulas: list[_Formula] = []
     for index, surface in enumerate(spec.surface):
         try:
-            specs.append(_surface_spec(path, index, surface, spec.axes, defaults, parameters))
+            specs.append(
+                _surface_spec(path, index, surface, spec.axes, defaults, parameters, formulas)
+            )
         except ConfigError as exc:
             problems.extend(exc.problems)
     if problems:
@@ -224,7 +227,42 @@ def load_scene_file(path: Path) -> Scene:
         fit=spec.view.fit,
         version=hashlib.sha256(read_bytes(path)).hexdigest()[:16],
         source=path,
+        check=_domain_check(path, formulas, defaults),
     )
+
+
+#: One formula as the file gives it: its key, text, variables and the box it is drawn on.
+_Formula = tuple[str, str, tuple[str, ...], list[tuple[float, float]]]
+
+
+def _domain_check(path: Path, formulas: list[_Formula], defaults: dict[str, float]):
+    """Scene.check for a curator's scene: every formula, at the parameter values asked for, held
+    to the check it passed at the defaults when the file was loaded (check_expression on its box:
+    a constant part undefined, as log(a) at a = -0.5, or the value undefined on nearly all of the
+    box). So a timeline's ``params`` that the kiosk could not build are refused by check-config,
+    not found when the kiosk drops the scene. A pass is remembered (exhibit.scenes.checked), so
+    only new values cost sympy; the defaults were checked at load."""
+    verdicts: dict[tuple, str | None] = {}
+
+    def check(params: dict) -> str | None:
+        values = {k: float(v) for k, v in params.items()}
+        if values == defaults:
+            return None
+        key = tuple(sorted(values.items()))
+        if key not in verdicts:
+            verdicts[key] = None
+            at = ", ".join(f"{k} = {v:g}" for k, v in key)
+            for where, text, variables, box in formulas:
+                try:
+                    checked.check(text, variables, values, box)
+                except ExpressionError as exc:
+                    verdicts[key] = f"{path.name}: {where}: cannot be built at {at}: {exc}"
+                    break
+            if verdicts[key] is None:
+                checked.save()
+        return verdicts[key]
+
+    return check
 
 
 def _check(path, key, text, variables, defaults, box) -> str:
@@ -238,7 +276,8 @@ def _check(path, key, text, variables, defaults, box) -> str:
     return text
 
 
-def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, parameters):
+def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, parameters, checks):
+    """How to build one [[surface]]; its formulas, checked at the defaults, join ``checks``."""
     where = f"surface[{index}]"
     name = surface.name or f"surface {index + 1}"
     material = Material(color=surface.color, style=surface.style)
@@ -257,6 +296,8 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
         assert box is not None  # not missing (above)
         f1 = _check(path, f"{where}.f1", surface.f1, axes, defaults, box)
         f2 = _check(path, f"{where}.f2", surface.f2, axes, defaults, box)
+        pairs = [(float(b[0]), float(b[1])) for b in box]
+        checks += [(f"{where}.f{k}", f, tuple(axes), pairs) for k, f in ((1, f1), (2, f2))]
         lo, hi = [b[0] for b in box], [b[1] for b in box]
 
         def build_implicit(params, resolution):
@@ -272,6 +313,7 @@ def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, 
         _check(path, f"{where}.point[{k}]", text, ("s", "t"), defaults, box)
         for k, text in enumerate(formulas)
     ]
+    checks += [(f"{where}.point[{k}]", text, ("s", "t"), box) for k, text in enumerate(point)]
 
     def build_parametric(params, resolution):
         fields = [compile_field(text, ("s", "t"), params) for text in point]

@@ -179,6 +179,12 @@ def test_the_tests_are_not_run_from_a_bundle(tmp_path):
     one_line(bootstrap(fake_bundle(tmp_path), "test"), "a bundle holds what `run` needs")
 
 
+def test_an_option_is_no_bundle_folder(tmp_path):
+    """Issue 33: `./bootstrap.sh bundle --upgrade` failed with a raw `rm: unrecognized option`."""
+    one_line(bootstrap(REPO, "bundle", "--upgrade"), "bundle takes no options, only a folder")
+    assert not (REPO / "--upgrade.partial").exists()
+
+
 # ------------------------------------------------------------------ the offline install
 
 

@@ -178,14 +178,19 @@ def test_with_nothing_shown_yet_the_notice_screen_says_what_is_prepared(tmp_path
 
 
 class _Process:
+    pid, exitcode = 4242, -9
+
     def __init__(self):
-        self.alive = True
+        self.alive, self.killed = True, False
 
     def is_alive(self):
         return self.alive
 
     def terminate(self):
         self.alive = False
+
+    def kill(self):
+        self.alive, self.killed = False, True
 
     def join(self, timeout=None):
         pass
@@ -229,7 +234,7 @@ def test_the_scene_a_visitor_waits_for_gets_a_worker_at_full_priority(monkeypatc
     assert urgent[0] == 0 and urgent[2].sent == [c]
     urgent[3].put(preparing.Prepared(c))
     assert [r.job for r in p.results()] == [c]
-    assert urgent[2].closed and p.pending() == [a, b], "c is done"
+    assert urgent[2].sent == [c, None] and p.pending() == [a, b], "c is done: it leaves"
     niced[3].put(preparing.Prepared(a))
     assert [r.job for r in p.results()] == [a] and niced[2].sent == [a, b]
     # the niced worker is already preparing the one wanted: both go on, the first counts
@@ -535,3 +540,194 @@ def test_exhibit_prepare_fails_when_it_cached_nothing(tmp_path, monkeypatch, cap
     assert "0 of 2 scenes ready" in out and "not cached: " in out
     if case != "read-only":
         assert "not a folder" in out
+
+
+def _fake_workers(monkeypatch) -> list:
+    """ProcessPreparer's workers as fakes: (nice, process, connection, inbox) each."""
+    import queue
+
+    workers: list = []
+
+    def spawn(self, nice, name):
+        worker = (nice, _Process(), _Connection(), queue.SimpleQueue())
+        workers.append(worker)
+        return worker[1:]
+
+    monkeypatch.setattr(ProcessPreparer, "_spawn", spawn)
+    return workers
+
+
+def test_workers_are_replaced_by_rate_not_count_and_what_they_dropped_is_tried_again(
+    monkeypatch,
+):
+    """Issue 33: after its third death the worker was never started again and every scene
+    still waiting was dropped until the kiosk restarted. Now at most WORKER_RESTARTS restarts
+    an hour: beyond that the jobs wait, none is dropped, and each job a death failed is tried
+    again later, the wait doubling."""
+    workers = _fake_workers(monkeypatch)
+    now = [0.0]
+    p = ProcessPreparer(urgent=False, clock=lambda: now[0])
+    jobs = [Job(name, (), ((0, 8),)) for name in "abcdef"]
+    for job in jobs:
+        p.submit(job)
+    assert p.results() == [] and workers[0][2].sent == [jobs[0]]
+    failed = []
+    for _ in range(preparing.WORKER_RESTARTS + 1):  # deaths 10 s apart
+        now[0] += 10
+        workers[-1][3].put(preparing._ENDED)
+        failed += p.results()
+    assert [r.job.scene for r in failed] == ["a", "b", "c", "d"]
+    assert all("died" in r.error and "tried again in 60 s" in r.error for r in failed)
+    assert len(workers) == 1 + preparing.WORKER_RESTARTS, "three restarts, then held"
+    assert p.busy and [j.scene for j in p.pending()] == ["e", "f"], "nothing dropped"
+    assert "restarts held" in p.status() and "to try again: a in 30 s" in p.status()
+    now[0] = 10 + preparing.RESTART_WINDOW_S  # an hour after the first death
+    assert p.results() == [] and len(workers) == 5
+    assert [j.scene for j in p.pending()] == ["e", "f", "a", "b", "c", "d"]
+    workers[-1][3].put(preparing.Prepared(jobs[4]))
+    workers[-1][3].put(preparing.Prepared(jobs[5]))
+    assert [r.job.scene for r in p.results()] == ["e", "f"]
+    workers[-1][3].put(preparing._ENDED)  # a fails a second time: twice as long to wait
+    again = p.results()
+    assert again[0].job is jobs[0] and "tried again in 120 s" in again[0].error
+
+
+def test_a_stopped_or_stalled_worker_is_found_by_a_deadline_and_replaced(monkeypatch):
+    """A worker whose CPU time stands still (SIGSTOP, a hung disk) for STALL_S with a job under
+    way is killed and replaced, its job tried again later; one that works on one job past
+    JOB_DEADLINE_S likewise; status() names it for the health file."""
+    workers = _fake_workers(monkeypatch)
+    seen = {"state": "R", "cpu": 1.0}
+    monkeypatch.setattr(preparing, "worker_progress", lambda pid: (seen["state"], seen["cpu"]))
+    now = [0.0]
+    p = ProcessPreparer(urgent=False, clock=lambda: now[0])
+    a, b, c = (Job(name, (), ((0, 8),)) for name in "abc")
+    for job in (a, b, c):
+        p.submit(job)
+    p.results()
+    for _ in range(100):  # a slow job that progresses is never stalled
+        now[0] += 10
+        seen["cpu"] += 0.01
+        assert p.results() == []
+    seen["state"] = "T"  # SIGSTOP: its CPU time stands still
+    now[0] += preparing.STALL_S - 1
+    assert p.results() == [] and not workers[0][1].killed
+    now[0] += 2
+    out = p.results()
+    assert out[0].job is a and "stalled (no progress for 121 s (stopped))" in out[0].error
+    assert workers[0][1].killed and len(workers) == 2 and workers[1][2].sent == [b]
+    assert "1 stalled); last: pid 4242 stalled preparing a: no progress" in p.status()
+    # without /proc to read: the job's deadline alone
+    monkeypatch.setattr(preparing, "worker_progress", lambda pid: None)
+    now[0] += preparing.JOB_DEADLINE_S
+    out = p.results()
+    assert out[0].job is b and "still on one job after 1800 s" in out[0].error
+    assert workers[1][1].killed and workers[2][2].sent == [c]
+
+
+def test_a_real_stopped_worker_is_found_and_replaced(tmp_path, monkeypatch):
+    """SIGSTOP on a real worker process: its CPU time stands still (/proc), so the deadline
+    finds it on the preparer's clock (a fake one: nothing here waits on the wall clock for
+    something slower under load); a new worker takes the job when it is tried again."""
+    import signal
+
+    monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(tmp_path / "cache"))
+    now = [0.0]
+    p = ProcessPreparer(urgent=False, clock=lambda: now[0])
+    job = Job("no-such-scene", (), ((2, 8),))
+    try:
+        p.submit(job)
+        assert p.results() == []
+        stopped = p._process
+        os.kill(stopped.pid, signal.SIGSTOP)
+        for _ in range(600):  # until the stop has taken effect
+            if preparing.worker_progress(stopped.pid)[0] in "Tt":
+                break
+            time.sleep(0.01)
+        assert p.results() == []  # its CPU time, seen once
+        now[0] += preparing.STALL_S + 1
+        out = p.results()
+        assert out[0].job is job and "stalled (no progress for 121 s (stopped))" in out[0].error
+        stopped.join(timeout=30)
+        assert stopped.exitcode == -signal.SIGKILL
+        assert f"pid {stopped.pid} stalled preparing no-such-scene" in p.status()
+        now[0] += preparing.RETRY_S
+        results = []
+        for _ in range(600):
+            results += p.results()
+            if results:
+                break
+            time.sleep(0.1)
+        assert p._process is not stopped and "no scene named 'no-such-scene'" in results[0].error
+    finally:
+        p.close()
+
+
+def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
+    tmp_path, built, monkeypatch
+):
+    """In the kiosk: the scene a stalled worker dropped is left out and named, the worker is
+    named in the health file's problems, and the scene comes back when it is tried again."""
+    import functools
+
+    workers = _fake_workers(monkeypatch)
+    monkeypatch.setattr(preparing, "worker_progress", lambda pid: ("T", 1.0))
+    now = [0.0]
+    ticks = iter(np.arange(1e6) * 0.1)
+    k = app.Kiosk(
+        _config(tmp_path),
+        Window(),
+        clock=lambda: float(next(ticks)),
+        notifier=Notifier(),
+        health_path=tmp_path / "health.json",
+        preparer=functools.partial(ProcessPreparer, urgent=False, clock=lambda: now[0]),
+    )
+
+    def deliver():
+        job = workers[-1][2].sent[-1]
+        meshes = {level: f"mesh {job.scene} {res}" for level, res in job.levels}
+        workers[-1][3].put(preparing.Prepared(job, meshes, list(job.timelines)))
+
+    def frame():
+        k._frame(k.clock())
+
+    frame()  # the first frame
+    frame()  # the worker starts
+    deliver()  # hopf's other mesh levels
+    frame()
+    assert workers[-1][2].sent[-1].scene == "clifford-torus"
+    now[0] += preparing.STALL_S + 1
+    frame()
+    assert "clifford-torus" not in k.state.content
+    k._report(k.clock())
+    problems = json.loads((tmp_path / "health.json").read_text())["problems"]
+    assert any(
+        p.startswith("scene clifford-torus skipped: the preparing process stalled")
+        for p in problems
+    )
+    assert any(
+        p.startswith(
+            "preparing process replaced 1 times (0 died, 1 stalled); last: pid 4242 "
+            "stalled preparing clifford-torus: no progress for 121 s (stopped)"
+        )
+        and "to try again: clifford-torus in 60 s" in p
+        for p in problems
+    ), problems
+    assert workers[-1][2].sent[-1].scene == "veronese", "a new worker goes on"
+    deliver()
+    frame()
+    assert workers[-1][2].sent[-1] is None, "nothing to do now: the worker leaves"
+    workers[-1][3].put(preparing._ENDED)
+    now[0] += preparing.RETRY_S
+    frame()
+    assert workers[-1][2].sent[-1].scene == "clifford-torus", "tried again"
+    deliver()
+    frame()
+    assert k.state.content == ("hopf", "clifford-torus", "veronese")
+    assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
+    assert not any("clifford-torus skipped" in p for p in k.problems) and not k.scenes_failed
+    workers[-1][3].put(preparing._ENDED)  # it leaves: everything is prepared
+    workers[-1][1].alive = False
+    frame()
+    frame()  # reaped
+    assert k.content.prepared_at is not None

@@ -218,5 +218,73 @@ def test_a_parameter_that_breaks_a_formula_is_an_error_not_a_crash(tmp_path):
     """Checked at the defaults; a visitor's or curator's value can still divide by zero."""
     path = write(tmp_path, GOOD.replace("x*y - z*w - a", "x/(a - 0.4) - y"))
     scene = load_scene_file(path)
+    with pytest.raises(ExhibitError, match=r"surface\[0\].f2: cannot be built .*division by zero"):
+        scene.build({"a": 0.4}, resolution=6)  # refused by Scene.resolve (below)
     with pytest.raises(ExhibitError, match=r"surface\[0\]: cannot be built .*division by zero"):
-        scene.build({"a": 0.4}, resolution=6)
+        scene.build_mesh({"a": 0.4}, 6)  # and the build itself still says so
+
+
+LOG_SCENE = GOOD.replace('name = "slice"\ntitle', 'name = "log-slice"\ntitle', 1).replace(
+    "x*y - z*w - a", "x*y - z*w - 0.2*log(a)"
+)
+
+
+@pytest.mark.parametrize(
+    "formula, value, reason",
+    [
+        ("x*y - z*w - 0.2*log(a)", -0.3, "log(a): undefined for this argument"),
+        ("x/(a - 0.4) - y", 0.4, "division by zero"),
+        ("sqrt(10*a + 3 - x^2 - y^2) - z*w", -0.45, "not a finite real number on 100% of the box"),
+    ],
+)
+def test_parameter_values_are_held_to_the_formulas_own_checks(tmp_path, formula, value, reason):
+    """Scene.resolve holds a curator's scene at the values asked for to the check its formulas
+    passed at the defaults, so a value the kiosk could not build is refused by name up front."""
+    path = write(tmp_path, GOOD.replace("x*y - z*w - a", formula))
+    scene = load_scene_file(path)
+    with pytest.raises(ExhibitError) as info:
+        scene.resolve({"a": value})
+    message = str(info.value)
+    assert message.startswith(f"slice: scene.toml: surface[0].f2: cannot be built at a = {value:g}")
+    assert reason in message
+    assert scene.resolve({"a": 0.2}) == {"a": 0.2}  # a value it can be built at passes
+    assert scene.resolve() == {"a": 0.25}
+
+
+def test_check_config_refuses_timeline_params_the_scene_cannot_be_built_with(
+    tmp_path, monkeypatch, capsys
+):
+    """Issue 33: params = { a = -0.5 } for a scene using log(a) passed check-config, then the
+    kiosk dropped the scene and its timeline; what check-config accepts, the kiosk runs."""
+    from exhibit.cli import main
+
+    folder = tmp_path / "scenes"
+    folder.mkdir()
+    write(folder, LOG_SCENE, "log-slice.toml")
+    attract = tmp_path / "attract"
+    attract.mkdir()
+    timeline = attract / "01-log.toml"
+    keyframes = "[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\nangles = [30, 0, 0, 0, 0, 0]\n"
+    site = tmp_path / "kiosk.toml"
+    site.write_text(
+        '[attract]\ntimelines = "attract"\n[content]\nscenes = ["log-slice"]\n'
+        'start_scene = "log-slice"\n[languages]\nshown = ["en"]\n'
+    )
+    monkeypatch.setenv("EXHIBIT_SCENE_PATH", str(folder))
+    monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(tmp_path / "cache"))
+    scenes.load(reload=True)
+    try:
+        timeline.write_text('scene = "log-slice"\nparams = { a = -0.45 }\n' + keyframes)
+        assert main(["check-config", str(site)]) == 2
+        out = capsys.readouterr().out
+        assert (
+            f"{timeline}: params: log-slice: log-slice.toml: surface[0].f2: cannot be built at "
+            "a = -0.45: column 17: log(a): undefined for this argument" in out
+        ), out
+        timeline.write_text('scene = "log-slice"\nparams = { a = 0.3 }\n' + keyframes)
+        assert main(["check-config", str(site)]) == 0, capsys.readouterr().out
+        scene = scenes.get("log-slice")
+        assert scene.build({"a": 0.3}, 8).surfaces[0].positions.size  # and it builds
+    finally:
+        monkeypatch.delenv("EXHIBIT_SCENE_PATH")
+        scenes.load(reload=True)
