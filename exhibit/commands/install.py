@@ -86,6 +86,13 @@ class Planned:
     state: str  # "new" | "changed" | "unchanged"
 
 
+#: Set by `exhibit update` (and rollback) for the release's install: the cache was built before
+#: the switch, so install builds it no second time, and the service is restarted next, so the
+#: first install's "Start now" does not apply. An environment variable, not a flag: an older
+#: release rolled back to does not know a new flag, and ignores the variable.
+FOR_UPDATE_ENV = "EXHIBIT_INSTALL_FOR_UPDATE"
+
+
 def add_arguments(parser) -> None:
     parser.add_argument(
         "--root",
@@ -278,9 +285,11 @@ def steps(
     prefix: str = DEFAULT_PREFIX,
     site_env: list[str] | tuple = (),
     source: Path = SOURCE_DIR,
+    prepare: bool = True,
 ) -> list[list[str]]:
     """The commands that finish an installation on the target, in order; the last ones build
-    the mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's."""
+    the mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's
+    (``prepare`` False: not, for an update that built it)."""
     unit = render((source / "exhibit.service").read_text(encoding="utf-8"), prefix)
     commands = []
     if need_user:
@@ -313,8 +322,11 @@ def steps(
         ],
         ["systemctl", "daemon-reload"],
         ["systemctl", "enable", *ENABLE],
-        *prepare_steps(f"{prefix}/.venv/bin/exhibit", service_environment(unit, site_env)),
     ]
+    if prepare:
+        commands += prepare_steps(
+            f"{prefix}/.venv/bin/exhibit", service_environment(unit, site_env)
+        )
     return commands
 
 
@@ -348,9 +360,13 @@ def install(
     user_exists: Callable[[str], bool] = _user_exists,
     group_exists: Callable[[str], bool] = _group_exists,
     source: Path = SOURCE_DIR,
+    for_update: bool | None = None,
 ) -> int:
     """Write the files under ``root`` and, with ``perform``, run the remaining steps (the caller
-    checks for root). Returns the exit code; ExhibitError for anything the user must fix."""
+    checks for root). Returns the exit code; ExhibitError for anything the user must fix.
+    ``for_update`` (default: FOR_UPDATE_ENV set): no `exhibit prepare`, no start hint."""
+    if for_update is None:
+        for_update = os.environ.get(FOR_UPDATE_ENV) == "1"
     planned = plan(root, prefix, source)
     exe = Path(prefix) / ".venv" / "bin" / "exhibit"
     if perform:
@@ -383,6 +399,7 @@ def install(
         prefix=prefix,
         site_env=environment_file(root / SITE_ENVIRONMENT),
         source=source,
+        prepare=not for_update,
     )
     if not perform:
         where = "as root" if on_target else "on the kiosk, as root"
@@ -404,6 +421,9 @@ def install(
     for program, package, why in _DISPLAY_PROGRAMS:
         if not Path(program).exists():
             out(f"note: {program} is missing: apt-get install {package} ({why})")
+    if for_update:
+        out("installed (the mesh cache was built before the switch; the restart comes next)")
+        return 0
     out(
         "\ninstalled and enabled. Start now (takes over tty1) or reboot:\n"
         f"  {START}\n"

@@ -555,7 +555,11 @@ class Kiosk:
         failed."""
         exe = f"{self.prefix}/.venv/bin/exhibit"
         for command, what, timeout in (
-            ([exe, "install", "--prefix", self.prefix], "exhibit install", "install"),
+            (
+                ["env", f"{inst.FOR_UPDATE_ENV}=1", exe, "install", "--prefix", self.prefix],
+                "exhibit install",
+                "install",
+            ),
             (RESTART, "the restart", "restart"),
         ):
             self.out("$ " + _short(command))

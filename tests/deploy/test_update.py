@@ -139,7 +139,13 @@ def test_config_and_cache_come_first_as_the_service_user_then_switch_install_res
         }
         assert seen[step].endswith("/opt/exhibit")  # not switched yet
     assert runner.commands[cache - 1][:2] == ["install", "-d"]  # the cache folder, for the user
-    assert runner.commands[install][0] == f"{PREFIX}/.venv/bin/exhibit"
+    # the install the update runs builds no second cache and prints no first start's hint
+    assert runner.commands[install][:3] == [
+        "env",
+        f"{inst.FOR_UPDATE_ENV}=1",
+        f"{PREFIX}/.venv/bin/exhibit",
+    ]
+    assert runner.commands.count([c for c in runner.commands if "prepare" in c][0]) == 1
     assert seen[install].endswith("/opt/exhibit-releases/new")  # switched before install
     assert runner.commands[restart] == ["systemctl", "try-restart", "exhibit.service"]
 

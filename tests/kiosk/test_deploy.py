@@ -627,6 +627,30 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
     assert runner.commands[0][0] == "modprobe"
 
 
+def test_an_updates_install_builds_no_second_cache_and_no_start_hint(tmp_path, prefix, monkeypatch):
+    """`exhibit update` built the cache before the switch and restarts next: the install it
+    runs (FOR_UPDATE_ENV, which an older release rolled back to ignores) leaves both out."""
+    root = tmp_path / "root"
+    root.mkdir()
+    monkeypatch.setenv(inst.FOR_UPDATE_ENV, "1")
+    runner, lines = Runner(), []
+    assert (
+        inst.install(
+            root,
+            prefix,
+            perform=True,
+            out=lines.append,
+            runner=runner,
+            user_exists=lambda name: True,
+            group_exists=lambda name: True,
+        )
+        == 0
+    )
+    assert not any("prepare" in c for c in runner.commands)
+    assert runner.commands[-1][:2] == ["systemctl", "enable"]
+    assert not any("Start now" in line for line in lines)
+
+
 def test_perform_stops_at_a_failing_step_and_says_what_is_left(tmp_path, prefix):
     root = tmp_path / "root"
     root.mkdir()
