@@ -232,6 +232,15 @@ class Harness:
         """Simulated seconds since the harness started."""
         return int(self.cmd("time").split()[-1]) / 1e6
 
+    def line_bytes(self) -> tuple[int, int]:
+        """Bytes on the line so far: (sent towards the host, received from the host).
+
+        With the CPU paused, the first is where the host's stream stands at this simulated
+        instant; the second grows once the harness has taken what the host wrote, so a test
+        can tie either to simulated time however late the machine runs it."""
+        words = self.cmd("bytes").split()
+        return int(words[3]), int(words[5])
+
     def stats(self) -> dict[str, int]:
         """CPU load since the last call: bursts, max_burst, max_window, window (cycles)."""
         words = self.cmd("stats").split()[2:]

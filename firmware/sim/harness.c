@@ -14,6 +14,12 @@
  *   uart HEX           bytes into the UART as if the host had sent them (e.g. a command)
  *   tx HEX             bytes onto the line towards the host (noise), beside the firmware's
  *   time               report the simulated time: "ok time US"
+ *   bytes              report the bytes on the line so far: "ok bytes tx N rx M", N written
+ *                      towards the host (the firmware's and tx noise; dropped ones not counted),
+ *                      M read from the host; a test pauses the CPU, reads N and knows which of
+ *                      the bytes it receives were sent before an input changed, or waits for M
+ *                      to know the firmware will see a command from the simulated instant it
+ *                      runs again, however late the machine got round to either
  *   stats              CPU load since the last stats: "ok stats bursts N max_burst CYCLES
  *                      max_window CYCLES window CYCLES"; a burst is the CPU awake between two
  *                      sleeps (one main-loop iteration, with the interrupts inside it), a window
@@ -61,6 +67,7 @@ static uint8_t in_buf[4096];
 static size_t in_len, in_pos;
 static int uart_xon = 1;
 static avr_irq_t *uart_in_irq;
+static unsigned long long tx_count, rx_count; /* bytes written to / read from the pty */
 
 static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param)
 {
@@ -69,6 +76,7 @@ static void uart_out_hook(struct avr_irq_t *irq, uint32_t value, void *param)
     /* Non-blocking: with nobody reading, the pty fills and bytes are lost, like on a wire. */
     static int dropping;
     if (write(master_fd, &b, 1) == 1) {
+        tx_count++;
         dropping = 0;
     } else if (errno != EAGAIN) {
         perror("harness: pty write");
@@ -104,8 +112,10 @@ static void read_pty(void)
     if (in_len == sizeof in_buf)
         return;
     ssize_t n = read(master_fd, in_buf + in_len, sizeof in_buf - in_len);
-    if (n > 0)
+    if (n > 0) {
         in_len += (size_t)n;
+        rx_count += (unsigned long long)n;
+    }
 }
 
 static void uart_connect(void)
@@ -374,8 +384,12 @@ static void command(char *line)
         if (to_uart) {
             memcpy(in_buf + in_len, bytes, (size_t)n);
             in_len += (size_t)n;
-        } else if (n && write(master_fd, bytes, (size_t)n) < 0 && errno != EAGAIN) {
-            perror("harness: pty write");
+        } else if (n) {
+            ssize_t w = write(master_fd, bytes, (size_t)n);
+            if (w > 0)
+                tx_count += (unsigned long long)w;
+            else if (w < 0 && errno != EAGAIN)
+                perror("harness: pty write");
         }
         reply("ok %s %d", to_uart ? "uart" : "tx", n);
     } else if (strcmp(line, "stats") == 0) {
@@ -384,6 +398,8 @@ static void command(char *line)
               (unsigned long long)bursts, (unsigned long long)max_burst,
               (unsigned long long)max_window, (unsigned long long)(avr->frequency / 100));
         bursts = max_burst = max_window = 0;
+    } else if (strcmp(line, "bytes") == 0) {
+        reply("ok bytes tx %llu rx %llu", tx_count, rx_count);
     } else if (strcmp(line, "time") == 0) {
         reply("ok time %.0f", sim_seconds() * 1e6);
     } else if (strcmp(line, "quit") == 0) {

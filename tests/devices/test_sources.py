@@ -332,7 +332,7 @@ def test_simulate_prints_the_tty_and_speaks_the_protocol(tmp_path):
     from exhibit.devices import protocol as p
 
     proc = subprocess.Popen(
-        [sys.executable, "-m", "exhibit", "simulate", "controller", "--duration", "20"],
+        [sys.executable, "-m", "exhibit", "simulate", "controller", "--duration", "120"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -344,7 +344,7 @@ def test_simulate_prints_the_tty_and_speaks_the_protocol(tmp_path):
         port.write(p.encode_frame(p.HelloRequest(), 0))
         dec = p.StreamDecoder()
         frames = []
-        for _ in range(50):
+        for _ in range(300):  # 60 s of reads: a hang's backstop, however busy the machine
             frames += [f for f in dec.feed(port.read(256)) if isinstance(f, p.Frame)]
             if any(isinstance(f.message, p.Hello) for f in frames):
                 break

@@ -37,6 +37,10 @@ pytestmark = pytest.mark.slow
 CONFIG = ROOT / "configs" / "devices" / "default.toml"
 REAL_BOARD = os.environ.get("EXHIBIT_BOARD", "/dev/ttyACM0")
 KNOWN_ZEROS = (8000, 8300, 8176, 8100, 8250, 8176)  # c16, all near mid-scale
+# Wall seconds a wait may take before it counts as a hang. A busy machine runs the simulated
+# board and the host late; the waits end on the condition, and only the explicit limits below
+# (the host's own real-time promises: loss after 4 heartbeats, replug within 2 s) are timings.
+HANG_S = 60.0
 
 
 class RecordingTracker(p.SequenceTracker):
@@ -80,7 +84,7 @@ class Rig:
         while time.monotonic() < end:
             self.step()
 
-    def until(self, pred, limit=5.0, what="condition") -> float:
+    def until(self, pred, limit=HANG_S, what="condition") -> float:
         """Steps until pred() holds; the seconds it took."""
         start = time.monotonic()
         while not pred():
@@ -92,7 +96,7 @@ class Rig:
     def connected(self) -> float:
         return self.until(lambda: self.ctl.state is State.CONNECTED, what="handshake")
 
-    def settled(self, pred=lambda axes: True, limit=5.0):
+    def settled(self, pred=lambda axes: True, limit=HANG_S):
         """Waits until the axes stopped changing (no ABS event for 0.3 s) and pred holds."""
         def quiet():
             abs_times = [e.t for e in self.events if e.kind is Kind.ABS]
@@ -340,7 +344,7 @@ def test_watchdog_reset_mid_stream_is_survived(make_board, rigs):
     n = len(rig.ctl.tracker.frames)
     rig.ctl.send(p.WatchdogTest())
     rig.until(lambda: any(isinstance(f.message, p.Hello) and f.seq == 0
-                          for f in rig.ctl.tracker.frames[n:]), limit=2.0, what="HELLO after reset")
+                          for f in rig.ctl.tracker.frames[n:]), what="HELLO after reset")
     rig.until(lambda: any(isinstance(f.message, p.Calibration)
                           for f in rig.ctl.tracker.frames[n:]), what="CALIBRATION after reset")
     hello = next(f for f in rig.ctl.tracker.frames[n:] if isinstance(f.message, p.Hello))

@@ -1,6 +1,10 @@
 """`exhibit simulate controller --firmware ...` as staff use it: the firmware in simavr behind a
 stable link, read by `exhibit devices` and `exhibit monitor` exactly as they read a board; and
-one-line errors for a wrong file or a missing harness."""
+one-line errors for a wrong file or a missing harness.
+
+A busy machine makes these commands start and run slowly: the waits end on what the commands
+print, their own clocks (monitor's lines) judge their durations, and the wall clock only
+bounds a hang (HANG_S)."""
 
 from __future__ import annotations
 
@@ -9,13 +13,13 @@ import os
 import signal
 import subprocess
 import sys
-import time
 
 import pytest
 
 from exhibit.cli import main
 
 EXHIBIT = [sys.executable, "-m", "exhibit.cli"]
+HANG_S = 120  # wall seconds: a command that has not finished by then hung
 
 
 @pytest.mark.parametrize("make, fragment", [
@@ -53,27 +57,27 @@ def test_simulated_firmware_serves_devices_and_monitor(avr_build, harness, tmp_p
     hello, monitor its live axes, through the --link name."""
     link = tmp_path / "exhibit-controller"
     script = tmp_path / "moves.txt"
-    script.write_text("wait 1.5\naxis 1 0.8\nwait 30\n")
+    script.write_text("wait 1.5\naxis 1 0.8\nwait 600\n")
     env = {**os.environ, "EXHIBIT_SIM_HARNESS": str(harness)}
     sim = subprocess.Popen(EXHIBIT + ["simulate", "controller", "--firmware",
                                       str(avr_build / "controller" / "controller.elf"),
                                       "--script", str(script), "--link", str(link),
-                                      "--duration", "20"],
+                                      "--duration", str(2 * HANG_S)],  # Ctrl-C ends it
                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env)
     try:
         tty = sim.stdout.readline().strip()
         assert tty.startswith("/dev/pts/"), tty
         assert os.path.realpath(link) == tty
         common = ["--only", "--device", f"controller=serial://{link}", "--json"]
-        devices = subprocess.run(EXHIBIT + ["devices", *common, "--wait", "3"], text=True,
-                                 capture_output=True, timeout=30)
+        # --wait ends early once the board answers
+        devices = subprocess.run(EXHIBIT + ["devices", *common, "--wait", "60"], text=True,
+                                 capture_output=True, timeout=HANG_S)
         assert devices.returncode == 0, devices.stderr
         doc = json.loads(devices.stdout)
         board = next(d for d in doc["configured"] if d["name"] == "controller")
         assert board["state"] == "connected" and "firmware 1.0.0" in board["detail"], board
-        start = time.monotonic()
         monitor = subprocess.run(EXHIBIT + ["monitor", *common, "--rate", "4", "--duration", "4"],
-                                 text=True, capture_output=True, timeout=30)
+                                 text=True, capture_output=True, timeout=HANG_S)
         assert monitor.returncode == 0, monitor.stderr
         lines = [json.loads(line) for line in monitor.stdout.splitlines()]
         assert any(line["devices"]["controller"] == "connected" for line in lines)
@@ -81,7 +85,7 @@ def test_simulated_firmware_serves_devices_and_monitor(avr_build, harness, tmp_p
         assert any("firmware 1.0.0" in line["details"]["controller"] for line in lines), lines
         last = lines[-1]
         assert any(last["angles_deg"]) or last["sensor_r"] > 0, last  # live axes move the view
-        assert time.monotonic() - start < 15
+        assert len(lines) <= 4 * 4 + 1  # 4 lines a second, ended after 4 s by its own clock
     finally:
         sim.send_signal(signal.SIGINT)  # Ctrl-C
         out, err = sim.communicate(timeout=10)
@@ -103,13 +107,24 @@ def test_sim_url_with_a_bad_firmware_is_one_line(capsys, url, fragment):
 def test_sim_url_runs_the_firmware_for_monitor(avr_build, harness, tmp_path):
     """sim://controller?firmware=ELF: the exhibit's own backend starts the firmware in simavr."""
     script = tmp_path / "moves.txt"
-    script.write_text("wait 1\naxis 1 0.8\nwait 30\n")
+    script.write_text("wait 1\naxis 1 0.8\nwait 600\n")
     url = f"sim://controller?firmware={avr_build / 'controller' / 'controller.elf'}&script={script}"
-    monitor = subprocess.run(EXHIBIT + ["monitor", "--only", "--device", f"controller={url}",
-                                        "--json", "--rate", "4", "--duration", "3.5"],
-                             text=True, capture_output=True, timeout=30)
-    assert monitor.returncode == 0, monitor.stderr
-    lines = [json.loads(line) for line in monitor.stdout.splitlines()]
-    assert lines[-1]["devices"]["controller"] == "connected"
-    moved = any(lines[-1]["angles_deg"]) or lines[-1]["sensor_r"] > 0
-    assert moved, lines[-1]  # the held stick moves the view (where the config maps it)
+    # monitor until it shows the board connected and the held stick moving the view (where the
+    # config maps it), however long a busy machine takes to get there; then Ctrl-C
+    monitor = subprocess.Popen(EXHIBIT + ["monitor", "--only", "--device", f"controller={url}",
+                                          "--json", "--rate", "4", "--duration", str(HANG_S)],
+                               stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        lines = []
+        for text in monitor.stdout:
+            lines.append(json.loads(text))
+            line = lines[-1]
+            if line["devices"]["controller"] == "connected" and (
+                    any(line["angles_deg"]) or line["sensor_r"] > 0):
+                break
+        else:
+            pytest.fail(f"monitor ended without a connected, moving board: {lines[-1:]}")
+    finally:
+        monitor.send_signal(signal.SIGINT)
+        _, err = monitor.communicate(timeout=HANG_S)
+    assert monitor.returncode == 130, err  # Ctrl-C, as staff stop it
