@@ -30,6 +30,10 @@ time limit (:data:`TIMEOUTS`). In order, stopping at the first failure:
 A kill -9 at any moment leaves PREFIX a working release (the old one or the new one), and the
 lock goes with the process. `exhibit rollback` (exhibit/commands/rollback.py) switches back the
 same way.
+
+Why one module of this size: the update is one transaction, and its checks, its switch and its
+undo must see the same state (the lock, the links, what was switched); split, each part would
+have to trust the others' assumptions about a prefix that a power cut may have left half-way.
 """
 
 from __future__ import annotations
