@@ -157,7 +157,8 @@ def run(args) -> int:
             warm.append(ready)
             warm_prepared.append(prepared)
     median = statistics.median
-    interpreter_s, imports_s = median(interpreter), median(imports)
+    # rounded as reported, so the ratios printed are those of the times printed
+    interpreter_s, imports_s = round(median(interpreter), 3), round(median(imports), 3)
     machine = f"{platform.machine()}, {os.cpu_count()} cores, Python {platform.python_version()}"
     cold_s, warm_s = round(median(cold), 3), round(median(warm), 3)
     cold_runs, warm_runs = [round(c, 3) for c in cold], [round(w, 3) for w in warm]
