@@ -13,7 +13,7 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.lemma2_marks import marking_vertices
-from exhibit.geometry.touching import critical_values
+from exhibit.geometry.touching import critical_values, near_critical
 from exhibit.surfaces.mesh import Mesh4D, Surface
 from exhibit.surfaces.metrics import unique_edges
 
@@ -61,6 +61,26 @@ def segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
     n = len(starts)
     style = np.tile(np.array([*color, width, min(layer, LAYERS - 1)], dtype=np.float64), (n, 1))
     return np.concatenate([starts, ends, style], axis=1)
+
+
+def silhouette_key(surface: "GpuSurface", view, slice_width: float) -> str:
+    """The silhouette program a surface is drawn with: with the slice's tangency test only
+    when a slice is drawn near one of the surface's critical values (geometry/touching.py)."""
+    if (
+        slice_width
+        and view.slice_axis is not None
+        and near_critical(surface.critical[view.slice_axis], view.slice_at, surface.longest_edge)
+    ):
+        return "silhouette_slice"
+    return "silhouette"
+
+
+def curve_rows(curve, color, layer: int = 0) -> np.ndarray | None:
+    """A curve's segments as instance rows in ``color`` (None for a curve with none)."""
+    segments = curve.segments()
+    if not len(segments):
+        return None
+    return segment_rows(segments[:, 0], segments[:, 1], color, curve.material.line_width, layer)
 
 
 @dataclass
@@ -172,17 +192,9 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
             )
         surfaces.append(gpu)
     for curve in mesh.curves:
-        segments = curve.segments()
-        if len(segments):
-            rows.append(
-                segment_rows(
-                    segments[:, 0],
-                    segments[:, 1],
-                    curve.material.color,
-                    curve.material.line_width,
-                    len(rows),
-                )
-            )
+        row = curve_rows(curve, curve.material.color, len(rows))
+        if row is not None:
+            rows.append(row)
     lines = markers = None
     vaos = {}
     line_count = marker_count = 0

@@ -17,10 +17,16 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.pipeline import ClipTransform, clip_transform
-from exhibit.geometry.touching import near_critical
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
-from exhibit.render.gpu import CENTRE_UNITS, LINE_BIAS, SLICE_WIDTH, GpuMesh, upload
+from exhibit.render.gpu import (
+    CENTRE_UNITS,
+    LINE_BIAS,
+    SLICE_WIDTH,
+    GpuMesh,
+    silhouette_key,
+    upload,
+)
 from exhibit.render.hud import PINCH_COLOR, Hud
 from exhibit.render.options import RenderOptions
 from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
@@ -331,15 +337,7 @@ class Renderer:
             for ink_width, slice_width, pinch_size in passes:
                 ready: dict[str, moderngl.Program] = {}  # programs with this pass's uniforms set
                 for surface in gpu.surfaces:
-                    key = "silhouette"
-                    if (
-                        slice_width
-                        and view.slice_axis is not None
-                        and near_critical(
-                            surface.critical[view.slice_axis], view.slice_at, surface.longest_edge
-                        )
-                    ):
-                        key = "silhouette_slice"
+                    key = silhouette_key(surface, view, slice_width)
                     if key not in ready:
                         ready[key] = prog = self.programs[key]
                         self.set_pipeline(prog, view, size)

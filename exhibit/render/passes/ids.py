@@ -28,7 +28,9 @@ from exhibit.render.gpu import (
     MARKER_SCALE,
     SLICE_WIDTH,
     GpuMesh,
+    curve_rows,
     segment_rows,
+    silhouette_key,
 )
 from exhibit.render.options import RenderOptions
 
@@ -247,7 +249,6 @@ class ObjectIdPass:
         """The silhouette pass's marks as the picture draws them (depth-tested, no depth
         writes, after the curves), each kind in its own id: outlines, Lemma 2 discs, the slice.
         Opaque cores only (pass 0)."""
-        from exhibit.geometry.touching import near_critical
         from exhibit.render import shaders
 
         if not gpu.surfaces:
@@ -269,15 +270,7 @@ class ObjectIdPass:
             if not (ink_width or slice_width or disc_width):
                 continue
             for surface in gpu.surfaces:
-                key = "silhouette"
-                if (
-                    slice_width
-                    and view.slice_axis is not None
-                    and near_critical(
-                        surface.critical[view.slice_axis], view.slice_at, surface.longest_edge
-                    )
-                ):
-                    key = "silhouette_slice"
+                key = silhouette_key(surface, view, slice_width)
                 prog = self.programs[key]
                 self.renderer.set_pipeline(prog, view, size)
                 shaders.set_uniforms(
@@ -315,16 +308,9 @@ class ObjectIdPass:
             )
             next_id += 1
         for curve in mesh.curves:
-            segments = curve.segments()
-            if len(segments):
-                rows.append(
-                    segment_rows(
-                        segments[:, 0],
-                        segments[:, 1],
-                        _id_colour(next_id),
-                        curve.material.line_width,
-                    )
-                )
+            row = curve_rows(curve, _id_colour(next_id))
+            if row is not None:
+                rows.append(row)
             next_id += 1
         markers = []
         for marker in mesh.markers:
