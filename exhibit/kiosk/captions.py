@@ -46,7 +46,7 @@ def reading_time(caption: str) -> float:
     return 0.0 if not words else max(MIN_READ_S, SECONDS_PER_WORD * words)
 
 
-def _runs(timeline: Timeline, key) -> list[tuple[int, float, float]]:
+def caption_runs(timeline: Timeline, key) -> list[tuple[int, float, float]]:
     """(first keyframe index, start t, end t) of each run of keyframes with the same ``key``."""
     frames = timeline.keyframes
     runs: list[tuple[int, float, float]] = []
@@ -61,7 +61,7 @@ def _runs(timeline: Timeline, key) -> list[tuple[int, float, float]]:
 
 def _reading_problems(timeline: Timeline) -> list[str]:
     out = []
-    for first, t0, t1 in _runs(timeline, lambda k: k.caption):
+    for first, t0, t1 in caption_runs(timeline, lambda k: k.caption):
         caption = timeline.keyframes[first].caption
         need = reading_time(caption)
         if t1 - t0 < need:
@@ -99,7 +99,7 @@ def _condition_problems(timeline: Timeline) -> list[str]:
     out = []
     runs = [
         (first, t0, t1)
-        for first, t0, t1 in _runs(timeline, lambda k: (k.caption_from, k.condition))
+        for first, t0, t1 in caption_runs(timeline, lambda k: (k.caption_from, k.condition))
         if timeline.keyframes[first].condition is not None
     ]
     # one step for the whole timeline: STEP_S, or coarser where that would pass MAX_SAMPLES
@@ -113,11 +113,11 @@ def _condition_problems(timeline: Timeline) -> list[str]:
         r = [view.sensor_r for view in views]
         where = f"{timeline.path}: keyframe[{first}].while"
         if condition.sensor_r is not None:
-            out += _distance_problems(where, condition, times, r)
+            out += distance_problems(where, condition, times, r)
         if condition.motion is not None:
-            out += _motion_problems(where, condition.motion, times, r)
+            out += motion_problems(where, condition.motion, times, r)
         if condition.angles_within is not None:
-            out += _turn_problems(where, condition, times, views, first)
+            out += turn_problems(where, condition, times, views, first)
     return out
 
 
@@ -125,7 +125,7 @@ def _condition_problems(timeline: Timeline) -> list[str]:
 POSE_NAMES = ("θ1", "θ2", "θ3", "θ4", "θ5", "θ6", "eye azimuth", "eye incidence")
 
 
-def _turn_problems(
+def turn_problems(
     where: str, condition: Condition, times: list[float], views, first: int
 ) -> list[str]:
     """The pose turned more than ``angles_within`` degrees from the stating keyframe's."""
@@ -142,7 +142,7 @@ def _turn_problems(
         return []
     worst, k = max(turns[j] for j in bad)
     return [
-        f"{where}.angles_within: the caption is shown at t = {_spans(times, bad)} with the "
+        f"{where}.angles_within: the caption is shown at t = {time_spans(times, bad)} with the "
         f"view turned up to {worst:.1f}° ({POSE_NAMES[k]}) from keyframe[{first}]'s pose, "
         f"more than {limit:g}°"
     ]
@@ -152,7 +152,7 @@ def _distance(r: float) -> str:
     return "inf" if r <= 0 else f"{1 / r:.3g}"
 
 
-def _distance_problems(
+def distance_problems(
     where: str, condition: Condition, times: list[float], r: list[float]
 ) -> list[str]:
     assert condition.sensor_r is not None and condition.sensor_distance is not None  # together
@@ -167,12 +167,12 @@ def _distance_problems(
     near, far = _distance(max(r[j] for j in bad)), _distance(min(r[j] for j in bad))
     seen = near if near == far else f"{near}..{far}"
     return [
-        f"{where}.sensor_distance: the caption is shown at t = {_spans(times, bad)} with the "
+        f"{where}.sensor_distance: the caption is shown at t = {time_spans(times, bad)} with the "
         f"sensor at {seen}, outside {want}"
     ]
 
 
-def _motion_problems(where: str, motion: str, times: list[float], r: list[float]) -> list[str]:
+def motion_problems(where: str, motion: str, times: list[float], r: list[float]) -> list[str]:
     steps = [b - a for a, b in zip(r, r[1:])]
     sign = {"closer": 1.0, "farther": -1.0, "still": 0.0}[motion]
     if sign == 0.0:
@@ -190,11 +190,11 @@ def _motion_problems(where: str, motion: str, times: list[float], r: list[float]
         return []
     return [
         f"{where}.sensor_motion: the caption says {motion!r}, but {what} at t = "
-        f"{_spans(times, bad, steps=True)}"
+        f"{time_spans(times, bad, steps=True)}"
     ]
 
 
-def _spans(times: list[float], indices: list[int], steps: bool = False, most: int = 3) -> str:
+def time_spans(times: list[float], indices: list[int], steps: bool = False, most: int = 3) -> str:
     """Sample indices (with ``steps``: the steps from sample j to j + 1) as time ranges:
     "28.0..36.0 s" or "1.0..2.0 s, 5.0 s"."""
     spans: list[list[int]] = []

@@ -15,19 +15,21 @@ A problem is one line ``file: keyframe N: claim: what was measured``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Condition, PictureClaims, Timeline
 from exhibit.kiosk.captions import (
-    _distance_problems,
-    _motion_problems,
-    _runs,
-    _spans,
-    _turn_problems,
+    distance_problems,
+    motion_problems,
+    caption_runs,
+    time_spans,
+    turn_problems,
 )
+from exhibit.kiosk.review import KioskPlayer, caption_spans, read_timeline
 from exhibit.render.passes.ids import ObjectCoverage, object_names
 
 #: Seconds between the samples of a caption (its two ends always among them).
@@ -87,7 +89,7 @@ class Run:
 def claim_runs(timeline: Timeline) -> list[Run]:
     """Each stretch of a timeline whose caption states a condition."""
     out = []
-    for first, t0, t1 in _runs(timeline, lambda k: (k.caption_from, k.condition)):
+    for first, t0, t1 in caption_runs(timeline, lambda k: (k.caption_from, k.condition)):
         condition = timeline.keyframes[first].condition
         if condition is not None and t1 > t0:
             out.append(Run(first, t0, t1, condition))
@@ -114,7 +116,7 @@ def id_size(size: tuple[int, int]) -> tuple[int, int]:
     return max(1, round(size[0] * height / size[1])), height
 
 
-def measure(player, fps: float, runs: list[Run], progress: Callable[[], None] | None = None):
+def measure(player: KioskPlayer, fps: float, runs: list[Run]) -> dict[float, Sample]:
     """Play ``player``'s timeline at ``fps`` and measure each run's samples: {t: Sample}."""
     times = sorted({t for run in runs for t in run.times()})
     visible = {n for run in runs if run.condition.picture for n in run.condition.picture.visible}
@@ -135,8 +137,6 @@ def measure(player, fps: float, runs: list[Run], progress: Callable[[], None] | 
         coverage = ids.objects(gpu, view, size)
         footprint = ids.footprints(gpu, view, size, surfaces=surfaces) if named else {}
         samples[frame.t] = Sample(frame.t, view, coverage, objects, footprint)
-        if progress is not None:
-            progress()
     return samples
 
 
@@ -167,11 +167,11 @@ def _view_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
     where = f"{head}: while"
     out = []
     if c.sensor_r is not None:
-        out += _distance_problems(where, c, times, r)
+        out += distance_problems(where, c, times, r)
     if c.motion is not None and len(seen) > 1:
-        out += _motion_problems(where, c.motion, times, r)
+        out += motion_problems(where, c.motion, times, r)
     if c.angles_within is not None:
-        out += _turn_problems(where, c, times, [s.view for s in seen], run.first)
+        out += turn_problems(where, c, times, [s.view for s in seen], run.first)
     return out
 
 
@@ -224,7 +224,7 @@ def _picture_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
             least = min(share(name, seen[j]) for j in bad)
             out.append(
                 f"{head}: visible {name}: covers {100 * least:.3f} % of the screen at t = "
-                f"{_spans(times, bad)}, less than {100 * VISIBLE_SHARE:.2f} % (or, for a small "
+                f"{time_spans(times, bad)}, less than {100 * VISIBLE_SHARE:.2f} % (or, for a small "
                 f"object, {100 * VISIBLE_PART:.0f} % of it)"
             )
             continue
@@ -237,7 +237,7 @@ def _picture_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
             least = min(shown_part(name, seen[j]) for j in hidden)
             out.append(
                 f"{head}: visible {name}: {100 * least:.0f} % of it shows at t = "
-                f"{_spans(times, hidden)} (the rest is behind other objects), less than "
+                f"{time_spans(times, hidden)} (the rest is behind other objects), less than "
                 f"{100 * VISIBLE_PART:.0f} % and under {100 * PLAINLY_VISIBLE:.1f} % of the screen"
             )
     for name in claims.absent:
@@ -248,7 +248,7 @@ def _picture_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
             most = max(share(name, seen[j]) for j in bad)
             out.append(
                 f"{head}: absent {name}: covers {100 * most:.3f} % of the screen at t = "
-                f"{_spans(times, bad)}, more than {100 * ABSENT_SHARE:.3f} %"
+                f"{time_spans(times, bad)}, more than {100 * ABSENT_SHARE:.3f} %"
             )
     for name, low in claims.fills:
         if not matched[name]:
@@ -258,7 +258,7 @@ def _picture_problems(run: Run, seen: list[Sample], head: str) -> list[str]:
             least = min(share(name, seen[j]) for j in bad)
             out.append(
                 f"{head}: fills {name} = {low:g}: covers {least:.2f} of the screen at t = "
-                f"{_spans(times, bad)}"
+                f"{time_spans(times, bad)}"
             )
     growth: dict[str, float] = {}
     for name in {*claims.grows, *claims.shrinks, *(claims.outgrows or ())}:
@@ -299,11 +299,11 @@ class Verdict:
     captions_with_claims: int = 0
     claims: int = 0
     checked: int = 0
-    problems: list[str] | None = None
+    problems: list[str] = field(default_factory=list)
 
     @property
     def holding(self) -> int:
-        return self.checked - len(self.problems or [])
+        return self.checked - len(self.problems)
 
 
 def verify(
@@ -319,13 +319,9 @@ def verify(
     """Play the timeline at ``path`` in each language and each motion setting (``reduced``:
     False, True or both) on ``config``'s kiosk at ``size``, and hold every caption to its
     claims. ``headless`` (exhibit.render.Headless) is shared by the plays when given."""
-    import dataclasses
-
-    from exhibit.kiosk.review import KioskPlayer, caption_spans, read_timeline
-
     timeline = read_timeline(path)
     runs = claim_runs(timeline)
-    verdict = Verdict(str(path), problems=[])
+    verdict = Verdict(str(path))
     verdict.captions = len({s.text for s in caption_spans(timeline)})
     with_claims = {timeline.keyframes[r.first].caption for r in runs}
     verdict.captions_with_claims = len(with_claims - {""})
@@ -343,6 +339,5 @@ def verify(
             ) as player:
                 samples = measure(player, fps, runs)
             verdict.checked += verdict.claims
-            assert verdict.problems is not None
             verdict.problems += problems(timeline, runs, samples, where)
     return verdict

@@ -63,6 +63,20 @@ def segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
     return np.concatenate([starts, ends, style], axis=1)
 
 
+#: Vertices in GpuMesh.sample.
+SURFACE_SAMPLE = 256
+
+
+def surface_sample(gpu: "GpuMesh") -> np.ndarray:
+    """About SURFACE_SAMPLE of the surfaces' vertices (a zero point for a mesh without any),
+    taken once and kept on the mesh."""
+    if gpu.sample is None:
+        points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
+        sample = np.concatenate(points) if points else np.zeros((1, 4))
+        gpu.sample = sample[:: max(1, len(sample) // SURFACE_SAMPLE)]
+    return gpu.sample
+
+
 def silhouette_key(surface: "GpuSurface", view, slice_width: float) -> str:
     """The silhouette program a surface is drawn with: with the slice's tangency test only
     when a slice is drawn near one of the surface's critical values (geometry/touching.py)."""
@@ -73,6 +87,13 @@ def silhouette_key(surface: "GpuSurface", view, slice_width: float) -> str:
     ):
         return "silhouette_slice"
     return "silhouette"
+
+
+def wire_rows(surface: Surface, color, layer: int = 0) -> np.ndarray:
+    """A wire surface's edges, each once, as instance rows in ``color``."""
+    edges = unique_edges(surface.triangles)
+    p = surface.positions
+    return segment_rows(p[edges[:, 0]], p[edges[:, 1]], color, surface.material.line_width, layer)
 
 
 def curve_rows(curve, color, layer: int = 0) -> np.ndarray | None:
@@ -110,8 +131,12 @@ class GpuMesh:
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
     #: Largest distance of any point from the origin (for the 4D depth colour ramp).
     radius: float = 1.0
-    #: A few hundred of the surfaces' vertices (the renderer's depth scale for intersections).
+    #: A few hundred of the surfaces' vertices (surface_sample): the renderer's depth scale for
+    #: intersections, the HUD's picture box.
     sample: np.ndarray | None = None
+    #: Per object tag: its candidate points, colour and kept anchor (exhibit.render.object_tags),
+    #: kept with the mesh so a new mesh never inherits another's.
+    tag_anchors: dict = field(default_factory=dict)
     #: Buffers a pass made for this mesh on first use (the object-id pass's curves), freed
     #: with it.
     buffers: dict[str, moderngl.Buffer] = field(default_factory=dict)
@@ -154,17 +179,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
     rows: list[np.ndarray] = []
     for surface in mesh.surfaces:
         if surface.material.style == "wire":
-            edges = unique_edges(surface.triangles)
-            p = surface.positions
-            rows.append(
-                segment_rows(
-                    p[edges[:, 0]],
-                    p[edges[:, 1]],
-                    surface.material.color,
-                    surface.material.line_width,
-                    len(rows),
-                )
-            )
+            rows.append(wire_rows(surface, surface.material.color, len(rows)))
             continue
         if len(surface.triangles) == 0:
             continue

@@ -26,7 +26,7 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
-from exhibit.render.object_tags import TagAnchors
+from exhibit.render.object_tags import TagAnchors, picture_box
 from exhibit.render.layout import (
     HudLayout,
     Rect,
@@ -119,7 +119,7 @@ class Hud:
         self.texts: list[TextMark] = []
         #: The latest object tags drawn: (words, Rect, point (x, y), hidden), for checks.
         self.tags: list[tuple[str, Rect, tuple[float, float], bool]] = []
-        #: Where each tagged object's leader line ends, kept while it stays in front.
+        #: Paces the tags' anchor checks (each mesh keeps its own anchors).
         self._anchors = TagAnchors()
         #: False: every glyph is left out (halos and panels stay), so a check can see what
         #: lies behind the text; never in a kiosk.
@@ -277,7 +277,10 @@ class Hud:
             self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, y, INK, rows)
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         # Labels keep off the picture where there is room (wire frames would cross them).
-        picture = self._anchors.picture_box(gpu, r.clip_transform(view, size), size)
+        ct = r.clip_transform(view, size)
+        self._anchors.tick(ct)
+        labelled = hud.tags or any(m.label for m in gpu.mesh.markers)
+        picture = picture_box(gpu, ct, size) if labelled else None
         items += self._marker_labels(gpu, view, size, layout, rows, hud.word, picture)
         items += self._object_tags(gpu, view, size, layout, rows, hud.tags, picture)
         if alpha < 1.0:

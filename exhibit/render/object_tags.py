@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
+from exhibit.render.gpu import surface_sample
 from exhibit.render.layout import Rect
 
 #: Points of an object considered for its anchor, and how many of them (the outermost first)
@@ -23,8 +24,6 @@ SAMPLE = 300
 CANDIDATES = 6
 #: A kept anchor is tested for being in front again every this many frames.
 CHECK_FRAMES = 8
-#: Points of the surfaces whose screen box the tags keep off, where there is room.
-PICTURE_SAMPLE = 600
 
 
 def _parts(mesh, name: str):
@@ -43,38 +42,39 @@ def _inside(x: float, y: float, rect: Rect) -> bool:
     return rect.x0 <= x <= rect.x1 and rect.y0 <= y <= rect.y1
 
 
+def picture_box(gpu, ct, size) -> Rect | None:
+    """The surfaces' box on screen, from the mesh's kept sample of their vertices (exhibit.
+    render.gpu.surface_sample); None when none of it shows."""
+    if not any(len(s.positions) for s in gpu.mesh.surfaces):
+        return None
+    pixels, ok = ct.to_pixels(surface_sample(gpu), *size)
+    if not ok.any():
+        return None
+    p = pixels[ok]
+    return Rect(*p.min(axis=0), *p.max(axis=0))
+
+
 class TagAnchors:
-    """Per mesh and tag, the 4D point its leader line ends on (see the module docstring)."""
+    """The frame count that paces the anchors' checks; each mesh keeps its tags' candidate
+    points and kept anchors itself (GpuMesh.tag_anchors), so they go with it."""
 
     def __init__(self) -> None:
-        self._kept: dict[tuple[int, str], tuple[np.ndarray, int]] = {}
-        self._points: dict[tuple[int, str], tuple[np.ndarray, tuple[float, ...]]] = {}
         self._frame = 0
         self._last_ct = None
 
-    def picture_box(self, gpu, ct, size) -> Rect | None:
-        """The surfaces' box on screen (from a sample of their points), None when none shows;
-        called once a frame. It counts the frames for CHECK_FRAMES, a view drawn again (a
-        crossfade's capture, a check's redraw) not counted: the same view gets the same tags."""
+    def tick(self, ct) -> None:
+        """Once a frame. A view drawn again (a crossfade's capture, a check's redraw) is not
+        counted: the same view gets the same tags."""
         if ct is not self._last_ct:
             self._frame += 1
             self._last_ct = ct
-        points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
-        if not points:
-            return None
-        sample = _sample(np.concatenate(points), PICTURE_SAMPLE)
-        pixels, ok = ct.to_pixels(sample, *size)
-        if not ok.any():
-            return None
-        p = pixels[ok]
-        return Rect(*p.min(axis=0), *p.max(axis=0))
 
     def anchor(self, gpu, name: str, ct, size, panels=()):
         """((x, y) pixels, rgb, hidden) for the object ``name`` in this frame, None when no
         part of it is on the screen off the ``panels`` (a leader from under a panel would cross
         its words)."""
-        key = (id(gpu.mesh), name)
-        if key not in self._points:
+        entry = gpu.tag_anchors.get(name)
+        if entry is None:
             surfaces, curves, markers = _parts(gpu.mesh, name)
             arrays = [s.positions for s in surfaces] + [c.points for c in curves]
             arrays += [m.position[None] for m in markers]
@@ -82,15 +82,14 @@ class TagAnchors:
             if not arrays:
                 return None
             first = (surfaces or curves or markers)[0]
-            self._points[key] = (
-                _sample(np.concatenate(arrays), SAMPLE),
-                tuple(float(c) for c in first.material.color),
-            )
-            if len(self._points) > 64:  # meshes come and go in reviews and tests
-                self._points.pop(next(iter(self._points)))
-        points, rgb = self._points[key]
+            entry = gpu.tag_anchors[name] = {
+                "points": _sample(np.concatenate(arrays), SAMPLE),
+                "rgb": tuple(float(c) for c in first.material.color),
+                "kept": None,  # (4D point, the frame it was chosen or checked)
+            }
+        points, rgb = entry["points"], entry["rgb"]
         width, height = size
-        kept = self._kept.get(key)
+        kept = entry["kept"]
         if kept is not None:
             point, since = kept
             (x, y), ok = (v[0] for v in ct.to_pixels(point[None], width, height))
@@ -111,7 +110,7 @@ class TagAnchors:
                 & (pixels[:, 1] <= p.y1)
             )
         if not ok.any():
-            self._kept.pop(key, None)
+            entry["kept"] = None
             return None
         on = np.flatnonzero(ok)
         centre = pixels[on].mean(axis=0)
@@ -120,6 +119,6 @@ class TagAnchors:
         covered = hidden(points[candidates], gpu.mesh.surfaces, ct)
         front = np.flatnonzero(~covered)
         pick = candidates[front[0]] if len(front) else candidates[0]
-        self._kept[key] = (points[pick], self._frame)
+        entry["kept"] = (points[pick], self._frame)
         x, y = pixels[pick]
         return (float(x), float(y)), rgb, not len(front)

@@ -25,6 +25,7 @@ from exhibit.render.gpu import (
     SLICE_WIDTH,
     GpuMesh,
     silhouette_key,
+    surface_sample,
     upload,
 )
 from exhibit.render.hud import PINCH_COLOR, Hud
@@ -54,9 +55,8 @@ BLEND_PREMULTIPLIED = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
 SHEET_GAP = 0.05
 SHEET_OFFSET = 16.0
 #: Smallest crossing the curves show: the sine of the angle between the two sheets (depth
-#: scaled to pixels by the mesh's extent on screen, from DEPTH_SAMPLE of its vertices).
+#: scaled to pixels by the mesh's extent on screen, from gpu.surface_sample's vertices).
 MIN_CROSSING = 0.2
-DEPTH_SAMPLE = 256
 INTERSECTION_INK = (0.05, 0.05, 0.07)
 #: The slice curve drawn live (ViewState.slice_axis/slice_at): the slice's colour (its width:
 #: gpu.SLICE_WIDTH).
@@ -363,11 +363,7 @@ class Renderer:
         on screen: the intersection pass measures crossing angles with depth in the same units
         as x and y, and runs only over the box around the surfaces (padded, since the sample
         leaves vertices out; the whole screen when a vertex is clipped, e.g. near the sensor)."""
-        sample = gpu.sample
-        if sample is None:
-            points = [s.positions for s in gpu.mesh.surfaces if len(s.positions)]
-            sample = np.concatenate(points) if points else np.zeros((1, 4))
-            sample = gpu.sample = sample[:: max(1, len(sample) // DEPTH_SAMPLE)]
+        sample = surface_sample(gpu)
         width, height = size
         ndc, ok = self.clip_transform(view, size).to_ndc(sample)
         if ok.sum() < 2:

@@ -20,17 +20,21 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.view import ViewState
+from exhibit.render import shaders
 from exhibit.render.gpu import (
     CENTRE_UNITS,
+    SURFACE_ATTRIBUTES,
     CURVE_ATTRIBUTES,
     LINE_BIAS,
     MARKER_MIN,
     MARKER_SCALE,
     SLICE_WIDTH,
     GpuMesh,
+    attribute_format,
     curve_rows,
     segment_rows,
     silhouette_key,
+    wire_rows,
 )
 from exhibit.render.options import RenderOptions
 
@@ -83,8 +87,6 @@ class ObjectIdPass:
     the mesh (GpuMesh.release)."""
 
     def __init__(self, ctx: moderngl.Context, renderer):
-        from exhibit.render import shaders
-
         self.ctx, self.renderer = ctx, renderer
         self.programs = {
             "object_ids": shaders.program(ctx, "surface.glsl", ("OBJECT_IDS",)),
@@ -200,8 +202,6 @@ class ObjectIdPass:
         return _decode(rgb)
 
     def _surface_vao(self, surface, key: str) -> moderngl.VertexArray:
-        from exhibit.render.gpu import SURFACE_ATTRIBUTES, attribute_format
-
         # kept on the surface under a name of this pass's own (its "silhouette" is the
         # picture's, bound to the renderer's program)
         vao = surface.vaos.get("ids:" + key)
@@ -220,8 +220,6 @@ class ObjectIdPass:
             self._upload_lines(gpu, first_id)
         prog = self.programs["curves"]
         self.renderer.set_pipeline(prog, view, size)
-        from exhibit.render import shaders
-
         shaders.set_uniforms(
             prog,
             {
@@ -249,8 +247,6 @@ class ObjectIdPass:
         """The silhouette pass's marks as the picture draws them (depth-tested, no depth
         writes, after the curves), each kind in its own id: outlines, Lemma 2 discs, the slice.
         Opaque cores only (pass 0)."""
-        from exhibit.render import shaders
-
         if not gpu.surfaces:
             return
         sliced = view.slice_axis is not None
@@ -297,15 +293,7 @@ class ObjectIdPass:
         for surface in mesh.surfaces:
             if surface.material.style != "wire":
                 continue
-            from exhibit.surfaces.metrics import unique_edges
-
-            edges = unique_edges(surface.triangles)
-            p = surface.positions
-            rows.append(
-                segment_rows(
-                    p[edges[:, 0]], p[edges[:, 1]], _id_colour(next_id), surface.material.line_width
-                )
-            )
+            rows.append(wire_rows(surface, _id_colour(next_id)))
             next_id += 1
         for curve in mesh.curves:
             row = curve_rows(curve, _id_colour(next_id))
