@@ -31,12 +31,7 @@ def test_each_tag_points_at_its_own_object_and_keeps_off_the_panels(gl):
         gl.image(gpu, view, SIZE, RenderOptions(), hud, samples=0)
         drawn = list(gl.renderer.hud.tags)
         layout = gl.renderer.hud.layout
-        ids = gl.renderer.ids
-        ids.objects(gpu, view, SIZE)  # the id frame of this view, read below
-        framebuffer = ids._targets[SIZE][0]
-        rgb = np.frombuffer(framebuffer.read(components=3, alignment=1), dtype=np.uint8)
-        image = rgb.reshape(SIZE[1], SIZE[0], 3)[::-1].astype(np.int64)
-        id_image = image[..., 0] | (image[..., 1] << 8) | (image[..., 2] << 16)
+        id_image = gl.renderer.ids.image(gpu, view, SIZE)
         names = object_names(gpu)
     finally:
         gpu.release()

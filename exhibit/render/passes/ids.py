@@ -109,6 +109,22 @@ class ObjectIdPass:
         """Each object's pixels in front at ``view`` and ``size`` (curves and markers as wide
         as ``options`` draws them at that size)."""
         names = object_names(gpu)
+        counts = np.bincount(self.image(gpu, view, size, options).ravel(), minlength=len(names) + 1)
+        pixels: dict[str, int] = {}
+        for i, name in enumerate(names):
+            pixels[name] = pixels.get(name, 0) + int(counts[i + 1])
+        return ObjectCoverage(pixels, (int(size[0]), int(size[1])))
+
+    def image(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions = RenderOptions(),
+    ) -> np.ndarray:
+        """(height, width) object id per pixel, top row first: 0 the background, i + 1 the
+        i-th of object_names(gpu)."""
+        names = object_names(gpu)
         if len(names) > MAX_OBJECTS:
             raise ValueError(f"{len(names)} objects: more than {MAX_OBJECTS} ids")
         framebuffer = self._begin(size)
@@ -123,12 +139,7 @@ class ObjectIdPass:
         self.renderer.clip_distances(False)
         self._curves(gpu, view, size, options, first_id=len(gpu.surfaces) + 1)
         self._marks(gpu, view, size, options, first_id=len(names) - len(MARKS) + 1)
-        ids = self._end(framebuffer, size)
-        counts = np.bincount(ids.ravel(), minlength=len(names) + 1)
-        pixels: dict[str, int] = {}
-        for i, name in enumerate(names):
-            pixels[name] = pixels.get(name, 0) + int(counts[i + 1])
-        return ObjectCoverage(pixels, (int(size[0]), int(size[1])))
+        return self._end(framebuffer, size)
 
     def footprints(
         self,
