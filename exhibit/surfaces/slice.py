@@ -4,15 +4,16 @@ For the collision surface (axes x, y, z, t) the slice at t = c is the 3D world a
 the curve where the pipe and the ball meet then, empty before the first contact, one loop just
 after it, two while the ball fills the pipe's cross-section (the paper's "hole", Figure 17).
 
-The slice is traced as the zero set of x_a - c on the mesh (marching triangles, chained into
-polylines), then every point is refined onto the exact slice:
-
-- an implicit surface: minimum-norm Newton on (f1, f2, x_a - c) in R^4, with the scale-free
-  residual max(|f1|/|∇f1|, |f2|/|∇f2|, |x_a - c|) at most RESIDUAL_TOLERANCE;
-- a parametric surface X(s, t): minimum-norm Newton in (s, t) on X_a(s, t) = c.
-
-A point that does not converge, or moves more than a few mesh edges, is dropped and counted, and
-its curve is split there, as for the exact silhouettes (surfaces/exact_silhouette.py).
+- an implicit surface: the curves are traced along the exact slice from seed points
+  (surfaces/slice_trace.py), tangency curves (the hyperplane tangent to S along a curve) by
+  their own system; seeds come from the mesh's zero set of x_a − c at c and, where the slice is
+  too thin for the mesh (next to a critical value of x_a), at c ± δ, carried to c by Newton.
+  A point is accepted when Newton's last step, a distance, is below 1e-13 of the box, not by
+  its residual (next to a tangency a tiny residual allows points far from the slice).
+- a parametric surface X(s, t): the mesh's zero set of x_a − c (marching triangles, chained),
+  each point refined by minimum-norm Newton in (s, t) on X_a(s, t) = c; a point that does not
+  converge, or moves more than a few mesh edges, is dropped and counted, and its curve is split
+  there, as for the exact silhouettes (surfaces/exact_silhouette.py).
 """
 
 from __future__ import annotations
@@ -24,7 +25,6 @@ import numpy as np
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.exact_silhouette import (
-    drop_fragments,
     ITERATIONS,
     NEWTON_TARGET,
     RESIDUAL_TOLERANCE,
@@ -152,95 +152,172 @@ def slice_curves(
     name: str = "slice",
     material: Material | None = None,
 ) -> list[Curve]:
-    """The slice S ∩ {x_axis = at} as curves refined onto the exact surface (see the module's
-    docstring). Without an exact surface behind the mesh (one loaded from the cache), nothing
-    can be refined and every traced point counts as dropped."""
+    """The slice S ∩ {x_axis = at} as curves on the exact surface (see the module's docstring).
+    Without an exact surface behind the mesh (one loaded from the cache), nothing can be
+    refined and every traced point counts as dropped."""
     if len(surface.triangles) == 0:
         return []
     exact = surface.exact
-    values = surface.positions[:, axis] - at
-    max_move = MAX_MOVE_EDGES * mean_edge(surface)
-    if isinstance(exact, ParametricExact):
-        chains = traced_with_parameters(surface, exact, values)
-    else:
-        chains = [(c.points, None, c.closed) for c in traced_slice(surface, axis, at, name)]
-    total = RefineStats()
-    out: list[Curve] = []
     material = material or Material()
-    for points, st, closed in chains:
-        if st is not None and isinstance(exact, ParametricExact):
-            x, keep, s = _refine_parametric(exact, st, axis, at, max_move)
-        elif exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2"):
-            x, keep, s = ImplicitSlice(exact.f1, exact.f2, axis, at).refine(points, max_move)
-        else:
-            total.dropped += len(points)
-            continue
-        runs = split_runs(x, keep, closed)
-        s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported
-        total.add(s)
-        for run, run_closed in runs:
-            label = name if not out else f"{name} {len(out) + 1}"
-            out.append(Curve(label, run, material, run_closed))
-    if exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2") and st_free(chains):
-        # Where the hyperplane is tangent to the surface along a curve, x_a - c touches zero
-        # without changing sign and the mesh's zero set misses it (surfaces/double_zeros.py).
-        out += tangency_curves(surface, exact, axis, at, max_move, name, material, total, len(out))
-        # A mesh vertex exactly on the hyperplane (one the mesh put on a singular point, where
-        # the tangency circle passes) gives the sign-change trace a loop shorter than a cell
-        # along the tangency curve: a duplicate, not a curve of its own.
-        out = drop_fragments(out, mean_edge(surface))
-        for i, curve in enumerate(out):
-            curve.name = name if i == 0 else f"{name} {i + 1}"
-        total.refined = sum(len(c.points) + c.closed for c in out)  # the points exported
+    total = RefineStats()
+    if isinstance(exact, ParametricExact):
+        out = _parametric_slice(surface, exact, axis, at, name, material, total)
+    elif exact is not None and hasattr(exact, "f1") and hasattr(exact, "f2"):
+        out = [
+            Curve(name, points, material, closed)
+            for points, closed in implicit_slice(surface, exact.f1, exact.f2, axis, at, total)
+        ]
+    else:
+        out = []
+        total.dropped += sum(len(c.points) for c in traced_slice(surface, axis, at, name))
+    for i, curve in enumerate(out):
+        curve.name = name if i == 0 else f"{name} {i + 1}"
     if stats is not None:
         stats.add(total)
     return out
 
 
-def st_free(chains) -> bool:
-    return all(st is None for _, st, _ in chains)
+def _parametric_slice(surface, exact, axis, at, name, material, total) -> list[Curve]:
+    max_move = MAX_MOVE_EDGES * mean_edge(surface)
+    out: list[Curve] = []
+    for points, st, closed in traced_with_parameters(
+        surface, exact, surface.positions[:, axis] - at
+    ):
+        x, keep, s = _refine_parametric(exact, st, axis, at, max_move)
+        runs = split_runs(x, keep, closed)
+        s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported
+        total.add(s)
+        out += [Curve(name, run, material, run_closed) for run, run_closed in runs]
+    return out
 
 
-def tangency_curves(
-    surface: Surface,
-    exact,
-    axis: int,
-    at: float,
-    max_move: float,
-    name: str,
-    material: Material,
-    total: RefineStats,
-    already: int,
-) -> list[Curve]:
-    """The curves along which the hyperplane x_axis = at touches the surface, refined onto
-    f1 = f2 = 0 and the hyperplane."""
-    from exhibit.surfaces.double_zeros import double_zero_chains, join_ends
+#: Seeds for slices the mesh cannot resolve at c come from the mesh at c ± δ, δ these many mean
+#: edges (in units of x_a), continued to c.
+SEED_OFFSETS = (1.0, 4.0)
+#: Seeds taken from each traced chain, at most (spread along it).
+SEEDS_PER_CHAIN = 6
+#: Tangency candidates tried, at most, before giving up on finding a tangency curve.
+TANGENCY_TRIES = 40
 
-    system = ImplicitSlice(exact.f1, exact.f2, axis, at)
-    e = np.zeros(4)
-    e[axis] = 1.0
 
-    def refine(seeds):
-        x, keep, _ = system.refine(seeds, max_move)
-        return x, keep
+def implicit_slice(surface: Surface, f1, f2, axis: int, at: float, total: RefineStats):
+    """[(points (N, 4), closed)] of f1 = f2 = 0, x_axis = at, traced along the exact curves
+    (surfaces/slice_trace.py): tangency curves first, then the transverse ones through seeds
+    from the mesh at ``at`` and at ``at`` ± δ."""
+    from exhibit.surfaces import slice_trace as st
 
     p = surface.positions
-    chains = double_zero_chains(
-        surface,
-        p[:, axis] - at,
-        np.tile(e, (len(p), 1)),
-        refine,
-        lambda x: [exact.f1.gradient(x), exact.f2.gradient(x)],
-        lambda x: np.tile(e, (len(x), 1)),
-    )
-    edge = max_move / MAX_MOVE_EDGES
-    chains = join_ends(chains, 4.0 * edge, refine, 0.5 * edge)
-    out: list[Curve] = []
-    for points, closed in chains:
-        if len(points) < 2:
+    lo, hi = p.min(axis=0), p.max(axis=0)
+    scale = float((hi - lo).max()) or 1.0
+    edge = mean_edge(surface)
+    pad = 0.5 * edge
+    plane = st.SlicePlane(f1, f2, axis, at, scale)
+    others = plane.others
+
+    def inside(u):
+        return bool(np.all(u >= lo[others] - pad) and np.all(u <= hi[others] + pad))
+
+    curves: list[st.Trace] = []
+    with np.errstate(all="ignore"):
+        for trace in _tangency_traces(surface, plane, at, edge, inside):
+            curves.append(trace)
+        traces: list[st.Trace] = []
+        for seed in _transverse_seeds(surface, plane, edge):
+            near_tangency = any(
+                np.linalg.norm(t.points - seed, axis=1).min() <= edge for t in curves
+            )
+            if near_tangency or any(
+                np.linalg.norm(t.points - seed, axis=1).min() <= 2 * edge
+                and st.on_trace(plane, seed, t, 1e-7 * scale)
+                for t in traces
+            ):
+                continue
+            traces.append(st.trace_transverse(plane, seed, edge, inside))
+        curves += st.drop_contained(
+            plane, st.join_stalled(plane, traces, 1e-6 * scale, 0.01 * edge), 1e-7 * scale
+        )
+    out = []
+    system = ImplicitSlice(f1, f2, axis, at)
+    for trace in curves:
+        if len(trace.points) < 2:
             continue
-        total.refined += len(points) + closed  # a closed curve repeats its first point
+        points = np.array([plane.lift(u) for u in trace.points])
+        total.refined += len(points) + trace.closed  # a closed curve repeats its first point
         total.max_residual = max(total.max_residual, float(system.residual(points).max()))
-        label = name if not (already + len(out)) else f"{name} {already + len(out) + 1}"
-        out.append(Curve(label, points, material, closed))
+        out.append((points, trace.closed))
     return out
+
+
+def _tangency_traces(surface, plane, at, edge, inside):
+    """Tangency curves of the hyperplane with the surface, seeded where |x_a − c| dips on a mesh
+    edge (surfaces/double_zeros.py) and kept only where the tangency is exact to round-off."""
+    from exhibit.surfaces import slice_trace as st
+    from exhibit.surfaces.double_zeros import dip_candidates
+
+    p = surface.positions
+    e = np.zeros(4)
+    e[plane.axis] = 1.0
+    _, seeds = dip_candidates(surface, p[:, plane.axis] - at, np.tile(e, (len(p), 1)))
+    traces: list = []
+    tries = 0
+    for seed in seeds:
+        if tries >= TANGENCY_TRIES:
+            break
+        if any(
+            np.linalg.norm(t.points - seed[plane.others], axis=1).min() <= 2 * edge for t in traces
+        ):
+            continue
+        tries += 1
+        z = st.tangency_seed(plane, seed[plane.others], 1e-6 * plane.scale)
+        if z is not None:
+            traces.append(st.trace_tangency(plane, z, edge, inside))
+    return traces
+
+
+def _transverse_seeds(surface, plane, edge):
+    """Points of the transverse slice curves (3-vectors in the hyperplane), the best-conditioned
+    first: from the mesh's own slice at c, and from its slices at c ± δ continued to c."""
+    from exhibit.surfaces import slice_trace as st
+
+    axis, at = plane.axis, plane.at
+    candidates = []
+    for offset in (0.0, *(s * d * edge for d in SEED_OFFSETS for s in (1.0, -1.0))):
+        for curve in traced_slice(surface, axis, at + offset):
+            take = np.unique(np.linspace(0, len(curve.points) - 1, SEEDS_PER_CHAIN).astype(int))
+            points = curve.points[take]
+            if offset:
+                points = _continue(plane, points, at + offset)
+            candidates.append(points)
+    if not candidates:
+        return []
+    seeds = []
+    for point in np.concatenate(candidates):
+        if not np.isfinite(point).all():
+            continue
+        u = point[plane.others]
+        _, grads = plane.evaluate(plane.lift(u))
+        tangent, _ = st.transverse_tangent(grads)
+        q = st.correct(plane, u, tangent, edge)
+        if q is None:
+            continue
+        _, grads = plane.evaluate(plane.lift(q))
+        _, size = st.transverse_tangent(grads)
+        if size >= st.MIN_TRANSVERSE:
+            seeds.append((size, q))
+    seeds.sort(key=lambda s: -s[0])
+    return [q for _, q in seeds]
+
+
+def _continue(plane, points: np.ndarray, start: float) -> np.ndarray:
+    """``points`` on the slice at x_a = ``start`` carried to x_a = plane.at by Newton in steps
+    of x_a that halve the distance left (the slice changes shape smoothly in between, unless a
+    critical value lies between: then a point may be lost, never kept off the slice, since
+    the seeds are checked again)."""
+    x = np.asarray(points, dtype=float).copy()
+    gap = start - plane.at
+    for k in range(1, 60):
+        c = plane.at + gap * 0.5**k
+        if abs(c - plane.at) <= 1e-15 * plane.scale:
+            break
+        x = ImplicitSlice(plane.f1, plane.f2, plane.axis, c).refine(x, np.inf)[0]
+    return ImplicitSlice(plane.f1, plane.f2, plane.axis, plane.at).refine(x, np.inf)[0]
