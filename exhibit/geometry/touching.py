@@ -20,7 +20,11 @@ makes it rise over the edge. At exact tangency H(λ*) is 0 up to the interpolati
 round-off (the ratio is at most 1.1e-3 on 99% of the edges crossing Figure 15's circle at
 resolution 48); off tangency by m, with h ≈ m + κs²/2, the ratio is m/(κℓ²),
 so an edge lights up only while the true slice is a loop of radius √(2m/κ) ≤ √(2·TOUCH_TOLERANCE)ℓ
-= 0.2ℓ, smaller than the edge itself. A triangle with two touching edges (the first two, in the
+= 0.2ℓ, smaller than the edge itself. On the side where the dip stops short of zero (h keeps
+its sign: no slice at all) it lights up only while σH(λ*) ≤ SAME_SIDE_TOLERANCE·(σD_j − σD_i),
+what interpolation leaves at an exact tangency: at Figure 15's t = c the wrongly lit half
+circle now goes out at c ≈ 1e-5 instead of 1e-4 (tests/geometry/test_touching.py).
+A triangle with two touching edges (the first two, in the
 order (0, 1), (1, 2), (2, 0)) gives a segment between the points at λ*; a triangle the value
 crosses gives its sign-change segment instead, never both.
 """
@@ -31,6 +35,11 @@ import numpy as np
 
 #: |H(λ*)| over the change of the derivative across the edge (about κℓ²), at most.
 TOUCH_TOLERANCE = 0.02
+#: σH(λ*) over the same, at most: the dip must reach zero, or come within what interpolation
+#: leaves at an exact tangency (the ratio is at most 9e-4 on 99% of the edges crossing Figure
+#: 15's circle at resolution 48). Without it, just after the tangency the half of the circle
+#: where h stays below zero lit up too, where the true slice is absent (issue 32).
+SAME_SIDE_TOLERANCE = 2e-3
 #: Bisection steps for the root of H' on [0, 1] (λ* to 2⁻¹⁶).
 BISECTION_STEPS = 16
 
@@ -69,7 +78,8 @@ def touching_edges(h0, h1, d0, d1):
     dip, lam, value = hermite_dip(h0, h1, d0, d1)
     sign = np.where(np.asarray(h0) > 0, 1.0, -1.0)
     rise = sign * (np.asarray(d1, dtype=float) - np.asarray(d0, dtype=float))
-    return dip & (np.abs(value) <= TOUCH_TOLERANCE * rise), lam
+    near = (np.abs(value) <= TOUCH_TOLERANCE * rise) & (sign * value <= SAME_SIDE_TOLERANCE * rise)
+    return dip & near, lam
 
 
 def touching_segments(positions, triangles, values, gradients, singular=None) -> np.ndarray:

@@ -75,6 +75,40 @@ def test_near_tangency_it_draws_what_sign_changes_draw(at):
     assert (len(crossings) > 0) == (at > 0)
 
 
+def test_just_off_tangency_it_draws_only_where_the_slice_is():
+    """t ≥ 0 on the sheet: at c = 1e-4 the slice is two lines 0.02 apart, inside one cell, drawn
+    as one touching line; at c = −1e-4 there is no slice and nothing is drawn (before issue 32
+    both were, the dip being within TOUCH_TOLERANCE·κℓ² of zero either way)."""
+    assert len(_segments(1e-4)[0]) > 20
+    assert len(_segments(-1e-4)[0]) == 0
+
+
+def test_after_figure_15s_tangency_the_upper_half_goes_dark():
+    """rc = rs = 1, vc = 0, vs = 1 at t = 3e-5: the ball touches the pipe only below its axis
+    (z = −(x² + c²)/2c); before issue 32 the live slice also lit the upper half circle."""
+    from exhibit.scenes.collision import build_part
+
+    surface = build_part({"rc": 1.0, "rs": 1.0, "vc": 0.0, "vs": 1.0}, 48).surface
+    p, n = surface.positions, surface.normals
+    singular = np.einsum("vi,vi->v", n[:, 0], n[:, 0]) < 0.25
+    e = np.eye(4)[3]
+    h = p[:, 3] - 3e-5
+    tris = surface.triangles
+    segments = [
+        np.asarray(s).reshape(-1, 2, 4)
+        for s in (
+            zero_set_segments(p, tris, h),
+            touching_segments(p, tris, h, tangential_gradient(e, n), singular),
+        )
+    ]
+    drawn = np.concatenate(segments)
+    length = np.linalg.norm(drawn[:, 1] - drawn[:, 0], axis=1)
+    z = drawn[:, :, 2].mean(axis=1)
+    # before: 3.0; now two stubs of 0.002 next to the singular points, where the mesh is torn
+    assert length[z > 0.02].sum() < 0.01
+    assert length[z < -0.02].sum() > 2 * np.pi - 0.5  # both sides of the thin loop
+
+
 def test_singular_vertices_are_skipped():
     positions, _, _ = parabolic_sheet()
     singular = np.abs(positions[:, 1]) < 0.5

@@ -142,8 +142,10 @@ float turn_in(vec4 ua, vec4 ub, vec4 m1, vec4 m2) {
 // The segment where h touches zero on this triangle without changing sign, or false: on each
 // edge whose ends have the same sign (neither singular), the cubic Hermite interpolant of h and
 // its derivatives along the surface; where |h| dips, its lowest value must be within
-// TOUCH_TOLERANCE of the derivative's change across the edge (about curvature x length^2).
+// TOUCH_TOLERANCE of the derivative's change across the edge (about curvature x length^2), and
+// reach zero or come within SAME_SIDE_TOLERANCE of it (exhibit/geometry/touching.py).
 const float TOUCH_TOLERANCE = 0.02;
+const float SAME_SIDE_TOLERANCE = 2e-3;
 bool touching(out vec4 c[2], out vec4 d[2]) {
     int n = 0;
     for (int i = 0; i < 3; ++i) {
@@ -163,7 +165,8 @@ bool touching(out vec4 c[2], out vec4 d[2]) {
             if (sg * (d0 + m * (2.0 * a + 3.0 * b * m)) < 0.0) lo = m; else hi = m;
         }
         float t = 0.5 * (lo + hi);
-        if (abs(h0 + t * (d0 + t * (a + b * t))) > TOUCH_TOLERANCE * sg * (d1 - d0)) continue;
+        float low = h0 + t * (d0 + t * (a + b * t)), rise = sg * (d1 - d0);
+        if (abs(low) > TOUCH_TOLERANCE * rise || sg * low > SAME_SIDE_TOLERANCE * rise) continue;
         c[n] = mix(g_clip[i], g_clip[j], t);
         d[n] = mix(g_dist[i], g_dist[j], t);
         ++n;
