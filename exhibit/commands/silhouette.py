@@ -12,7 +12,12 @@ from exhibit import scenes
 from exhibit.errors import ExhibitError
 from exhibit.geometry.silhouette import silhouette_function, zero_set_segments
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
-from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette
+from exhibit.scenes.implicit_scene import (
+    ImplicitPart,
+    cell_size,
+    exclusion_radius,
+    fixed_silhouette,
+)
 from exhibit.surfaces.exact_silhouette import (
     EXCLUSION_RATIO,
     ParametricExact,
@@ -80,6 +85,7 @@ def run(args) -> int:
                     "curves": curves,
                     "components": components,
                     "smallest_ratio": smallest,
+                    **exclusion_report(mesh.surfaces, curves),
                     **stats.to_json(),
                 }
             )
@@ -121,6 +127,36 @@ def smallest_ratio(surfaces, curves) -> float | None:
             on = system.f1_f2_residual(points) <= 1e-9
             best = np.where(on, jacobian_ratio(exact.f1, exact.f2, points), best)
     return float(np.nanmin(best)) if np.isfinite(best).any() else None
+
+
+def exclusion_report(surfaces, curves) -> dict:
+    """The exclusion used (implicit surfaces) and how close each open curve's ends got to the
+    traced singular set: ``exclusion`` {"ratio": EXCLUSION_RATIO, "cell", "singular_radius"
+    (half a cell, `implicit_scene.exclusion_radius`)} and ``ends`` [{"curve", "end" (0 first,
+    1 last point), "to_singular_set", "ratio" (σ_min/σ_max of the normals there)}]."""
+    parts = [s.exact for s in surfaces if isinstance(s.exact, ImplicitPart)]
+    if not parts:
+        return {"exclusion": None, "ends": []}
+    part = parts[0]
+    cell = cell_size(part)
+    singular = np.concatenate([p.result.singular_positions.reshape(-1, 4) for p in parts])
+    ends = []
+    for index, curve in enumerate(curves):
+        points = np.asarray(curve, dtype=float)
+        if len(points) < 2 or np.array_equal(points[0], points[-1]):
+            continue  # closed (the polyline repeats its first point)
+        for which, point in ((0, points[0]), (1, points[-1])):
+            gap = float(np.linalg.norm(singular - point, axis=1).min()) if len(singular) else None
+            ratio = min(float(jacobian_ratio(p.f1, p.f2, point[None])[0]) for p in parts)
+            ends.append({"curve": index, "end": which, "to_singular_set": gap, "ratio": ratio})
+    return {
+        "exclusion": {
+            "ratio": EXCLUSION_RATIO,
+            "cell": cell,
+            "singular_radius": exclusion_radius(part),
+        },
+        "ends": ends,
+    }
 
 
 def exact_silhouette_curves(surface, along, stats: RefineStats):

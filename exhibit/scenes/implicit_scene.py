@@ -116,6 +116,7 @@ def fixed_silhouette(
         f"{name} (touching)",
         material,
         stats,
+        [c.points for c in refined],
     )
     for i, curve in enumerate(touching[1:], 2):
         curve.name = f"{curve.name} {i}"

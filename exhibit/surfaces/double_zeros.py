@@ -123,9 +123,14 @@ def touching_silhouette(
     name: str = "",
     material=None,
     stats=None,
+    others=None,
 ):
     """The silhouette branches along ``along`` where s touches zero without changing sign,
-    refined onto f1 = f2 = s = 0 like the traced ones (surfaces/exact_silhouette.py)."""
+    refined onto f1 = f2 = s = 0 like the traced ones (surfaces/exact_silhouette.py), each open
+    end continued along the exact branch (`extend_touching_end`) until the exclusion every
+    silhouette point has (σ_min/σ_max of the normals below EXCLUSION_RATIO, or within
+    ``exclusion_radius`` of a traced singular point) or half a cell from another branch (one of
+    ``others``, the sign-change curves, or another touching one: a crossing)."""
     from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, drop_fragments
     from exhibit.surfaces.mesh import Curve, Material
 
@@ -154,6 +159,25 @@ def touching_silhouette(
     # No fragment shorter than a cell (next to a singular point the refined mesh left one of
     # 0.018 in Figure 15's y, z view), none lying along another.
     out = drop_fragments(curves, cell)
+    # Each open end continued along the exact branch up to the stated exclusion.
+    scale = np.linalg.norm(surface_gradient(surface, system.s.gradient(p)), axis=1)
+    scale = float(np.nanmax(scale)) if np.isfinite(scale).any() else 0.0
+    for k, curve in enumerate(out):
+        if curve.closed:
+            continue
+        kept = [c.points for j, c in enumerate(out) if j != k] + list(others or [])
+        stop = np.concatenate(kept) if kept else np.zeros((0, 4))
+        ends = []
+        for end, inner in (
+            (curve.points[0], curve.points[1]),
+            (curve.points[-1], curve.points[-2]),
+        ):
+            ends.append(
+                extend_touching_end(
+                    system, end, end - inner, cell, singular_points, exclusion_radius, scale, stop
+                )
+            )
+        curve.points = np.concatenate([ends[0][::-1], curve.points, ends[1]])
     for curve in out:
         total.refined += len(curve.points) + (1 if curve.closed else 0)
         total.max_residual = max(total.max_residual, float(system.residual(curve.points).max()))
@@ -208,3 +232,60 @@ def join_ends(chains, reach: float, refine, step: float):
         chains = [c for k, c in enumerate(chains) if k not in (i, j)] + [joined]
         changed = True
     return chains
+
+
+def extend_touching_end(
+    system,
+    end: np.ndarray,
+    outward: np.ndarray,
+    cell: float,
+    singular_points,
+    exclusion_radius: float,
+    scale: float,
+    others: np.ndarray,
+    reach: float = 8.0,
+) -> np.ndarray:
+    """Points continuing a touching branch beyond ``end``, a quarter cell at a time (halved down
+    to 1/64 cell where a step fails), for up to ``reach`` cells. The mesh stops such a branch
+    about a cell short of a singular point or a crossing (it is torn there, and the dip test
+    needs an edge on each side); the exact branch goes on. On a double zero the Jacobian of
+    (f1, f2, s) has rank 2, so there is no null vector to follow: the predictor is the last
+    direction projected onto the tangent plane of the surface, the corrector the same Newton
+    and judgement as every silhouette point (``system.refine``), plus the double-zero test
+    (|P_T ∇s| at most TANGENTIAL_TOLERANCE of ``scale``). It stops where a point would be
+    excluded, would come within half a cell of ``others``, or no step converges."""
+    out, p, h, travelled = [], np.asarray(end, float), 0.25 * cell, 0.0
+    direction = np.asarray(outward, float)
+    with np.errstate(all="ignore"):
+        while travelled < reach * cell and h >= cell / 64:
+            normals = np.stack([system.f1.gradient(p[None])[0], system.f2.gradient(p[None])[0]])
+            if not np.isfinite(normals).all():
+                break
+            basis = np.linalg.svd(normals)[2][2:]  # the tangent plane's orthonormal basis
+            tangent = basis.T @ (basis @ direction)
+            length = np.linalg.norm(tangent)
+            if not length > 0:
+                break
+            tangent /= length
+            guess = p + h * tangent
+            x, keep, _ = system.refine(guess[None], 2.0 * cell, singular_points, exclusion_radius)
+            q = x[0]
+            double = tangential_part(
+                [system.f1.gradient(x), system.f2.gradient(x)], system.s.gradient(x)
+            )[0]
+            ok = (
+                bool(keep[0])
+                and double <= TANGENTIAL_TOLERANCE * scale
+                and np.linalg.norm(q - guess) <= 0.5 * h
+                and (q - p) @ tangent > 0.25 * h
+            )
+            if not ok:
+                h /= 2
+                continue
+            if len(others) and np.linalg.norm(others - q, axis=1).min() < 0.5 * cell:
+                break
+            out.append(q)
+            travelled += float(np.linalg.norm(q - p))
+            direction, p = q - p, q
+            h = min(2 * h, 0.25 * cell)
+    return np.array(out).reshape(-1, 4)

@@ -17,15 +17,25 @@ and how closely the mesh follows the surface between its vertices (`surface_sag`
 
 Distances to f1 = f2 = 0 are estimated by `distance_to_surface`: the minimum-norm Newton
 projection, then foot-point steps (move along the tangent plane towards the point, project
-again) while they bring the surface point nearer. Every estimate is the distance to an actual
-point of the surface, so it can only overestimate; near a pinch, where the Jacobian is nearly
-singular, the plain Newton step alone overestimated the cusp's sag almost threefold.
+again) while they bring the surface point nearer. Every estimate is the distance to a point of
+the surface, so it can only overestimate; near a pinch, where the Jacobian is nearly singular,
+the plain Newton step alone overestimated the cusp's sag almost threefold.
+
+"A point of the surface" is meant to the last digit, not to a residual tolerance: a vertex
+already within Newton's tolerance gets one more step (so a vertex 8e-13 off reads 8e-13, not
+0), and next to a singular set, where a residual of 1e-9 allows a point to sit 1e-7 off the
+surface (the cusp's f2 = v² - u³ is 6e-21 at u = -1.9e-7), the projection is iterated until it
+stops moving (`_project_near_singular`). Before, `inspect` said 1.0e-7 for the cusp's vertices,
+whose true largest distance is 2.6e-7 (tests/surfaces/test_vertex_distance.py).
 """
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 
+from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.newton import project_onto
 from exhibit.surfaces.singular import project_onto_singular_set
 
@@ -127,6 +137,30 @@ def distance_to_mesh(points, positions, triangles, candidates: int = 24) -> np.n
 
 #: Foot-point steps after the first projection (each a tangent step and a Newton projection).
 FOOT_POINT_STEPS = 8
+#: Iterations of the projection next to a singular set (it converges linearly there).
+SINGULAR_ITERATIONS = 400
+#: That projection has stopped once its step is below this fraction of the distance travelled.
+STILL = 1e-6
+#: Singular values the pseudo-inverse keeps (relative) with the minors added: they are rank 3
+#: on a singular curve and not quite consistent once scaled (u/3 from f2, u/2 from a minor),
+#: and at 1e-6 that mismatch was amplified into a slide along the circle (7.9e-4 at
+#: resolution 32).
+MINORS_RCOND = 1e-3
+
+
+@np.errstate(all="ignore")
+def _newton_step(fields, y: np.ndarray) -> np.ndarray:
+    """One more minimum-norm Newton step y - Jᵀ(JJᵀ)⁻¹F(y), taken even where `project_onto`
+    stopped at its tolerance (1e-13 of the gradient): where J is well conditioned this puts the
+    point on the surface to rounding, so a vertex 8e-13 off is measured 8e-13 off, not 0."""
+    if len(y) == 0:
+        return y
+    values = np.stack([f.value(y) for f in fields], axis=-1)
+    jac = np.stack([f.gradient(y) for f in fields], axis=1)
+    gram = jac @ np.transpose(jac, (0, 2, 1))
+    solved = np.linalg.solve(gram + 1e-300 * np.eye(len(fields)), values[..., None])[..., 0]
+    out = y - np.einsum("nki,nk->ni", jac, solved)
+    return np.where(np.isfinite(out).all(axis=1)[:, None], out, y)
 
 
 def _tangent_step(fields, y: np.ndarray, toward: np.ndarray) -> np.ndarray:
@@ -143,13 +177,14 @@ def _tangent_step(fields, y: np.ndarray, toward: np.ndarray) -> np.ndarray:
 
 
 @np.errstate(all="ignore")
-def _project_near_singular(fields, points: np.ndarray, max_move: float):
+def _project_near_singular(fields, points: np.ndarray, max_move: float, rcond: float = 1e-6):
     """Gauss-Newton onto {f = 0} for points where the plain projection met a nearly singular
     Jacobian: next to a singular curve, where the fields' zero sets still meet but a gradient
     vanishes (the cusp's f2 = v² - u³ at u = v = 0) or two become parallel. Each equation is
     divided by its gradient's length (so a vanishing gradient still steers its field to zero,
     linearly at a double zero) and the pseudo-inverse drops singular values under 1e-6 (the
-    dependent direction). Converged: |f_i|/|∇f_i| ≤ 1e-9 for every field, within ``max_move``.
+    dependent direction). Converged: |f_i|/|∇f_i| ≤ 1e-9 for every field and the step below
+    STILL of the way travelled (the point has stopped), within ``max_move``.
     (Next to the cusp's circle the first step can overshoot to u < 0, where v² = u³ has no
     points but u = v = 0, and Gauss-Newton then creeps: those points are left to the singular
     set's own projection.)
@@ -157,7 +192,7 @@ def _project_near_singular(fields, points: np.ndarray, max_move: float):
     x = points.copy()
     converged = np.zeros(len(x), dtype=bool)
     going = np.ones(len(x), dtype=bool)
-    for _ in range(200):
+    for _ in range(SINGULAR_ITERATIONS):
         idx = np.flatnonzero(going)
         if len(idx) == 0:
             break
@@ -171,12 +206,19 @@ def _project_near_singular(fields, points: np.ndarray, max_move: float):
         usable &= np.all(~flat | (values == 0), axis=1)
         length = np.where(~flat, length, 1.0)
         scaled = np.where(usable[:, None] & ~flat, values / length, 0.0)
-        done = usable & np.all(np.abs(scaled) <= 1e-9, axis=1)
+        unit = np.where(usable[:, None, None], jac / length[..., None], 0.0)
+        step = np.einsum("nik,nk->ni", np.linalg.pinv(unit, rcond=rcond), scaled)
+        step = np.where(np.isfinite(step), step, 0.0)
+        # Still: the residual is within tolerance and the step no longer moves the point
+        # (next to a singular set the residual is tiny long before the point is on the
+        # surface: Newton on u³ = 0 creeps by a third each step). The remaining error is
+        # then about twice the last step, a millionth of the distance travelled.
+        travelled = np.linalg.norm(xa - points[idx], axis=1)
+        still = np.linalg.norm(step, axis=1) <= STILL * travelled
+        done = usable & np.all(np.abs(scaled) <= 1e-9, axis=1) & still
         converged[idx[done]] = True
         going[idx[done | ~usable]] = False
         step_on = usable & ~done
-        unit = np.where(step_on[:, None, None], jac / length[..., None], 0.0)
-        step = np.einsum("nik,nk->ni", np.linalg.pinv(unit, rcond=1e-6), scaled)
         x[idx[step_on]] = xa[step_on] - step[step_on]
     within = np.linalg.norm(x - points, axis=1) <= max_move
     return x, converged & within
@@ -196,6 +238,7 @@ def distance_to_surface(fields, points, max_move: float, fallback=None, known=No
         return best
     y, singular, unconverged = project_onto(fields, p, max_move)
     ok = ~singular & ~unconverged
+    y[ok] = _newton_step(fields, y[ok])
     dist = np.where(ok, np.linalg.norm(y - p, axis=1), np.inf)
     stuck = np.flatnonzero(~ok)
     if len(stuck):
@@ -203,10 +246,16 @@ def distance_to_surface(fields, points, max_move: float, fallback=None, known=No
         dist[stuck[converged]] = np.linalg.norm(near[converged] - p[stuck[converged]], axis=1)
         if known is not None and len(known) and len(fields) == 2:
             # next to a singular curve the nearest point is often on it: Gauss-Newton on f1, f2
-            # and J's minors from the point lands there
+            # and J's minors from the point lands there (to its tolerance, 1e-10 on minors that
+            # vanish quadratically: the cusp's circle to 1e-7), then the projection above
+            # finishes the way onto the surface
             on_set, found = project_onto_singular_set(fields[0], fields[1], p[stuck], max_move)
             values = np.stack([f.value(on_set) for f in fields], axis=-1)
             found &= np.all(np.abs(values) <= 1e-9, axis=1)
+            on_set[found], still = _project_near_singular(
+                _with_minors(fields), on_set[found], max_move, MINORS_RCOND
+            )
+            found[np.flatnonzero(found)[~still]] = False
             to_set = np.where(found, np.linalg.norm(on_set - p[stuck], axis=1), np.inf)
             dist[stuck] = np.minimum(dist[stuck], to_set)
             failed = stuck[~np.isfinite(dist[stuck])]
@@ -217,6 +266,7 @@ def distance_to_surface(fields, points, max_move: float, fallback=None, known=No
             break
         z = y[idx] + _tangent_step(fields, y[idx], p[idx])
         moved, sing, unconv = project_onto(fields, z, max_move)
+        moved[~sing & ~unconv] = _newton_step(fields, moved[~sing & ~unconv])
         nearer = np.linalg.norm(moved - p[idx], axis=1)
         better = ~sing & ~unconv & (nearer < dist[idx])
         gain = dist[idx][better] - nearer[better]
@@ -226,6 +276,23 @@ def distance_to_surface(fields, points, max_move: float, fallback=None, known=No
         if not better.any() or gain.max() <= 1e-12 * max(float(dist[idx].max()), 1e-300):
             break
     return np.minimum(best, dist)
+
+
+def _with_minors(fields) -> tuple:
+    """f1, f2 and the six 2x2 minors of their Jacobian, as fields: the singular set's equations.
+    Projected onto with every equation scaled by its gradient (`_project_near_singular`), a
+    point next to the cusp's circle goes to it linearly in each direction (the minors vanish
+    like u² and v there), where f1, f2 alone let v wander: v² = u³ has no root at u < 0.
+    Cached on f1 (as `singular.project_onto_singular_set` caches its system)."""
+    f1, f2 = fields
+    cache = f1.__dict__.setdefault("_minor_fields", {})
+    if id(f2) not in cache:
+        g1, g2 = f1.gradient_expressions, f2.gradient_expressions
+        cache[id(f2)] = (f1, f2) + tuple(
+            ScalarField(g1[i] * g2[j] - g1[j] * g2[i], f1.symbols)
+            for i, j in itertools.combinations(range(4), 2)
+        )
+    return cache[id(f2)]
 
 
 def _nearest_distance(points: np.ndarray, targets: np.ndarray) -> np.ndarray:
