@@ -25,6 +25,12 @@
                                               # (exhibit.surfaces.slice); "off" ends it
     hold_framing = true                       # keep the keyframe before's zoom and lens shift
                                               # (the camera holds: what grows, grows on screen)
+    describe = "..."                          # for a visitor who cannot see the screen: what
+                                              # the picture shows, what moves, where the named
+                                              # objects are; spoken before the caption
+    narration = { en = "audio/k1-en.wav" }    # recorded narration for this keyframe, per
+                                              # language (a path beside this file), spoken
+                                              # instead of the synthesised description+caption
 
 A caption that describes the view states it in ``while``, so `exhibit check-config` can play the
 timeline and report where the caption is shown while the view says otherwise:
@@ -61,6 +67,7 @@ from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import (
     MAX_ANGLE,
     Caption,
+    Description,
     Distance,
     DistanceRange,
     HalfHeight,
@@ -146,6 +153,12 @@ class Keyframe:
     #: objects the caption names, tagged on screen with words (exhibit.render.object_tags):
     #: (object name, or the start of names, English words); they belong to the caption
     labels: tuple[tuple[str, str], ...] = ()
+    #: what the picture shows, for a visitor who cannot see it (English; spoken before the
+    #: caption): only on the keyframe that states it
+    description: str = ""
+    #: recorded narration of this keyframe: (language code, path), spoken instead of the
+    #: synthesised description and caption (exhibit.narration)
+    recordings: tuple[tuple[str, str], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -302,6 +315,8 @@ class KeyframeSpec(Model):
     slice: Annotated[float, Number(-1e6, 1e6)] | Literal["off"] | None = None
     hold_framing: bool = False
     labels: Annotated[dict[Name, Name], Field(max_length=MAX_CLAIMED)] | None = None
+    describe: Description | None = None
+    narration: Annotated[dict[Name, Name], Field(max_length=MAX_CLAIMED)] | None = None
 
 
 class TimelineFile(Model):
@@ -408,6 +423,11 @@ def load_timeline(path: Path) -> Timeline:
             else float(raw.slice),
             raw.hold_framing and i > 0,
             _labels(previous, raw),
+            (raw.describe or "").strip(),
+            tuple(
+                (code, str((path.parent / relative).resolve(strict=False)))
+                for code, relative in (raw.narration or {}).items()
+            ),
         )
         frames.append(previous)
     if problems:

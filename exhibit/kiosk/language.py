@@ -234,6 +234,8 @@ def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
         texts.setdefault(scenes.get(timeline.scene).title, f"scene {timeline.scene}: title")
         for i, keyframe in enumerate(timeline.keyframes):
             texts.setdefault(keyframe.caption, f"{timeline.path}: keyframe[{i}].caption")
+            if keyframe.description:
+                texts.setdefault(keyframe.description, f"{timeline.path}: keyframe[{i}].describe")
             for obj, words in keyframe.labels:
                 texts.setdefault(words, f"{timeline.path}: keyframe[{i}].labels.{obj}")
     for word in HUD_WORDS:

@@ -160,6 +160,9 @@ Coordinate = Annotated[float, Number(-MAX_COORDINATE, MAX_COORDINATE)]
 HalfHeight = Annotated[float, Number(1e-3, 1e3)]
 Name = Annotated[str, Text(100)]
 Caption = Annotated[str, Text(2000, multiline=True, empty_ok=True)]
+#: A keyframe's spoken description of the picture (exhibit.narration): never blank, and short
+#: enough to be spoken in about 40 s.
+Description = Annotated[str, Text(600, multiline=True)]
 
 
 def _distance_range(value: Any) -> tuple[float, float]:

@@ -186,54 +186,6 @@ def touching_silhouette(
     return out
 
 
-def join_ends(chains, reach: float, refine, step: float):
-    """Join open chains whose ends are within ``reach`` (and close a chain whose own ends are),
-    bridging the gap with points refined by ``refine(seeds) -> (points, keep)``. Double-zero
-    chains stop short of singular points, where the mesh is torn; a slice passes through them
-    (they are points of the surface), so its pieces are joined there. A bridge whose points do
-    not all converge is not made."""
-    chains = [(np.asarray(p), c) for p, c in chains]
-
-    def bridge(a, b):
-        count = max(int(np.ceil(np.linalg.norm(b - a) / step)), 2)
-        seeds = a + np.linspace(0, 1, count + 1)[1:-1, None] * (b - a)
-        points, keep = refine(seeds)
-        return points if keep.all() else None
-
-    changed = True
-    while changed:
-        changed = False
-        open_ = [i for i, (_, c) in enumerate(chains) if not c]
-        best = None
-        for i in open_:
-            for j in open_:
-                for ei in (0, -1):
-                    for ej in (0, -1):
-                        if i == j and ei == ej:
-                            continue
-                        d = np.linalg.norm(chains[i][0][ei] - chains[j][0][ej])
-                        if d <= reach and (best is None or d < best[0]):
-                            best = (d, i, ei, j, ej)
-        if best is None:
-            break
-        _, i, ei, j, ej = best
-        a = chains[i][0] if ei == -1 else chains[i][0][::-1]  # a ends at the joined end
-        if i == j:
-            middle = bridge(a[-1], a[0])
-            if middle is not None:
-                chains[i] = (np.concatenate([a, middle]), True)
-                changed = True
-            continue
-        b = chains[j][0] if ej == 0 else chains[j][0][::-1]  # b starts at the joined end
-        middle = bridge(a[-1], b[0])
-        if middle is None:
-            continue
-        joined = (np.concatenate([a, middle, b]), False)
-        chains = [c for k, c in enumerate(chains) if k not in (i, j)] + [joined]
-        changed = True
-    return chains
-
-
 def extend_touching_end(
     system,
     end: np.ndarray,
