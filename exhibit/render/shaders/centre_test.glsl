@@ -28,14 +28,14 @@ vec2 sag_on_screen(vec4 c) {
 
 // Whether a surface lies in front of the point at pixel position ``centre`` and window depth
 // ``z`` (clip position ``c``): the depth planes of the pixels around it (each pixel's window
-// depth and its screen gradient), each taken at the point of its own pixel nearest the centre
-// (a plane is the surface's only within its pixel; carried further, a steep one, at a fold,
-// reaches any depth), so a point just outside the surface's last pixels is still seen behind
-// it. A sheet hides the point only by more than it spans over a pixel and over the mesh's sag:
-// the curve lies on the true surface and the triangles within the sag of it, and within a pixel
-// of a fold, seen edge-on, a sheet's depth changes by its whole slope per pixel. (With half a
-// pixel, planes carried across a pixel and no sag, a curve on the outline fell in front of and
-// behind the triangles by turns: Figure 9's offset curve in dashes.)
+// depth and its screen gradient) carried to the point itself, so a point just outside the
+// surface's last pixels is still seen behind it. A plane is the surface's own only at its
+// pixel: carried d pixels, towards a fold, where the sheet turns away and is seen edge-on, it
+// is off by up to what it spans over d (its slope grows without bound there). So a sheet hides
+// the point only by more than its plane spans over d, half a pixel and the mesh's sag (the
+// curve lies on the true surface, the triangles within the sag of it). With half a pixel and no
+// sag, a curve on the outline fell in front of and behind the planes by turns: Figure 9's offset
+// curve in dashes. A flat sheet has no slope and hides what is behind it by any depth.
 float centre_hidden(vec2 centre, float z, vec4 c) {
     if (u_centre_test == 0) return 0.0;
     ivec2 size = u_centre_test == 1 ? textureSize(u_surface_depth, 0)
@@ -47,8 +47,10 @@ float centre_hidden(vec2 centre, float z, vec4 c) {
             ivec2 p = clamp(q + ivec2(dx, dy), ivec2(0), size - 1);
             vec4 g = surface_at(p);
             if (g.y <= 0.0) continue;   // empty
-            float plane = g.y + dot(g.zw, clamp(centre - (vec2(p) + 0.5), -0.5, 0.5));
-            if (z > plane + (1.0 + sag.x) * (abs(g.z) + abs(g.w)) + sag.y) return 1.0;
+            vec2 d = centre - (vec2(p) + 0.5);
+            float plane = g.y + dot(g.zw, d);
+            vec2 reach = abs(d) + 0.5 + sag.x;
+            if (z > plane + dot(reach, abs(g.zw)) + sag.y) return 1.0;
         }
     }
     return 0.0;
