@@ -88,6 +88,7 @@ def test_the_offset_curve_is_one_piece_where_it_is_visible(headless, number, lev
     quality, mesh_level = LEVELS[level]
     mesh, view, hud, curves = figure(number, mesh_level)
     assert sum(len(runs) for _, _, runs in curves) >= 2, "the reference found nothing to test"
+    headless.activate()  # other golden tests make contexts of their own current
     gpu = headless.renderer.upload(mesh)
     try:
         options = RenderOptions()
@@ -115,6 +116,7 @@ def test_the_offset_curve_is_one_piece_where_it_is_visible(headless, number, lev
 @pytest.mark.parametrize("number", sorted(FIGURES))
 def test_the_offset_curve_is_one_piece_in_the_object_ids(headless, number):
     mesh, view, _, curves = figure(number, 0)
+    headless.activate()
     gpu = headless.renderer.upload(mesh)
     try:
         ids = headless.renderer.ids.image(gpu, view, SIZE, RenderOptions())
