@@ -77,6 +77,33 @@ def surface_sample(gpu: "GpuMesh") -> np.ndarray:
     return gpu.sample
 
 
+def mesh_sag(surface: Surface) -> float:
+    """How far the surface's triangles may lie from the true surface: the largest edge length
+    times the turn of the normal plane along the edge, over 8 (a chord of length l on a circle
+    of radius R sags l²/8R = l·θ/8, θ = l/R the turn of its normal). Curves lie on the true
+    surface (they are refined onto it), the triangles only within this of it: near a fold of
+    the 3D image, where the sheet is seen edge-on, that is the difference between a curve on
+    the outline and a curve behind it (centre_test.glsl). Edges at a singular vertex (zero
+    normals) are left out."""
+    edges = unique_edges(surface.triangles)
+    if not len(edges):
+        return 0.0
+    n = surface.normals
+    a, b = n[edges[:, 0]], n[edges[:, 1]]
+    # The normal planes' projectors; their difference is sin of the largest principal angle.
+    pa = np.einsum("eki,ekj->eij", a, a)
+    pb = np.einsum("eki,ekj->eij", b, b)
+    regular = (np.abs(np.einsum("eii->e", pa) - 2) < 1e-3) & (
+        np.abs(np.einsum("eii->e", pb) - 2) < 1e-3
+    )
+    if not regular.any():
+        return 0.0
+    sine = np.linalg.norm(pa - pb, axis=(1, 2))[regular] / np.sqrt(2.0)
+    p = surface.positions
+    length = np.linalg.norm(p[edges[regular, 0]] - p[edges[regular, 1]], axis=1)
+    return float((length * np.arcsin(np.clip(sine, 0.0, 1.0))).max() / 8.0)
+
+
 def silhouette_key(surface: "GpuSurface", view, slice_width: float) -> str:
     """The silhouette program a surface is drawn with: with the slice's tangency test only
     when a slice is drawn near one of the surface's critical values (geometry/touching.py)."""
@@ -140,6 +167,9 @@ class GpuMesh:
     #: Buffers a pass made for this mesh on first use (the object-id pass's curves), freed
     #: with it.
     buffers: dict[str, moderngl.Buffer] = field(default_factory=dict)
+    #: How far its triangles may lie from the true surfaces (mesh_sag, the largest over them):
+    #: a curve within it of a sheet is on that sheet, not behind it (centre_test.glsl).
+    sag: float = 0.0
 
     @property
     def triangle_count(self) -> int:
@@ -239,4 +269,7 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         + [m.position[None] for m in mesh.markers]
     )
     radius = max([float(np.linalg.norm(a, axis=1).max()) for a in arrays if len(a)] + [1e-6])
-    return GpuMesh(mesh, surfaces, lines, line_count, markers, marker_count, vaos, radius)
+    gpu_mesh = GpuMesh(mesh, surfaces, lines, line_count, markers, marker_count, vaos, radius)
+    solid = [s for s in mesh.surfaces if s.material.style != "wire" and len(s.triangles)]
+    gpu_mesh.sag = max((mesh_sag(s) for s in solid), default=0.0)
+    return gpu_mesh

@@ -286,6 +286,15 @@ class Renderer:
         ctx.enable(moderngl.BLEND)
         ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
         ctx.depth_func = "<="
+        # The live outlines (Lemma 3) first, depth-tested against the surfaces and writing no
+        # depth (Framebuffer.depth_mask: moderngl's Context has none), so no segment hides its
+        # own next one; then the curves over them: a scene curve that is itself an outline (the
+        # offset curve of Figures 9-14 lies on the tube's outline) covers the ink, where the
+        # ink drawn after the curves, at the same depth to a hair, cut it into dashes.
+        sliced = view.slice_axis is not None
+        ink = options.silhouette_width if options.silhouettes else 0.0
+        if ink > 0 and gpu.surfaces:
+            self._silhouette_pass(gpu, view, size, scale, ink, 0.0, 0.0)
         # Curves and markers: opaque cores with depth writes, then antialiased rims blended.
         if options.curves:
             prog = self.programs["curves"]
@@ -302,6 +311,7 @@ class Renderer:
                 u_line_bias=LINE_BIAS,
                 u_width_scale=scale * options.curve_width,
                 u_centre_test=centre_test,
+                u_sag=gpu.sag,
                 u_surface_depth=CENTRE_UNITS[0],
                 u_surface_depth_ms=CENTRE_UNITS[1],
             )
@@ -313,50 +323,48 @@ class Renderer:
                     ctx.fbo.depth_mask = pass_ == 0
                     gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
             ctx.fbo.depth_mask = True
-        # Live silhouettes, then Lemma 2 points and the slice, after the curves: depth-tested,
-        # no depth writes (Framebuffer.depth_mask: moderngl's Context has none), so a silhouette
-        # never hides a curve or its own next segment, and the lifted Lemma 2 discs and the
-        # slice stay above the wire frames, the curves and the ink.
-        sliced = view.slice_axis is not None
-        if (options.silhouettes or sliced) and gpu.surfaces:
-            axis = np.zeros(4)
-            if sliced:
-                axis[view.slice_axis] = 1.0
-            pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
-            ctx.fbo.depth_mask = False
-            # Two passes over the same triangles: the ink, then the marks that must lie on top
-            # of it (the slice and the Lemma 2 discs). With no depth writes, what a later
-            # triangle emits covers what an earlier one did, so one pass would let ink cross
-            # the discs; zero widths tell the geometry shader what to skip. The slice's pass
-            # runs the program with the tangency test ("silhouette_slice") on a surface only
-            # when the slice is near one of its critical values (GpuSurface.critical).
-            ink = options.silhouette_width if options.silhouettes else 0.0
-            passes = [(ink, 0.0, 0.0)] if ink > 0 else []
-            if sliced or pinch > 0:
-                passes.append((0.0, SLICE_WIDTH if sliced else 0.0, pinch))
-            for ink_width, slice_width, pinch_size in passes:
-                ready: dict[str, moderngl.Program] = {}  # programs with this pass's uniforms set
-                for surface in gpu.surfaces:
-                    key = silhouette_key(surface, view, slice_width)
-                    if key not in ready:
-                        ready[key] = prog = self.programs[key]
-                        self.set_pipeline(prog, view, size)
-                        self._set(
-                            prog,
-                            u_line_bias=LINE_BIAS,
-                            u_width_scale=scale,
-                            u_pass=1,
-                            u_slice_axis=tuple(axis),
-                            u_slice_at=view.slice_at,
-                            u_pinch=(*PINCH_COLOR, pinch_size),
-                            u_slice_style=(*SLICE_COLOR, slice_width),
-                        )
-                    ready[key]["u_ink"] = (*darker(surface.color), ink_width)
-                    surface.vaos[key].render(moderngl.TRIANGLES)
-            ctx.fbo.depth_mask = True
+        # Then Lemma 2 points and the slice, over everything: the lifted discs and the slice
+        # stay above the wire frames, the curves and the ink. The slice's pass runs the program
+        # with the tangency test ("silhouette_slice") on a surface only when the slice is near
+        # one of its critical values (GpuSurface.critical).
+        pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
+        if (sliced or pinch > 0) and gpu.surfaces:
+            slice_width = SLICE_WIDTH if sliced else 0.0
+            self._silhouette_pass(gpu, view, size, scale, 0.0, slice_width, pinch)
 
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)
         ctx.depth_func = "<"
+
+    def _silhouette_pass(
+        self, gpu: GpuMesh, view: ViewState, size, scale: float, ink_width, slice_width, pinch
+    ) -> None:
+        """One pass of silhouette.glsl over every surface, depth-tested and writing no depth:
+        the ink (``ink_width``), or the slice and the Lemma 2 discs (zero widths tell the
+        geometry shader what to skip). Two passes, since with no depth writes what a later
+        triangle emits covers what an earlier one did: one pass would let ink cross the discs."""
+        axis = np.zeros(4)
+        if view.slice_axis is not None:
+            axis[view.slice_axis] = 1.0
+        self.ctx.fbo.depth_mask = False
+        ready: dict[str, moderngl.Program] = {}  # programs with this pass's uniforms set
+        for surface in gpu.surfaces:
+            key = silhouette_key(surface, view, slice_width)
+            if key not in ready:
+                ready[key] = prog = self.programs[key]
+                self.set_pipeline(prog, view, size)
+                self._set(
+                    prog,
+                    u_line_bias=LINE_BIAS,
+                    u_width_scale=scale,
+                    u_pass=1,
+                    u_slice_axis=tuple(axis),
+                    u_slice_at=view.slice_at,
+                    u_pinch=(*PINCH_COLOR, pinch),
+                    u_slice_style=(*SLICE_COLOR, slice_width),
+                )
+            ready[key]["u_ink"] = (*darker(surface.color), ink_width)
+            surface.vaos[key].render(moderngl.TRIANGLES)
+        self.ctx.fbo.depth_mask = True
 
     def _screen_extent(self, gpu: GpuMesh, view: ViewState, size):
         """(pixels per unit of window depth, scissor box) from a sample of the mesh's vertices

@@ -137,8 +137,11 @@ class ObjectIdPass:
             self._surface_vao(surface, "object_ids").render(moderngl.TRIANGLES)
         self.ctx.polygon_offset = (0.0, 0.0)
         self.renderer.clip_distances(False)
+        # As the picture: the outlines, the curves over them, the discs and the slice on top.
+        marks = len(names) - len(MARKS) + 1
+        self._marks(gpu, view, size, options, first_id=marks, outlines=True)
         self._curves(gpu, view, size, options, first_id=len(gpu.surfaces) + 1)
-        self._marks(gpu, view, size, options, first_id=len(names) - len(MARKS) + 1)
+        self._marks(gpu, view, size, options, first_id=marks, outlines=False)
         return self._end(framebuffer, size)
 
     def footprints(
@@ -254,10 +257,12 @@ class ObjectIdPass:
                 gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
         self.ctx.depth_func = "<"
 
-    def _marks(self, gpu, view, size, options: RenderOptions, first_id: int) -> None:
+    def _marks(
+        self, gpu, view, size, options: RenderOptions, first_id: int, outlines: bool
+    ) -> None:
         """The silhouette pass's marks as the picture draws them (depth-tested, no depth
-        writes, after the curves), each kind in its own id: outlines, Lemma 2 discs, the slice.
-        Opaque cores only (pass 0)."""
+        writes), each kind in its own id: the outlines (``outlines``, before the curves), or
+        the Lemma 2 discs and the slice (after them). Opaque cores only (pass 0)."""
         if not gpu.surfaces:
             return
         sliced = view.slice_axis is not None
@@ -269,13 +274,10 @@ class ObjectIdPass:
         disc = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
         self.ctx.depth_func = "<="
         self.ctx.fbo.depth_mask = False
-        # As the picture: the outlines, then the discs and the slice on top of them.
-        for ink_width, slice_width, disc_width in (
-            (ink, 0.0, 0.0),
-            (0.0, SLICE_WIDTH if sliced else 0.0, disc),
-        ):
-            if not (ink_width or slice_width or disc_width):
-                continue
+        ink_width, slice_width, disc_width = (
+            (ink, 0.0, 0.0) if outlines else (0.0, SLICE_WIDTH if sliced else 0.0, disc)
+        )
+        if ink_width or slice_width or disc_width:
             for surface in gpu.surfaces:
                 key = silhouette_key(surface, view, slice_width)
                 prog = self.programs[key]

@@ -35,7 +35,7 @@ void main() {
     // as the fragments get it, bias and layer included).
     vec4 e = gl_VertexID >= 2 ? c1 : c0;
     float z = 0.5 + 0.5 * (e.z / e.w - u_line_bias + in_layer * LAYER_STEP);
-    v_hidden = centre_hidden(gl_VertexID >= 2 ? v_ends.zw : v_ends.xy, z);
+    v_hidden = centre_hidden(gl_VertexID >= 2 ? v_ends.zw : v_ends.xy, z, e);
 }
 #endif
 
