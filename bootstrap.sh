@@ -28,6 +28,8 @@ apt_run=(
   python3 python3-venv python3-pip   # the interpreter and venv (Python >= 3.11)
   libegl1 libgl1 libgl1-mesa-dri     # OpenGL/EGL, with Mesa llvmpipe where there is no GPU
   fonts-dejavu-core                  # the HUD's font (has θ and ∞)
+  espeak-ng                          # narration: offline speech where no recording is given
+  libasound2                         # narration: miniaudio plays through ALSA (loaded at run time)
 )
 apt_kiosk=(
   cage xwayland            # deployed kiosk: the compositor, and the X server Debian's cage insists on

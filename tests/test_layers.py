@@ -29,6 +29,7 @@ LAYERS = {
     "geometry": 2,
     "surfaces": 3,
     "devices": 3,
+    "narration": 3,
     "scenes": 4,
     "render": 5,
     "kiosk": 6,

@@ -1,0 +1,118 @@
+"""Synthesised speech on disk, so the kiosk speaks without running espeak-ng in front of a visitor.
+
+An entry is a WAV file (a curator can play it) named by the sha256 of what makes the speech:
+the engine, its version, the voice, the rate and the text, so a new espeak-ng or a changed text
+misses. As with meshes (exhibit/scenes/cache.py), nothing read back is trusted: an entry is read
+only as a regular file (never through a link, a FIFO or a device) of bounded size, and used only
+if it is exactly the format the exhibit writes and carries its own key and the hash of its
+samples in an "xnar" chunk; anything else costs a warning and a fresh synthesis that replaces it.
+The folder is $EXHIBIT_CACHE_DIR/speech (the deployed kiosk's cache), else
+$XDG_CACHE_HOME/exhibit/speech, else ~/.cache/exhibit/speech.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import logging
+import os
+import struct
+from pathlib import Path
+
+import numpy as np
+
+from exhibit.narration.sound import RATE, Sound, wav_bytes
+from exhibit.narration.speech import (
+    ENGINE,
+    MAX_OUTPUT_BYTES,
+    engine_version,
+    synthesise,
+    voice_for,
+)
+from exhibit.narration.wav import read_header
+from exhibit.schema import files
+
+log = logging.getLogger(__name__)
+#: Words a minute the exhibit speaks at unless told otherwise.
+DEFAULT_RATE_WPM = 150
+_CHUNK = b"xnar"
+
+
+def speech_cache_dir() -> Path:
+    if os.environ.get("EXHIBIT_CACHE_DIR"):
+        return Path(os.environ["EXHIBIT_CACHE_DIR"]) / "speech"
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "exhibit" / "speech"
+
+
+def speech_key(text: str, language: str, rate_wpm: int = DEFAULT_RATE_WPM) -> str:
+    """The sha256 naming the speech of ``text`` (raises NarrationError without espeak-ng)."""
+    description = json.dumps(
+        {
+            "engine": ENGINE,
+            "version": engine_version(),
+            "voice": voice_for(language),
+            "rate": int(rate_wpm),
+            "text": text,
+        },
+        sort_keys=True,
+    )
+    return hashlib.sha256(description.encode("utf-8")).hexdigest()
+
+
+def _entry(sound: Sound, key: str) -> bytes:
+    """The sound as a WAV file with an "xnar" chunk after its data: the key and the sha256 of
+    the data (readers skip chunks they do not know)."""
+    wav = wav_bytes(sound)
+    tag = json.dumps({"key": key, "sha256": hashlib.sha256(sound.samples.tobytes()).hexdigest()})
+    body = tag.encode() + (b" " if len(tag) % 2 else b"")
+    data = wav + _CHUNK + struct.pack("<I", len(body)) + body
+    return data[:4] + struct.pack("<I", len(data) - 8) + data[8:]
+
+
+def _read_entry(data: bytes, key: str) -> Sound:
+    """The sound of a cache entry; ValueError for anything not exactly as :func:`_entry` writes."""
+    header, offset, size = read_header(data)
+    if (header.rate, header.channels, header.bits, header.floating) != (RATE, 1, 16, False):
+        raise ValueError(f"{header.rate} Hz, {header.channels} channels, {header.bits} bits")
+    tail = data[offset + size :]
+    if len(tail) < 8 or tail[:4] != _CHUNK:
+        raise ValueError("no xnar chunk after the data")
+    length = struct.unpack_from("<I", tail, 4)[0]
+    if length != len(tail) - 8 or length > 4096:
+        raise ValueError("a truncated or oversized xnar chunk")
+    tag = files.loads_json(tail[8:])
+    if not isinstance(tag, dict) or tag.get("key") != key:
+        raise ValueError("made for another text")
+    samples = np.frombuffer(data, dtype="<i2", count=size // 2, offset=offset).astype(np.int16)
+    if hashlib.sha256(samples.tobytes()).hexdigest() != tag.get("sha256"):
+        raise ValueError("its samples do not match their hash")
+    if len(samples) == 0:
+        raise ValueError("no samples")
+    return Sound(samples)
+
+
+def spoken(
+    text: str, language: str, cache: Path | None = None, *, rate_wpm: int = DEFAULT_RATE_WPM
+) -> Sound:
+    """``text`` spoken in ``language``: from the cache folder (``cache``, else
+    :func:`speech_cache_dir`) when a valid entry is there, else synthesised and stored. A bad
+    entry is replaced; a cache that cannot be written only costs the synthesis next time.
+    NarrationError as :func:`~exhibit.narration.speech.synthesise` raises it."""
+    folder = Path(cache) if cache is not None else speech_cache_dir()
+    key = speech_key(text, language, rate_wpm)  # an unknown language is refused here
+    path = folder / f"{language}-{key[:32]}.wav"
+    try:
+        data = files.read_regular(path, MAX_OUTPUT_BYTES + 8192, follow=False)
+        return _read_entry(data, key)
+    except (FileNotFoundError, NotADirectoryError):
+        pass
+    except (OSError, ValueError) as exc:
+        log.warning("speech cache %s is unusable (%s); speaking it again", path, exc)
+    sound = synthesise(text, language, rate_wpm)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        files.write_atomic(path, _entry(sound, key), heal=True)
+    except OSError as exc:
+        log.warning("could not write the speech cache %s: %s", path, exc)
+    return sound
