@@ -87,7 +87,8 @@ class SerialController(ReconnectingBackend):
     def __post_init__(self) -> None:
         super().__post_init__()
         self.url = self.url or f"serial://{self.path}?baud={self.baud}"
-        self.capabilities = Capabilities(axes=p.N_AXES, buttons=4)
+        # Until the HELLO says otherwise (an older board has fewer buttons): the current board.
+        self.capabilities = Capabilities(axes=p.N_AXES, buttons=p.N_BUTTONS)
         self.decoder = p.StreamDecoder()
         self.tracker = p.SequenceTracker()
         self.device_clock = DeviceClock()
@@ -223,6 +224,8 @@ class SerialController(ReconnectingBackend):
             if self._axes.get(i, 0.0) != v:
                 self._axes[i] = v
                 out.append(Event(t, self.name, Kind.ABS, i, v))
+        # Every bit of the byte, whatever the board's count: an older board (4 buttons in its
+        # HELLO) leaves bit 4 at 0, so its button 5 simply never comes.
         for i in range(8):
             v = float((msg.buttons >> i) & 1)
             if self._buttons.get(i, 0.0) != v:

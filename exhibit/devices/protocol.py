@@ -39,6 +39,7 @@ __all__ = [
     "MAX_ENCODED",
     "AXIS_FULL_SCALE",
     "N_AXES",
+    "N_BUTTONS",
     "WATCHDOG_KEY",
     "MsgType",
     "ResetCause",
@@ -74,6 +75,8 @@ MAX_RAW = HEADER_SIZE + MAX_PAYLOAD + CRC_SIZE
 MAX_ENCODED = MAX_RAW + 1  # COBS adds one byte per 254; frames are shorter than that
 AXIS_FULL_SCALE = 32767
 N_AXES = 6
+#: buttons of the current firmware (1.1.0); the HELLO says how many a board has: 1.0.0 had 4
+N_BUTTONS = 5
 WATCHDOG_KEY = b"WDT!"
 
 
@@ -211,12 +214,13 @@ class Message:
 @dataclass(frozen=True)
 class Hello(Message):
     """Sent at boot and on :class:`HelloRequest`. ``firmware`` is (major, minor, patch);
+    ``n_buttons`` how many buttons the board has (5 since firmware 1.1.0, 4 before);
     ``heartbeat_ms`` is the idle heartbeat period, ``frame_hz`` the axes rate while active."""
 
     firmware: tuple[int, int, int] = (0, 0, 0)
     board: int = 1
     n_axes: int = N_AXES
-    n_buttons: int = 4
+    n_buttons: int = N_BUTTONS
     frame_hz: int = 100
     heartbeat_ms: int = 250
     reset_cause: ResetCause = ResetCause(0)
@@ -267,8 +271,9 @@ class Heartbeat(Message):
 @dataclass(frozen=True)
 class Axes(Message):
     """Sent at ``frame_hz`` while active. ``axes`` are six deflections, +-32767 at full scale,
-    0 inside the dead zone; ``buttons`` bit i is button i+1; ``t_ms`` is the device clock
-    (ms, mod 2**16) when the axes were sampled, for jitter-free rate integration."""
+    0 inside the dead zone; ``buttons`` bit i is button i+1 (bit ``n_buttons`` of the HELLO and
+    above are 0); ``t_ms`` is the device clock (ms, mod 2**16) when the axes were sampled, for
+    jitter-free rate integration."""
 
     t_ms: int = 0
     axes: tuple[int, ...] = (0,) * N_AXES

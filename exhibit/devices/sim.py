@@ -14,7 +14,7 @@ plain text, one command a line::
 
     axes 0.5 0 0 0 0 -1   # six deflections in [-1, 1], held until changed
     axis 3 0.25           # one axis (1-based)
-    buttons 1 2           # these buttons pressed (1-based); "buttons" alone releases all
+    buttons 1 2           # these buttons pressed (1..5); "buttons" alone releases all
     wait 1.5              # seconds
     garbage 40            # 40 random bytes on the line
     unplug 1.0            # gone for 1 s, then plugged in again (it boots)
@@ -65,7 +65,7 @@ class Step:
 _ARITY = {
     "axes": (6, 6),
     "axis": (2, 2),
-    "buttons": (0, 4),
+    "buttons": (0, p.N_BUTTONS),
     "wait": (1, 1),
     "garbage": (1, 1),
     "unplug": (1, 1),
@@ -108,8 +108,8 @@ def parse_script(text: str, source: str = "<script>") -> list[Step]:
             bad = "deflections must lie in [-1, 1]"
         elif cmd == "axis" and args[0] not in range(1, 7):
             bad = "axis number must be 1..6"
-        elif cmd == "buttons" and not all(a in range(1, 5) for a in args):
-            bad = "button numbers must be 1..4"
+        elif cmd == "buttons" and not all(a in range(1, p.N_BUTTONS + 1) for a in args):
+            bad = f"button numbers must be 1..{p.N_BUTTONS}"
         elif cmd in ("wait", "unplug", "hang", "garbage") and not (0 <= args[0] < 1e6):
             bad = f"{cmd} needs a non-negative number"
         if bad:
@@ -191,13 +191,16 @@ class SimController:
 
     ``start()`` runs it in a daemon thread (``tick`` every 10 ms); tests that want simulated
     time call ``plug()`` and ``tick(now)`` themselves. ``link`` is the stable name to open.
+    ``firmware`` and ``n_buttons`` are what its HELLO says: the current firmware by default, an
+    older board with ``firmware=(1, 0, 0), n_buttons=4`` (its missing buttons never press).
     """
 
     def __init__(
         self,
         link: str | os.PathLike | None = None,
         *,
-        firmware=(1, 0, 0),
+        firmware=(1, 1, 0),
+        n_buttons: int = p.N_BUTTONS,
         version: int = p.PROTOCOL_VERSION,
         heartbeat_ms: int = 250,
         script: list[Step] | None = None,
@@ -211,6 +214,7 @@ class SimController:
             link = Path(self._tmpdir.name) / "controller"
         self.link = Path(link)
         self.firmware = tuple(firmware)
+        self.n_buttons = n_buttons
         self.version = version
         self.heartbeat_ms = heartbeat_ms
         self.clock = clock
@@ -289,7 +293,7 @@ class SimController:
 
     def set_buttons(self, bits: int) -> None:
         with self._lock:
-            self._buttons = bits & 0x0F
+            self._buttons = bits & ((1 << self.n_buttons) - 1)
 
     def inject(self, data: bytes) -> None:
         """Raw bytes on the line (garbage, partial frames)."""
@@ -323,7 +327,7 @@ class SimController:
         if send:
             self.resets += 1
             self._write(p.DELIMITER)
-            self._send(p.Hello(self.firmware, 1, p.N_AXES, 4, 100, self.heartbeat_ms, cause))
+            self._send(self._hello(cause))
 
     def tick(self, now: float | None = None) -> None:
         with self._lock:
@@ -364,15 +368,14 @@ class SimController:
 
     def _command(self, msg: p.Message, now: float) -> None:
         if isinstance(msg, p.HelloRequest):
-            self._send(
-                p.Hello(
-                    self.firmware, 1, p.N_AXES, 4, 100, self.heartbeat_ms, p.ResetCause.POWER_ON
-                )
-            )
+            self._send(self._hello(p.ResetCause.POWER_ON))
         elif isinstance(msg, p.Calibrate):
             self._send(p.Calibration(p.CalibrationReason.HOST, 0, self._zeros))
         elif isinstance(msg, p.WatchdogTest) and msg.key == p.WATCHDOG_KEY:
             self._wdt_reset_at = now + WATCHDOG_S
+
+    def _hello(self, cause: p.ResetCause) -> p.Hello:
+        return p.Hello(self.firmware, 1, p.N_AXES, self.n_buttons, 100, self.heartbeat_ms, cause)
 
     def _ms(self, now: float) -> int:
         return int((now - self._t_reset) * 1000)

@@ -47,7 +47,7 @@ __all__ = [
 
 VCC_MV = 5000
 REST_MV = VCC_MV // 2
-BUTTON_PINS = {1: 2, 2: 3, 3: 4, 4: 5}  # button -> PDn (firmware/controller/config.h)
+BUTTON_PINS = {1: 2, 2: 3, 3: 4, 4: 5, 5: 6}  # button -> PDn (firmware/controller/config.h)
 EEPROM_SIZE = 1024  # ATmega328P
 HARNESS_PACKAGES = "gcc make pkg-config libsimavr-dev libelf-dev"
 ROOT = Path(__file__).resolve().parents[2]
@@ -397,7 +397,7 @@ class FirmwareController:
 
     def set_buttons(self, bits: int) -> None:
         with self._lock:
-            self._buttons = bits & 0x0F
+            self._buttons = bits & ((1 << len(BUTTON_PINS)) - 1)
             if self.harness is not None:
                 for n in BUTTON_PINS:
                     self.harness.button(n, bool(self._buttons >> (n - 1) & 1))

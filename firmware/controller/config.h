@@ -4,15 +4,18 @@
 #define CONTROLLER_CONFIG_H
 
 #define FW_VERSION_MAJOR 1
-#define FW_VERSION_MINOR 0
+#define FW_VERSION_MINOR 1
 #define FW_VERSION_PATCH 0
 #define BOARD_ID 1 /* 6-axis controller */
 
 #define BAUD 115200UL
 
-#define N_BUTTONS 4
-#define BUTTON_SHIFT 2     /* buttons on PD2..PD5 (Nano D2..D5), active low with pull-ups */
+#define N_BUTTONS 5
+#define BUTTON_SHIFT 2     /* buttons on PD2..PD6 (Nano D2..D6), active low with pull-ups */
 #define DEBOUNCE_MS 5      /* sampled every 1 ms */
+#if BUTTON_SHIFT + N_BUTTONS > 7
+#error "the buttons must stay on PD2..PD6: PD0/PD1 are the UART, and the AXES buttons byte has 8 bits"
+#endif
 
 #define FRAME_HZ 100
 #define TICK_MS (1000 / FRAME_HZ)

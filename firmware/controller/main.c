@@ -1,5 +1,6 @@
-/* 6-axis serial controller, ATmega328P at 16 MHz (Arduino Nano). Six pots on ADC0..5, four
- * buttons on PD2..PD5, frames to the host over the UART (the Nano's USB bridge).
+/* 6-axis serial controller, ATmega328P at 16 MHz (Arduino Nano). Six pots on ADC0..5, five
+ * buttons on PD2..PD6, frames to the host over the UART (the Nano's USB bridge). PD0/PD1 are the
+ * UART; PD6 (OC0A, AIN0) is free: timer 0 and the analog comparator are not used.
  * Hardware glue only: protocol, filtering, calibration and scheduling live in ../common. */
 #include <avr/eeprom.h>
 #include <avr/interrupt.h>

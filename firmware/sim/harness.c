@@ -7,7 +7,8 @@
  * Prints "pty PATH" once the pty exists, then obeys lines on stdin, answering each with
  * "ok ..." (or "error ...") once it has taken effect:
  *   adc CH MV          drive ADC channel CH with MV millivolts
- *   pin PORT BIT LEVEL drive an input pin (e.g. "pin D 2 0": a button on PD2 pressed)
+ *   pin PORT BIT LEVEL drive an input pin (e.g. "pin D 2 0": button 1 pressed; the
+ *                      controller's buttons 1..5 are PD2..PD6, "pin D 6 0" is button 5)
  *   run                start the CPU (it waits, so the host can open the pty first)
  *   pause              stop the CPU (simulated time stands still: a hung line, no reset)
  *   reset              the reset button (MCUSR says external)

@@ -9,9 +9,9 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from exhibit.devices import protocol as p
-from exhibit.devices.base import Kind, State
+from exhibit.devices.base import DeviceError, Kind, State
 from exhibit.devices.controller import DeviceClock, SerialController
-from exhibit.devices.sim import SimController
+from exhibit.devices.sim import SimController, Step, parse_script
 from tests.hypothesis_profiles import examples
 
 from .conftest import FakeClock, Loop
@@ -25,9 +25,9 @@ def test_handshake_learns_the_firmware(loop, controller):
     assert controller.state is State.CONNECTING
     took = loop.until(connected(controller), what="handshake")
     assert took <= 0.1  # HELLO_REQUEST answered at once: no waiting for a reset
-    assert controller.hello.firmware == (1, 0, 0)
-    assert controller.capabilities.axes == 6 and controller.capabilities.buttons == 4
-    assert "firmware 1.0.0" in controller.detail
+    assert controller.hello.firmware == (1, 1, 0) and controller.hello.n_buttons == 5
+    assert controller.capabilities.axes == 6 and controller.capabilities.buttons == 5
+    assert "firmware 1.1.0" in controller.detail
     loop.run(1.0)  # idle: heartbeats keep it connected, no events
     assert controller.state is State.CONNECTED and loop.events == []
     assert controller.decoder.rejected == 0 and controller.tracker.lost == 0
@@ -52,6 +52,51 @@ def test_axes_and_buttons_become_events_on_change_only(loop, controller, sim):
         (Kind.BUTTON, 0, 0.0),
         (Kind.BUTTON, 2, 0.0),
     ]
+
+
+def test_button_5_is_an_event_of_index_4(loop, controller, sim):
+    """The fifth button (the "listen" button of default.toml: input = "button 5") arrives as
+    bit 4 of AXES, a button event of index 4, pressed and released."""
+    loop.until(lambda: controller.calibration is not None, what="boot over")
+    sim.set_buttons(0b10000)
+    loop.run(0.1)
+    sim.set_buttons(0)
+    loop.run(0.1)
+    assert [(e.kind, e.index, e.value) for e in loop.events] == [
+        (Kind.BUTTON, 4, 1.0),
+        (Kind.BUTTON, 4, 0.0),
+    ]
+
+
+def test_scripts_press_buttons_1_to_5():
+    assert parse_script("buttons 1 2 3 4 5\nbuttons\n") == [
+        Step(1, "buttons", (1.0, 2.0, 3.0, 4.0, 5.0)),
+        Step(2, "buttons", ()),
+    ]
+    with pytest.raises(DeviceError, match=r"line 1: button numbers must be 1..5"):
+        parse_script("buttons 6\n")
+
+
+def test_an_older_board_with_four_buttons_still_works(clock, tmp_path):
+    """Firmware 1.0.0 says n_buttons = 4 in its HELLO: the host takes the count from there,
+    its sticks and buttons 1-4 work as before, and its button 5 simply never comes."""
+    s = SimController(tmp_path / "c", clock=clock, firmware=(1, 0, 0), n_buttons=4, sync=True)
+    s.plug()
+    b = SerialController(name="controller", clock=clock, path=str(s.link)).open()
+    loop = Loop(clock, s, [b])
+    try:
+        loop.until(lambda: b.calibration is not None, what="handshake and boot")
+        assert b.hello.firmware == (1, 0, 0) and b.hello.n_buttons == 4
+        assert b.capabilities.buttons == 4 and "firmware 1.0.0" in b.detail
+        s.set_axes([0, 0.5, 0, 0, 0, 0])
+        s.set_buttons(0b11000)  # buttons 4 and 5 held: the old board has no fifth
+        loop.run(0.2)
+        got = {(e.kind, e.index): e.value for e in loop.events}
+        assert got == {(Kind.ABS, 1): pytest.approx(0.5, abs=1e-4), (Kind.BUTTON, 3): 1.0}
+        assert b.state is State.CONNECTED and b.decoder.rejected == 0
+    finally:
+        b.close()
+        s.stop()
 
 
 def test_device_clock_stamps_follow_the_device_not_arrival():

@@ -223,7 +223,7 @@ def test_board_boots_from_erased_eeprom_and_hands_over_its_hello(make_board, rig
     if board.sim is not None:
         board.sim.run()
     assert rig.connected() < 2.0
-    assert rig.ctl.hello.firmware == (1, 0, 0) and rig.ctl.hello.heartbeat_ms == 250
+    assert rig.ctl.hello.firmware == (1, 1, 0) and rig.ctl.hello.heartbeat_ms == 250
     rig.run(1.0)  # idle: heartbeats keep it connected, no events, the view stands still
     assert rig.ctl.state is State.CONNECTED and rig.events == []
     assert rig.view == ViewState()

@@ -18,7 +18,7 @@ import time
 import pytest
 
 from exhibit.devices import protocol as p
-from exhibit.devices.simavr import REST_MV, Harness
+from exhibit.devices.simavr import BUTTON_PINS, REST_MV, Harness
 
 BUDGET = 16_000_000 // 100  # cycles per 10 ms tick
 
@@ -38,7 +38,7 @@ def sim(avr_build, harness, tmp_path):
                 eeprom=tmp_path / "eeprom.bin", log=tmp_path / "harness.log")
     for ch in range(6):
         s.adc(ch, REST_MV)
-    for b in range(1, 5):
+    for b in BUTTON_PINS:
         s.button(b, False)
     s.run()
     run_for(s, 0.5)  # past the boot and the power-up calibration

@@ -19,6 +19,8 @@ import pytest
 import serial
 
 from exhibit.devices import protocol as p
+from exhibit.devices.base import Kind, State
+from exhibit.devices.controller import SerialController
 from exhibit.devices.simavr import BUTTON_PINS, REST_MV, VCC_MV, Harness
 
 from .controller_model import AXIS_TOL, c16, expected_axis
@@ -197,7 +199,7 @@ def test_boot_sends_hello_then_power_up_calibration(board):
     sim, host, boot_cal = board
     hello, cal = host.frames[0], host.frames[1]
     assert (hello.seq, cal.seq) == (0, 1)
-    assert hello.message == p.Hello((1, 0, 0), 1, 6, 4, 100, 250, p.ResetCause.POWER_ON)
+    assert hello.message == p.Hello((1, 1, 0), 1, 6, 5, 100, 250, p.ResetCause.POWER_ON)
     assert cal.message is boot_cal.message
     assert cal.message.reason is p.CalibrationReason.POWER_UP
     assert cal.message.eeprom_mask == 0  # the EEPROM holds no record yet
@@ -260,6 +262,70 @@ def test_buttons_are_debounced_and_reported(board):
     host.wait_type(p.Heartbeat)  # back to idle: a pressed button alone kept it active
 
 
+def test_five_buttons_on_pd2_to_pd6_and_nothing_else(board):
+    """Button n is PD(n+1) pulled to GND and bit n-1 of AXES: button 5 (PD6, Nano D6) is bit 4,
+    all five together are 0b11111, and PD7 (not a button) changes nothing."""
+    sim, host, _ = board
+    rest(sim, host)
+    assert BUTTON_PINS == {1: 2, 2: 3, 3: 4, 4: 5, 5: 6}
+    since = change(sim, host, buttons={5: True})
+    pressed = host.wait_type(p.Axes, lambda a: a.buttons, since=since).message
+    assert pressed.buttons == 0b10000 and pressed.axes == (0,) * 6
+    since = change(sim, host, buttons={b: True for b in BUTTON_PINS})
+    assert host.wait_type(p.Axes, lambda a: a.buttons == 0b11111, since=since)
+    since = change(sim, host, buttons={b: False for b in BUTTON_PINS})
+    host.wait_type(p.Heartbeat, since=since)  # all released: idle again
+    sim.pause()
+    try:
+        since = host.mark(sim.line_bytes()[0])
+        sim.pin("D", 7, 0)
+    finally:
+        sim.run()
+    host.collect(3, p.Heartbeat, since=since)
+    assert all(isinstance(f.message, p.Heartbeat) for f in host.frames[since:])  # no AXES
+    sim.pin("D", 7, 1)
+
+
+def test_button_5_reaches_the_exhibit_as_button_event_4(harness, avr_build, tmp_path):
+    """The exhibit's own SerialController on the firmware's pty, on the simulator's clock: the
+    hello says 5 buttons, and button 5 (default.toml's input = "button 5") arrives as a BUTTON
+    event of index 4, pressed and released, with no other event."""
+    sim = Harness(avr_build / "controller" / "controller.elf", harness=harness, speed=SPEED,
+                  log=tmp_path / "harness.log", timeout=STALL_S)
+    ctl = None
+    try:
+        for ch in range(6):
+            sim.adc(ch, REST_MV)
+        for b in BUTTON_PINS:
+            sim.button(b, False)
+        ctl = SerialController(name="controller", path=sim.pty, clock=sim.sim_time).open()
+        sim.run()
+        events: list = []
+
+        def poll_until(pred, what):
+            start, stall = sim.sim_time(), Stall(f"waiting for {what}")
+            while not pred():
+                events.extend(ctl.poll())
+                now = sim.sim_time()
+                assert now - start <= WITHIN_S, f"no {what} in {WITHIN_S:g} s: {ctl.status()}"
+                stall.check((now, ctl.bytes_in))
+                time.sleep(0.002)
+
+        poll_until(lambda: ctl.state is State.CONNECTED and ctl.calibration is not None, "boot")
+        assert ctl.hello.n_buttons == 5 and ctl.capabilities.buttons == 5
+        sim.button(5, True)
+        poll_until(lambda: events, "the press")
+        sim.button(5, False)
+        poll_until(lambda: len(events) >= 2, "the release")
+        assert [(e.device, e.kind, e.index, e.value) for e in events] == [
+            ("controller", Kind.BUTTON, 4, 1.0), ("controller", Kind.BUTTON, 4, 0.0)]
+        assert ctl.decoder.rejected == 0 and ctl.tracker.lost == 0
+    finally:
+        if ctl is not None:
+            ctl.close()
+        sim.close()
+
+
 def test_host_commands_and_receive_counters(board):
     sim, host, _ = board
     rest(sim, host)
@@ -267,7 +333,7 @@ def test_host_commands_and_receive_counters(board):
     _, taken = sim.line_bytes()
     written = host.send(p.HelloRequest())
     hello = host.wait_type(p.Hello).message
-    assert hello.reset_cause == p.ResetCause.POWER_ON and hello.firmware == (1, 0, 0)
+    assert hello.reset_cause == p.ResetCause.POWER_ON and hello.firmware == (1, 1, 0)
     bad = bytearray(p.encode_frame(p.HelloRequest(), 9))
     bad[2] ^= 0x01
     junk = b"\x13\x37\x00" + bytes(bad) + p.encode_raw(p.MsgType.HEARTBEAT, 1, b"", version=9)

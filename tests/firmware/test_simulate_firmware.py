@@ -75,14 +75,14 @@ def test_simulated_firmware_serves_devices_and_monitor(avr_build, harness, tmp_p
         assert devices.returncode == 0, devices.stderr
         doc = json.loads(devices.stdout)
         board = next(d for d in doc["configured"] if d["name"] == "controller")
-        assert board["state"] == "connected" and "firmware 1.0.0" in board["detail"], board
+        assert board["state"] == "connected" and "firmware 1.1.0" in board["detail"], board
         monitor = subprocess.run(EXHIBIT + ["monitor", *common, "--rate", "4", "--duration", "4"],
                                  text=True, capture_output=True, timeout=HANG_S)
         assert monitor.returncode == 0, monitor.stderr
         lines = [json.loads(line) for line in monitor.stdout.splitlines()]
         assert any(line["devices"]["controller"] == "connected" for line in lines)
         # the board's hello, as monitor shows it too
-        assert any("firmware 1.0.0" in line["details"]["controller"] for line in lines), lines
+        assert any("firmware 1.1.0" in line["details"]["controller"] for line in lines), lines
         last = lines[-1]
         assert any(last["angles_deg"]) or last["sensor_r"] > 0, last  # live axes move the view
         assert len(lines) <= 4 * 4 + 1  # 4 lines a second, ended after 4 s by its own clock
