@@ -173,19 +173,21 @@ def need_ffmpeg(instead: str) -> None:
         )
 
 
-def encode_mp4(folder: Path, out: Path, fps: float = 25) -> None:
+def encode_mp4(folder: Path, out: Path, fps: float = 25, audio: Path | None = None) -> None:
     """``folder``'s frame_0000.png, frame_0001.png, ... as an H.264 MP4 at ``fps`` (ffmpeg),
-    encoded in a private folder and written to ``out`` by :func:`write_out`."""
+    with ``audio`` (a WAV) as its AAC sound track if given, encoded in a private folder and
+    written to ``out`` by :func:`write_out`."""
     private = Path(tempfile.mkdtemp(prefix="exhibit-mp4-"))
     try:
         encoded = private / "out.mp4"
-        _ffmpeg(folder, encoded, fps)
+        _ffmpeg(folder, encoded, fps, audio)
         write_out(out, encoded.read_bytes())
     finally:
         shutil.rmtree(private, ignore_errors=True)
 
 
-def _ffmpeg(folder: Path, out: Path, fps: float) -> None:
+def _ffmpeg(folder: Path, out: Path, fps: float, audio: Path | None = None) -> None:
+    sound = ["-i", str(audio), "-c:a", "aac", "-b:a", "96k"] if audio is not None else []
     result = subprocess.run(
         [
             "ffmpeg",
@@ -196,6 +198,7 @@ def _ffmpeg(folder: Path, out: Path, fps: float) -> None:
             f"{fps:g}",
             "-i",
             str(folder / "frame_%04d.png"),
+            *sound,
             "-pix_fmt",
             "yuv420p",
             "-vf",

@@ -83,6 +83,10 @@ def _conflicts(args) -> None:
     ):
         if given:
             raise ExhibitError(f"{flag} plays the kiosk: it takes no {name}")
+    if getattr(args, "narration", False) and args.timeline is None:
+        raise ExhibitError("--narration goes with --timeline")
+    if getattr(args, "narration", False) and getattr(args, "verify", False):
+        raise ExhibitError("--verify measures the picture: leave out --narration")
     if getattr(args, "verify", False):
         if args.timeline is None:
             raise ExhibitError("--verify goes with --timeline")
@@ -149,6 +153,10 @@ def _timeline(args, size, config, language) -> int:
     out = check_out(args.out, kind)
     from exhibit.kiosk.review import caption_spans, play_schedule
 
+    if getattr(args, "narration", False):
+        if kind == "sheet":
+            raise ExhibitError("--narration: a contact sheet has no sound: --out DIR/ or .mp4")
+        return _narrated(args, size, config, language, timeline, kind, out, fps)
     spans = caption_spans(timeline)
     if kind == "sheet" and not spans:
         raise ExhibitError(f"--timeline: {timeline.path} shows no caption for a contact sheet")
@@ -205,6 +213,92 @@ def _timeline(args, size, config, language) -> int:
         finally:
             if kind != "folder":
                 shutil.rmtree(folder, ignore_errors=True)
+    print(out)
+    return 0
+
+
+#: A narrated review draws at most this many times the timeline's own length (the holds).
+NARRATED_STRETCH = 3.0
+
+
+def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
+    """The timeline as the kiosk plays it after a listen press: its frames, held where the
+    narration runs on, and the narration itself, as DIR/narration.wav with each spoken
+    segment's start and end in index.json, or as the MP4's sound."""
+    from exhibit.kiosk.review import KioskPlayer
+    from exhibit.narration.sound import write_wav
+
+    estimate = math.ceil(NARRATED_STRETCH * timeline.duration * fps) + 1
+    check_job(estimate, size, "a lower --fps, a smaller --size or a shorter timeline")
+    folder = out if kind == "folder" else Path(tempfile.mkdtemp(prefix="exhibit-frames-"))
+    try:
+        with (
+            gl_errors(size),
+            KioskPlayer(
+                size, timeline=args.timeline, language=language, config=config, narrate=True
+            ) as player,
+        ):
+            index = []
+            with Progress(estimate) as progress:
+                frames = player.play_through(
+                    fps, progress=progress, limit_s=NARRATED_STRETCH * timeline.duration
+                )
+                for i, (frame, into) in enumerate(frames):
+                    name = f"frame_{i:04d}.png"
+                    save_frame(frame.image, folder / name, sync=False)
+                    index.append(
+                        {
+                            "file": name,
+                            "t": round(frame.t, 4),
+                            "timeline_t": round(into, 4),
+                            "caption": frame.caption,
+                            "mode": frame.mode,
+                        }
+                    )
+            length = len(index) / fps
+            narrator = player.kiosk.narrator
+            tape = narrator.player
+            spoken = [
+                {
+                    "start": round(take.start, 4),
+                    "end": round(min(take.end, length), 4),
+                    "keyframe": segment.keyframe,
+                    "language": segment.language,
+                    "text": segment.text,
+                    **({"recording": segment.recording} if segment.recording else {}),
+                }
+                for (_, _, segment), take in zip(narrator.history, tape.takes)
+                if take.start < length
+            ]
+            failed = narrator.status()["failed"]
+            sound = tape.mixdown(length)
+        wav = folder / "narration.wav"
+        write_wav(wav, sound)
+        if kind == "folder":
+            write_out(
+                folder / "index.json",
+                json.dumps(
+                    {
+                        "timeline": timeline.path,
+                        "scene": timeline.scene,
+                        "language": language,
+                        "fps": fps,
+                        "size": list(size),
+                        "narration": {"file": wav.name, "segments": spoken, "failed": failed},
+                        "frames": index,
+                    },
+                    ensure_ascii=False,
+                    indent=1,
+                )
+                + "\n",
+            )
+        else:
+            encode_mp4(folder, out, fps, audio=wav)
+    finally:
+        if kind != "folder":
+            shutil.rmtree(folder, ignore_errors=True)
+    for problem in failed:
+        print(f"narration: {problem}")
     print(out)
     return 0
 

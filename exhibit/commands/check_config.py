@@ -39,6 +39,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> int:
+    notes: list[str] = []
     try:
         config = load_kiosk_config(args.config)
         problems = (
@@ -47,8 +48,13 @@ def run(args) -> int:
             + _colour_problems(config)
             + _layout_problems(config)
         )
+        if not problems:
+            narration, notes = _narration(config)
+            problems += narration
     except ConfigError as exc:
         problems = exc.problems
+    for note in notes:
+        print(note)
     if problems:
         for problem in problems:
             print(problem)
@@ -76,6 +82,29 @@ def _caption_problems(attract_dir) -> list[str]:
     return [
         p for path in timeline_paths(attract_dir) for p in caption_problems(load_timeline(path))
     ]
+
+
+def _narration(config) -> tuple[list[str], list[str]]:
+    """Every narration segment made as the kiosk will speak it (exhibit.kiosk.narrator):
+    problems for those that cannot be (a recording refused, no speech engine), and a note for
+    each that runs past the time its caption is shown (the kiosk then holds the caption while
+    narration is on: a visitor listening waits, one reading sees it longer)."""
+    from exhibit.kiosk.narrator import prepare_all
+
+    if config.attract_dir is None:
+        return [], []
+    timelines = [load_timeline(path) for path in timeline_paths(config.attract_dir)]
+    problems, notes = [], []
+    for p in prepare_all(config, timelines):
+        where = f"{p.timeline}: keyframe[{p.segment.keyframe}]: narration ({p.segment.language})"
+        if p.error is not None:
+            problems.append(f"{where}: {p.error}")
+        elif p.overrun > 0:
+            notes.append(
+                f"{where} takes {p.seconds:.1f} s, its caption is shown {p.segment.window:.1f} s: "
+                f"held {p.overrun:.1f} s longer while narration is on"
+            )
+    return problems, notes
 
 
 def _colour_problems(config) -> list[str]:

@@ -1,5 +1,6 @@
-"""`exhibit prepare`: fill the mesh cache with every mesh the kiosk will load, so its next start
-is a warm one. `exhibit install` and the update run it as the service's user before the service
+"""`exhibit prepare`: fill the mesh cache with every mesh the kiosk will load, and the speech
+cache with every narration it may speak (exhibit.kiosk.narrator), so its next start is a warm
+one. `exhibit install` and the update run it as the service's user before the service
 (re)starts; after a change to a scene or the code, the first boot would otherwise build meshes
 while the visitors wait for the scenes beyond the first."""
 
@@ -12,6 +13,7 @@ from typing import Any
 from exhibit.kiosk.attract import load_playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
+from exhibit.kiosk.narrator import prepare_all
 from exhibit.kiosk.preparing import run_job, scene_jobs
 from exhibit.scenes.cache import cache_dir, entry_path, entry_problem
 from exhibit.surfaces import progress
@@ -75,8 +77,23 @@ def run(args) -> int:
                 }
             )
     failed = [r for r in report if r["error"]]
+    speech_start = time.perf_counter()
+    with progress.on_terminal():
+        spoken = prepare_all(config, timelines, progress.report)
+    speech: dict[str, Any] = {
+        "segments": len(spoken),
+        "seconds": round(time.perf_counter() - speech_start, 2),
+        "spoken_s": round(sum(p.seconds or 0.0 for p in spoken), 1),
+        "failed": [
+            f"{p.timeline}: keyframe[{p.segment.keyframe}] ({p.segment.language}): {p.error}"
+            for p in spoken
+            if p.error
+        ],
+    }
     if args.json:
-        print(json.dumps({"cache": str(cache_dir()), "scenes": report}, indent=2))
+        print(
+            json.dumps({"cache": str(cache_dir()), "scenes": report, "narration": speech}, indent=2)
+        )
     else:
         print(f"mesh cache: {cache_dir()}")
         repeated = {
@@ -89,4 +106,11 @@ def run(args) -> int:
             name = f"{r['scene']} ({given})" if r["scene"] in repeated and given else r["scene"]
             print(f"  {name:<20} resolutions {', '.join(map(str, r['resolutions']))}: {what}")
         print(f"{len(report) - len(failed)} of {len(report)} scenes ready")
-    return 1 if failed else 0
+        print(
+            f"narration: {speech['segments'] - len(speech['failed'])} of {speech['segments']} "
+            f"segments ready ({speech['spoken_s']:.0f} s of speech, made in "
+            f"{speech['seconds']:.1f} s)"
+        )
+        for line in speech["failed"]:
+            print(f"  {line}")
+    return 1 if failed or speech["failed"] else 0

@@ -104,8 +104,7 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--inset",
         action="store_true",
-        help="with --slice: add a picture in the picture of the 3D world at that "
-        "moment (the collision's pipe and ball), or the slice curves alone",
+        help="with --slice: a picture in the picture of the 3D world at that moment",
     )
     parser.add_argument(
         "--out", metavar="FILE", help="output .png (or, with --frames, a folder, .gif or .mp4)"
@@ -113,9 +112,13 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--timeline",
         metavar="FILE",
-        help="play an attract timeline headlessly as the kiosk shows it; --out "
-        "is a folder (DIR/: numbered PNGs), an .mp4 or a .png contact sheet "
-        "(one frame per caption)",
+        help="play an attract timeline headlessly as the kiosk shows it; --out is a folder "
+        "(DIR/: numbered PNGs), an .mp4 or a .png contact sheet (one frame per caption)",
+    )
+    parser.add_argument(
+        "--narration",
+        action="store_true",
+        help="with --timeline: narrated (DIR/narration.wav + index.json, or the .mp4's sound)",
     )
     parser.add_argument(
         "--verify",
@@ -249,6 +252,8 @@ def run(args) -> int:
     for flag in ("language", "config", "fps"):
         if getattr(args, flag) is not None:
             raise ExhibitError(f"--{flag} goes with --timeline or --takeover")
+    if args.narration:
+        raise ExhibitError("--narration goes with --timeline")
     scene, params, view, note = resolve(args)
     size = parse_size(args.size)
     samples = _int(args.samples, "--samples", 0, 16)

@@ -233,6 +233,9 @@ def summary(
     ]
     if data.quality is not None:
         rows.append(("quality", quality_line(data)))
+    narration = data.narration
+    if isinstance(narration, dict):
+        rows.append(("narration", narration_line(narration)))
     devices = data.devices or []
     if devices:
         urls = [printable(d.url) for d in devices]
@@ -325,3 +328,27 @@ def _print_json(obj: dict) -> None:
     """JSON with every non-ASCII and control character escaped (ensure_ascii), so it is valid
     and inert on a terminal; read_health has already refused NaN and infinities."""
     sys.stdout.write(json.dumps(obj, indent=2, sort_keys=True, ensure_ascii=True) + "\n")
+
+
+def narration_line(narration: dict) -> str:
+    """ "on, speaking …; sound: ok (default)" from the health file's narration (any of its
+    values may be missing or of the wrong type: an older or damaged file)."""
+    on = "on" if narration.get("on") is True else "off"
+    if narration.get("attract") is True:
+        on += " (attract mode speaks)"
+    speaking = narration.get("speaking")
+    if isinstance(speaking, str):
+        on += f", speaking {printable(speaking)}"
+    player = narration.get("player")
+    player = player if isinstance(player, dict) else {}
+    state = printable(str(player.get("state", "?")))
+    device = player.get("device")
+    where = printable(str(device)) if isinstance(device, str) and device else "default output"
+    line = f"{on}; sound: {state} ({where})"
+    error = player.get("error")
+    if isinstance(error, str) and error:
+        line += f": {printable(error)[:200]}"
+    failed = narration.get("failed")
+    if isinstance(failed, list) and failed:
+        line += f"; {len(failed)} segment(s) cannot be spoken"
+    return line

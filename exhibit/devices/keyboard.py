@@ -8,7 +8,7 @@ idle logic treat them alike. Key names are lower-case (GLFW's key names: "q", "s
 Default keys: seven axes, each a pair of keys (+ / -), held keys give full deflection:
 ``q/a w/s e/d r/f t/g y/h`` -> axes 1..6, ``u/j`` -> axis 7; mouse drag -> delta 1 (x) and
 delta 2 (y) in pixels; scroll wheel -> delta 3 in clicks; space -> button 1, n -> button 2, l ->
-button 3 (the shipped mapping: home, next scene, next language).
+button 3, v -> button 4 (the shipped mapping: home, next scene, next language, listen).
 
 :func:`key_name` is the window side's half: a GLFW key code to the name used here, so the kiosk
 and the staff viewer (`exhibit render --window`) read the same keys the same way.
@@ -30,7 +30,7 @@ DEFAULT_KEYS = {
     for i, pair in enumerate(("qa", "ws", "ed", "rf", "tg", "yh", "uj"))
     for k, d in zip(pair, (1.0, -1.0))
 }
-BUTTON_KEYS = {"space": 0, "n": 1, "l": 2}
+BUTTON_KEYS = {"space": 0, "n": 1, "l": 2, "v": 3}
 #: GLFW key names for keys that have none of their own (glfw.get_key_name gives None for them).
 SPECIAL_KEYS = {
     "SPACE": "space",

@@ -18,9 +18,11 @@ Which input drives which parameter is configuration (a list of bindings, see
   1 / ``sensor_min_distance``.
 
 Buttons may also do an action: ``home`` (every parameter back to its home value),
-``next-scene`` (the kiosk moves on: :meth:`Mapper.switches_scene`) or ``language`` (the kiosk
-shows the next of its languages: exhibit.kiosk.language). A button with no binding at all
-moves to the next scene too, so a knob box's unbound push buttons do something.
+``next-scene`` (the kiosk moves on: :meth:`Mapper.switches_scene`), ``language`` (the kiosk
+shows the next of its languages: exhibit.kiosk.language) or ``listen`` (narration on or off:
+exhibit.kiosk.narrator; a press that is no takeover, so attract mode goes on, spoken). A
+button with no binding at all moves to the next scene too, so a knob box's unbound push
+buttons do something.
 
 Limits never make the view jump: a value the exhibit put outside them (an attract timeline, a
 scene's start pose) is not pulled back, it just cannot move further out.
@@ -55,7 +57,7 @@ __all__ = [
 Param = Literal["theta1", "theta2", "theta3", "theta4", "theta5", "theta6", "sensor"]
 PARAMS: tuple[Param, ...] = get_args(Param)
 #: What a button can do instead of driving a parameter.
-Action = Literal["home", "next-scene", "language"]
+Action = Literal["home", "next-scene", "language", "listen"]
 ACTIONS: tuple[Action, ...] = get_args(Action)
 SENSOR = 6
 MAX_DT = 0.5  # a stalled loop does not turn into a lurch
@@ -220,6 +222,19 @@ class Mapper:
             )
             for e in events
         )
+
+    def without(self, events: list[Event], action: str) -> list[Event]:
+        """``events`` less those of buttons bound to ``action`` alone: a ``listen`` press is no
+        visitor taking over (attract mode goes on, spoken)."""
+        return [
+            e
+            for e in events
+            if not (
+                e.kind is Kind.BUTTON
+                and (binds := self._by_channel.get((e.device, e.kind, e.index), ()))
+                and all(b.action == action for b in binds)
+            )
+        ]
 
     def _long_presses(self, e: Event, key, now: float) -> None:
         """Track the buttons of long-press bindings: down starts the wait, up ends it."""

@@ -129,6 +129,8 @@ class Kiosk:
         self.state: KioskState | None = parts.state
         self.reporter = parts.reporter
         self.started = parts.started
+        #: "Listen": spoken descriptions and captions (exhibit.kiosk.narrator).
+        self.narrator = parts.narrator
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
         self._fade_start: float | None = None
@@ -238,6 +240,10 @@ class Kiosk:
             self.window.notice(list(NOTICE), self.drift(start))
         else:
             mode, scene = self.state.mode, self.state.frame.scene
+            if self.state.mapper.pressed(events, "listen"):
+                self.narrator.press()
+            events = self.state.mapper.without(events, "listen")  # no takeover
+            self._hold_for_narration(start)
             frame = self.state.update(events, start)
             self.language.update(
                 self.state.mapper.pressed(events, "language"), self.state.mode == ATTRACT, start
@@ -246,6 +252,8 @@ class Kiosk:
                 self.sessions.observe(frame.mode, frame.scene, events, start)
             if frame.mode == ATTRACT and mode != ATTRACT:  # after the session took its language
                 self.language.walked_away(start)
+                self.narrator.walked_away()
+            self._narrate(frame, start)
             if frame.mode != mode or frame.scene != scene:
                 fields = self._update_log_fields()
                 if frame.mode != mode:
@@ -278,6 +286,30 @@ class Kiosk:
                 log.warning(
                     "slow frame: %.0f ms (scene %s; %d so far)", (end - start) * 1000.0, shown, n
                 )
+
+    def _hold_for_narration(self, now: float) -> None:
+        """Attract mode waits at the end of a caption's window while its narration goes on."""
+        if self.state is None or self.state.mode != ATTRACT or not self.narrator.on(True):
+            return
+        playlist = self.state.playlist
+        if not playlist.timelines:
+            return
+        timeline, t = playlist.locate(now)
+        hold = self.narrator.hold_at(timeline, t, self.translate.language)
+        if hold is not None and t > hold:
+            playlist.hold(t - hold)
+
+    def _narrate(self, frame, now: float) -> None:
+        """What is on screen, spoken once, while narration is on."""
+        attract = frame.mode == ATTRACT
+        if self.state is None or not self.narrator.on(attract):
+            return
+        language = self.translate.language
+        if attract and self.state.playlist.timelines:
+            timeline, t = self.state.playlist.locate(now)
+            self.narrator.speak_timeline(timeline, t, language, now)
+        elif not attract:
+            self.narrator.speak_scene(frame.scene, frame.title, frame.caption, language, now)
 
     def _update_log_fields(self) -> dict[str, str | None]:
         """The journal fields for what is on screen, set for every record from now on (errors
@@ -315,6 +347,7 @@ class Kiosk:
             language=self.translate.language,
             sessions=self.sessions,
             governor=self.governor,
+            narration=self.narrator.status(),
         )
 
     def run(
@@ -376,6 +409,7 @@ class Kiosk:
                 self.notifier.stopping()
             self.content.close()
             self.devices.close()
+            self.narrator.close()
             if self.sessions is not None:  # a visitor still there: their session ends now
                 self.sessions.close(self.clock())
         return code

@@ -23,6 +23,7 @@ from exhibit.kiosk.content import Content
 from exhibit.kiosk.follow import Aims
 from exhibit.kiosk.governor import Governor, for_kiosk, mesh_levels
 from exhibit.kiosk.language import LanguageChoice, Translator, in_every_language, translator_for
+from exhibit.kiosk.narrator import Narrator, for_kiosk as narrator_for
 from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
 from exhibit.kiosk.reporting import Reporter
 from exhibit.kiosk.slice_inset import SliceInset
@@ -53,6 +54,7 @@ class KioskParts:
     state: KioskState | None
     reporter: Reporter
     started: float
+    narrator: Narrator
     problems: list[str] = field(default_factory=list)
     scenes_failed: list[dict] = field(default_factory=list)
 
@@ -75,9 +77,12 @@ def assemble(
     notifier=None,
     health_path: Path | None = None,
     preparer: Callable[[Framers], Preparer] | None = None,
+    narration_player=None,
 ) -> KioskParts:
     """The parts, the first scene prepared (the first frame needs it); ``preparer(framers)``
-    makes the preparer of the rest (exhibit.kiosk.preparing), None: all of them now."""
+    makes the preparer of the rest (exhibit.kiosk.preparing), None: all of them now.
+    ``narration_player``: the narrator's player instead of the site's sound device (a review's
+    tape, exhibit.narration.tape), its sounds then made when wanted, not on a worker."""
     journal.install()  # stderr is the journal (a service): structured fields from here on
     problems: list[str] = []
     scenes_failed: list[dict] = []
@@ -149,6 +154,7 @@ def assemble(
         state=state,
         reporter=Reporter(notifier, health_path, started),
         started=started,
+        narrator=narrator_for(config, timelines, translate, narration_player),
         problems=problems,
         scenes_failed=scenes_failed,
     )

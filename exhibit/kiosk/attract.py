@@ -425,7 +425,7 @@ def load_timeline(path: Path) -> Timeline:
             _labels(previous, raw),
             (raw.describe or "").strip(),
             tuple(
-                (code, str((path.parent / relative).resolve(strict=False)))
+                (code, str(path.parent / relative))
                 for code, relative in (raw.narration or {}).items()
             ),
         )
@@ -521,16 +521,21 @@ class Playlist:
     def at(self, now: float, stepped: bool = False) -> tuple[Timeline, ViewState, str]:
         """The timeline playing at ``now``, its view and caption (``stepped``: Timeline.at's,
         for reduced motion)."""
-        timeline, t = self._locate(now)
+        timeline, t = self.locate(now)
         view, caption = timeline.at(t, stepped)
         return timeline, view, caption
 
     def keyframe_at(self, now: float) -> Keyframe:
         """The keyframe in force at ``now`` (its caption is the one shown)."""
-        timeline, t = self._locate(now)
+        timeline, t = self.locate(now)
         return timeline.keyframes[timeline.index_at(min(max(t, 0.0), timeline.duration))]
 
-    def _locate(self, now: float) -> tuple[Timeline, float]:
+    def hold(self, seconds: float) -> None:
+        """Everything from now on ``seconds`` later: the timeline on screen holds where it is
+        (narration still speaking: exhibit.kiosk.narrator)."""
+        self.started += seconds
+
+    def locate(self, now: float) -> tuple[Timeline, float]:
         """The timeline playing at ``now`` and the time into it."""
         t = (now - self.started) % self._total if self._total > 0 else 0.0
         for timeline in self.timelines:

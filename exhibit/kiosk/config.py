@@ -120,6 +120,27 @@ class Accessibility(Model):
     reduced_motion: bool = False
 
 
+class NarrationSection(Model):
+    """[narration]: spoken descriptions and captions (exhibit.kiosk.narrator)."""
+
+    attract: bool = False
+    volume: Annotated[float, Number(0.0, 1.0)] = 0.7
+    device: Annotated[str, Text(200, empty_ok=True)] = ""
+    backend: Literal["", "null"] = ""
+
+
+@dataclass(frozen=True)
+class NarrationConfig:
+    #: attract mode speaks without a press (default: silent until a visitor presses "listen")
+    attract: bool = False
+    #: 0..1 of the player's safe maximum (exhibit.narration.player.MAX_VOLUME)
+    volume: float = 0.7
+    #: the output device's name ("" the system's default)
+    device: str = ""
+    #: "null": play to no device (tests, a site without a speaker); "" the system's
+    backend: str = ""
+
+
 class Text_(Model):
     caption_cap_height: Annotated[float, PlainValidator(_caption_cap)] = 0.024
     title_cap_height: Annotated[float, Number(MIN_CAPTION_CAP, 0.15)] = 0.034
@@ -222,6 +243,7 @@ class KioskFile(Model):
     sessions: SessionsSection = SessionsSection()
     languages: LanguagesSection = LanguagesSection()
     accessibility: Accessibility = Accessibility()
+    narration: NarrationSection = NarrationSection()
 
 
 @dataclass(frozen=True)
@@ -259,6 +281,8 @@ class KioskConfig:
     #: a crossfaded cut; the glide back from a visitor and the takeover reframe are cuts too) and
     #: no drift of the text panels
     reduced_motion: bool = False
+    #: [narration]: the spoken descriptions and captions
+    narration: NarrationConfig = NarrationConfig()
     #: the site file layered over the shipped defaults (None: the defaults alone)
     site: Path | None = None
     #: every setting as "section.key" -> (effective value, the file it came from)
@@ -461,6 +485,12 @@ def load_kiosk_config(
             quality=_quality(spec.quality),
             sessions=sessions_config(spec.sessions),
             reduced_motion=spec.accessibility.reduced_motion,
+            narration=NarrationConfig(
+                spec.narration.attract,
+                spec.narration.volume,
+                spec.narration.device.strip(),
+                spec.narration.backend,
+            ),
         )
         t = spec.text
         if t.title_cap_height <= t.caption_cap_height:

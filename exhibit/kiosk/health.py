@@ -204,6 +204,8 @@ class Health(BaseModel):
     frame_ms_max: Annotated[float | None, Unchecked] = None
     frame_ms_max_at_s: Annotated[float | None, Unchecked] = None
     target_ms: Annotated[float | None, Unchecked] = None
+    #: "Listen" (exhibit.kiosk.narrator.Narrator.status): on, speaking, the player's device.
+    narration: Annotated[dict[str, Any] | None, Unchecked] = None
 
     def as_dict(self) -> dict[str, Any]:
         """The keys the file had (or the writer set), unknown ones included, as JSON values."""

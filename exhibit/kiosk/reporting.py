@@ -61,6 +61,7 @@ class Reporter:
         language: str,
         sessions,
         governor,
+        narration: dict | None = None,
     ) -> None:
         """The frame times since the last report (``stats`` is emptied), the devices' states
         and seconds missing, what is on screen, and every problem, the frames' failing too."""
@@ -127,6 +128,7 @@ class Reporter:
                         "language": language,
                         **(sessions.health() if sessions is not None else {}),
                         **governor.health(),  # quality level, frame_ms, target_ms
+                        **({"narration": narration} if narration is not None else {}),
                     }
                 ),
             )

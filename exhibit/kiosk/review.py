@@ -31,7 +31,7 @@ import numpy as np
 
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.kiosk.attract import Timeline, load_timeline, timeline_paths
-from exhibit.kiosk.config import KioskConfig, QualityConfig, load_kiosk_config
+from exhibit.kiosk.config import KioskConfig, NarrationConfig, QualityConfig, load_kiosk_config
 from exhibit.kiosk.language import SOURCE, load_catalogues
 from exhibit.resources import shipped
 
@@ -254,8 +254,13 @@ class KioskPlayer:
         language: str | None = None,
         config: KioskConfig | None = None,
         headless=None,
+        narrate: bool = False,
     ):
+        """``narrate``: the kiosk speaks as after a visitor's listen press (every caption
+        held until spoken), onto a tape (exhibit.narration.tape) on the review's clock."""
         from exhibit.kiosk import app
+        from exhibit.kiosk.assembly import assemble
+        from exhibit.narration.tape import TapePlayer
         from exhibit.render.target import HeadlessTarget
 
         config = config or base_config()
@@ -276,6 +281,7 @@ class KioskPlayer:
             attract.mkdir()
             if timeline is not None:  # and so self.timeline
                 shutil.copyfile(timeline, attract / Path(timeline).name)
+                copy_recordings(self.timeline, Path(timeline).parent, attract)
             languages = (self.language, *(c for c in config.languages if c != self.language))
             config = dataclasses.replace(
                 config,
@@ -289,6 +295,7 @@ class KioskPlayer:
                 languages=languages,
                 catalogues_dir=catalogues,
                 language_switch_s=0.0,
+                narration=NarrationConfig(attract=narrate, backend="null"),
             )
             self.config = config
             if headless is None:
@@ -309,7 +316,9 @@ class KioskPlayer:
             if quiet:
                 logger.setLevel(logging.CRITICAL)
             try:
-                self.kiosk = app.Kiosk(config, self.window, clock=self.clock)
+                tape = TapePlayer(self.clock) if narrate else None
+                parts = assemble(config, self.window, self.clock, narration_player=tape)
+                self.kiosk = app.Kiosk(config, self.window, clock=self.clock, parts=parts)
             finally:
                 logger.setLevel(level)
             if self.kiosk.state is None:
@@ -396,6 +405,24 @@ class KioskPlayer:
                 shown.t = t
                 yield shown
 
+    def play_through(self, fps: float, progress=None, limit_s: float = 3600.0):
+        """Every frame at ``fps`` until the timeline has played to its end, however long the
+        narration holds it (at most ``limit_s`` of kiosk time): (frame, time into the
+        timeline) pairs; the frame that would show it looping back to its start is left out."""
+        if progress is not None:
+            self.on_step = progress
+        assert self.kiosk.state is not None
+        playlist = self.kiosk.state.playlist
+        reached, k = 0.0, 0
+        while k / fps <= limit_s:
+            self.step_to(k / fps)
+            _, into = playlist.locate(self.clock())
+            if into < reached - 1e-6:  # looped back to the start: the end has passed
+                return
+            reached = into
+            yield self.frame(), into
+            k += 1
+
     def takeover(
         self,
         after: float,
@@ -429,3 +456,23 @@ class KioskPlayer:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+
+def copy_recordings(timeline, source: Path, attract: Path) -> None:
+    """The timeline's recorded narration beside its copy in a review's attract folder, at the
+    same paths relative to it (each read as the kiosk reads it: a file that is not a regular
+    file, is too big or lies outside ``source`` is not copied, and the review, like the kiosk,
+    names it and speaks without it)."""
+    from exhibit.narration.recordings import MAX_BYTES
+    from exhibit.schema.files import read_regular
+
+    for keyframe in timeline.keyframes:
+        for _code, path in keyframe.recordings:
+            try:
+                relative = Path(path).resolve().relative_to(source.resolve())
+                data = read_regular(path, MAX_BYTES)
+            except (OSError, ValueError, ExhibitError):
+                continue
+            target = attract / relative
+            target.parent.mkdir(parents=True, exist_ok=True)
+            target.write_bytes(data)

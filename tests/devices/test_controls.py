@@ -144,7 +144,7 @@ def test_a_held_button_is_a_rate_until_its_release_stamp():
         ({"input": "delta 1", "action": "next-scene"}, "mapping.bind[0].action: only buttons"),
         (
             {"input": "button 1", "action": "next"},
-            "mapping.bind[0].action: must be 'home', 'next-scene' or 'language'",
+            "mapping.bind[0].action: must be 'home', 'next-scene', 'language' or 'listen'",
         ),
     ],
 )
@@ -163,10 +163,13 @@ def test_the_keyboard_has_a_next_scene_key(clock):
     kb.key("n", False)
     kb.key("space", True)
     kb.key("l", True)
+    kb.key("v", True)
     events = kb.poll()
-    assert [m.switches_scene(e) for e in events] == [True, False, False, False]
-    assert m.pressed(events[-1:], "language") and not m.pressed(events[:-1], "language")
-    assert kb.capabilities.buttons == 3
+    assert [m.switches_scene(e) for e in events] == [True, False, False, False, False]
+    assert m.pressed(events[-2:-1], "language") and not m.pressed(events[:-2], "language")
+    assert m.pressed(events[-1:], "listen") and not m.pressed(events[:-1], "listen")
+    assert m.without(events, "listen") == events[:-1]  # a listen press is no takeover
+    assert kb.capabilities.buttons == 4
 
 
 def test_the_keyboard_reaches_every_parameter_with_the_shipped_mapping(clock):

@@ -9,37 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from exhibit.scenes.implicit_scene import mesh_implicit
-from exhibit.scenes.offsets import PIPE, XYUV, _box
 from exhibit.surfaces import implicit
 from exhibit.surfaces.adaptive import split_triangles
 from exhibit.surfaces.expressions import compile_field
 from exhibit.surfaces.metrics import distance_to_surface, surface_sag
-from exhibit.surfaces.mesh import Material
 from exhibit.surfaces.topology import analyse
 
-V = ("x", "y", "z", "w")
-
-
-def cusp_pipe(resolution, monkeypatch=None, follow=True):
-    if not follow:
-        assert monkeypatch is not None
-        monkeypatch.setattr(implicit, "SAG_TOLERANCE", math.inf)  # the mesh as it was
-    lo, hi = _box((-0.05, 1.45), (-1.75, 1.75), 1.0)
-    return mesh_implicit(
-        "pipe of y² = x³", PIPE, "v^2 - u^3", XYUV, {"r": 1.0}, lo, hi, resolution, Material()
-    )
-
-
-def sag_of(part):
-    s = part.surface
-    return surface_sag(
-        (part.f1, part.f2),
-        s.positions,
-        s.triangles,
-        s.info["cell_size"],
-        part.result.singular_positions,
-    )
+from tests.surfaces.sag_support import V, cusp_pipe, sag_of
 
 
 def cusp_distance(points, r=1.0):

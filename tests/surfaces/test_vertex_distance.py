@@ -10,7 +10,7 @@ import pytest
 
 from exhibit.scenes import collision
 from exhibit.surfaces.metrics import surface_sag
-from tests.surfaces.test_sag import cusp_pipe, sag_of
+from tests.surfaces.sag_support import cusp_pipe, sag_of
 
 FIGURE_15 = {"rc": 1.0, "rs": 1.0, "vc": 0.0, "vs": 1.0}
 

@@ -1,0 +1,293 @@
+"""Narration in the running kiosk: "listen" speaks what the screen shows, in the visitor's
+language, and attract mode waits for it.
+
+A press of a ``listen`` button (exhibit.devices.mapping) turns narration on, from the caption on
+screen, and a second press turns it off; a visitor walking away turns it off (attract mode is
+silent unless the site's [narration] attract says otherwise). The press is no takeover: attract
+mode goes on, spoken. Each segment (exhibit.narration.script: a keyframe's description and
+caption) is spoken once, when its keyframe comes; while narration is on, attract mode holds the
+last moment of a segment's window until its words have been spoken (:meth:`Narrator.hold_at`).
+In a visitor's own scene it speaks the scene's title and caption once.
+
+Never in the frame loop: the sounds are made (synthesised, cached on disk, recordings checked)
+by a worker thread from start-up on, and `exhibit prepare` fills the cache before; the player
+(exhibit.narration.player) plays from its own thread. A sound not ready yet is spoken when it
+is; one that cannot be made is skipped and named in the health file, never a crash."""
+
+from __future__ import annotations
+
+import logging
+import threading
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from exhibit.narration.script import Segment, segment_at, segments
+
+log = logging.getLogger("exhibit.kiosk")
+
+#: A window ends this long before the next keyframe when held (so its caption stays on screen).
+HOLD_EPSILON_S = 1e-3
+#: The longest attract mode waits for a sound still being made before it moves on.
+MAX_PENDING_S = 5.0
+
+
+@dataclass(frozen=True)
+class Spoken:
+    """What is being spoken: a timeline's segment (timeline path, segment index, language) or a
+    visitor's scene (scene name, -1, language)."""
+
+    source: str
+    index: int
+    language: str
+
+
+class Narrator:
+    """``timelines``: the kiosk's (exhibit.kiosk.attract.Timeline); ``translate(text, code)``:
+    its words (exhibit.kiosk.language); ``player``: an exhibit.narration.player.Player (or one
+    with its interface); ``make(segment) -> Sound``: how a segment's sound is made (default:
+    its recording, else synthesised speech from the cache)."""
+
+    def __init__(
+        self,
+        timelines: Sequence,
+        languages: Sequence[str],
+        translate: Callable[[str, str], str],
+        player,
+        attract: bool = False,
+        make: Callable[[Segment], object] | None = None,
+        background: bool = True,
+    ) -> None:
+        self.player = player
+        self.attract = attract
+        self.pressed_on = False
+        self._translate = translate
+        self._make = make or make_sound
+        self._scripts: dict[tuple[str, str], list[Segment]] = {
+            (t.path, code): segments(t, code, translate) for t in timelines for code in languages
+        }
+        self._sounds: dict[tuple[str, int, str], object] = {}
+        self._failed: dict[tuple[str, int, str], str] = {}
+        self._speaking: Spoken | None = None
+        #: What was spoken lately: (when it started, what, its segment), for reviews (bounded:
+        #: a kiosk runs for weeks).
+        self.history: deque[tuple[float, Spoken, Segment]] = deque(maxlen=1000)
+        self._pending_since: float | None = None
+        self._lock = threading.Lock()
+        self._worker: threading.Thread | None = None
+        self._background = background
+        if background:
+            self._worker = threading.Thread(
+                target=self._prepare_all, name="exhibit-narration", daemon=True
+            )
+            self._worker.start()
+
+    # ------------------------------------------------------------------ preparing sounds
+
+    def _prepare_all(self) -> None:
+        for (path, _code), parts in list(self._scripts.items()):
+            for n, segment in enumerate(parts):
+                self._sound((path, n, segment.language), segment)
+
+    def _sound(self, key: tuple[str, int, str], segment: Segment):
+        """The sound of a segment, made once (by whichever thread asks first)."""
+        with self._lock:
+            if key in self._sounds or key in self._failed:
+                return self._sounds.get(key)
+        try:
+            sound = self._make(segment)
+        except Exception as exc:  # noqa: BLE001 - a sound that cannot be made is skipped
+            with self._lock:
+                self._failed[key] = str(exc)
+            log.warning("narration of %s, segment %d (%s): %s", key[0], key[1], key[2], exc)
+            return None
+        with self._lock:
+            self._sounds.setdefault(key, sound)
+            return self._sounds[key]
+
+    def _request(self, key: tuple[str, int, str], segment: Segment) -> None:
+        """Make the sound now: on a thread of its own in the kiosk (it is wanted before the
+        worker reaches it), here without one (reviews and tests run on a fake clock)."""
+        if not self._background:
+            self._sound(key, segment)
+            return
+        threading.Thread(
+            target=self._sound, args=(key, segment), name="exhibit-narration", daemon=True
+        ).start()
+
+    def ready(self, key: tuple[str, int, str]) -> object | None:
+        with self._lock:
+            return self._sounds.get(key)
+
+    # ------------------------------------------------------------------ the visitor's control
+
+    def on(self, attract_mode: bool) -> bool:
+        """Whether narration speaks now (``attract_mode``: the kiosk is in attract mode)."""
+        return self.pressed_on or (self.attract and attract_mode)
+
+    def press(self) -> None:
+        """A listen button: on (from the caption on screen), or off."""
+        self.pressed_on = not self.pressed_on
+        log.info("narration %s", "on" if self.pressed_on else "off")
+        if not self.pressed_on:
+            self._stop()
+        else:
+            self._speaking = None  # speak the segment on screen from its start
+
+    def walked_away(self) -> None:
+        """The visitor's session ended: narration off (attract mode's own, if any, goes on)."""
+        if self.pressed_on:
+            log.info("narration off: the visitor walked away")
+        self.pressed_on = False
+        self._stop()
+
+    def _stop(self) -> None:
+        self._speaking = None
+        self._pending_since = None
+        self.player.stop()
+
+    # ------------------------------------------------------------------ each frame
+
+    def speak_timeline(self, timeline, t: float, language: str, now: float) -> None:
+        """Speak the segment of ``timeline`` whose window holds ``t``, once (attract mode)."""
+        parts = self._scripts.get((timeline.path, language))
+        if not parts:
+            return
+        n = segment_at(parts, t)
+        if n is None:
+            return
+        self._speak(Spoken(timeline.path, n, language), parts[n], now)
+
+    def speak_scene(self, scene: str, title: str, caption: str, language: str, now: float):
+        """Speak a visitor's scene: its title and caption, once."""
+        text = " ".join(
+            w.strip()
+            for w in (self._translate(title, language), self._translate(caption, language))
+        )
+        segment = Segment(-1, 0.0, 0.0, text.strip(), language)
+        self._speak(Spoken(scene, -1, language), segment, now)
+
+    def _speak(self, spoken: Spoken, segment: Segment, now: float) -> None:
+        key = (spoken.source, spoken.index, spoken.language)
+        if self._speaking != spoken:
+            self._speaking = spoken
+            self._pending_since = now
+            self.player.stop()
+            if self.ready(key) is None:
+                self._request(key, segment)
+        if self._pending_since is None:
+            return  # started already (or given up on)
+        sound = self.ready(key)
+        if sound is not None:
+            self.player.play(sound)
+            self._pending_since = None
+            self.history.append((now, spoken, segment))
+        elif key in self._failed or now - self._pending_since > MAX_PENDING_S:
+            self._pending_since = None  # never ready: attract mode does not wait for it
+
+    def hold_at(self, timeline, t: float, language: str) -> float | None:
+        """Where attract mode must hold ``timeline`` instead of reaching ``t``: the end of the
+        window of the segment being spoken while its words go on (or its sound is still being
+        made); None: no need."""
+        s = self._speaking
+        if s is None or s.source != timeline.path or s.index < 0 or s.language != language:
+            return None
+        parts = self._scripts.get((timeline.path, language)) or []
+        if s.index >= len(parts):
+            return None
+        end = parts[s.index].end - HOLD_EPSILON_S
+        busy = self.player.playing or self._pending_since is not None
+        return end if busy and t >= end else None
+
+    def status(self) -> dict:
+        """For the health file and `exhibit status`."""
+        with self._lock:
+            failed = dict(self._failed)
+            made = len(self._sounds)
+        s = self._speaking
+        return {
+            "on": self.pressed_on,
+            "attract": self.attract,
+            "speaking": None if s is None else f"{s.source} #{s.index} ({s.language})",
+            "sounds": made,
+            "failed": [f"{k[0]} #{k[1]} ({k[2]}): {why}" for k, why in sorted(failed.items())],
+            "player": self.player.status(),
+        }
+
+    def close(self) -> None:
+        self.player.stop()
+        self.player.close()
+
+
+def for_kiosk(config, timelines: Sequence, translate, player=None) -> Narrator:
+    """The kiosk's narrator: its [narration] settings (exhibit.kiosk.config.NarrationConfig),
+    every timeline in every language shown, its player opened on the site's device (or
+    ``player``: a review's tape, whose sounds are made when wanted)."""
+    settings = config.narration
+    background = player is None
+    if player is None:
+        from exhibit.narration.player import Player
+
+        player = Player(
+            device=settings.device or None,
+            volume=settings.volume,
+            backend=settings.backend or None,
+        )
+    return Narrator(
+        timelines,
+        tuple(config.languages),
+        lambda text, code: translate(text, code),
+        player,
+        attract=settings.attract,
+        background=background,
+    )
+
+
+def make_sound(segment: Segment):
+    """A segment's sound: the curator's recording (checked: exhibit.narration.recordings) when
+    it has one, else its words synthesised (cached: exhibit.narration.cache)."""
+    from exhibit.narration.cache import spoken
+    from exhibit.narration.recordings import load_recording
+
+    if segment.recording is not None:
+        return load_recording(Path(segment.recording), Path(segment.root or "."))
+    return spoken(segment.text, segment.language)
+
+
+@dataclass(frozen=True)
+class Prepared:
+    """One segment's sound made ahead (exhibit prepare, check-config): how long it speaks
+    against the window its caption is shown, or why it cannot be made."""
+
+    timeline: str
+    segment: Segment
+    seconds: float | None
+    error: str | None = None
+
+    @property
+    def overrun(self) -> float:
+        """Seconds the narration runs past its window (attract mode holds the caption)."""
+        return 0.0 if self.seconds is None else max(0.0, self.seconds - self.segment.window)
+
+
+def prepare_all(config, timelines: Sequence, progress=None) -> list[Prepared]:
+    """Every segment of every timeline in every language shown, its sound made (synthesised
+    into the cache, recordings checked) as the kiosk will want it; ``progress(text)`` is told
+    each one."""
+    from exhibit.kiosk.language import translator_for
+
+    translate = translator_for(config, [])
+    out = []
+    for timeline in timelines:
+        for code in config.languages:
+            for segment in segments(timeline, code, lambda text, c: translate(text, c)):
+                if progress is not None:
+                    progress(f"narration: {Path(timeline.path).name} keyframe {segment.keyframe}")
+                try:
+                    sound = make_sound(segment)
+                except Exception as exc:  # noqa: BLE001 - reported per segment, by name
+                    out.append(Prepared(timeline.path, segment, None, str(exc)))
+                    continue
+                out.append(Prepared(timeline.path, segment, float(sound.duration)))
+    return out
