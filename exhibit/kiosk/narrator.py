@@ -10,7 +10,8 @@ last moment of a segment's window until its words have been spoken (:meth:`Narra
 In a visitor's own scene it speaks the scene's title and caption once.
 
 Never in the frame loop: the sounds are made (synthesised, cached on disk, recordings checked)
-by a worker thread from start-up on, and `exhibit prepare` fills the cache before; the player
+by a worker thread from the first press on (from start-up when attract mode speaks), and
+`exhibit prepare` fills the cache before; the player
 (exhibit.narration.player) plays from its own thread. A sound not ready yet is spoken when it
 is; one that cannot be made is skipped and named in the health file, never a crash."""
 
@@ -77,7 +78,13 @@ class Narrator:
         self._lock = threading.Lock()
         self._worker: threading.Thread | None = None
         self._background = background
-        if background:
+        if attract:
+            self._start_worker()
+
+    def _start_worker(self) -> None:
+        """Make every segment's sound on a worker thread, once narration is wanted (a kiosk
+        nobody asks to speak makes none; `exhibit prepare` has filled the cache anyway)."""
+        if self._worker is None and self._background:
             self._worker = threading.Thread(
                 target=self._prepare_all, name="exhibit-narration", daemon=True
             )
@@ -130,6 +137,7 @@ class Narrator:
         """A listen button: on (from the caption on screen), or off."""
         self.pressed_on = not self.pressed_on
         log.info("narration %s", "on" if self.pressed_on else "off")
+        self._start_worker()
         if not self.pressed_on:
             self._stop()
         else:
