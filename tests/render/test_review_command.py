@@ -259,3 +259,89 @@ def test_mp4_without_ffmpeg_says_so(capsys, monkeypatch, tmp_path):
     )
     err = capsys.readouterr().err
     assert "needs ffmpeg on PATH" in err and err.count("\n") == 1
+
+
+needs_speech = pytest.mark.skipif(
+    not __import__("exhibit.narration.speech", fromlist=["x"]).available(),
+    reason="espeak-ng is not installed (bootstrap.sh installs it)",
+)
+
+
+@needs_speech
+def test_narration_beside_the_frames(gl, cli, setup, tmp_path):
+    """--narration: DIR/narration.wav as long as the frames, speech within each segment's start
+    and end and silence outside them, each segment at its caption's keyframe, the caption held
+    on screen while it speaks (the tiny timeline's captions are far too short for their words)."""
+    import wave
+
+    timeline, site = setup
+    out = tmp_path / "narrated"
+    _render(cli, timeline, site, f"{out}/", "--fps", str(FPS), "--narration")
+    index = _index(out)
+    frames, segments = index["frames"], index["narration"]["segments"]
+    assert [s["keyframe"] for s in segments] == [0, 1] and not index["narration"]["failed"]
+    assert segments[0]["text"] == FIRST and segments[1]["start"] >= segments[0]["end"] - 0.3
+    with wave.open(str(out / "narration.wav")) as w:
+        rate = w.getframerate()
+        samples = np.frombuffer(w.readframes(w.getnframes()), dtype="<i2").astype(float)
+    assert len(samples) / rate == pytest.approx(len(frames) / FPS, abs=1e-3)
+
+    def loudness(a: float, b: float) -> float:
+        part = samples[int(a * rate) : int(b * rate)]
+        return float(np.sqrt(np.mean(part**2))) if len(part) else 0.0
+
+    for s in segments:
+        assert loudness(s["start"], s["end"]) > 300  # speech
+        shown = [f for f in frames if s["start"] <= f["t"] < s["end"]]
+        assert shown and all(f["caption"] == s["text"] for f in shown)
+    # held: the timeline's 2 s take twice as long on the review's clock, and more
+    assert frames[-1]["t"] > 4.0 and frames[-1]["timeline_t"] <= 2.0
+    assert loudness(segments[-1]["end"] + 0.05, len(samples) / rate) < 30  # silence after
+
+
+@needs_speech
+def test_narration_is_the_mp4s_sound(gl, cli, setup, tmp_path, monkeypatch):
+    """With ffmpeg on PATH the MP4 gets the narration as an AAC track (a stand-in ffmpeg
+    records its arguments; the real one is used where installed: docs/KIOSK.md)."""
+    timeline, site = setup
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    record = tmp_path / "ffmpeg.json"
+    fake = bin_dir / "ffmpeg"
+    fake.write_text(f"""#!{sys.executable}
+import json, sys
+args = sys.argv[1:]
+audio = [a for a in args if a.endswith(".wav")]
+json.dump({{"args": args, "audio_bytes": [len(open(a, "rb").read()) for a in audio]}},
+          open({str(record)!r}, "w"))
+open(args[-1], "wb").close()
+""")
+    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    _render(cli, timeline, site, tmp_path / "loop.mp4", "--fps", str(FPS), "--narration")
+    seen = json.loads(record.read_text())
+    assert "aac" in seen["args"] and seen["audio_bytes"][0] > 10_000
+
+
+def test_narration_needs_a_timeline_and_no_sheet(cli, setup, tmp_path):
+    timeline, site = setup
+    for args, message in (
+        (
+            ["render", "hopf", "--narration", "--out", str(tmp_path / "x.png")],
+            "goes with --timeline",
+        ),
+        (
+            [
+                "render",
+                "--timeline",
+                str(timeline),
+                "--narration",
+                "--out",
+                str(tmp_path / "s.png"),
+            ],
+            "a contact sheet has no sound",
+        ),
+    ):
+        result = cli(*args)
+        assert result.returncode == 2 and message in result.stderr, result.stderr
+        assert "Traceback" not in result.stderr
