@@ -20,6 +20,7 @@ recorded or real device by changing only the URL.
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
@@ -28,16 +29,6 @@ from exhibit.errors import ConfigError
 from exhibit.schema import read_text
 
 __all__ = ["backend_for_url", "parse_url", "SCHEMES"]
-
-#: scheme -> the query keys it accepts
-SCHEMES = {
-    "serial": {"baud"},
-    "hid": {"layout"},
-    "hidraw": {"layout"},
-    "sim": {"script", "seed", "firmware"},
-    "replay": {"speed", "loop"},
-    "keyboard": set(),
-}
 
 
 def parse_url(url: str) -> tuple[str, str, dict[str, str]]:
@@ -93,60 +84,84 @@ def backend_for_url(
     ``layout_dirs`` overrides where HID layouts are looked up; ``hid_api`` replaces the hidapi
     module (tests pass a fake bus)."""
     scheme, target, query = parse_url(url)
-    name = name or scheme
-    b: Backend
-    if scheme == "serial":
-        from exhibit.devices.controller import SerialController
-
-        if not target:
-            raise DeviceError(f"device URL {url!r}: no port path (serial:///dev/ttyUSB0)")
-        baud = _number(url, "baud", query.get("baud", "115200"), int, 0, 4_000_000)
-        b = SerialController(name=name, clock=clock, path=target, baud=baud)
-    elif scheme in ("hid", "hidraw"):
-        from exhibit.devices.hid import HidBackend, find_layout, load_layouts, parse_vid_pid
-
-        layouts = load_layouts(layout_dirs)
-        if target.startswith("/"):
-            if scheme == "hid":
-                raise DeviceError(
-                    f"device URL {url!r}: hid:// takes VID:PID; use "
-                    f"hidraw://{target} for a /dev/hidraw path"
-                )
-            vid = pid = serial = None
-            path = target
-        else:
-            vid, pid, serial = parse_vid_pid(target, url)
-            path = None
-        layout = find_layout(layouts, query.get("layout"), vid, pid, url)
-        b = HidBackend(
-            name=name,
-            clock=clock,
-            layout=layout,
-            backend=scheme,
-            vid=vid,
-            pid=pid,
-            serial=serial,
-            path=path,
-            api=hid_api,
-        )
-    elif scheme == "sim":
-        b = _sim_backend(url, target, query, name, clock, layout_dirs)
-    elif scheme == "replay":
-        from exhibit.devices.replay import ReplayBackend
-
-        if not target:
-            raise DeviceError(f"device URL {url!r}: no file (replay://session.jsonl)")
-        speed = _number(url, "speed", query.get("speed", "1"), float, 0, 1000)
-        loop = query.get("loop", "0") not in ("0", "false", "no", "")
-        b = ReplayBackend(name=name, clock=clock, file=Path(target), speed=speed, loop=loop)
-    else:  # keyboard
-        from exhibit.devices.keyboard import KeyboardBackend
-
-        if target:
-            raise DeviceError(f"device URL {url!r}: keyboard:// takes no path")
-        b = KeyboardBackend(name=name, clock=clock)
+    where = _Where(url, target, query, name or scheme, clock, layout_dirs, hid_api, scheme)
+    b = _SCHEMES[scheme][1](where)
     b.url = url
     return b
+
+
+@dataclass(frozen=True)
+class _Where:
+    """What a scheme's builder needs: the URL and its parts, and the caller's options."""
+
+    url: str
+    target: str
+    query: dict[str, str]
+    name: str
+    clock: Clock
+    layout_dirs: object
+    hid_api: object
+    scheme: str
+
+
+def _serial(w: _Where) -> Backend:
+    from exhibit.devices.controller import SerialController
+
+    if not w.target:
+        raise DeviceError(f"device URL {w.url!r}: no port path (serial:///dev/ttyUSB0)")
+    baud = _number(w.url, "baud", w.query.get("baud", "115200"), int, 0, 4_000_000)
+    return SerialController(name=w.name, clock=w.clock, path=w.target, baud=baud)
+
+
+def _hid(w: _Where) -> Backend:
+    from exhibit.devices.hid import HidBackend, find_layout, load_layouts, parse_vid_pid
+
+    layouts = load_layouts(w.layout_dirs)
+    if w.target.startswith("/"):
+        if w.scheme == "hid":
+            raise DeviceError(
+                f"device URL {w.url!r}: hid:// takes VID:PID; use "
+                f"hidraw://{w.target} for a /dev/hidraw path"
+            )
+        vid = pid = serial = None
+        path: str | None = w.target
+    else:
+        vid, pid, serial = parse_vid_pid(w.target, w.url)
+        path = None
+    layout = find_layout(layouts, w.query.get("layout"), vid, pid, w.url)
+    return HidBackend(
+        name=w.name,
+        clock=w.clock,
+        layout=layout,
+        backend=w.scheme,
+        vid=vid,
+        pid=pid,
+        serial=serial,
+        path=path,
+        api=w.hid_api,
+    )
+
+
+def _sim(w: _Where) -> Backend:
+    return _sim_backend(w.url, w.target, w.query, w.name, w.clock, w.layout_dirs)
+
+
+def _replay(w: _Where) -> Backend:
+    from exhibit.devices.replay import ReplayBackend
+
+    if not w.target:
+        raise DeviceError(f"device URL {w.url!r}: no file (replay://session.jsonl)")
+    speed = _number(w.url, "speed", w.query.get("speed", "1"), float, 0, 1000)
+    loop = w.query.get("loop", "0") not in ("0", "false", "no", "")
+    return ReplayBackend(name=w.name, clock=w.clock, file=Path(w.target), speed=speed, loop=loop)
+
+
+def _keyboard(w: _Where) -> Backend:
+    from exhibit.devices.keyboard import KeyboardBackend
+
+    if w.target:
+        raise DeviceError(f"device URL {w.url!r}: keyboard:// takes no path")
+    return KeyboardBackend(name=w.name, clock=w.clock)
 
 
 def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
@@ -197,3 +212,16 @@ def _sim_backend(url, target, query, name, clock, layout_dirs) -> Backend:
 
         hid_script = parse_hid_script(text, str(path), layout)
     return simulated_hid(name=name, clock=clock, layout=layout, script=hid_script, seed=seed)
+
+
+#: Each scheme once: the query keys it accepts, and how its backend is built.
+_SCHEMES = {
+    "serial": ({"baud"}, _serial),
+    "hid": ({"layout"}, _hid),
+    "hidraw": ({"layout"}, _hid),
+    "sim": ({"script", "seed", "firmware"}, _sim),
+    "replay": ({"speed", "loop"}, _replay),
+    "keyboard": (set(), _keyboard),
+}
+#: scheme -> the query keys it accepts
+SCHEMES = {scheme: keys for scheme, (keys, _) in _SCHEMES.items()}

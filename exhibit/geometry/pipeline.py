@@ -1,4 +1,4 @@
-"""The whole 4D -> clip-space pipeline as one homogeneous 4x5 matrix (DESIGN.md §2).
+"""The whole 4D -> clip-space pipeline as one homogeneous 4x5 matrix (docs/GEOMETRY.md).
 
     (p, 1) --pose 5x5--> view coords --sensor 4x5--> (X, Y, Z, H) = (x, y, z, 1 - r w)
            --eye 4x4--> clip coords (x_c, y_c, z_c, w_c),   w_c = H - r_eye Z = 1 - r w - r_eye z

@@ -16,7 +16,6 @@ from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.errors import ExhibitError
-from exhibit.kiosk import journal
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content
@@ -83,7 +82,6 @@ def assemble(
     makes the preparer of the rest (exhibit.kiosk.preparing), None: all of them now.
     ``narration_player``: the narrator's player instead of the site's sound device (a review's
     tape, exhibit.narration.tape), its sounds then made when wanted, not on a worker."""
-    journal.install()  # stderr is the journal (a service): structured fields from here on
     problems: list[str] = []
     scenes_failed: list[dict] = []
     for problem in getattr(config, "scene_problems", ()):  # broken files, left out
