@@ -199,7 +199,7 @@ def resolve(args):
         raise ExhibitError("give a scene or --figure, not both")
     if args.figure is not None:
         scene, preset = scenes.figure(_int(args.figure, "--figure", 1, 99))
-        params = dict(preset.params)
+        params: dict[str, object] = dict(preset.params)
         view = preset.view
         note = f"Figure {args.figure}. {preset.caption}".strip()
     elif args.scene:
@@ -209,7 +209,7 @@ def resolve(args):
         raise ExhibitError("name a scene or give --figure N")
     params.update(parse_overrides(args.param))
     scene.resolve(params)  # reports unknown names and bad values before any GL work
-    changes = {}
+    changes: dict[str, object] = {}
     if args.angles:
         changes["angles"] = tuple(math.radians(a) for a in _floats(args.angles, 6, "--angles"))
     if args.eye:

@@ -102,7 +102,7 @@ def registry(
     if status not in HEALTH_STATUSES:
         raise ValueError(f"status must be one of {HEALTH_STATUSES}, got {status!r}")
     health = None if data is None else as_health(data)
-    samples: dict[str, list[tuple[dict, object]]] = {name: [] for name in FAMILIES}
+    samples: dict[str, list[tuple[dict, float]]] = {name: [] for name in FAMILIES}
 
     def add(name, value, **labels):
         if _is_number(value):
@@ -126,7 +126,7 @@ class _Samples:
     """A prometheus_client collector of fixed samples: the families that have any, in the order
     of FAMILIES."""
 
-    def __init__(self, samples: dict[str, list[tuple[dict, object]]]):
+    def __init__(self, samples: dict[str, list[tuple[dict, float]]]):
         self.samples = samples
 
     def collect(self):

@@ -159,7 +159,8 @@ class _TimelineFramer:
         spills."""
         frames = timeline.keyframes
         pose = _Poses(timeline)
-        views, boxes = [], []
+        views: list = []
+        boxes: list = []
         for i, k in enumerate(frames):
             own = pose(k.t)
             if fills[i]:

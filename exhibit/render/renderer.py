@@ -12,6 +12,7 @@ transform."""
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
@@ -31,6 +32,9 @@ from exhibit.render.gpu import (
 from exhibit.render.hud import PINCH_COLOR, Hud
 from exhibit.render.options import RenderOptions
 from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
+
+if TYPE_CHECKING:  # compiled on first use (Renderer.ids)
+    from exhibit.render.passes.ids import ObjectIdPass
 from exhibit.surfaces.mesh import Mesh4D
 from exhibit.surfaces.slice import SLICE_MATERIAL
 
@@ -170,7 +174,7 @@ class Renderer:
         #: The last view's clip transform, so one frame computes it once for every pass.
         self._ct_key: tuple | None = None
         self._ct: ClipTransform | None = None
-        self._ids = None
+        self._ids: ObjectIdPass | None = None
 
     # ------------------------------------------------------------------ meshes
 

@@ -415,7 +415,7 @@ def _walk(text: str, variables: Sequence[str], parameters: Mapping[str, float] |
                 fail(
                     node, f"function {name!r} is not allowed (allowed: {', '.join(FUNCTION_NAMES)})"
                 )
-            name = node.func.id
+            name = node.func.id  # type: ignore[attr-defined]  # fail() raised otherwise
             if name in VARIADIC:
                 if node.keywords or len(node.args) < 2:
                     fail(node, f"{name} takes two or more arguments")

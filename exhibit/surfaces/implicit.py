@@ -146,7 +146,7 @@ def _crossed_squares(f1, f2, origin, h, cells):
     corner * h, so a grid vertex gets the same value bit for bit wherever it is evaluated."""
     corner_index = {tuple(o): k for k, o in enumerate(_CHILD_OFFSETS.tolist())}
     index = [[corner_index[tuple(v)] for v in ring.tolist()] for ring in _RINGS]
-    found = [([], []) for _ in _PAIRS]  # per plane: bases, values, in cell order
+    found: list[tuple[list, list]] = [([], []) for _ in _PAIRS]  # per plane: bases, values
     straddling_cells = 0
     for start in range(0, len(cells), CHUNK_CELLS):
         chunk = cells[start : start + CHUNK_CELLS]

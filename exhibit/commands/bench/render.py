@@ -105,7 +105,7 @@ class CpuBaseline:
         prog = self.program
         lights = np.zeros((2, 3), dtype=np.float32)
         lights[: len(view.lights[:2])] = view.lights[:2]
-        prog["u_lights"].write(lights.tobytes())
+        uniform(prog, "u_lights").write(lights.tobytes())
         self.renderer.clip_distances(True)
         self.ctx.polygon_offset = (1.0, 1.0)
         for s, vbo, _, vao in self.parts:
@@ -124,7 +124,7 @@ class CpuBaseline:
             data[:, 9:12] = -r2 * q[:, :3]
             data[:, 11] += rho[:, 3]
             vbo.write(data.tobytes())
-            prog["u_color"].value = tuple(s.material.color)
+            uniform(prog, "u_color").value = tuple(s.material.color)
             vao.render(moderngl.TRIANGLES)
         self.ctx.polygon_offset = (0.0, 0.0)
         self.renderer.clip_distances(False)
@@ -193,6 +193,7 @@ def run(args) -> int:
                 ctx.fbo.depth_mask = True
                 sheets.clear()
                 ctx.enable(moderngl.DEPTH_TEST)
+                assert sheets.sheet_framebuffer is not None  # the "sheets" target has one
                 sheets.sheet_framebuffer.use()
                 renderer.draw_surfaces(gpu, v, size, sheets=True)
                 sheets.framebuffer.use()
@@ -287,3 +288,10 @@ def run(args) -> int:
             f"{r['inset_cpu_ms']:>8.1f}ms {r['inset_gpu_ms']:>8.1f}ms"
         )
     return 0
+
+
+def uniform(program, name: str) -> moderngl.Uniform:
+    """A program's uniform by name (moderngl types the lookup as any member)."""
+    member = program[name]
+    assert isinstance(member, moderngl.Uniform), name
+    return member
