@@ -8,6 +8,7 @@ import json
 import numpy as np
 
 from exhibit import scenes
+from exhibit.geometry.lemma2_marks import lemma2_exclusion
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.surfaces import analyse
 from exhibit.surfaces.metrics import boundary_box_distance, distance_to_mesh, surface_sag
@@ -36,6 +37,7 @@ def part_report(surface) -> dict:
         "singular_points": info.get("singular_points", 0),
         "seconds": round(float(info.get("seconds", 0.0)), 4),
         **exactness(surface),
+        "lemma2_exclusion": lemma2_exclusion(surface.positions, surface.normals, surface.triangles),
     }
 
 
@@ -110,6 +112,14 @@ def run(args) -> int:
             print(
                 f"    vertices off the surface by at most {p['max_vertex_distance']:.1e}, "
                 f"triangles (edge midpoints, centroids) by at most {p['max_sag']:.2g}"
+            )
+        lemma2 = p["lemma2_exclusion"]
+        if lemma2["always_from"] > 0:
+            print(
+                f"    Lemma 2 discs: none within {lemma2['never_within']:.3g} of a singular "
+                f"vertex ({lemma2['reach_edges']:g} median edges of {lemma2['median_edge']:.3g}),"
+                f" every point from {lemma2['always_from']:.3g} (+ the longest edge there,"
+                f" {lemma2['longest_edge_within']:.3g})"
             )
     for curve in mesh.curves:
         closed = " (closed)" if curve.closed else ""

@@ -52,6 +52,7 @@ def test_inspect_reports_every_key(capsys):
         "box_diagonal",
         "max_vertex_distance",
         "max_sag",
+        "lemma2_exclusion",
     }
     assert set(parts[0]) == keys
     assert parts[0]["boundary_box_distance"] == 0.0  # closed

@@ -91,3 +91,49 @@ def test_no_degenerate_curve_and_refined_counts_the_points_exported(capsys, argv
         p = np.array(curve)
         steps = np.linalg.norm(np.diff(p, axis=0), axis=1)
         assert len(p) >= 3 and steps.sum() > 0.05 and steps.min() > 0
+
+
+def exact_end(r: float, ratio: float) -> float:
+    """|t| where σ_min/σ_max of (∇g, ∇f) at the offset point of (t², t³) (on the side y > 0 at
+    t = 0) equals ``ratio``: bisection on the exact ratio, computed here from g = (x - u)² +
+    (y - v)² - r², f = v² - u³ (not the asymptotic |t|³/(2r))."""
+
+    def measure(t: float) -> float:
+        n = np.array([-3 * t, 2.0]) / np.hypot(3 * t, 2.0)  # the curve's unit normal
+        u, v = t * t, t**3
+        x, y = np.array([u, v]) + r * n
+        jac = np.array(
+            [[2 * (x - u), 2 * (y - v), -2 * (x - u), -2 * (y - v)], [0, 0, -3 * u * u, 2 * v]]
+        )
+        s = np.linalg.svd(jac, compute_uv=False)
+        return s[1] / s[0]
+
+    lo, hi = 1e-6, 0.5
+    for _ in range(60):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if measure(mid) < ratio else (lo, mid)
+    return 0.5 * (lo + hi)
+
+
+@pytest.mark.parametrize(
+    "r, resolution",
+    [(0.3, 24), (0.3, 48), pytest.param(0.1, 48, marks=pytest.mark.slow)],  # 0.1: a cell > r at 24
+)
+def test_branches_meeting_at_a_singular_point_both_reach_the_exclusion(capsys, r, resolution):
+    """Issue 32: at r = 0.3 two of the four half-branches stopped at |t| = 0.061-0.064 (0.26-0.30
+    at resolution 24), at r = 0.1 at 0.20-0.22, against the exclusion's 0.039 and 0.027. The
+    two branches meeting at each of (0, ±r, 0, 0) come within half a cell of each other before
+    the exclusion, and the second one continued stopped there as if it ran onto the first."""
+    out = _json(
+        capsys,
+        *("silhouette", "offset-cusp", "--along", "u,v", "--param", f"r={r}"),
+        *("--resolution", str(resolution), "--json"),
+    )
+    limit = exact_end(r, EXCLUSION_RATIO)
+    assert limit == pytest.approx((2 * r * EXCLUSION_RATIO) ** (1 / 3), rel=0.02)
+    ends = [np.abs(np.cbrt(np.array(c)[:, 3])).min() for c in out["curves"]]
+    assert len(ends) == 4
+    # every branch ends where the exclusion begins: within 1% of it (the last step is 1/4096
+    # cell), never inside it
+    assert max(ends) < 1.01 * limit and min(ends) > 0.99 * limit, (ends, limit)
+    assert out["smallest_ratio"] >= EXCLUSION_RATIO
