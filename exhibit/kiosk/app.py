@@ -548,6 +548,7 @@ class Kiosk:
         test that builds many kiosks on one GL context does, or the context fills up."""
         self.content.release()
         self.inset.release()
+        self.narrator.close()
         self._shown = None
         # a shared headless pipeline's crossfade snapshot keeps the outgoing frame's mesh
         pipeline = getattr(getattr(self.window, "headless", None), "pipeline", None)

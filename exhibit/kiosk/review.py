@@ -316,7 +316,8 @@ class KioskPlayer:
             if quiet:
                 logger.setLevel(logging.CRITICAL)
             try:
-                tape = TapePlayer(self.clock) if narrate else None
+                # never a sound device: the review's narration (if any) goes onto tape
+                tape = TapePlayer(self.clock)
                 parts = assemble(config, self.window, self.clock, narration_player=tape)
                 self.kiosk = app.Kiosk(config, self.window, clock=self.clock, parts=parts)
             finally:

@@ -196,3 +196,22 @@ def test_the_volume_never_exceeds_the_maximum(volume):
     player = Player(backend="null", volume=volume)
     assert 0 <= player.volume <= MAX_VOLUME
     player.close()
+
+
+def test_a_process_with_a_player_left_open_still_exits():
+    """miniaudio closing a device while the interpreter shuts down hung `exhibit render` at
+    exit (0 % CPU, for ever): open players are closed at exit instead."""
+    import subprocess
+    import sys
+
+    script = (
+        "from exhibit.narration.player import Player\n"
+        "from exhibit.narration.sound import silence\n"
+        "p = Player(backend='null')\n"
+        "p.play(silence(5.0))\n"
+        "print('playing', p.playing)\n"
+    )
+    result = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
+    )
+    assert result.returncode == 0 and "playing" in result.stdout, result.stderr
