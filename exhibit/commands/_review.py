@@ -192,22 +192,7 @@ def _timeline(args, size, config, language) -> int:
                         }
                     )
             if kind == "folder":
-                write_out(
-                    folder / "index.json",
-                    json.dumps(
-                        {
-                            "timeline": timeline.path,
-                            "scene": timeline.scene,
-                            "language": language,
-                            "fps": fps,
-                            "size": list(size),
-                            "frames": index,
-                        },
-                        ensure_ascii=False,
-                        indent=1,
-                    )
-                    + "\n",
-                )
+                write_index(folder, timeline, language, fps, size, index)
             else:
                 encode_mp4(folder, out, fps)
         finally:
@@ -215,6 +200,20 @@ def _timeline(args, size, config, language) -> int:
                 shutil.rmtree(folder, ignore_errors=True)
     print(out)
     return 0
+
+
+def write_index(folder: Path, timeline, language, fps, size, frames, **extra) -> None:
+    """DIR/index.json: the timeline, language, fps and size, ``extra`` keys, and each frame."""
+    data = {
+        "timeline": timeline.path,
+        "scene": timeline.scene,
+        "language": language,
+        "fps": fps,
+        "size": list(size),
+        **extra,
+        "frames": frames,
+    }
+    write_out(folder / "index.json", json.dumps(data, ensure_ascii=False, indent=1) + "\n")
 
 
 #: A narrated review draws at most this many times the timeline's own length (the holds).
@@ -275,23 +274,8 @@ def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
         wav = folder / "narration.wav"
         write_wav(wav, sound)
         if kind == "folder":
-            write_out(
-                folder / "index.json",
-                json.dumps(
-                    {
-                        "timeline": timeline.path,
-                        "scene": timeline.scene,
-                        "language": language,
-                        "fps": fps,
-                        "size": list(size),
-                        "narration": {"file": wav.name, "segments": spoken, "failed": failed},
-                        "frames": index,
-                    },
-                    ensure_ascii=False,
-                    indent=1,
-                )
-                + "\n",
-            )
+            narration = {"file": wav.name, "segments": spoken, "failed": failed}
+            write_index(folder, timeline, language, fps, size, index, narration=narration)
         else:
             encode_mp4(folder, out, fps, audio=wav)
     finally:

@@ -4,8 +4,11 @@ for the state machine, a config editor, and the sessions a killed child rebuilds
 
 from __future__ import annotations
 
+import os
 import re
 import shutil
+import subprocess
+import sys
 import time
 from pathlib import Path
 from types import SimpleNamespace
@@ -46,6 +49,34 @@ def make_config(tmp: Path, script: str) -> Path:
     text = text.replace("idle_timeout_s = 90 ", "idle_timeout_s = 5 ")
     kiosk.write_text(text)
     return kiosk
+
+
+def run_windowed(kiosk: Path, tmp: Path, *args: str) -> tuple[subprocess.CompletedProcess, dict]:
+    """`exhibit run --config KIOSK --windowed ARGS...` in a window under Xvfb, with its own
+    cache and state folders in ``tmp``: the finished process and its environment (the test is
+    skipped when Xvfb cannot give GLFW a window)."""
+    from tests.xvfb import unavailable, xvfb
+
+    with xvfb("640x480x24") as display:
+        env = dict(
+            os.environ,
+            DISPLAY=display,
+            EXHIBIT_CACHE_DIR=str(tmp / "cache"),
+            EXHIBIT_STATE_DIR=str(tmp / "state"),
+        )
+        env.pop("NOTIFY_SOCKET", None)
+        result = subprocess.run(
+            [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--windowed", *args],
+            env=env,
+            capture_output=True,
+            text=True,
+            timeout=240,
+            cwd=ROOT,
+        )
+    if result.returncode != 0 and "cannot start GLFW" in result.stderr:
+        unavailable(f"no GLFW window on Xvfb: {result.stderr.strip().splitlines()[-1]}")
+    assert result.returncode == 0, result.stderr
+    return result, env
 
 
 class FakeWindow:

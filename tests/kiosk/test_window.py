@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.kiosk.support import ROOT, make_config
+from tests.kiosk.support import ROOT, make_config, run_windowed
 from tests.xvfb import unavailable, xvfb
 
 
@@ -21,37 +21,7 @@ def kiosk_run(tmp_path_factory):
     # 2 s of attract, then a stick deflected for 1.5 s, then nobody: attract returns after 5 s.
     kiosk = make_config(tmp, "wait 2\naxes 0.9 0 0 0 0 0\nwait 1.5\naxes 0 0 0 0 0 0\n")
     shot = tmp / "last.png"
-    with xvfb("640x480x24") as display:
-        env = dict(
-            os.environ,
-            DISPLAY=display,
-            EXHIBIT_CACHE_DIR=str(tmp / "cache"),
-            EXHIBIT_STATE_DIR=str(tmp / "state"),
-        )
-        env.pop("NOTIFY_SOCKET", None)
-        result = subprocess.run(
-            [
-                sys.executable,
-                "-m",
-                "exhibit",
-                "run",
-                "--config",
-                str(kiosk),
-                "--windowed",
-                "--duration",
-                "12",
-                "--screenshot",
-                str(shot),
-            ],
-            env=env,
-            capture_output=True,
-            text=True,
-            timeout=240,
-            cwd=ROOT,
-        )
-    if result.returncode != 0 and "cannot start GLFW" in result.stderr:
-        unavailable(f"no GLFW window on Xvfb: {result.stderr.strip().splitlines()[-1]}")
-    assert result.returncode == 0, result.stderr
+    result, _ = run_windowed(kiosk, tmp, "--duration", "12", "--screenshot", str(shot))
     return result, shot, tmp
 
 

@@ -77,6 +77,27 @@ def _render(cli, timeline, site, out, *extra):
     return result
 
 
+def fake_ffmpeg(tmp_path, monkeypatch) -> Path:
+    """A stand-in ffmpeg on PATH that records its arguments, the frames it was given and the
+    size of each WAV among them (JSON in the returned file), and writes an empty output."""
+    bin_dir = tmp_path / "bin"
+    bin_dir.mkdir()
+    record = tmp_path / "ffmpeg.json"
+    fake = bin_dir / "ffmpeg"
+    fake.write_text(f"""#!{sys.executable}
+import glob, json, os, sys
+args = sys.argv[1:]
+pattern = args[args.index("-i") + 1]
+frames = glob.glob(os.path.join(os.path.dirname(pattern), "frame_*.png"))
+audio = [os.path.getsize(a) for a in args if a.endswith(".wav")]
+json.dump({{"args": args, "frames": len(frames), "audio_bytes": audio}}, open({str(record)!r}, "w"))
+open(args[-1], "wb").close()
+""")
+    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
+    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    return record
+
+
 def _index(folder: Path) -> dict:
     return json.loads((folder / "index.json").read_text())
 
@@ -120,20 +141,7 @@ def test_contact_sheet(gl, cli, setup, tmp_path):
 def test_mp4_through_ffmpeg(gl, cli, setup, tmp_path, monkeypatch):
     """The frames go to ffmpeg at --fps (a stand-in ffmpeg records what it was given)."""
     timeline, site = setup
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    record = tmp_path / "ffmpeg.json"
-    fake = bin_dir / "ffmpeg"
-    fake.write_text(f"""#!{sys.executable}
-import glob, json, os, sys
-args = sys.argv[1:]
-pattern = args[args.index("-i") + 1]
-frames = glob.glob(os.path.join(os.path.dirname(pattern), "frame_*.png"))
-json.dump({{"args": args, "frames": len(frames)}}, open({str(record)!r}, "w"))
-open(args[-1], "wb").close()
-""")
-    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
-    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    record = fake_ffmpeg(tmp_path, monkeypatch)
     out = tmp_path / "loop.mp4"
     _render(cli, timeline, site, out, "--fps", str(FPS))
     seen = json.loads(record.read_text())
@@ -304,23 +312,11 @@ def test_narration_is_the_mp4s_sound(gl, cli, setup, tmp_path, monkeypatch):
     """With ffmpeg on PATH the MP4 gets the narration as an AAC track (a stand-in ffmpeg
     records its arguments; the real one is used where installed: docs/KIOSK.md)."""
     timeline, site = setup
-    bin_dir = tmp_path / "bin"
-    bin_dir.mkdir()
-    record = tmp_path / "ffmpeg.json"
-    fake = bin_dir / "ffmpeg"
-    fake.write_text(f"""#!{sys.executable}
-import json, sys
-args = sys.argv[1:]
-audio = [a for a in args if a.endswith(".wav")]
-json.dump({{"args": args, "audio_bytes": [len(open(a, "rb").read()) for a in audio]}},
-          open({str(record)!r}, "w"))
-open(args[-1], "wb").close()
-""")
-    fake.chmod(fake.stat().st_mode | stat.S_IEXEC)
-    monkeypatch.setenv("PATH", f"{bin_dir}{os.pathsep}{os.environ['PATH']}")
+    record = fake_ffmpeg(tmp_path, monkeypatch)
     _render(cli, timeline, site, tmp_path / "loop.mp4", "--fps", str(FPS), "--narration")
     seen = json.loads(record.read_text())
     assert "aac" in seen["args"] and seen["audio_bytes"][0] > 10_000
+    assert seen["frames"] > 4 * FPS  # held while it speaks
 
 
 def test_narration_needs_a_timeline_and_no_sheet(cli, setup, tmp_path):
