@@ -182,7 +182,7 @@ class Kiosk:
         return chores
 
     def _warm_hud(self, hud: HudInfo) -> bool:
-        self.window.renderer.hud.warm(self.window.size, [hud], self.text)
+        self.window.warm_hud([hud], self.text)
         return True
 
     def _warm_quality(self, quality) -> bool:
@@ -528,7 +528,7 @@ class Kiosk:
         )
         self.window.draw(gpu, frame.view, options, hud, fade=fade, inset=inset)
         self._shown = (gpu, frame.view, options, hud)
-        if self.governor.update(getattr(self.window, "frame_ms", None), now):
+        if self.governor.update(self.window.frame_ms, now):
             log.info(
                 "quality %s (frames took %.1f ms, the target is %.1f ms)",
                 self.governor.quality.describe(),
@@ -551,9 +551,7 @@ class Kiosk:
         self.narrator.close()
         self._shown = None
         # a shared headless pipeline's crossfade snapshot keeps the outgoing frame's mesh
-        pipeline = getattr(getattr(self.window, "headless", None), "pipeline", None)
-        if pipeline is not None:
-            pipeline.release_snapshot()
+        self.window.release_snapshot()
 
     def _screenshot(self, path: Path) -> None:
         from PIL import Image

@@ -98,6 +98,10 @@ class RenderTarget(Protocol):
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None: ...
 
+    def warm_hud(self, huds: list, text) -> None: ...
+
+    def release_snapshot(self) -> None: ...
+
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None: ...
 
     def read(self) -> np.ndarray: ...
@@ -149,6 +153,16 @@ class FrameDrawing:
         )
         if timer is not None:
             self.frame_ms = timer.end()
+
+    def warm_hud(self, huds: list, text) -> None:
+        """Lay out and upload the HUD panels of ``huds`` at this target's size now, so the
+        frame that first shows them does not (exhibit.kiosk.warm_up)."""
+        self.renderer.hud.warm(self.size, huds, text)
+
+    def release_snapshot(self) -> None:
+        """Drop the crossfade's captured frame: it holds the outgoing frame's mesh (a review or
+        a test that builds many kiosks on one context frees it)."""
+        self._pipeline().release_snapshot()
 
     def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
         """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:

@@ -85,10 +85,9 @@ class FakeWindow:
     def __init__(self):
         self.close_allowed, self.handler = True, None
         self.ctx = SimpleNamespace(error="GL_NO_ERROR")
-        self.renderer = SimpleNamespace(
-            upload=lambda mesh: mesh, hud=SimpleNamespace(warm=lambda *a: None)
-        )
+        self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
         self.size = (640, 360)
+        self.frame_ms = None
         self.fail = 0
         self.drawn, self.notices = [], 0
         self.fades, self.captured = [], []
@@ -102,6 +101,12 @@ class FakeWindow:
 
     def capture(self, gpu, view, options, hud):
         self.captured.append(gpu)
+
+    def warm_hud(self, huds, text):
+        pass
+
+    def release_snapshot(self):
+        pass
 
     def notice(self, lines, drift=(0.0, 0.0)):
         self.notices += 1
