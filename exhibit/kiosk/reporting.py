@@ -9,10 +9,16 @@ import os
 import resource
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
+
+if TYPE_CHECKING:
+    from exhibit.kiosk.governor import Governor
+    from exhibit.kiosk.sessions import SessionLog
+    from exhibit.kiosk.state import KioskState
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -55,12 +61,12 @@ class Reporter:
         frames: int,
         errors: FrameErrors,
         devices: list[dict],
-        state,
+        state: KioskState | None,
         problems: list[str],
         scenes_failed: list[dict],
         language: str,
-        sessions,
-        governor,
+        sessions: SessionLog | None,
+        governor: Governor,
         narration: dict | None = None,
     ) -> None:
         """The frame times since the last report (``stats`` is emptied), the devices' states
