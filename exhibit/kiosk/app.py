@@ -129,8 +129,10 @@ class Kiosk:
         self.state: KioskState | None = parts.state
         self.reporter = parts.reporter
         self.started = parts.started
-        #: "Listen": spoken descriptions and captions (exhibit.kiosk.narrator).
+        #: "Listen": spoken descriptions and captions (exhibit.kiosk.narrator), and where
+        #: attract mode was at the last frame (timeline path, time into it, when), for its holds.
         self.narrator = parts.narrator
+        self._narrated_at: tuple[str, float, float] | None = None
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
         self._shown: tuple | None = None
         self._fade_start: float | None = None
@@ -288,16 +290,27 @@ class Kiosk:
                 )
 
     def _hold_for_narration(self, now: float) -> None:
-        """Attract mode waits at the end of a caption's window while its narration goes on."""
+        """Attract mode waits at the end of a caption's window while its narration goes on:
+        within a timeline, and at its end too (the next timeline, or the same one looping,
+        would start its own words and cut these off)."""
+        last, self._narrated_at = self._narrated_at, None
         if self.state is None or self.state.mode != ATTRACT or not self.narrator.on(True):
             return
         playlist = self.state.playlist
         if not playlist.timelines:
             return
         timeline, t = playlist.locate(now)
-        hold = self.narrator.hold_at(timeline, t, self.translate.language)
-        if hold is not None and t > hold:
-            playlist.hold(t - hold)
+        until = self.narrator.speaking_until(self.translate.language)
+        if until is not None:
+            path, end = until
+            if timeline.path == path and t > end and (last is None or last[1] <= t):
+                playlist.hold(t - end)
+            elif last is not None and last[0] == path and last[1] <= end:
+                moved_on = timeline.path != path or t < last[1]
+                if moved_on:  # past the end since the last frame: back to just before it
+                    playlist.hold((now - last[2]) - (end - last[1]))
+            timeline, t = playlist.locate(now)
+        self._narrated_at = (timeline.path, t, now)
 
     def _narrate(self, frame, now: float) -> None:
         """What is on screen, spoken once, while narration is on."""

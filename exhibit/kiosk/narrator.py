@@ -194,19 +194,26 @@ class Narrator:
         elif key in self._failed or now - self._pending_since > MAX_PENDING_S:
             self._pending_since = None  # never ready: attract mode does not wait for it
 
-    def hold_at(self, timeline, t: float, language: str) -> float | None:
-        """Where attract mode must hold ``timeline`` instead of reaching ``t``: the end of the
-        window of the segment being spoken while its words go on (or its sound is still being
-        made); None: no need."""
+    def speaking_until(self, language: str) -> tuple[str, float] | None:
+        """(timeline path, the end of its window) of the timeline segment whose words still go
+        on in ``language`` (or whose sound is still being made): attract mode must not pass
+        that moment of that timeline yet; None: nothing holds it."""
         s = self._speaking
-        if s is None or s.source != timeline.path or s.index < 0 or s.language != language:
+        if s is None or s.index < 0 or s.language != language:
             return None
-        parts = self._scripts.get((timeline.path, language)) or []
+        parts = self._scripts.get((s.source, language)) or []
         if s.index >= len(parts):
             return None
-        end = parts[s.index].end - HOLD_EPSILON_S
         busy = self.player.playing or self._pending_since is not None
-        return end if busy and t >= end else None
+        return (s.source, parts[s.index].end - HOLD_EPSILON_S) if busy else None
+
+    def hold_at(self, timeline, t: float, language: str) -> float | None:
+        """Where attract mode must hold ``timeline`` instead of reaching ``t`` (see
+        speaking_until); None: no need."""
+        until = self.speaking_until(language)
+        if until is None or until[0] != timeline.path or t < until[1]:
+            return None
+        return until[1]
 
     def status(self) -> dict:
         """For the health file and `exhibit status`."""
