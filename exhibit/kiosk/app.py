@@ -305,7 +305,7 @@ class Kiosk:
             path, end = until
             if timeline.path == path and t > end and (last is None or last[1] <= t):
                 playlist.hold(t - end)
-            elif last is not None and last[0] == path and last[1] <= end:
+            elif last is not None and last[0] == path and last[1] <= end + 1e-6:
                 moved_on = timeline.path != path or t < last[1]
                 if moved_on:  # past the end since the last frame: back to just before it
                     playlist.hold((now - last[2]) - (end - last[1]))
