@@ -16,7 +16,7 @@ def run_kiosk(tmp, narration: str):
     kiosk = make_config(tmp, "wait 30\n")
     text = kiosk.read_text()
     kiosk.write_text(text.split("[narration]")[0] + "[narration]\n" + narration)
-    _, env = run_windowed(kiosk, tmp, "--duration", "8")
+    _, env = run_windowed(kiosk, tmp, "--duration", "15")  # room for a busy machine
     status = subprocess.run(
         [sys.executable, "-m", "exhibit", "status", "--max-age", "3600"],
         env=env,
