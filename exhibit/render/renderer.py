@@ -58,9 +58,13 @@ BLEND_PREMULTIPLIED = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
 #: a pixel up to 1 px from the crossing always has a neighbour across it).
 SHEET_GAP = 0.05
 SHEET_OFFSET = 16.0
-#: Smallest crossing the curves show: the sine of the angle between the two sheets (depth
-#: scaled to pixels by the mesh's extent on screen, from gpu.surface_sample's vertices).
-MIN_CROSSING = 0.2
+#: Crossings the curves show: the sine of the angle between the two sheets (depth scaled to
+#: pixels by the mesh's extent on screen, from gpu.surface_sample's vertices). The ink fades in
+#: linearly from MIN_CROSSING (none) to FULL_CROSSING (full): the angle is continuous along a
+#: crossing curve but noisy from facet to facet, and a hard cut-off (0.2 until issue 32) drew a
+#: curve whose angle runs near it in dashes (Figure 16).
+MIN_CROSSING = 0.1
+FULL_CROSSING = 0.3
 INTERSECTION_INK = (0.05, 0.05, 0.07)
 #: The slice curve drawn live (ViewState.slice_axis/slice_at): the slice's colour (its width:
 #: gpu.SLICE_WIDTH).
@@ -414,6 +418,7 @@ class Renderer:
             u_half_width=min(half, INTERSECTION_MAX_HALF_WIDTH),
             u_sheet_gap=SHEET_GAP * gpu.radius,
             u_min_angle=MIN_CROSSING,
+            u_full_angle=FULL_CROSSING,
             u_ink=INTERSECTION_INK,
         )
         ctx.disable(moderngl.DEPTH_TEST | moderngl.BLEND)

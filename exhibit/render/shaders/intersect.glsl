@@ -15,6 +15,10 @@
 //    colours are depth-tested with a polygon offset that differs per triangle, so next to the
 //    crossing the "wrong" sheet may be in front by a fraction of a pixel; the planes here are
 //    the true ones (clip z / clip w, no offset);
+//  * the ink's strength grows linearly with the sine of the crossing angle from u_min_angle to
+//    u_full_angle: a hard cut-off turned the facets' noise in the angle (a few hundredths of the
+//    sine from one triangle to the next) into dashes wherever a curve's angle passed it
+//    (Figure 16), and every crossing curve that ends with its sheets turning tangent passes it;
 //  * the crossing line h = 0 is exact to float precision within the two triangles, so its
 //    distance from p's centre, |h(p)| / |grad h|, gives an analytic coverage: a crisp curve at
 //    subpixel position, whatever the pixel grid.
@@ -22,7 +26,8 @@
 uniform vec2 u_size;
 uniform float u_half_width;   // half the curve's width in pixels
 uniform float u_sheet_gap;    // smallest w difference between two sheets
-uniform float u_min_angle;    // smallest crossing: sine of the angle between the planes
+uniform float u_min_angle;    // smallest crossing inked: sine of the angle between the planes
+uniform float u_full_angle;   // the ink is full from this sine on, fading linearly down to u_min_angle
 uniform float u_depth_scale;  // window depth to pixels
 uniform vec3 u_ink;
 #define TILE 8
@@ -82,7 +87,8 @@ void main() {
 #if defined FRAGMENT_SHADER && !defined GATE
 out vec4 f_color;
 
-// The coverage of the crossing of sheet a (at p) with sheet b (at p + o), 0 if none.
+// The coverage of the crossing of sheet a (at p) with sheet b (at p + o), times the ink's
+// strength at its angle; 0 if none.
 float crossing(vec4 a, vec4 b, ivec2 o) {
     vec2 d = vec2(o);
     vec2 grad = a.zw - b.zw;                      // gradient of h = zA - zB
@@ -93,10 +99,19 @@ float crossing(vec4 a, vec4 b, ivec2 o) {
     // nearly parallel: ask for a crossing angle between the planes' normals, with depth scaled
     // to pixels (u_depth_scale, from the mesh's extent on screen).
     vec3 na = vec3(-u_depth_scale * a.zw, 1.0), nb = vec3(-u_depth_scale * b.zw, 1.0);
-    bool crosses = b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap
-                   && length(cross(na, nb)) > u_min_angle * length(na) * length(nb);
+    float sine = length(cross(na, nb)) / (length(na) * length(nb));
+    float strength = clamp((sine - u_min_angle) / (u_full_angle - u_min_angle), 0.0, 1.0);
+    bool crosses = b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap && strength > 0.0;
     float dist = crosses ? abs(hp) / g : 1e9;
-    return clamp(u_half_width + 0.5 - dist, 0.0, 1.0);
+    // The crossing past p, away from q (h has one sign at both), within a pixel and a half: the
+    // depth test put the sheets' boundary a pixel off the planes' crossing (a steep sheet is
+    // pushed back by a pixel of its slope by the polygon offset), and p is the last pixel of its
+    // sheet before it; the pixels beyond have no other sheet around them and draw nothing. Ink p
+    // whole, or the curve is drawn on one side only, in beads (near the clifford torus's pinch
+    // points, where one sheet is steep).
+    float hq = hp + dot(grad, d);
+    if (crosses && hp * hq > 0.0 && abs(hp) < abs(hq) && dist < 1.5) dist = 0.0;
+    return strength * clamp(u_half_width + 0.5 - dist, 0.0, 1.0);
 }
 
 bool other(vec4 a, vec4 b) { return b.y > 0.0 && abs(a.x - b.x) > u_sheet_gap; }
