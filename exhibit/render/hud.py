@@ -445,11 +445,16 @@ class Hud:
 def halo_rows(renderer, text: str, style: str, px: int, x: float, y: float, rows: list) -> None:
     """A dark halo for a line of text at (x, y): its glyphs in HALO, moved in eight directions
     by two distances (at least 1 and 2 pixels; px / 10 at most), so no pixel of the picture
-    touches a stroke (text over a bright surface keeps 7:1, tests/golden/contrast.py)."""
-    k = max(2, round(px / 10))
-    for d in sorted({max(1, k // 2), k}):
-        for ox, oy in ((-d, 0), (d, 0), (0, -d), (0, d), (-d, -d), (d, d), (-d, d), (d, -d)):
-            renderer._glyph_rows(text, style, px, x + ox, y + oy, HALO, rows)
+    touches a stroke (text over a bright surface keeps 7:1, tests/golden/contrast.py). Each
+    glyph's halo is one image in the atlas (GlyphAtlas.halo), drawn as one quad."""
+    reach = max(2, round(px / 10))
+    x, y = round(x), round(y)
+    r, g, b, alpha = HALO
+    for dx, halo in renderer.atlas.halo_layout(text, style, px, reach, alpha):
+        rows.append(
+            (x + dx, y - reach, halo.width, halo.height, halo.u, halo.v, halo.width, halo.height)
+            + (r, g, b, 1.0)
+        )
 
 
 def marker_text(label: str, word) -> str:

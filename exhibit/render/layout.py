@@ -535,14 +535,26 @@ def free_rectangles(size: tuple[int, int], panels: list[Rect], margin: float) ->
             *[v for b in blocks for v in (b.y0, b.y1) if screen.y0 < v < screen.y1],
         }
     )
-    found: list[Rect] = []
+    # Every free rectangle on the grid of the blocks' edges, as grid indices (a sub-rectangle of
+    # a free one is free, so each run upwards in y1 stops at the first overlap).
+    found: list[tuple[int, int, int, int]] = []
     for i, x0 in enumerate(xs):
-        for x1 in xs[i + 1 :]:
+        for k in range(i + 1, len(xs)):
             for j, y0 in enumerate(ys):
-                for y1 in ys[j + 1 :]:
-                    r = Rect(x0, y0, x1, y1)
-                    if any(r.overlaps(b) for b in blocks):
+                for m in range(j + 1, len(ys)):
+                    if any(Rect(x0, y0, xs[k], ys[m]).overlaps(b) for b in blocks):
                         break  # a taller one overlaps too
-                    found.append(r)
-    maximal = [r for r in found if not any(o != r and o.contains(r) for o in found)]
+                    found.append((i, k, j, m))
+    # Maximal: no step to the next grid line on any side is free (a larger free rectangle
+    # would contain such a step, and the step would be free too). Linear, where comparing
+    # every pair cost the kiosk a millisecond a frame.
+    free = set(found)
+    maximal = [
+        Rect(xs[i], ys[j], xs[k], ys[m])
+        for i, k, j, m in found
+        if (i - 1, k, j, m) not in free
+        and (i, k + 1, j, m) not in free
+        and (i, k, j - 1, m) not in free
+        and (i, k, j, m + 1) not in free
+    ]
     return sorted(maximal, key=lambda r: -r.width * r.height)

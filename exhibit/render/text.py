@@ -240,6 +240,15 @@ class Glyph:
     left: int
 
 
+#: The eight directions a halo spreads a glyph in (exhibit.render.hud's text halos).
+HALO_DIRECTIONS = ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, 1), (-1, 1), (1, -1))
+
+
+def halo_steps(reach: int) -> list[int]:
+    """The distances a halo of ``reach`` pixels moves its glyph by: half of it and all of it."""
+    return sorted({max(1, reach // 2), reach})
+
+
 class GlyphAtlas:
     """Every glyph the HUD has shown, rasterised once by Pillow at its pixel size into one
     single-channel texture (shelf packing): a line of text is then a run of quads placed at whole
@@ -260,12 +269,14 @@ class GlyphAtlas:
         self.texture.repeat_x = self.texture.repeat_y = False
         self.texture.write(np.zeros((size, size), dtype=np.uint8).tobytes())
         self._glyphs: dict[tuple[str, int, str], Glyph] = {}
+        self._halos: dict[tuple[str, int, str, int, float], Glyph] = {}
         self._layouts: OrderedDict[tuple[str, str, int], list[tuple[int, Glyph]]] = OrderedDict()
         self.resets = 0
         self._clear()
 
     def _clear(self) -> None:
         self._glyphs.clear()
+        self._halos.clear()
         self._layouts.clear()
         # A 2x2 solid texel block at the origin: panels are glyph quads stretched over it.
         self.texture.write(np.full((2, 2), 255, dtype=np.uint8).tobytes(), viewport=(0, 0, 2, 2))
@@ -285,6 +296,41 @@ class GlyphAtlas:
         height = ascent + descent
         image = Image.new("L", (width, height), 0)
         ImageDraw.Draw(image).text((-left, 0), char, font=f, fill=255)
+        glyph = self._glyphs[key] = self._place(np.asarray(image), left)
+        return glyph
+
+    def halo(self, char: str, style: str, size: int, reach: int, alpha: float) -> Glyph:
+        """The dark halo around a glyph as one image, padded by ``reach``: the glyph's coverage
+        moved in the eight directions by ``halo_steps(reach)`` pixels and laid over itself with
+        ``alpha``, 1 - prod(1 - alpha * coverage), which is what sixteen glyph quads blended
+        over each other leave. One quad instead of sixteen: halos were a quarter of the HUD's
+        cost on software GL (docs/PERFORMANCE.md)."""
+        key = (style, size, char, reach, alpha)
+        found = self._halos.get(key)
+        if found is not None:
+            return found
+        f = font(style, size)
+        ascent, descent = f.getmetrics()
+        left, _, right, _ = f.getbbox(char)
+        left = min(int(math.floor(left)), 0) - 1
+        width = max(int(math.ceil(right)) - left + 1, 1)
+        image = Image.new("L", (width, ascent + descent), 0)
+        ImageDraw.Draw(image).text((-left, 0), char, font=f, fill=255)
+        coverage = np.asarray(image, dtype=np.float64) / 255.0
+        h, w = coverage.shape
+        clear = np.ones((h + 2 * reach, w + 2 * reach))
+        for step in halo_steps(reach):
+            for ox, oy in HALO_DIRECTIONS:
+                y0, x0 = reach + oy * step, reach + ox * step
+                clear[y0 : y0 + h, x0 : x0 + w] *= 1.0 - alpha * coverage
+        halo = np.round((1.0 - clear) * 255.0).astype(np.uint8)
+        glyph = self._halos[key] = self._place(halo, left - reach)
+        return glyph
+
+    def _place(self, image: np.ndarray, left: int) -> Glyph:
+        """Shelf-pack one single-channel image into the texture, emptying it when full (the
+        caller's layout notices by ``resets``)."""
+        height, width = image.shape
         if self._x + width + 1 > self.size:
             self._x, self._y, self._shelf = 0, self._y + self._shelf + 1, 0
         if self._y + height > self.size or width > self.size:
@@ -292,14 +338,29 @@ class GlyphAtlas:
             self._clear()
         glyph = Glyph(self._x, self._y, width, height, left)
         self.texture.write(
-            np.ascontiguousarray(np.asarray(image)).tobytes(),
+            np.ascontiguousarray(image).tobytes(),
             viewport=(glyph.u, glyph.v, width, height),
             alignment=1,
         )
         self._x += width + 1
         self._shelf = max(self._shelf, height)
-        self._glyphs[key] = glyph
         return glyph
+
+    def halo_layout(
+        self, text: str, style: str, size: int, reach: int, alpha: float
+    ) -> list[tuple[int, Glyph]]:
+        """(x offset of the halo image, halo) for each visible character of one line, placed as
+        ``layout`` places the glyphs (the halo image starts ``reach`` pixels up and left)."""
+        resets = self.resets
+        out = [
+            (dx - reach, self.halo(char, style, size, reach, alpha))
+            for (dx, _), char in zip(
+                self.layout(text, style, size), (c for c in text if not c.isspace())
+            )
+        ]
+        if self.resets != resets:  # emptied on the way: the earlier halos are gone
+            return self.halo_layout(text, style, size, reach, alpha)
+        return out
 
     def layout(self, text: str, style: str, size: int) -> list[tuple[int, Glyph]]:
         """(x offset of the glyph image, glyph) for each visible character of one line."""

@@ -1,0 +1,64 @@
+"""Text halos drawn as one baked image per glyph (GlyphAtlas.halo) leave the picture that
+sixteen copies of the glyph, moved and blended over each other, leave (the way halos were drawn
+before, kept here as the oracle), to within 8-bit rounding (sixteen blends round sixteen
+times: at most 4 levels)."""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+import pytest
+
+from exhibit.render.hud import HALO, halo_rows
+from exhibit.render.text import HALO_DIRECTIONS, halo_steps
+
+SIZE = (360, 90)
+
+
+def picture(gl, rows: list) -> np.ndarray:
+    target = gl.target(SIZE, 0)
+    target.framebuffer.use()
+    ctx, renderer = gl.ctx, gl.renderer
+    ctx.viewport = (0, 0, *SIZE)
+    target.framebuffer.clear(0.9, 0.85, 0.6, 1.0)  # a bright surface behind the words
+    ctx.disable(moderngl.DEPTH_TEST)
+    ctx.enable(moderngl.BLEND)
+    atlas = renderer.atlas
+    renderer._quads("glyphs", atlas.texture, (atlas.size,) * 2, rows, tuple(map(float, SIZE)))
+    ctx.disable(moderngl.BLEND)
+    return target.read().astype(int)
+
+
+@pytest.mark.parametrize(
+    ("text", "style", "px"), [("first contact, t = 0.42", "bold", 22), ("w", "sans", 40)]
+)
+def test_baked_halo_matches_sixteen_copies(gl, text, style, px):
+    renderer = gl.renderer
+    reach = max(2, round(px / 10))
+    copies: list = []
+    for step in halo_steps(reach):
+        for ox, oy in HALO_DIRECTIONS:
+            renderer._glyph_rows(text, style, px, 12 + ox * step, 20 + oy * step, HALO, copies)
+    baked: list = []
+    halo_rows(renderer, text, style, px, 12, 20, baked)
+    assert len(baked) == sum(not c.isspace() for c in text)  # one quad per glyph
+    old, new = picture(gl, copies), picture(gl, baked)
+    # Sixteen 8-bit blends round sixteen times, the baked halo once.
+    assert np.abs(old - new).max() <= 4
+    assert np.abs(old - new).mean() < 0.05
+    assert (old != picture(gl, [])).any()  # the halo is there at all
+
+
+def test_halo_survives_the_atlas_emptying(gl):
+    """A halo asked for as the atlas fills comes back whole from the emptied atlas."""
+    atlas = gl.renderer.atlas
+    resets = atlas.resets
+    n = 0
+    while atlas.resets == resets:
+        atlas.glyph(chr(0x4E00 + n), "sans", 60)
+        n += 1
+    out = atlas.halo_layout("halo", "sans", 30, 3, HALO[3])
+    assert [g.width for _, g in out] == [
+        atlas.halo(c, "sans", 30, 3, HALO[3]).width for c in "halo"
+    ]
+    assert all(g.height == out[0][1].height for _, g in out)
