@@ -37,6 +37,7 @@ from exhibit.render.gpu import (
     wire_rows,
 )
 from exhibit.render.options import RenderOptions
+from exhibit.render.passes.shared import Pipeline
 
 #: Object ids are 24-bit colours; 0 is the background.
 MAX_OBJECTS = (1 << 24) - 1
@@ -86,8 +87,8 @@ class ObjectIdPass:
     and markers in id colours) is made on first use and kept on the GpuMesh, so it is freed with
     the mesh (GpuMesh.release)."""
 
-    def __init__(self, ctx: moderngl.Context, renderer):
-        self.ctx, self.renderer = ctx, renderer
+    def __init__(self, ctx: moderngl.Context, pipeline: Pipeline) -> None:
+        self.ctx, self.pipeline = ctx, pipeline
         self.programs = {
             "object_ids": shaders.program(ctx, "surface.glsl", ("OBJECT_IDS",)),
             "ids": shaders.program(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
@@ -129,14 +130,14 @@ class ObjectIdPass:
             raise ValueError(f"{len(names)} objects: more than {MAX_OBJECTS} ids")
         framebuffer = self._begin(size)
         prog = self.programs["object_ids"]
-        self.renderer.set_pipeline(prog, view, size)
-        self.renderer.clip_distances(True)
+        self.pipeline.set_pipeline(prog, view, size)
+        self.pipeline.clip_distances(True)
         self.ctx.polygon_offset = (1.0, 1.0)  # as the picture's surfaces: curves on them win
         for i, surface in enumerate(gpu.surfaces):
             prog["u_id_offset"] = i + 1
             self._surface_vao(surface, "object_ids").render(moderngl.TRIANGLES)
         self.ctx.polygon_offset = (0.0, 0.0)
-        self.renderer.clip_distances(False)
+        self.pipeline.clip_distances(False)
         # As the picture: the outlines, the curves over them, the discs and the slice on top.
         marks = len(names) - len(MARKS) + 1
         self._marks(gpu, view, size, options, first_id=marks, outlines=True)
@@ -161,11 +162,11 @@ class ObjectIdPass:
         prog = self.programs["object_ids"]
         for i in surfaces:
             framebuffer = self._begin(size)
-            self.renderer.set_pipeline(prog, view, size)
-            self.renderer.clip_distances(True)
+            self.pipeline.set_pipeline(prog, view, size)
+            self.pipeline.clip_distances(True)
             prog["u_id_offset"] = i + 1
             self._surface_vao(gpu.surfaces[i], "object_ids").render(moderngl.TRIANGLES)
-            self.renderer.clip_distances(False)
+            self.pipeline.clip_distances(False)
             counts[i + 1] = int(np.count_nonzero(self._end(framebuffer, size)))
         framebuffer = self._begin(size)
         self.ctx.disable(moderngl.DEPTH_TEST)
@@ -182,14 +183,14 @@ class ObjectIdPass:
         order): the clipping tests check each pixel against the exact triangle."""
         framebuffer = self._begin(size)
         prog = self.programs["ids"]
-        self.renderer.set_pipeline(prog, view, size)
-        self.renderer.clip_distances(True)
+        self.pipeline.set_pipeline(prog, view, size)
+        self.pipeline.clip_distances(True)
         offset = 0
         for surface in gpu.surfaces:
             prog["u_id_offset"] = offset
             self._surface_vao(surface, "ids").render(moderngl.TRIANGLES)
             offset += surface.triangle_count
-        self.renderer.clip_distances(False)
+        self.pipeline.clip_distances(False)
         return self._end(framebuffer, size)
 
     # ------------------------------------------------------------------ parts
@@ -233,7 +234,7 @@ class ObjectIdPass:
         if "object_ids" not in gpu.buffers and "object_ids_markers" not in gpu.buffers:
             self._upload_lines(gpu, first_id)
         prog = self.programs["curves"]
-        self.renderer.set_pipeline(prog, view, size)
+        self.pipeline.set_pipeline(prog, view, size)
         shaders.set_uniforms(
             prog,
             {
@@ -281,7 +282,7 @@ class ObjectIdPass:
             for surface in gpu.surfaces:
                 key = silhouette_key(surface, view, slice_width)
                 prog = self.programs[key]
-                self.renderer.set_pipeline(prog, view, size)
+                self.pipeline.set_pipeline(prog, view, size)
                 shaders.set_uniforms(
                     prog,
                     {
