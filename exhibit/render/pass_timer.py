@@ -42,6 +42,11 @@ class PassTimes:
     total_ms: float = 0.0
     mode: str = "wall"
 
+    @property
+    def other_ms(self) -> float:
+        """What the frame cost outside its passes (wall mode: the CPU work between them)."""
+        return max(0.0, self.total_ms - sum(self.passes.values()))
+
     def share(self, name: str) -> float:
         """The pass's share of the frame (0..1)."""
         return self.passes.get(name, 0.0) / self.total_ms if self.total_ms > 0 else 0.0

@@ -8,6 +8,9 @@ import moderngl
 
 #: Pixels per side of a tile of the intersection pass's gate (intersect.glsl's TILE).
 TILE = 8
+#: What SceneTarget.clear writes, in the passes' names for a frame's buffers
+#: (exhibit.render.passes): a kiosk frame's scene passes start from these.
+CLEARED = ("scene colour", "scene depth", "sheets")
 
 
 class SceneTarget:

@@ -24,6 +24,7 @@ from exhibit.render.passes.shared import FrameInputs, set_uniforms
 class BackgroundPass:
     name: ClassVar[str] = "background"
     reads: ClassVar[tuple[str, ...]] = ()
+    optional_reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ("scene colour", "scene depth")
 
     def __init__(self, ctx: moderngl.Context) -> None:

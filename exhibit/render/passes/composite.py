@@ -30,6 +30,7 @@ VARIANTS = ("fxaa", "plain", "upscale")
 class CompositePass:
     name: ClassVar[str] = "composite"
     reads: ClassVar[tuple[str, ...]] = ("scene colour",)
+    optional_reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ("screen",)
 
     def __init__(self, ctx: moderngl.Context) -> None:

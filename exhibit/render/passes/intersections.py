@@ -73,6 +73,7 @@ def screen_extent(
 class IntersectionPass:
     name: ClassVar[str] = "intersections"
     reads: ClassVar[tuple[str, ...]] = ("sheets",)
+    optional_reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ("scene colour",)
 
     def __init__(self, ctx: moderngl.Context, pipeline: Pipeline) -> None:

@@ -61,6 +61,9 @@ class RenderPass(Protocol):
 
     name: ClassVar[str]
     reads: ClassVar[tuple[str, ...]]
+    #: Read only where an earlier pass wrote them (the curves' centre test reads the sheets
+    #: on frames that have them).
+    optional_reads: ClassVar[tuple[str, ...]]
     writes: ClassVar[tuple[str, ...]]
     programs: dict[str, moderngl.Program]
 

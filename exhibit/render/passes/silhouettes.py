@@ -60,6 +60,7 @@ class SilhouettePrograms:
 
 class _SilhouettePass:
     reads: ClassVar[tuple[str, ...]] = ("scene depth",)
+    optional_reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ("scene colour",)
 
     def __init__(

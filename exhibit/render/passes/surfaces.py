@@ -34,6 +34,7 @@ SHEET_OFFSET = 16.0
 class SurfacePass:
     name: ClassVar[str] = "surfaces"
     reads: ClassVar[tuple[str, ...]] = ("scene depth",)
+    optional_reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ("scene colour", "scene depth", "sheets")
 
     def __init__(self, ctx: moderngl.Context, pipeline: Pipeline) -> None:
