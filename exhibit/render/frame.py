@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict, deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import moderngl
@@ -97,8 +98,8 @@ class FramePipeline:
 
     def capture(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         size: tuple[int, int],
         options: RenderOptions,
         hud: HudInfo | None,
@@ -127,8 +128,8 @@ class FramePipeline:
 
     def draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         destination: moderngl.Framebuffer,
         size: tuple[int, int],
         options: RenderOptions,
@@ -174,8 +175,8 @@ class FramePipeline:
 
     def _draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         destination: moderngl.Framebuffer,
         size: tuple[int, int],
         options: RenderOptions,
@@ -289,7 +290,12 @@ class FrameTimer:
 
     LATENCY = 2
 
-    def __init__(self, ctx: moderngl.Context, clock=time.perf_counter, wall: bool | None = None):
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        clock: Callable[[], float] = time.perf_counter,
+        wall: bool | None = None,
+    ) -> None:
         self.ctx = ctx
         self.clock = clock
         if wall is None:

@@ -20,13 +20,17 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Iterable
 from typing import NamedTuple
 
 import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
+from exhibit.geometry.view import ViewState
+from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud_draw import HudDrawing
+from exhibit.render.hud_info import HudInfo
 from exhibit.render.object_tags import TagAnchors, picture_box
 from exhibit.render.passes.shared import Pipeline
 from exhibit.render.layout import (
@@ -129,7 +133,7 @@ class Hud:
         #: lies behind the text; never in a kiosk.
         self.ink = True
 
-    def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
+    def layout_for(self, size: tuple[int, int], hud: HudInfo, sizes: TextSizes) -> HudLayout:
         key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
         layout = self._layouts.get(key)
         if layout is None:
@@ -142,7 +146,7 @@ class Hud:
         self.layout = layout
         return layout
 
-    def warm(self, size, huds, sizes: TextSizes) -> None:
+    def warm(self, size: tuple[int, int], huds: Iterable[HudInfo], sizes: TextSizes) -> None:
         """Lay out and rasterise these HUDs' panels ahead of time (the kiosk's start-up)."""
         for hud in list(huds)[-self.CACHED :]:
             self._title_block(self.layout_for(size, hud, sizes))
@@ -196,14 +200,14 @@ class Hud:
 
     def draw(
         self,
-        gpu,
-        view,
-        hud,
-        size,
-        drift=(0.0, 0.0),
+        gpu: GpuMesh,
+        view: ViewState,
+        hud: HudInfo,
+        size: tuple[int, int],
+        drift: tuple[float, float] = (0.0, 0.0),
         sizes: TextSizes | None = None,
         alpha: float = 1.0,
-    ):
+    ) -> None:
         """The whole HUD over the current framebuffer; ``alpha`` < 1 fades all of it alike
         (a crossfade shows the outgoing words fading out, then the new ones fading in)."""
         d = self.drawing
@@ -270,15 +274,15 @@ class Hud:
         key = hud.word(PINCH_KEY) if PINCH_KEY in dict(hud.words) else ""
         key_items = []
         if key:  # the key under the numbers: a yellow disc, then what it means
-            y = status.y0 - dy + pad + 3 * mono_h
+            key_y = status.y0 - dy + pad + 3 * mono_h
             swatch = key_swatch(body)
             h = line_height("sans", body)
-            centre = (status.x0 + dx + pad + 0.45 * swatch, y + 0.55 * h)
+            centre = (status.x0 + dx + pad + 0.45 * swatch, key_y + 0.55 * h)
             key_items = [
                 (centre, centre, HALO, 0.62 * body + 3.0),
                 (centre, centre, (*PINCH_COLOR, 1.0), 0.62 * body),
             ]
-            self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, y, INK, rows)
+            self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, key_y, INK, rows)
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         # Labels keep off the picture where there is room (wire frames would cross them).
         ct = self.pipeline.clip_transform(view, size)

@@ -23,21 +23,19 @@ from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import (
     CENTRE_UNITS,
-    SURFACE_ATTRIBUTES,
-    CURVE_ATTRIBUTES,
     LINE_BIAS,
     MARKER_MIN,
     MARKER_SCALE,
     SLICE_WIDTH,
     GpuMesh,
-    attribute_format,
+    GpuSurface,
     curve_rows,
     segment_rows,
     silhouette_key,
     wire_rows,
 )
 from exhibit.render.options import RenderOptions
-from exhibit.render.passes.shared import Pipeline
+from exhibit.render.passes.shared import Pipeline, segment_array, surface_array
 
 #: Object ids are 24-bit colours; 0 is the background.
 MAX_OBJECTS = (1 << 24) - 1
@@ -216,17 +214,9 @@ class ObjectIdPass:
         rgb = np.frombuffer(data, dtype=np.uint8).reshape(size[1], size[0], 3)[::-1]
         return _decode(rgb)
 
-    def _surface_vao(self, surface, key: str) -> moderngl.VertexArray:
-        # kept on the surface under a name of this pass's own (its "silhouette" is the
-        # picture's, bound to the renderer's program)
-        vao = surface.vaos.get("ids:" + key)
-        if vao is None:
-            prog = self.programs[key]
-            fmt, used = attribute_format(prog, SURFACE_ATTRIBUTES)
-            vao = surface.vaos["ids:" + key] = self.ctx.vertex_array(
-                prog, [(surface.vbo, fmt, *used)], index_buffer=surface.ibo, index_element_size=4
-            )
-        return vao
+    def _surface_vao(self, surface: GpuSurface, key: str) -> moderngl.VertexArray:
+        # kept on the surface under a name of this pass's own (passes.shared.surface_array)
+        return surface_array(self.ctx, surface, self.programs[key], "ids:" + key)
 
     def _curves(self, gpu, view, size, options: RenderOptions, first_id: int) -> None:
         """Wire surfaces, curves and markers, each segment in its object's id, opaque cores
@@ -253,9 +243,10 @@ class ObjectIdPass:
                 # The HUD draws a labelled marker again above the surfaces (a ring where it is
                 # behind one): it is never hidden.
                 self.ctx.disable(moderngl.DEPTH_TEST)
-            if key in gpu.vaos:
-                count = gpu.buffers[key].size // (13 * 4)
-                gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+            if key in gpu.buffers:
+                buffer = gpu.buffers[key]
+                vao = segment_array(self.ctx, gpu, buffer, prog, "ids:" + key)
+                vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=buffer.size // (13 * 4))
         self.ctx.depth_func = "<"
 
     def _marks(
@@ -324,10 +315,7 @@ class ObjectIdPass:
             if not parts:
                 continue
             data = np.concatenate(parts).astype(np.float32)
-            buffer = gpu.buffers[key] = self.ctx.buffer(data.tobytes())
-            gpu.vaos[key] = self.ctx.vertex_array(
-                self.programs["curves"], [(buffer, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
-            )
+            gpu.buffers[key] = self.ctx.buffer(data.tobytes())
 
     # ------------------------------------------------------------------ lifetime
 
