@@ -7,10 +7,10 @@ Two ways to measure, chosen once per context:
 * "gpu": a GL_TIME_ELAPSED query around each pass (``ctx.query(time=True)``), read LATENCY
   frames later, when it is long done, so reading never stalls the pipeline.
 * "wall": on software GL, where the "GPU" is the same CPU cores (llvmpipe accepts timer queries
-  but they time only the command submission, not its deferred rasterisation: a pass of 50
-  full-screen triangles reads 2 ms for 300 ms of wall time), and where a query cannot be made:
-  ctx.finish() at each pass boundary and the wall time between them. The finishes cost the
-  measured frame some overlap, so only measured frames pay them.
+  but they time only the command submission, not the rasterisation it defers to its threads: a
+  pass of many full-screen triangles reads a small fraction of its wall time), and where a
+  query cannot be made: ctx.finish() at each pass boundary and the wall time between them. The
+  finishes cost the measured frame some overlap, so only measured frames pay them.
 
 Frames not asked to be measured pay one attribute check per pass. Sections nest by being
 ignored: while one is open (e.g. the time-slice inset, itself a whole small frame) the passes
