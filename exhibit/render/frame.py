@@ -149,6 +149,24 @@ class FramePipeline:
         self.texts = []
         timer = self.renderer.timer
         timer.begin_frame()
+        try:
+            self._frame(gpu, view, destination, size, options, hud, quality, fade, inset)
+        finally:
+            timer.end_frame()
+
+    def _frame(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        destination: moderngl.Framebuffer,
+        size: tuple[int, int],
+        options: RenderOptions,
+        hud: HudInfo | None,
+        quality: Quality,
+        fade: float,
+        inset: Inset | None,
+    ) -> None:
+        timer = self.renderer.timer
         self._draw(gpu, view, destination, size, options, None, quality)
         if inset is not None:
             with timer.section("inset"):
@@ -171,7 +189,6 @@ class FramePipeline:
             destination.use()
             self.ctx.viewport = (0, 0, *size)
             self.renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text, alpha)
-        timer.end_frame()
 
     def _draw(
         self,

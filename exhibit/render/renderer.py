@@ -171,13 +171,15 @@ class Renderer:
         (the kiosk's frames go through exhibit.render.frame, which draws its "direct" quality
         level, and its crossfade snapshot at that level, with this)."""
         self.timer.begin_frame()
-        framebuffer.use()
-        width, height = size or framebuffer.size
-        self.ctx.viewport = (0, 0, width, height)
-        self._draw_scene(gpu, view, (width, height), options, None, background=True)
-        if options.hud and hud is not None:
-            self.render_hud(gpu, view, hud, (width, height), options.hud_drift, options.text)
-        self.timer.end_frame()
+        try:
+            framebuffer.use()
+            width, height = size or framebuffer.size
+            self.ctx.viewport = (0, 0, width, height)
+            self._draw_scene(gpu, view, (width, height), options, None, background=True)
+            if options.hud and hud is not None:
+                self.render_hud(gpu, view, hud, (width, height), options.hud_drift, options.text)
+        finally:
+            self.timer.end_frame()
 
     def render_scene(
         self,
