@@ -138,6 +138,8 @@ class GpuSurface:
     vbo: moderngl.Buffer
     ibo: moderngl.Buffer
     triangle_count: int
+    #: Vertex arrays the passes bound to their programs on first use, by "pass:variant"
+    #: (exhibit.render.passes.shared.surface_array); freed with the mesh.
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
     #: Per axis, the sorted coordinates near which a slice may touch the surface, and the
     #: longest edge: the slice's pass runs the tangency test only there (geometry/touching.py).
@@ -155,6 +157,8 @@ class GpuMesh:
     line_count: int
     markers: moderngl.Buffer | None
     marker_count: int
+    #: The curves' and markers' vertex arrays, made by the passes that draw them on first use
+    #: (exhibit.render.passes.shared.segment_array); freed with the mesh.
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
     #: Largest distance of any point from the origin (for the 4D depth colour ramp).
     radius: float = 1.0

@@ -7,11 +7,11 @@ DEPTH_COLOUR), each with "_sheets" (GBUFFER: a second, float attachment gets eac
 and depth plane, the intersection pass's input), and "floor" (floor.glsl: the same triangles
 through a pass-through shader, the benchmarks' floor; not part of any frame).
 
-Reads nothing (the depth test runs against the cleared scene depth). Writes the scene colour and
-depth, and the sheets on frames that ink intersections. GL state on return: depth test on with
-"<", depth writes on, blending off, polygon offset and clip distances off; on inked frames the
-scene target's colour-only framebuffer is current again (the sheet framebuffer is bound only
-while this pass draws).
+Reads the scene depth (the depth test runs against the clear's, or the background's). Writes
+the scene colour and depth, and the sheets on frames that ink intersections. GL state on
+return: depth test on with "<", depth writes on, blending off, polygon offset and clip
+distances off; on inked frames the scene target's colour-only framebuffer is current again
+(the sheet framebuffer is bound only while this pass draws).
 """
 
 from __future__ import annotations
