@@ -20,22 +20,22 @@ from __future__ import annotations
 
 import time
 from collections import OrderedDict, deque
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import moderngl
 
 from exhibit.geometry.view import ViewState
 from exhibit.render import inset as inset_look
-from exhibit.render import shaders
 from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud import TextMark
 from exhibit.render.layout import Rect
 from exhibit.render.options import RenderOptions
+from exhibit.render.passes.composite import CompositePass
 from exhibit.render.quality import Quality, software_renderer
 from exhibit.render.renderer import HudInfo, Renderer
+from exhibit.render.scene_target import SceneTarget
 
-#: Pixels per side of a tile of the intersection pass's gate (intersect.glsl's TILE).
-TILE = 8
 #: Targets kept for recently used (size, antialiasing) pairs; a benchmark alternating levels
 #: must not reallocate every frame, and a kiosk needs one or two.
 MAX_TARGETS = 6
@@ -52,69 +52,6 @@ class Inset:
     label: str = ""
 
 
-class SceneTarget:
-    """Where the scene is drawn: colour (texture, or MSAA renderbuffer resolved into one) and
-    depth, of one size; with ``sheets``, also a float texture the surface pass writes each
-    pixel's sheet and depth plane to (the intersection curves' input, intersect.glsl), bound
-    only in ``sheet_framebuffer``."""
-
-    def __init__(
-        self, ctx: moderngl.Context, size: tuple[int, int], samples: int, sheets: bool = False
-    ):
-        self.ctx, self.size, self.samples = ctx, size, samples
-        self.sheet_texture = self.sheet_framebuffer = None
-        self.gate_texture = self.gate_framebuffer = None
-        self.gate_size = (0, 0)
-        self.texture = ctx.texture(size, 4)
-        self.texture.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        self.texture.repeat_x = self.texture.repeat_y = False
-        self._color: moderngl.Renderbuffer | None = None
-        self._resolved: moderngl.Framebuffer | None = None
-        if samples:
-            self._color = ctx.renderbuffer(size, 4, samples=samples)
-            self._depth = ctx.depth_renderbuffer(size, samples=samples)
-            self.framebuffer = ctx.framebuffer([self._color], self._depth)
-            self._resolved = ctx.framebuffer([self.texture])
-        else:
-            self._depth = ctx.depth_renderbuffer(size)
-            self.framebuffer = ctx.framebuffer([self.texture], self._depth)
-        if sheets:
-            self.sheet_texture = ctx.texture(size, 4, dtype="f4", samples=samples or 0)
-            if not samples:  # a multisampled texture has no filter (read with texelFetch)
-                self.sheet_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-            self.sheet_framebuffer = ctx.framebuffer(
-                [self._color if samples else self.texture, self.sheet_texture], self._depth
-            )
-            if not samples:  # the intersection pass's gate: one texel per 4 x 4 pixels
-                self.gate_size = (-(-size[0] // TILE), -(-size[1] // TILE))
-                self.gate_texture = ctx.texture(self.gate_size, 1)
-                self.gate_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-                self.gate_framebuffer = ctx.framebuffer([self.gate_texture])
-
-    def clear(self) -> None:
-        """Colour to transparent, depth to 1 (and the sheets to empty)."""
-        (self.sheet_framebuffer or self.framebuffer).clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-
-    def resolve(self) -> None:
-        if self._resolved is not None:
-            self.ctx.copy_framebuffer(self._resolved, self.framebuffer)
-
-    def release(self) -> None:
-        for obj in (
-            self.sheet_framebuffer,
-            self.framebuffer,
-            self._resolved,
-            self._color,
-            self._depth,
-            self.texture,
-            self.sheet_texture,
-            self.gate_framebuffer,
-            self.gate_texture,
-        ):
-            if obj is not None:
-                obj.release()
-
-
 class FramePipeline:
     """Draws whole kiosk frames at any quality level into a destination framebuffer (a
     window's screen, or an offscreen single-sampled one), and crossfades between two of them
@@ -125,14 +62,9 @@ class FramePipeline:
         self.renderer = renderer
         #: MSAA samples used by "msaa" levels (0 or 1: msaa falls back to none).
         self.samples = min(samples, ctx.max_samples) if samples > 1 else 0
-        program = shaders.program
-        self.programs = {
-            "fxaa": program(ctx, "composite.glsl", ("FXAA",)),
-            "plain": program(ctx, "composite.glsl"),
-            "upscale": program(ctx, "composite.glsl", ("UPSCALE",)),
-            "fade": program(ctx, "fade.glsl"),
-        }
-        self._vaos = {k: ctx.vertex_array(p, []) for k, p in self.programs.items()}
+        #: The composite passes: the scene over the background, FXAA or not, upscaled or not,
+        #: and the crossfade's snapshot (exhibit.render.passes.composite).
+        self.composite = CompositePass(ctx)
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
         #: The outgoing frame of a crossfade: (texture, framebuffer, depth), kept at the screen
         #: size.
@@ -166,8 +98,8 @@ class FramePipeline:
 
     def capture(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         size: tuple[int, int],
         options: RenderOptions,
         hud: HudInfo | None,
@@ -196,8 +128,8 @@ class FramePipeline:
 
     def draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         destination: moderngl.Framebuffer,
         size: tuple[int, int],
         options: RenderOptions,
@@ -215,24 +147,35 @@ class FramePipeline:
         the new ones fade in over its second, as the pictures crossfade underneath."""
         size = (int(size[0]), int(size[1]))
         self.texts = []
+        timer = self.renderer.timer
+        timer.begin_frame()
+        try:
+            self._frame(gpu, view, destination, size, options, hud, quality, fade, inset)
+        finally:
+            timer.end_frame()
+
+    def _frame(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        destination: moderngl.Framebuffer,
+        size: tuple[int, int],
+        options: RenderOptions,
+        hud: HudInfo | None,
+        quality: Quality,
+        fade: float,
+        inset: Inset | None,
+    ) -> None:
+        timer = self.renderer.timer
         self._draw(gpu, view, destination, size, options, None, quality)
         if inset is not None:
-            self._inset(inset, destination, size)
+            with timer.section("inset"):
+                self._inset(inset, destination, size)
         fading = fade > 0.0 and self._snapshot is not None and self._snapshot[0].size == size
         if fading:
-            ctx = self.ctx
-            destination.use()
-            ctx.viewport = (0, 0, *size)
-            ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-            ctx.enable(moderngl.BLEND)
-            ctx.blend_func = (moderngl.SRC_ALPHA, moderngl.ONE_MINUS_SRC_ALPHA)
             assert self._snapshot is not None  # fading needs it
-            self._snapshot[0].use(0)
-            prog = self.programs["fade"]
-            prog["u_snapshot"] = 0
-            prog["u_alpha"] = float(min(fade, 1.0))
-            self._vaos["fade"].render(moderngl.TRIANGLES, vertices=3)
-            ctx.disable(moderngl.BLEND)
+            with timer.section("fade"):
+                self.composite.fade(self._snapshot[0], destination, size, fade)
         words = (gpu, view, options, hud)
         alpha = 1.0
         if fading:
@@ -249,15 +192,15 @@ class FramePipeline:
 
     def _draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         destination: moderngl.Framebuffer,
         size: tuple[int, int],
         options: RenderOptions,
         hud: HudInfo | None,
         quality: Quality,
     ) -> None:
-        ctx, renderer = self.ctx, self.renderer
+        ctx, renderer, timer = self.ctx, self.renderer, self.renderer.timer
         options = options.at_quality(quality)
         size = (int(size[0]), int(size[1]))
         aa = quality.antialiasing
@@ -271,22 +214,26 @@ class FramePipeline:
         target = self.target(
             scene_size, self.samples if aa == "msaa" else 0, "sheets" if inked else "scene"
         )
-        target.framebuffer.use()
-        ctx.viewport = (0, 0, *scene_size)
-        ctx.fbo.depth_mask = True
-        target.clear()
+        with timer.section("clear"):
+            target.framebuffer.use()
+            ctx.viewport = (0, 0, *scene_size)
+            ctx.fbo.depth_mask = True
+            target.clear()
         renderer.render_scene(gpu, view, scene_size, options, sheets=target if inked else None)
-        target.resolve()
-        ctx.disable(moderngl.BLEND | moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        if target.samples:
+            with timer.section("resolve"):
+                target.resolve()
         source = target.texture
-        if scene_size == size:
-            self._pass("fxaa" if aa == "fxaa" else "plain", source, destination, size, options)
-        else:
-            if aa == "fxaa":
-                smooth = self.target(scene_size, 0, "fxaa")
-                self._pass("fxaa", source, smooth.framebuffer, scene_size, options)
-                source = smooth.texture
-            self._pass("upscale", source, destination, size, options)
+        with timer.section("composite"):
+            if scene_size == size:
+                variant = "fxaa" if aa == "fxaa" else "plain"
+                self.composite.compose(variant, source, destination, size, options)
+            else:
+                if aa == "fxaa":
+                    smooth = self.target(scene_size, 0, "fxaa")
+                    self.composite.compose("fxaa", source, smooth.framebuffer, scene_size, options)
+                    source = smooth.texture
+                self.composite.compose("upscale", source, destination, size, options)
         if options.hud and hud is not None:
             renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text)
 
@@ -296,7 +243,7 @@ class FramePipeline:
         x, y, w, h = (int(round(v)) for v in inset.rect)
         if w < 16 or h < 16:
             return
-        ctx, renderer = self.ctx, self.renderer
+        ctx, renderer, drawing = self.ctx, self.renderer, self.renderer.drawing
         target = self.target((w, h), 0, "inset")
         renderer.render(inset.gpu, inset.view, target.framebuffer, inset_look.OPTIONS)
         destination.use()
@@ -305,7 +252,7 @@ class FramePipeline:
         ctx.enable(moderngl.BLEND)
         viewport = (float(size[0]), float(size[1]))
         # the framebuffer's rows run bottom to top: the texel rectangle is flipped
-        renderer._quads(
+        drawing.quads(
             "image",
             target.texture,
             (w, h),
@@ -320,15 +267,15 @@ class FramePipeline:
             (x, y, edge, h),
             (x + w - edge, y, edge, h),
         ):
-            renderer._panel_row(bx, by, bw, bh, inset_look.BORDER, rows)
+            drawing.panel_row(bx, by, bw, bh, inset_look.BORDER, rows)
         if inset.label:
             px = max(10, round(0.085 * h))
             # on a dark tab in the corner: the inset's picture may be light behind it
             glyphs: list = []
-            box = renderer._glyph_rows(
+            box = drawing.glyph_rows(
                 inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px, inset_look.LABEL, glyphs
             )
-            renderer._panel_row(
+            drawing.panel_row(
                 x + edge,
                 y + edge,
                 box[2] + 0.4 * px - x - edge,
@@ -339,36 +286,15 @@ class FramePipeline:
             if renderer.hud.ink:
                 rows += glyphs
             self.texts.append(TextMark("inset label", inset.label, Rect(*box), inset_look.LABEL))
-        renderer._quads(
-            "glyphs", renderer.atlas.texture, (renderer.atlas.size,) * 2, rows, viewport
-        )
+        drawing.atlas_quads(rows, viewport)
         ctx.disable(moderngl.BLEND)
-
-    def _pass(self, key: str, source, destination, size, options: RenderOptions) -> None:
-        destination.use()
-        self.ctx.viewport = (0, 0, *size)
-        prog = self.programs[key]
-        top, bottom = options.background
-        source.use(0)
-        for name, value in (
-            ("u_scene", 0),
-            ("u_size", (float(size[0]), float(size[1]))),
-            ("u_top", tuple(top)),
-            ("u_bottom", tuple(bottom)),
-        ):
-            if name in prog:
-                prog[name] = value
-        self._vaos[key].render(moderngl.TRIANGLES, vertices=3)
 
     def release(self) -> None:
         self.release_snapshot()
         for target in self._targets.values():
             target.release()
         self._targets.clear()
-        for vao in self._vaos.values():
-            vao.release()
-        for prog in self.programs.values():
-            prog.release()
+        self.composite.release()
 
 
 class FrameTimer:
@@ -381,7 +307,12 @@ class FrameTimer:
 
     LATENCY = 2
 
-    def __init__(self, ctx: moderngl.Context, clock=time.perf_counter, wall: bool | None = None):
+    def __init__(
+        self,
+        ctx: moderngl.Context,
+        clock: Callable[[], float] = time.perf_counter,
+        wall: bool | None = None,
+    ) -> None:
         self.ctx = ctx
         self.clock = clock
         if wall is None:

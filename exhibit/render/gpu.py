@@ -138,6 +138,8 @@ class GpuSurface:
     vbo: moderngl.Buffer
     ibo: moderngl.Buffer
     triangle_count: int
+    #: Vertex arrays the passes bound to their programs on first use, by "pass:variant"
+    #: (exhibit.render.passes.shared.surface_array); freed with the mesh.
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
     #: Per axis, the sorted coordinates near which a slice may touch the surface, and the
     #: longest edge: the slice's pass runs the tangency test only there (geometry/touching.py).
@@ -155,6 +157,8 @@ class GpuMesh:
     line_count: int
     markers: moderngl.Buffer | None
     marker_count: int
+    #: The curves' and markers' vertex arrays, made by the passes that draw them on first use
+    #: (exhibit.render.passes.shared.segment_array); freed with the mesh.
     vaos: dict[str, moderngl.VertexArray] = field(default_factory=dict)
     #: Largest distance of any point from the origin (for the 4D depth colour ramp).
     radius: float = 1.0
@@ -203,8 +207,9 @@ def attribute_format(program: moderngl.Program, attributes) -> tuple[str, list[s
     return " ".join(parts), used
 
 
-def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Program]) -> GpuMesh:
-    """Write the mesh to GPU buffers once and bind them to every program that draws them."""
+def upload(ctx: moderngl.Context, mesh: Mesh4D) -> GpuMesh:
+    """Write the mesh to GPU buffers once; each pass binds vertex arrays of its own programs to
+    them on first use (exhibit.render.passes.shared), kept in ``vaos`` and freed with them."""
     surfaces: list[GpuSurface] = []
     rows: list[np.ndarray] = []
     for surface in mesh.surfaces:
@@ -221,35 +226,17 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         gpu.longest_edge = float(
             max(np.linalg.norm(p[t[:, k]] - p[t[:, (k + 1) % 3]], axis=1).max() for k in range(3))
         )
-        for key in (
-            "surface",
-            "surface_depth",
-            "surface_sheets",
-            "surface_depth_sheets",
-            "silhouette",
-            "silhouette_slice",
-            "floor",
-        ):
-            prog = programs[key]
-            fmt, used = attribute_format(prog, SURFACE_ATTRIBUTES)
-            gpu.vaos[key] = ctx.vertex_array(
-                prog, [(vbo, fmt, *used)], index_buffer=ibo, index_element_size=4
-            )
         surfaces.append(gpu)
     for curve in mesh.curves:
         row = curve_rows(curve, curve.material.color, len(rows))
         if row is not None:
             rows.append(row)
     lines = markers = None
-    vaos = {}
     line_count = marker_count = 0
     if rows:
         data = np.concatenate(rows).astype(np.float32)
         lines = ctx.buffer(data.tobytes())
         line_count = len(data)
-        vaos["lines"] = ctx.vertex_array(
-            programs["curves"], [(lines, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
-        )
     if mesh.markers:
         marker_rows = []
         for m in mesh.markers:
@@ -260,16 +247,13 @@ def upload(ctx: moderngl.Context, mesh: Mesh4D, programs: dict[str, moderngl.Pro
         data = np.concatenate(marker_rows).astype(np.float32)
         markers = ctx.buffer(data.tobytes())
         marker_count = len(data)
-        vaos["markers"] = ctx.vertex_array(
-            programs["curves"], [(markers, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
-        )
     arrays = (
         [s.positions for s in mesh.surfaces]
         + [c.points for c in mesh.curves]
         + [m.position[None] for m in mesh.markers]
     )
     radius = max([float(np.linalg.norm(a, axis=1).max()) for a in arrays if len(a)] + [1e-6])
-    gpu_mesh = GpuMesh(mesh, surfaces, lines, line_count, markers, marker_count, vaos, radius)
+    gpu_mesh = GpuMesh(mesh, surfaces, lines, line_count, markers, marker_count, radius=radius)
     solid = [s for s in mesh.surfaces if s.material.style != "wire" and len(s.triangles)]
     gpu_mesh.sag = max((mesh_sag(s) for s in solid), default=0.0)
     return gpu_mesh

@@ -20,13 +20,19 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
+from collections.abc import Iterable
 from typing import NamedTuple
 
 import moderngl
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
+from exhibit.geometry.view import ViewState
+from exhibit.render.gpu import GpuMesh
+from exhibit.render.hud_draw import HudDrawing
+from exhibit.render.hud_info import HudInfo
 from exhibit.render.object_tags import TagAnchors, picture_box
+from exhibit.render.passes.shared import Pipeline
 from exhibit.render.layout import (
     HudLayout,
     Rect,
@@ -103,8 +109,10 @@ class Hud:
     #: language costs no wrapping or rasterising (15 ms at 1080p) once warm.
     CACHED = 128
 
-    def __init__(self, renderer) -> None:
-        self.renderer = renderer
+    def __init__(self, drawing: HudDrawing, pipeline: Pipeline) -> None:
+        #: Text and quads (exhibit.render.hud_draw); the frame's clip transform, shared with
+        #: the picture's passes (marker labels and tags sit on the points the picture shows).
+        self.drawing, self.pipeline = drawing, pipeline
         #: key -> (texture, width, height) of title and caption panels, least recent first.
         self._blocks: OrderedDict[tuple, tuple] = OrderedDict()
         self._layouts: OrderedDict[tuple, HudLayout] = OrderedDict()
@@ -125,7 +133,7 @@ class Hud:
         #: lies behind the text; never in a kiosk.
         self.ink = True
 
-    def layout_for(self, size, hud, sizes: TextSizes) -> HudLayout:
+    def layout_for(self, size: tuple[int, int], hud: HudInfo, sizes: TextSizes) -> HudLayout:
         key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
         layout = self._layouts.get(key)
         if layout is None:
@@ -138,7 +146,7 @@ class Hud:
         self.layout = layout
         return layout
 
-    def warm(self, size, huds, sizes: TextSizes) -> None:
+    def warm(self, size: tuple[int, int], huds: Iterable[HudInfo], sizes: TextSizes) -> None:
         """Lay out and rasterise these HUDs' panels ahead of time (the kiosk's start-up)."""
         for hud in list(huds)[-self.CACHED :]:
             self._title_block(self.layout_for(size, hud, sizes))
@@ -172,7 +180,7 @@ class Hud:
             return (None, 0, 0, ())
         image = block_image(lines, layout.pad, PANEL)
         h, w = image.shape[:2]
-        ctx = self.renderer.ctx
+        ctx = self.drawing.ctx
         texture = ctx.texture((w, h), 4, np.ascontiguousarray(image).tobytes(), alignment=1)
         texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         texture.repeat_x = texture.repeat_y = False
@@ -192,26 +200,26 @@ class Hud:
 
     def draw(
         self,
-        gpu,
-        view,
-        hud,
-        size,
-        drift=(0.0, 0.0),
+        gpu: GpuMesh,
+        view: ViewState,
+        hud: HudInfo,
+        size: tuple[int, int],
+        drift: tuple[float, float] = (0.0, 0.0),
         sizes: TextSizes | None = None,
         alpha: float = 1.0,
-    ):
+    ) -> None:
         """The whole HUD over the current framebuffer; ``alpha`` < 1 fades all of it alike
         (a crossfade shows the outgoing words fading out, then the new ones fading in)."""
-        r = self.renderer
+        d = self.drawing
         alpha = min(max(float(alpha), 0.0), 1.0)
         self.texts = []
         if alpha == 0.0:
             return
         sizes = sizes or TextSizes()
         width, height = size
-        r.ctx.viewport = (0, 0, width, height)
-        r.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        r.ctx.enable(moderngl.BLEND)
+        d.ctx.viewport = (0, 0, width, height)
+        d.ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        d.ctx.enable(moderngl.BLEND)
         dx, dy = drift
         viewport = (float(width), float(height))
         layout = self.layout_for(size, hud, sizes)
@@ -223,7 +231,7 @@ class Hud:
             assert block is not None  # a texture means lines, and lines a title block
             x, y = round(block.x0 + dx), round(block.y0 + dy)
             if self.ink:
-                r._quads(
+                d.quads(
                     "image",
                     texture,
                     (block_w, block_h),
@@ -232,8 +240,8 @@ class Hud:
                 )
             else:  # the panel alone, as the block draws it under its words
                 panel: list[tuple] = []
-                r._panel_row(x, y, block_w, block_h, (*PANEL[:3], PANEL[3] * alpha), panel)
-                r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), panel, viewport)
+                d.panel_row(x, y, block_w, block_h, (*PANEL[:3], PANEL[3] * alpha), panel)
+                d.atlas_quads(panel, viewport)
             self.texts += [
                 TextMark(
                     kind,
@@ -246,7 +254,7 @@ class Hud:
 
         rows: list[tuple] = []
         status = layout.status_block
-        r._panel_row(status.x0 + dx, status.y0 - dy, status.width, status.height, PANEL, rows)
+        d.panel_row(status.x0 + dx, status.y0 - dy, status.width, status.height, PANEL, rows)
         mono_h = line_height("mono", body)
         lines = status_lines(view, sizes.infinity_beyond, hud.words)
         if not has_greek():
@@ -266,18 +274,18 @@ class Hud:
         key = hud.word(PINCH_KEY) if PINCH_KEY in dict(hud.words) else ""
         key_items = []
         if key:  # the key under the numbers: a yellow disc, then what it means
-            y = status.y0 - dy + pad + 3 * mono_h
+            key_y = status.y0 - dy + pad + 3 * mono_h
             swatch = key_swatch(body)
             h = line_height("sans", body)
-            centre = (status.x0 + dx + pad + 0.45 * swatch, y + 0.55 * h)
+            centre = (status.x0 + dx + pad + 0.45 * swatch, key_y + 0.55 * h)
             key_items = [
                 (centre, centre, HALO, 0.62 * body + 3.0),
                 (centre, centre, (*PINCH_COLOR, 1.0), 0.62 * body),
             ]
-            self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, y, INK, rows)
+            self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, key_y, INK, rows)
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         # Labels keep off the picture where there is room (wire frames would cross them).
-        ct = r.clip_transform(view, size)
+        ct = self.pipeline.clip_transform(view, size)
         self._anchors.tick(ct)
         labelled = hud.tags or any(m.label for m in gpu.mesh.markers)
         picture = picture_box(gpu, ct, size) if labelled else None
@@ -293,10 +301,10 @@ class Hud:
                 else t._replace(rgba=(*t.rgba[:3], t.rgba[3] * alpha))
                 for t in self.texts
             ]
-        r._overlay(items, viewport)
-        r._quads("glyphs", r.atlas.texture, (r.atlas.size, r.atlas.size), rows, viewport)
-        r._overlay(key_items, viewport)  # on its panel, which the glyph quads drew
-        r.ctx.disable(moderngl.BLEND)
+        d.overlay(items, viewport)
+        d.atlas_quads(rows, viewport)
+        d.overlay(key_items, viewport)  # on its panel, which the glyph quads drew
+        d.ctx.disable(moderngl.BLEND)
 
     def _gizmo(
         self, view, axes, layout: HudLayout, rows: list, axes_label: str = "4D axes"
@@ -347,9 +355,8 @@ class Hud:
         markers = [m for m in gpu.mesh.markers if m.label]
         if not markers:
             return []
-        r = self.renderer
         width, height = size
-        ct = r.clip_transform(view, size)
+        ct = self.pipeline.clip_transform(view, size)
         positions = np.array([m.position for m in markers])
         pixels, ok = ct.to_pixels(positions, width, height)
         behind = hidden(positions, gpu.mesh.surfaces, ct)
@@ -390,9 +397,8 @@ class Hud:
         self.tags = []
         if not tags:
             return []
-        r = self.renderer
         width, height = size
-        ct = r.clip_transform(view, size)
+        ct = self.pipeline.clip_transform(view, size)
         body = layout.body_px
         scale = height / 720.0
         taken = [p.grow(0.3 * body) for p in layout.panels] + [
@@ -424,14 +430,14 @@ class Hud:
     def _text(self, kind, text, style, px, x, y, color, rows) -> None:
         """One line of glyphs in ``color`` (none when ``ink`` is off), kept in ``texts``."""
         if self.ink:
-            box = self.renderer._glyph_rows(text, style, px, x, y, color, rows)
+            box = self.drawing.glyph_rows(text, style, px, x, y, color, rows)
         else:
-            box = self.renderer._glyph_rows(text, style, px, x, y, color, [])
+            box = self.drawing.glyph_rows(text, style, px, x, y, color, [])
         self.texts.append(TextMark(kind, text, Rect(*box), tuple(color)))
 
     def _halo_text(self, kind, text, style, px, x, y, color, rows) -> None:
         """Text on a dark halo: the glyphs drawn dark around it first, then in colour."""
-        halo_rows(self.renderer, text, style, px, x, y, rows)
+        halo_rows(self.drawing, text, style, px, x, y, rows)
         self._text(kind, text, style, px, x, y, color, rows)
 
     def release(self) -> None:
@@ -442,7 +448,9 @@ class Hud:
         self._layouts.clear()
 
 
-def halo_rows(renderer, text: str, style: str, px: int, x: float, y: float, rows: list) -> None:
+def halo_rows(
+    drawing: HudDrawing, text: str, style: str, px: int, x: float, y: float, rows: list
+) -> None:
     """A dark halo for a line of text at (x, y): its glyphs in HALO, moved in eight directions
     by two distances (at least 1 and 2 pixels; px / 10 at most), so no pixel of the picture
     touches a stroke (text over a bright surface keeps 7:1, tests/golden/contrast.py). Each
@@ -450,7 +458,7 @@ def halo_rows(renderer, text: str, style: str, px: int, x: float, y: float, rows
     reach = max(2, round(px / 10))
     x, y = round(x), round(y)
     r, g, b, alpha = HALO
-    for dx, halo in renderer.atlas.halo_layout(text, style, px, reach, alpha):
+    for dx, halo in drawing.atlas.halo_layout(text, style, px, reach, alpha):
         rows.append(
             (x + dx, y - reach, halo.width, halo.height, halo.u, halo.v, halo.width, halo.height)
             + (r, g, b, 1.0)

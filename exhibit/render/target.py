@@ -23,11 +23,15 @@ from typing import TYPE_CHECKING, Callable, Protocol, Union
 import moderngl
 import numpy as np
 
+from exhibit.geometry.view import ViewState
+from exhibit.render.gpu import GpuMesh
+from exhibit.render.hud_info import HudInfo
+from exhibit.render.layout import TextSizes
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import Renderer
 
 if TYPE_CHECKING:
-    from exhibit.render.frame import FramePipeline, FrameTimer
+    from exhibit.render.frame import FramePipeline, FrameTimer, Inset
     from exhibit.render.offscreen import Headless
 
 __all__ = [
@@ -88,17 +92,19 @@ class RenderTarget(Protocol):
 
     def draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         options: RenderOptions = RenderOptions(),
-        hud=None,
+        hud: HudInfo | None = None,
         fade: float = 0.0,
-        inset=None,
+        inset: Inset | None = None,
     ) -> None: ...
 
-    def capture(self, gpu, view, options: RenderOptions, hud=None) -> None: ...
+    def capture(
+        self, gpu: GpuMesh, view: ViewState, options: RenderOptions, hud: HudInfo | None = None
+    ) -> None: ...
 
-    def warm_hud(self, huds: list, text) -> None: ...
+    def warm_hud(self, huds: list[HudInfo], text: TextSizes) -> None: ...
 
     def release_snapshot(self) -> None: ...
 
@@ -140,7 +146,15 @@ class FrameDrawing:
         raise NotImplementedError
 
     def _draw_into(
-        self, framebuffer, gpu, view, options: RenderOptions, hud, fade, inset, timed: bool = True
+        self,
+        framebuffer: moderngl.Framebuffer,
+        gpu: GpuMesh,
+        view: ViewState,
+        options: RenderOptions,
+        hud: HudInfo | None,
+        fade: float,
+        inset: Inset | None,
+        timed: bool = True,
     ) -> None:
         if options.quality is None:
             self.renderer.render(gpu, view, framebuffer, options, hud, size=self.size)
@@ -154,7 +168,7 @@ class FrameDrawing:
         if timer is not None:
             self.frame_ms = timer.end()
 
-    def warm_hud(self, huds: list, text) -> None:
+    def warm_hud(self, huds: list[HudInfo], text: TextSizes) -> None:
         """Lay out and upload the HUD panels of ``huds`` at this target's size now, so the
         frame that first shows them does not (exhibit.kiosk.warm_up)."""
         self.renderer.hud.warm(self.size, huds, text)
@@ -164,7 +178,9 @@ class FrameDrawing:
         a test that builds many kiosks on one context frees it)."""
         self._pipeline().release_snapshot()
 
-    def capture(self, gpu, view, options: RenderOptions, hud=None) -> None:
+    def capture(
+        self, gpu: GpuMesh, view: ViewState, options: RenderOptions, hud: HudInfo | None = None
+    ) -> None:
         """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
         the following draw()s with ``fade`` lay it over the new frames."""
         if options.quality is None:
@@ -230,12 +246,12 @@ class HeadlessTarget(FrameDrawing):
 
     def draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         options: RenderOptions = RenderOptions(),
-        hud=None,
+        hud: HudInfo | None = None,
         fade: float = 0.0,
-        inset=None,
+        inset: Inset | None = None,
     ) -> None:
         target = self._target()
         self._draw_into(target.framebuffer, gpu, view, options, hud, fade, inset)

@@ -20,7 +20,9 @@ import moderngl
 import numpy as np
 
 from exhibit.devices.keyboard import key_name
+from exhibit.geometry.view import ViewState
 from exhibit.render.context import REQUIRED_VERSION, RenderUnavailable
+from exhibit.render.gpu import GpuMesh
 from exhibit.render.options import RenderOptions
 from exhibit.render.renderer import HudInfo, Renderer
 from exhibit.render.target import CloseRequest, Focus, FrameDrawing, InputHandler, Key
@@ -28,7 +30,7 @@ from exhibit.render.target import CloseRequest, Focus, FrameDrawing, InputHandle
 if TYPE_CHECKING:
     from glfw import _GLFWwindowPointerT
 
-    from exhibit.render.frame import FramePipeline, FrameTimer
+    from exhibit.render.frame import FramePipeline, FrameTimer, Inset
     from exhibit.render.target import RenderTarget
 
 log = logging.getLogger("exhibit.glfw")
@@ -213,12 +215,12 @@ class Window(FrameDrawing):
 
     def draw(
         self,
-        gpu,
-        view,
+        gpu: GpuMesh,
+        view: ViewState,
         options: RenderOptions = RenderOptions(),
         hud: HudInfo | None = None,
         fade: float = 0.0,
-        inset=None,
+        inset: Inset | None = None,
     ) -> None:
         """Render one frame into the back buffer (call swap() to show it): FrameDrawing's."""
         self._draw_into(self._framebuffer(), gpu, view, options, hud, fade, inset)

@@ -161,17 +161,17 @@ def test_bench_kiosk_json(gl):
     if software_renderer(report["renderer"]):  # no render scales below 1 on software GL
         assert used == ["fxaa"]
     assert 0.5 < report["levels"][0]["ssim"] <= 1 and "ssim_edges" in report["no_antialiasing"]
-    breakdown = report["breakdown"]["hopf"]  # a direct frame, part by part
-    assert list(breakdown["parts_ms"]) == [
-        "background",
-        "surfaces",
-        "curves",
-        "silhouettes",
-        "lemma2",
+    assert report["pass_timer"] in ("wall", "gpu")
+    fxaa, scaled = report["levels"]  # each level's frame, pass by pass
+    scene_passes = ["clear", "surfaces", "intersections", "outlines", "curves", "marks"]
+    assert list(fxaa["passes"]) == [*scene_passes, "composite", "hud", "other"]
+    assert list(scaled["passes"]) == ["clear", "surfaces", "outlines", "curves", "marks"] + [
+        "composite",
         "hud",
+        "other",
     ]
-    assert breakdown["parts_ms"]["background"] > 0 and breakdown["triangles"] > 100
-    assert breakdown["floor_ms"] > 0
+    assert fxaa["passes"]["surfaces"] > 0 and fxaa["passes_total_ms"] > 0
+    assert fxaa["scenes"]["hopf"]["passes"] == fxaa["passes"]
 
 
 def test_bench_kiosk_bad_level(capsys):

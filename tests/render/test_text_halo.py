@@ -23,8 +23,7 @@ def picture(gl, rows: list) -> np.ndarray:
     target.framebuffer.clear(0.9, 0.85, 0.6, 1.0)  # a bright surface behind the words
     ctx.disable(moderngl.DEPTH_TEST)
     ctx.enable(moderngl.BLEND)
-    atlas = renderer.atlas
-    renderer._quads("glyphs", atlas.texture, (atlas.size,) * 2, rows, tuple(map(float, SIZE)))
+    renderer.drawing.atlas_quads(rows, tuple(map(float, SIZE)))
     ctx.disable(moderngl.BLEND)
     return target.read().astype(int)
 
@@ -33,14 +32,14 @@ def picture(gl, rows: list) -> np.ndarray:
     ("text", "style", "px"), [("first contact, t = 0.42", "bold", 22), ("w", "sans", 40)]
 )
 def test_baked_halo_matches_sixteen_copies(gl, text, style, px):
-    renderer = gl.renderer
+    drawing = gl.renderer.drawing
     reach = max(2, round(px / 10))
     copies: list = []
     for step in halo_steps(reach):
         for ox, oy in HALO_DIRECTIONS:
-            renderer._glyph_rows(text, style, px, 12 + ox * step, 20 + oy * step, HALO, copies)
+            drawing.glyph_rows(text, style, px, 12 + ox * step, 20 + oy * step, HALO, copies)
     baked: list = []
-    halo_rows(renderer, text, style, px, 12, 20, baked)
+    halo_rows(drawing, text, style, px, 12, 20, baked)
     assert len(baked) == sum(not c.isspace() for c in text)  # one quad per glyph
     old, new = picture(gl, copies), picture(gl, baked)
     # Sixteen 8-bit blends round sixteen times, the baked halo once.

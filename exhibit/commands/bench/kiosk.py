@@ -16,43 +16,54 @@ thread while timing (exhibit.commands.bench).
 With --ssim, each level's picture of the scene's own view is compared with MSAA 4x at full
 scale and full mesh (exhibit.render.ssim): over the whole frame, and over the edges alone (where
 the MSAA picture differs from one without antialiasing, grown by 3 pixels). With --breakdown,
-where a frame at the "direct" level goes: its parts added one at a time (PARTS), each variant
-timed in turn with the levels, so that docs/PERFORMANCE.md's account of a frame can be re-run.
+where each level's frame goes: every round also draws one frame per level with the renderer's
+per-pass timer on (exhibit.render.pass_timer: on software GL a glFinish at each pass boundary,
+elsewhere GL timer queries), not counted in frame_ms, and reports each pass's median (ms and
+share of the measured frame) for the level's slowest scene.
 """
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import statistics
 import time
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import moderngl
 
 from exhibit.errors import ExhibitError
 
+if TYPE_CHECKING:
+    from exhibit.render.pass_timer import PassTimes
+
 HELP = "whole kiosk frames at each quality level vs the pass-through floor (shipped config)"
 
-#: --breakdown: a direct-level frame built up one part at a time; each part's cost is its
-#: variant's time less the one before. (name, RenderOptions switched off, HUD drawn)
-PARTS = (
-    ("background", ("surfaces", "curves", "silhouettes", "pinch_points"), False),
-    ("surfaces", ("curves", "silhouettes", "pinch_points"), False),
-    ("curves", ("silhouettes", "pinch_points"), False),
-    ("silhouettes", ("pinch_points",), False),
-    ("lemma2", (), False),
-    ("hud", (), True),
-)
+
+def median_passes(frames: list[PassTimes]) -> tuple[dict[str, float], float]:
+    """Each pass's median over measured frames (0 in a frame it did not run), in the order
+    the passes ran, then "other" (the frame outside its passes), and the median total."""
+    names: list[str] = []
+    for times in frames:
+        names += [name for name in times.passes if name not in names]
+    passes = {
+        name: round(statistics.median(t.passes.get(name, 0.0) for t in frames), 2) for name in names
+    }
+    passes["other"] = round(statistics.median(t.other_ms for t in frames), 2)
+    return passes, round(statistics.median(t.total_ms for t in frames), 2)
 
 
-def _switched_off(names: tuple[str, ...]) -> dict[str, Any]:
-    """dataclasses.replace keywords turning the named switches off (RenderOptions's boolean
-    fields, named at run time, so a dict of Any: no one field type fits every name)."""
-    return {name: False for name in names}
+def breakdown_line(level: str, scene: str, passes: dict[str, float], total: float) -> str:
+    """One level's passes: ms and share of the measured frame."""
+    parts = ", ".join(
+        f"{name} {ms:.1f} ({100.0 * ms / total:.0f}%)" if total > 0 else f"{name} {ms:.1f}"
+        for name, ms in passes.items()
+    )
+    return f"{level:>9} ({scene}): {parts}; frame {total:.1f} ms"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--size", default="1920x1080", metavar="WxH", help="frame size (default: %(default)s)"
     )
@@ -81,20 +92,18 @@ def add_arguments(parser) -> None:
     parser.add_argument(
         "--breakdown",
         action="store_true",
-        help="also time a direct-level frame part by part (background, "
-        "surfaces, curves, silhouettes, Lemma 2 marks, HUD)",
+        help="also time each level's frame pass by pass (background or clear, surfaces, "
+        "intersections, outlines, curves, marks, composite, HUD)",
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from exhibit import scenes
     from exhibit.commands.render import parse_size
     from exhibit.kiosk.config import load_kiosk_config
     from exhibit.kiosk.governor import kiosk_levels, level_resolution, pick, target_ms
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
     from exhibit.commands.bench.render import cpu_model
-    from dataclasses import replace
-
     from exhibit.render.quality import LADDER, MESH_FACTORS
     from exhibit.scenes.cache import build_cached
 
@@ -124,6 +133,7 @@ def run(args) -> int:
     headless = Headless()
     ctx, renderer = headless.ctx, headless.renderer
     renderer_name = describe(ctx)
+    renderer_timer_mode = renderer.timer.mode
     floor_target = headless.target(size, 0)
     per_scene = []
     try:
@@ -132,9 +142,8 @@ def run(args) -> int:
             params = scene.resolve()
             gpus = {}
             # SSIM's reference is MSAA at the full mesh, whichever levels are timed.
-            direct = next(q for q in LADDER if q.name == "direct")
             meshes = {q.mesh for q in levels} | ({0} if args.ssim else set())
-            for level in sorted(meshes | ({direct.mesh} if args.breakdown else set())):
+            for level in sorted(meshes):
                 resolution = level_resolution(scene, config.resolution.get(name), level)
                 mesh, _ = build_cached(scene, params, resolution)
                 gpus[level] = renderer.upload(mesh)
@@ -142,14 +151,7 @@ def run(args) -> int:
             options = RenderOptions(hud=config.hud)
             times: dict[str, list[float]] = {q.name: [] for q in levels}
             floors: dict[int, list[float]] = {level: [] for level in gpus}
-            part_times: dict[str, list[float]] = (
-                {part: [] for part, _, _ in PARTS} if args.breakdown else {}
-            )
-            lean = options.at_quality(direct)
-            part_options = {
-                part: (replace(lean, **_switched_off(off)), with_hud)
-                for part, off, with_hud in PARTS
-            }
+            measured: dict[str, list[PassTimes]] = {q.name: [] for q in levels}
 
             def floor(gpu, view):
                 fbo = floor_target.framebuffer
@@ -182,20 +184,14 @@ def run(args) -> int:
                     )
                 for level, gpu in gpus.items():
                     timed(lambda: floor(gpu, view), floors[level], i < 2)
-                for part in part_times:
-                    part_opts, with_hud = part_options[part]
-                    timed(
-                        lambda: renderer.render(
-                            gpus[direct.mesh],
-                            view,
-                            floor_target.framebuffer,
-                            part_opts,
-                            hud if with_hud else None,
-                        ),
-                        part_times[part],
-                        i < 2,
-                    )
-            # the scene's part of the JSON report: a row per level, "breakdown", "none"
+                if args.breakdown:  # one more frame per level, pass by pass, not in frame_ms
+                    for q in levels:
+                        renderer.measure_next_frame()
+                        headless.draw_frame(gpus[q.mesh], view, size, options, hud, q)
+                        times_now = renderer.timer.flush()
+                        if i >= 2 and times_now is not None:
+                            measured[q.name].append(times_now)
+            # the scene's part of the JSON report: a row per level, "none"
             rows: dict[str, dict[str, Any]] = {}
             for q in levels:
                 frame_ms = statistics.median(times[q.name])
@@ -205,17 +201,10 @@ def run(args) -> int:
                     "floor_ms": round(floor_ms, 2),
                     "triangles": gpus[q.mesh].triangle_count,
                 }
-            if part_times:
-                totals = [statistics.median(part_times[part]) for part, _, _ in PARTS]
-                rows["breakdown"] = {
-                    "triangles": gpus[direct.mesh].triangle_count,
-                    "floor_ms": round(statistics.median(floors[direct.mesh]), 2),
-                    "frame_ms": round(totals[-1], 2),
-                    "parts_ms": {
-                        part: round(total - (totals[k - 1] if k else 0.0), 2)
-                        for k, ((part, _, _), total) in enumerate(zip(PARTS, totals))
-                    },
-                }
+                if measured[q.name]:
+                    passes, total = median_passes(measured[q.name])
+                    rows[q.name]["passes"] = passes
+                    rows[q.name]["passes_total_ms"] = total
             if args.ssim:
                 from exhibit.render.quality import Quality
                 from exhibit.render.ssim import edge_mask, ssim
@@ -265,6 +254,9 @@ def run(args) -> int:
                 "scenes": {n: rows[q.name] for n, rows in per_scene},
             }
         )
+        if "passes" in row:
+            report_levels[-1]["passes"] = row["passes"]
+            report_levels[-1]["passes_total_ms"] = row["passes_total_ms"]
         if args.ssim:
             for key in ("ssim", "ssim_edges"):
                 report_levels[-1][key] = round(
@@ -291,7 +283,7 @@ def run(args) -> int:
         "load_average": [round(x, 2) for x in os.getloadavg()],
     }
     if args.breakdown:
-        report["breakdown"] = {n: rows["breakdown"] for n, rows in per_scene}
+        report["pass_timer"] = renderer_timer_mode
     if args.ssim:  # no antialiasing at all, for comparison
         report["no_antialiasing"] = {
             key: round(statistics.mean(rows["none"][key] for _, rows in per_scene), 4)
@@ -328,14 +320,15 @@ def run(args) -> int:
             f"no antialiasing: SSIM {none['ssim']:.4f}, edges {none['ssim_edges']:.4f} "
             "(all against MSAA 4x at full scale)"
         )
-    for name, row in report.get("breakdown", {}).items():
-        parts = ", ".join(
-            f"{part} {ms:+.1f}" if k else f"{part} {ms:.1f}"
-            for k, (part, ms) in enumerate(row["parts_ms"].items())
+    if args.breakdown:
+        how = (
+            "wall time to glFinish at each pass boundary"
+            if report["pass_timer"] == "wall"
+            else "GL timer queries"
         )
-        print(
-            f"direct frame, {name} ({row['triangles']} triangles): {parts} "
-            f"= {row['frame_ms']:.1f} ms (floor {row['floor_ms']:.1f} ms)"
-        )
+        print(f"per pass, ms and share of a measured frame ({how}; medians, slowest scene):")
+        for r in report_levels:
+            if "passes" in r:
+                print(breakdown_line(r["name"], r["scene"], r["passes"], r["passes_total_ms"]))
     print(f"target {target:.1f} ms per frame; the governor settles on {chosen}")
     return 0

@@ -1,7 +1,4 @@
-"""Render passes as units: each owns its programs, vertex arrays and GL state and says what it
-reads and writes (docs/RENDERING.md). The object-id pass is the first; the picture's own passes
-still live in exhibit.render.renderer."""
-
-from exhibit.render.passes.ids import ObjectCoverage, ObjectIdPass
-
-__all__ = ["ObjectCoverage", "ObjectIdPass"]
+"""Render passes as units: each owns its programs, binds its vertex arrays, sets its own GL
+state and says what it reads and writes (docs/RENDERING.md, "Passes"). exhibit.render.renderer
+orders the picture's passes; exhibit.render.frame adds the composite passes of kiosk frames.
+The modules are imported where they are used (the object-id pass only by reviews and tests)."""

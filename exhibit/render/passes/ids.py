@@ -23,20 +23,19 @@ from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import (
     CENTRE_UNITS,
-    SURFACE_ATTRIBUTES,
-    CURVE_ATTRIBUTES,
     LINE_BIAS,
     MARKER_MIN,
     MARKER_SCALE,
     SLICE_WIDTH,
     GpuMesh,
-    attribute_format,
+    GpuSurface,
     curve_rows,
     segment_rows,
     silhouette_key,
     wire_rows,
 )
 from exhibit.render.options import RenderOptions
+from exhibit.render.passes.shared import Pipeline, segment_array, surface_array
 
 #: Object ids are 24-bit colours; 0 is the background.
 MAX_OBJECTS = (1 << 24) - 1
@@ -86,8 +85,8 @@ class ObjectIdPass:
     and markers in id colours) is made on first use and kept on the GpuMesh, so it is freed with
     the mesh (GpuMesh.release)."""
 
-    def __init__(self, ctx: moderngl.Context, renderer):
-        self.ctx, self.renderer = ctx, renderer
+    def __init__(self, ctx: moderngl.Context, pipeline: Pipeline) -> None:
+        self.ctx, self.pipeline = ctx, pipeline
         self.programs = {
             "object_ids": shaders.program(ctx, "surface.glsl", ("OBJECT_IDS",)),
             "ids": shaders.program(ctx, "surface.glsl", ("TRIANGLE_IDS",)),
@@ -129,14 +128,14 @@ class ObjectIdPass:
             raise ValueError(f"{len(names)} objects: more than {MAX_OBJECTS} ids")
         framebuffer = self._begin(size)
         prog = self.programs["object_ids"]
-        self.renderer.set_pipeline(prog, view, size)
-        self.renderer.clip_distances(True)
+        self.pipeline.set_pipeline(prog, view, size)
+        self.pipeline.clip_distances(True)
         self.ctx.polygon_offset = (1.0, 1.0)  # as the picture's surfaces: curves on them win
         for i, surface in enumerate(gpu.surfaces):
             prog["u_id_offset"] = i + 1
             self._surface_vao(surface, "object_ids").render(moderngl.TRIANGLES)
         self.ctx.polygon_offset = (0.0, 0.0)
-        self.renderer.clip_distances(False)
+        self.pipeline.clip_distances(False)
         # As the picture: the outlines, the curves over them, the discs and the slice on top.
         marks = len(names) - len(MARKS) + 1
         self._marks(gpu, view, size, options, first_id=marks, outlines=True)
@@ -161,11 +160,11 @@ class ObjectIdPass:
         prog = self.programs["object_ids"]
         for i in surfaces:
             framebuffer = self._begin(size)
-            self.renderer.set_pipeline(prog, view, size)
-            self.renderer.clip_distances(True)
+            self.pipeline.set_pipeline(prog, view, size)
+            self.pipeline.clip_distances(True)
             prog["u_id_offset"] = i + 1
             self._surface_vao(gpu.surfaces[i], "object_ids").render(moderngl.TRIANGLES)
-            self.renderer.clip_distances(False)
+            self.pipeline.clip_distances(False)
             counts[i + 1] = int(np.count_nonzero(self._end(framebuffer, size)))
         framebuffer = self._begin(size)
         self.ctx.disable(moderngl.DEPTH_TEST)
@@ -182,14 +181,14 @@ class ObjectIdPass:
         order): the clipping tests check each pixel against the exact triangle."""
         framebuffer = self._begin(size)
         prog = self.programs["ids"]
-        self.renderer.set_pipeline(prog, view, size)
-        self.renderer.clip_distances(True)
+        self.pipeline.set_pipeline(prog, view, size)
+        self.pipeline.clip_distances(True)
         offset = 0
         for surface in gpu.surfaces:
             prog["u_id_offset"] = offset
             self._surface_vao(surface, "ids").render(moderngl.TRIANGLES)
             offset += surface.triangle_count
-        self.renderer.clip_distances(False)
+        self.pipeline.clip_distances(False)
         return self._end(framebuffer, size)
 
     # ------------------------------------------------------------------ parts
@@ -215,17 +214,9 @@ class ObjectIdPass:
         rgb = np.frombuffer(data, dtype=np.uint8).reshape(size[1], size[0], 3)[::-1]
         return _decode(rgb)
 
-    def _surface_vao(self, surface, key: str) -> moderngl.VertexArray:
-        # kept on the surface under a name of this pass's own (its "silhouette" is the
-        # picture's, bound to the renderer's program)
-        vao = surface.vaos.get("ids:" + key)
-        if vao is None:
-            prog = self.programs[key]
-            fmt, used = attribute_format(prog, SURFACE_ATTRIBUTES)
-            vao = surface.vaos["ids:" + key] = self.ctx.vertex_array(
-                prog, [(surface.vbo, fmt, *used)], index_buffer=surface.ibo, index_element_size=4
-            )
-        return vao
+    def _surface_vao(self, surface: GpuSurface, key: str) -> moderngl.VertexArray:
+        # kept on the surface under a name of this pass's own (passes.shared.surface_array)
+        return surface_array(self.ctx, surface, self.programs[key], "ids:" + key)
 
     def _curves(self, gpu, view, size, options: RenderOptions, first_id: int) -> None:
         """Wire surfaces, curves and markers, each segment in its object's id, opaque cores
@@ -233,7 +224,7 @@ class ObjectIdPass:
         if "object_ids" not in gpu.buffers and "object_ids_markers" not in gpu.buffers:
             self._upload_lines(gpu, first_id)
         prog = self.programs["curves"]
-        self.renderer.set_pipeline(prog, view, size)
+        self.pipeline.set_pipeline(prog, view, size)
         shaders.set_uniforms(
             prog,
             {
@@ -252,9 +243,10 @@ class ObjectIdPass:
                 # The HUD draws a labelled marker again above the surfaces (a ring where it is
                 # behind one): it is never hidden.
                 self.ctx.disable(moderngl.DEPTH_TEST)
-            if key in gpu.vaos:
-                count = gpu.buffers[key].size // (13 * 4)
-                gpu.vaos[key].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=count)
+            if key in gpu.buffers:
+                buffer = gpu.buffers[key]
+                vao = segment_array(self.ctx, gpu, buffer, prog, "ids:" + key)
+                vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=buffer.size // (13 * 4))
         self.ctx.depth_func = "<"
 
     def _marks(
@@ -281,7 +273,7 @@ class ObjectIdPass:
             for surface in gpu.surfaces:
                 key = silhouette_key(surface, view, slice_width)
                 prog = self.programs[key]
-                self.renderer.set_pipeline(prog, view, size)
+                self.pipeline.set_pipeline(prog, view, size)
                 shaders.set_uniforms(
                     prog,
                     {
@@ -323,10 +315,7 @@ class ObjectIdPass:
             if not parts:
                 continue
             data = np.concatenate(parts).astype(np.float32)
-            buffer = gpu.buffers[key] = self.ctx.buffer(data.tobytes())
-            gpu.vaos[key] = self.ctx.vertex_array(
-                self.programs["curves"], [(buffer, "4f 4f 4f 1f/i", *CURVE_ATTRIBUTES)]
-            )
+            gpu.buffers[key] = self.ctx.buffer(data.tobytes())
 
     # ------------------------------------------------------------------ lifetime
 
