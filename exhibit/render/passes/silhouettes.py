@@ -9,7 +9,8 @@ that is itself an outline, the offset curve of Figures 9-14, covers the ink); th
 last, over the wire frames, the curves and the ink. The marks pass runs the program with the
 slice's tangency test ("silhouette_slice", TOUCHING, two more vec4 a vertex) on a surface only
 when the slice is near one of its critical values (gpu.silhouette_key), so only those frames
-pay for it.
+pay for it; the outline pass runs the OUTLINES variant, which hands the geometry stage the ink's
+inputs alone.
 
 Both read the scene depth and write the scene colour. GL state on return: depth test and
 blending on (BLEND_OVER), depth function "<=", depth writes on.
@@ -22,8 +23,9 @@ from typing import ClassVar
 import moderngl
 import numpy as np
 
+from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
-from exhibit.render.gpu import LINE_BIAS, SLICE_WIDTH, silhouette_key
+from exhibit.render.gpu import LINE_BIAS, SLICE_WIDTH, GpuSurface, silhouette_key
 from exhibit.render.hud import PINCH_COLOR
 from exhibit.render.passes.shared import (
     BLEND_OVER,
@@ -44,30 +46,21 @@ def darker(color: tuple[float, float, float], factor: float = 0.32) -> tuple[flo
     return (float(r) * factor, float(g) * factor, float(b) * factor)
 
 
-class SilhouettePrograms:
-    """silhouette.glsl's two variants, compiled once for both passes."""
-
-    def __init__(self, ctx: moderngl.Context) -> None:
-        self.programs = {
-            "silhouette": shaders.program(ctx, "silhouette.glsl"),
-            "silhouette_slice": shaders.program(ctx, "silhouette.glsl", ("TOUCHING",)),
-        }
-
-    def release(self) -> None:
-        for program in self.programs.values():
-            program.release()
-
-
 class _SilhouettePass:
     reads: ClassVar[tuple[str, ...]] = ("scene depth",)
     optional_reads: ClassVar[tuple[str, ...]] = ()
     writes: ClassVar[tuple[str, ...]] = ("scene colour",)
+    #: silhouette.glsl's variants this pass draws with: (key, defines).
+    variants: ClassVar[tuple[tuple[str, tuple[str, ...]], ...]] = ()
 
-    def __init__(
-        self, ctx: moderngl.Context, pipeline: Pipeline, programs: SilhouettePrograms
-    ) -> None:
-        self.ctx, self.pipeline, self._programs = ctx, pipeline, programs
-        self.programs = programs.programs
+    def __init__(self, ctx: moderngl.Context, pipeline: Pipeline) -> None:
+        self.ctx, self.pipeline = ctx, pipeline
+        self.programs = {
+            key: shaders.program(ctx, "silhouette.glsl", defines) for key, defines in self.variants
+        }
+
+    def program_key(self, surface: GpuSurface, view: ViewState, slice_width: float) -> str:
+        return self.variants[0][0]
 
     def _draw(self, frame: FrameInputs, ink_width: float, slice_width: float, pinch: float) -> None:
         """One pass over every surface: zero widths tell the geometry shader what to skip."""
@@ -81,7 +74,7 @@ class _SilhouettePass:
         ctx.fbo.depth_mask = False
         ready: dict[str, moderngl.Program] = {}  # programs with this pass's uniforms set
         for surface in frame.gpu.surfaces:
-            key = silhouette_key(surface, view, slice_width)
+            key = self.program_key(surface, view, slice_width)
             if key not in ready:
                 ready[key] = prog = self.programs[key]
                 self.pipeline.set_pipeline(prog, view, frame.size)
@@ -99,24 +92,31 @@ class _SilhouettePass:
             surface_array(ctx, surface, ready[key], "silhouettes:" + key).render(moderngl.TRIANGLES)
         ctx.fbo.depth_mask = True
 
+    def release(self) -> None:
+        for program in self.programs.values():
+            program.release()
+
 
 class OutlinePass(_SilhouettePass):
-    """The Lemma 3 outlines of every surface, before the curves."""
+    """The Lemma 3 outlines of every surface, before the curves: silhouette.glsl's OUTLINES
+    variant, whose vertices carry less than half of what the marks need (on llvmpipe the
+    geometry stage's cost grows with it: docs/PERFORMANCE.md)."""
 
     name: ClassVar[str] = "outlines"
+    variants = (("silhouette_outlines", ("OUTLINES",)),)
 
     def draw(self, frame: FrameInputs) -> None:
         self._draw(frame, frame.options.silhouette_width, 0.0, 0.0)
 
-    def release(self) -> None:
-        self._programs.release()
-
 
 class MarksPass(_SilhouettePass):
-    """The Lemma 2 discs and the live slice, over everything else (its programs are the
-    outline pass's, released with it)."""
+    """The Lemma 2 discs and the live slice, over everything else."""
 
     name: ClassVar[str] = "marks"
+    variants = (("silhouette", ()), ("silhouette_slice", ("TOUCHING",)))
+
+    def program_key(self, surface: GpuSurface, view: ViewState, slice_width: float) -> str:
+        return silhouette_key(surface, view, slice_width)
 
     def draw(self, frame: FrameInputs) -> None:
         options = frame.options
@@ -124,11 +124,7 @@ class MarksPass(_SilhouettePass):
         pinch = options.pinch_size if options.pinch_points and options.silhouettes else 0.0
         self._draw(frame, 0.0, slice_width, pinch)
 
-    def release(self) -> None:
-        pass
-
 
 def silhouette_passes(ctx: moderngl.Context, pipeline: Pipeline) -> tuple[OutlinePass, MarksPass]:
-    """The outline and marks passes, sharing one compile of silhouette.glsl's variants."""
-    programs = SilhouettePrograms(ctx)
-    return OutlinePass(ctx, pipeline, programs), MarksPass(ctx, pipeline, programs)
+    """The outline and marks passes."""
+    return OutlinePass(ctx, pipeline), MarksPass(ctx, pipeline)

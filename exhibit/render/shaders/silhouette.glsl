@@ -12,6 +12,8 @@
 //    beads where neighbouring capsules overlap), singular points included. Where h touches
 //    zero without changing sign (the hyperplane tangent to the surface along a curve) `touching()`
 //    finds the dips of |h| on the triangle's edges (exhibit/geometry/touching.py in numpy).
+// OUTLINES compiles the Lemma 3 ink alone (the outline pass): its vertices hand the geometry
+// stage 10 components instead of 21, and on llvmpipe that stage's cost grows with every one.
 #include "pipeline.glsl"
 #include "lines_common.glsl"
 
@@ -28,10 +30,12 @@ out float g_s;
 // index times 4 (exact below 2^22 vertices; an edge's two triangles agree on its frame by it)
 // plus 2 at a singular point (zero normals), 1 next to one (no Lemma 2 mark), 0 elsewhere.
 out float g_vertex;
+#if !defined OUTLINES
 out vec4 g_m1;
 out vec4 g_m2;
 out vec2 g_ab;
 out float g_h;
+#endif
 #if defined TOUCHING
 out vec4 g_hp;               // the scene position, and h's gradient along the surface (the
 out vec4 g_hg;               // axis less its normal parts; normals are orthonormal or zero)
@@ -40,7 +44,9 @@ uniform vec4 u_slice_axis;   // unit vector of the slicing axis (scene coordinat
 uniform float u_slice_at;
 
 void main() {
+#if !defined OUTLINES
     g_h = dot(u_slice_axis, in_pos) - u_slice_at;
+#endif
 #if defined TOUCHING
     g_hp = in_pos;
     g_hg = u_slice_axis - dot(u_slice_axis, in_n1) * in_n1 - dot(u_slice_axis, in_n2) * in_n2;
@@ -55,9 +61,11 @@ void main() {
     g_vertex = 4.0 * float(gl_VertexID) + flag;
     g_clip = to_clip(in_pos);
     g_dist = line_distances(in_pos, g_clip);
+#if !defined OUTLINES
     g_m1 = m1;
     g_m2 = m2;
     g_ab = vec2(dot(m1, rho1), dot(m2, rho1));
+#endif
 }
 #endif
 
@@ -68,10 +76,12 @@ in vec4 g_clip[];
 in vec4 g_dist[];
 in float g_s[];
 in float g_vertex[];
+#if !defined OUTLINES
 in vec4 g_m1[];
 in vec4 g_m2[];
 in vec2 g_ab[];
 in float g_h[];
+#endif
 #if defined TOUCHING
 in vec4 g_hp[];
 in vec4 g_hg[];
@@ -119,6 +129,15 @@ bool crossing(float v[3], out vec4 c[2], out vec4 d[2]) {
     return n == 2;
 }
 
+#if defined OUTLINES
+void main() {
+    vec4 c[2];
+    vec4 d[2];
+    if (max(max(flag_of(0), flag_of(1)), flag_of(2)) >= 2.0) return;  // never silhouettes
+    if (u_ink.w > 0.0 && crossing(float[3](g_s[0], g_s[1], g_s[2]), c, d))
+        emit_segment(c[0], c[1], d[0], d[1], u_ink, 0.0, 1.0);
+}
+#else
 // How far outside a triangle (in barycentric coordinates) u's interpolant may vanish for the
 // triangle to be checked for a winding (exhibit.geometry.lemma2_marks.MARGIN).
 const float LEMMA2_MARGIN = 0.5;
@@ -222,6 +241,7 @@ void main() {
     // disc further towards the viewer so the surface it marks does not cut it in half.
     emit_segment(cp, cp, dp, dp, u_pinch, 10.0 * u_line_bias, 1.0);
 }
+#endif  // OUTLINES
 #endif
 
 #if defined FRAGMENT_SHADER
