@@ -52,7 +52,7 @@ from pathlib import Path
 
 from exhibit.commands import install as inst
 from exhibit.errors import ExhibitError
-from exhibit.schema import files
+from exhibit.schema import files, links
 
 HELP = (
     "switch a deployed kiosk to a release made by ./bootstrap.sh update: check the site "
@@ -243,7 +243,7 @@ class Kiosk:
             return ""
         if not stat.S_ISLNK(info.st_mode):
             raise ExhibitError(
-                f"{self.prefix} is {files._kind(info.st_mode)}, not a release link nor a "
+                f"{self.prefix} is {files.kind_of(info.st_mode)}, not a release link nor a "
                 "checkout: nothing was changed; move it away by hand"
             )
         name, target = self._release_at(self.prefix)
@@ -265,7 +265,7 @@ class Kiosk:
             return None
         if not stat.S_ISLNK(info.st_mode):
             raise ExhibitError(
-                f"{self.releases}/{PREVIOUS} is {files._kind(info.st_mode)}, not a link to a "
+                f"{self.releases}/{PREVIOUS} is {files.kind_of(info.st_mode)}, not a link to a "
                 "release: nothing was changed; move it away by hand (exhibit keeps a link there)"
             )
         return os.readlink(path)
@@ -360,8 +360,8 @@ class Kiosk:
         path = self.host(f"{self.releases}/{LOCK}")
         stamp = time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime())
         try:
-            fd = files.hold_lock(path, f"pid {os.getpid()}, {what}, since {stamp}\n")
-        except files.Busy as busy:
+            fd = links.hold_lock(path, f"pid {os.getpid()}, {what}, since {stamp}\n")
+        except links.Busy as busy:
             raise ExhibitError(
                 f"another update or rollback is running ({busy.holder or 'unknown'}): "
                 f"nothing was changed; wait for it, or see {self.releases}/{LOCK}"
@@ -372,7 +372,7 @@ class Kiosk:
             ) from None
         try:
             for link in (self.host(self.prefix), self.host(f"{self.releases}/{PREVIOUS}")):
-                for line in files.clean_switch_leftovers(link):
+                for line in links.clean_switch_leftovers(link):
                     self.out(f"note: {line}")
             self._clean_checkout_links()
             yield
@@ -507,14 +507,14 @@ class Kiosk:
             # exchanged with the checkout in one step: PREFIX is never missing
             os.symlink(f"{os.path.basename(self.releases)}/{name}", target)
             try:
-                files.exchange(self.host(self.prefix), target)
+                links.exchange(self.host(self.prefix), target)
             except OSError as exc:
                 if exc.errno not in (errno.EINVAL, errno.ENOSYS):
                     target.unlink()
                     raise
                 target.unlink()  # no exchange on this file system: two renames
                 os.rename(self.host(self.prefix), target)
-                files.replace_link(
+                links.replace_link(
                     self.host(self.prefix), f"{os.path.basename(self.releases)}/{name}"
                 )
         except OSError as exc:
@@ -536,14 +536,14 @@ class Kiosk:
         previous = self.host(f"{self.releases}/{PREVIOUS}")
         try:
             if current:
-                files.replace_link(previous, current)
-            files.replace_link(self.host(self.prefix), f"{base}/{name}")
+                links.replace_link(previous, current)
+            links.replace_link(self.host(self.prefix), f"{base}/{name}")
         except OSError as exc:
             try:
                 if old_previous is None:
                     previous.unlink(missing_ok=True)
                 else:
-                    files.replace_link(previous, old_previous)
+                    links.replace_link(previous, old_previous)
                 if moved and current and not os.path.lexists(self.host(self.prefix)):
                     os.rename(self.host(f"{self.releases}/{current}"), self.host(self.prefix))
             except OSError:
@@ -585,12 +585,12 @@ class Kiosk:
             )
         self.out(f"{failed}: switching {self.prefix} back to {back}")
         try:
-            files.replace_link(self.host(self.prefix), f"{os.path.basename(self.releases)}/{back}")
+            links.replace_link(self.host(self.prefix), f"{os.path.basename(self.releases)}/{back}")
             link = self.host(f"{self.releases}/{PREVIOUS}")
             if previous is None:
                 link.unlink(missing_ok=True)
             else:
-                files.replace_link(link, previous)
+                links.replace_link(link, previous)
         except OSError as exc:
             raise ExhibitError(
                 f"{self.prefix} is now {name}, but {failed}, and switching back failed too "

@@ -44,7 +44,7 @@ from typing import Any, Protocol
 
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
-from exhibit.schema.files import replace_link
+from exhibit.schema.links import replace_link
 
 __all__ = ["SimController", "Step", "parse_script", "ScriptPlayer"]
 

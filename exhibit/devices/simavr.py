@@ -30,7 +30,7 @@ from pathlib import Path
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
 from exhibit.devices.sim import ScriptPlayer, Step
-from exhibit.schema.files import replace_link
+from exhibit.schema.links import replace_link
 
 __all__ = [
     "Harness",

@@ -17,7 +17,7 @@ from exhibit.commands import install as inst
 from exhibit.commands import rollback, update
 from exhibit.commands.update import LOCK, Kiosk
 from exhibit.errors import ExhibitError
-from exhibit.schema import files
+from exhibit.schema import links
 from tests.deploy.unitfile import environment, units
 
 PREFIX = "/opt/exhibit"
@@ -573,7 +573,7 @@ def test_a_release_that_cannot_be_pruned_is_kept_and_the_update_is_done(root, mo
 def test_only_one_update_or_rollback_at_a_time(root):
     make_release(root, "new")
     lock = root / "opt/exhibit-releases" / LOCK
-    fd = files.hold_lock(lock, "pid 4242, exhibit update /opt/exhibit-releases/other\n")
+    fd = links.hold_lock(lock, "pid 4242, exhibit update /opt/exhibit-releases/other\n")
     try:
         runner = Runner()
         for command in (lambda k: k.update(f"{RELEASES}/new"), lambda k: k.rollback()):
@@ -655,7 +655,7 @@ def killed_at(root, n: int, action) -> bool:
         code = 1
         try:
             count = [0]
-            real_exchange = files.exchange
+            real_exchange = links.exchange
 
             def dies(real):
                 def call(*args, **kwargs):
@@ -668,7 +668,7 @@ def killed_at(root, n: int, action) -> bool:
 
             for name in _MUTATIONS:
                 setattr(os, name, dies(getattr(os, name)))
-            files.exchange = dies(real_exchange)  # type: ignore[assignment]
+            links.exchange = dies(real_exchange)  # type: ignore[assignment]
             action()
             code = 0
         finally:  # never back into pytest in the child, whatever happened
