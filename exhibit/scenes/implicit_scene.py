@@ -11,7 +11,8 @@ from exhibit.geometry.silhouette import silhouette_function
 from exhibit.surfaces.crossings import find_crossings, join_at_crossings
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.double_zeros import touching_silhouette
-from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, refine_curves
+from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
+from exhibit.surfaces.silhouette_curves import refine_curves
 from exhibit.surfaces.expressions import ScalarField, compile_field
 from exhibit.surfaces.implicit import ImplicitResult, polygonize
 from exhibit.surfaces.mesh import Curve, Material, Surface

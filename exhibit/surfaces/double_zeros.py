@@ -131,7 +131,8 @@ def touching_silhouette(
     silhouette point has (σ_min/σ_max of the normals below EXCLUSION_RATIO, or within
     ``exclusion_radius`` of a traced singular point) or half a cell from another branch (one of
     ``others``, the sign-change curves, or another touching one: a crossing)."""
-    from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, drop_fragments
+    from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
+    from exhibit.surfaces.silhouette_curves import drop_fragments
     from exhibit.surfaces.mesh import Curve, Material
 
     system = SilhouetteSystem(f1, f2, along)
