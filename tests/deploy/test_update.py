@@ -14,7 +14,7 @@ import pytest
 
 from exhibit.cli import main
 from exhibit.commands import install as inst
-from exhibit.commands import rollback, update
+from exhibit.commands import _bounded, _releases, rollback, update
 from exhibit.commands.update import LOCK, Kiosk
 from exhibit.errors import ExhibitError
 from exhibit.schema import links
@@ -375,7 +375,7 @@ def real_runner(root):
         if command[:2] == ["install", "-d"]:
             return subprocess.CompletedProcess(command, 0, "", "")
         command = [str(root / c.lstrip("/")) if c.startswith(RELEASES) else c for c in command]
-        return update._run(command, timeout)
+        return _bounded.run_bounded(command, timeout)
 
     return run
 
@@ -541,14 +541,14 @@ def test_a_release_that_cannot_be_pruned_is_kept_and_the_update_is_done(root, mo
     make_release(root, "r4")
     r1 = root / "opt/exhibit-releases/r1"
     if how == "busy":
-        real = update.shutil.rmtree
+        real = _releases.shutil.rmtree
 
         def rmtree(path, *args, **kwargs):
             if path.name.startswith(".r1."):
                 raise OSError(errno.EBUSY, "Device or resource busy")
             real(path, *args, **kwargs)
 
-        monkeypatch.setattr(update.shutil, "rmtree", rmtree)
+        monkeypatch.setattr(_releases.shutil, "rmtree", rmtree)
     else:
         real_ismount = os.path.ismount
         monkeypatch.setattr(
