@@ -93,7 +93,7 @@ def differentiable(expression: sympy.Expr) -> sympy.Expr:
     )
 
 
-def lambdify(symbols, expression) -> Callable:
+def lambdify(symbols: Sequence[sympy.Symbol], expression: sympy.Expr) -> Callable[..., np.ndarray]:
     """sympy.lambdify to numpy, knowing the kinks() stand-ins; a Float runs as the same double
     as float() gives (interval bounds rely on it), and an integer too large for a double as
     inf, which the callers mask."""

@@ -16,20 +16,24 @@ symbolically from the scene's own f1, f2, and then judged:
   false arcs Newton would otherwise pull onto the singular circle.
 
 Curves are split where points are dropped or excluded, so no segment joins across a gap
-(:func:`index_runs`). Implicit and parametric refinement share the Newton step, the judgement of
-each point and the runs, so both are here; how an implicit surface's runs become the curves
-it exports (folds cut, ends continued, duplicates dropped) is ``surfaces/silhouette_curves.py``."""
+(:func:`index_runs`); how an implicit surface's runs become the curves it exports (folds cut,
+ends continued, duplicates dropped) is ``surfaces/silhouette_curves.py``.
+
+Why one module of this size: implicit and parametric refinement share the Newton step, the
+judgement of each point and the runs.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Protocol
 
 import numpy as np
 
 from exhibit.surfaces.expressions import ScalarField
-from exhibit.surfaces.mesh import Curve
+from exhibit.surfaces.mesh import Curve, Material, Surface
+from exhibit.surfaces.newton import Field
 from exhibit.surfaces.singular import jacobian_ratio
 
 #: The largest scale-free residual a kept point may have.
@@ -64,7 +68,9 @@ class RefineStats:
 
 
 @np.errstate(all="ignore")
-def min_norm_newton(fields, residual, points: np.ndarray) -> np.ndarray:
+def min_norm_newton(
+    fields: Sequence[Field], residual: Callable[[np.ndarray], np.ndarray], points: np.ndarray
+) -> np.ndarray:
     """Minimum-norm Newton steps x <- x - Jᵀ(JJᵀ)⁻¹F on k fields in R^4 until ``residual``
     (points -> scale-free residuals) is below NEWTON_TARGET, damped only by a tiny Tikhonov term
     where J loses rank (near singular points, which the callers exclude or drop)."""
@@ -245,7 +251,9 @@ class ParametricExact:
     params: np.ndarray  # (V, 2)
 
     @np.errstate(all="ignore")
-    def condition(self, st: np.ndarray, along: tuple[int, int]):
+    def condition(
+        self, st: np.ndarray, along: tuple[int, int]
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """g = det[X_s, X_t, e_a, e_b] (Lemma 3(b)): the 2x2 minor of the two other coordinates,
         and the scale-free residual |g| / (|X_s||X_t|), and the tangents' independence."""
         c, d = [k for k in range(4) if k not in along]
@@ -265,7 +273,9 @@ class ParametricExact:
         return st
 
     @np.errstate(all="ignore")
-    def refine(self, st: np.ndarray, along, max_move: float):
+    def refine(
+        self, st: np.ndarray, along: tuple[int, int], max_move: float
+    ) -> tuple[np.ndarray, np.ndarray, RefineStats]:
         """Newton on g(s, t) = 0 with the minimum-norm step (one equation, two unknowns)."""
         st = np.asarray(st, dtype=float).reshape(-1, 2).copy()
         start_points = self.function(st[:, 0], st[:, 1])
@@ -317,11 +327,11 @@ class ParametricExact:
 
 
 def parametric_silhouette(
-    surface,
+    surface: Surface,
     exact: ParametricExact,
     along: tuple[int, int],
     name: str,
-    material,
+    material: Material,
     stats: RefineStats | None = None,
 ) -> list[Curve]:
     """The silhouette along two axes of a parametric surface, refined in (s, t) onto
@@ -357,7 +367,9 @@ def parametric_silhouette(
     return out
 
 
-def traced_with_parameters(surface, exact: ParametricExact, values: np.ndarray):
+def traced_with_parameters(
+    surface: Surface, exact: ParametricExact, values: np.ndarray
+) -> list[tuple[np.ndarray, np.ndarray, bool]]:
     """The zero set of per-vertex ``values`` on a parametric surface's mesh as chained polylines
     [(points, (s, t) per point, closed)]. Parameters are interpolated per triangle with periodic
     ones unwrapped, so a curve crossing a seam starts Newton from the right (s, t)."""

@@ -140,7 +140,9 @@ class ScalarField:
 
 
 def compile_field(
-    text_or_expression, variables: Sequence[str], parameters: Mapping[str, float] | None = None
+    text_or_expression: str | sympy.Expr,
+    variables: Sequence[str],
+    parameters: Mapping[str, float] | None = None,
 ) -> ScalarField:
     """A ScalarField from a formula string (parsed safely) or a sympy expression; any failure is
     an ExpressionError (parameter values that differ from the checked ones can still divide by

@@ -7,6 +7,8 @@ this is about curves as a visitor sees them, not about single points."""
 
 from __future__ import annotations
 
+from collections.abc import Iterator
+
 import numpy as np
 
 from exhibit.surfaces.exact_silhouette import (
@@ -69,7 +71,9 @@ def refine_curves(
     return out, stats
 
 
-def split_at_reversals(curve, points: np.ndarray, closed: bool, ends: tuple[bool, bool]):
+def split_at_reversals(
+    curve: Curve, points: np.ndarray, closed: bool, ends: tuple[bool, bool]
+) -> list[tuple[Curve, np.ndarray, bool, tuple[bool, bool]]]:
     """[(curve, points, closed, (continue head, continue tail))]: a run cut where it turns back
     on itself. Where the mesh cannot separate two sheets its zero set can run out along a branch
     on one and back on the other; refined, both legs land on the same curve, a hairpin. Cut at
@@ -155,7 +159,7 @@ def extend_run(
     cell: float,
     others: np.ndarray,
     ends: tuple[bool, bool] = (True, True),
-    bounds=None,
+    bounds: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """An open run with its ends continued (``extend_end``) where ``ends`` says so."""
     if len(points) < 2:
@@ -181,7 +185,7 @@ def extend_end(
     cell: float,
     others: np.ndarray,
     reach: float = 8.0,
-    bounds=None,
+    bounds: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> np.ndarray:
     """Points continuing a silhouette curve beyond ``end`` (``march``: predictor along the
     curve's tangent, corrector by the same Newton), for up to ``reach`` cells, until a point would
@@ -212,7 +216,14 @@ def extend_end(
     return np.array(out).reshape(-1, 4)
 
 
-def march(system: SilhouetteSystem, start, direction, cell: float, reach: float, bounds=None):
+def march(
+    system: SilhouetteSystem,
+    start: np.ndarray,
+    direction: np.ndarray,
+    cell: float,
+    reach: float,
+    bounds: tuple[np.ndarray, np.ndarray] | None = None,
+) -> Iterator[np.ndarray]:
     """The exact curve through ``start`` followed in ``direction``: points a quarter cell apart
     (halved down to 1/4096 cell where Newton fails) for up to ``reach`` cells, until the next
     point would be excluded by the ratio or leave ``bounds``. The smallest step is not the
