@@ -37,6 +37,7 @@ module is the command line.
 
 from __future__ import annotations
 
+import argparse
 import os
 
 from exhibit.commands import install as inst
@@ -65,7 +66,7 @@ HELP = (
 )
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "release",
         metavar="RELEASE",
@@ -83,7 +84,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def add_prefix(parser) -> None:
+def add_prefix(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--prefix",
         default=inst.DEFAULT_PREFIX,
@@ -93,7 +94,7 @@ def add_prefix(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     prefix = inst.check_prefix(args.prefix)
     if args.keep < 2:
         raise ExhibitError(
