@@ -9,6 +9,7 @@ device file directly.
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 from pathlib import Path
 
@@ -17,7 +18,7 @@ from exhibit.devices.url import parse_url
 from exhibit.errors import ExhibitError
 
 
-def add_config_arguments(parser) -> None:
+def add_config_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--config",
         type=Path,
@@ -46,7 +47,7 @@ def add_config_arguments(parser) -> None:
     )
 
 
-def devices_config_path(args) -> Path:
+def devices_config_path(args: argparse.Namespace) -> Path:
     """The device file the kiosk would use, or the one given with --devices-config."""
     if args.devices_config is not None:
         return args.devices_config
@@ -57,7 +58,7 @@ def devices_config_path(args) -> Path:
     return path
 
 
-def config_from_args(args) -> DeviceConfig:
+def config_from_args(args: argparse.Namespace) -> DeviceConfig:
     config = load_config(devices_config_path(args))
     devices = {} if args.only else dict(config.devices)
     for item in args.device:

@@ -12,9 +12,15 @@ import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from exhibit.errors import ExhibitError
 from exhibit.schema.files import UnsafePath, check_output, output_folder, write_atomic
+
+if TYPE_CHECKING:  # numpy and PIL are imported where a frame is saved
+    import numpy as np
+    import PIL.Image
+
 
 MAX_PIXELS = 8192
 #: The most a render job may draw, frames x pixels: about 18,000 frames of 1280 x 720 (12
@@ -102,7 +108,9 @@ def write_out(path: str | os.PathLike, data: bytes | str, sync: bool = True) -> 
         raise ExhibitError(f"--out: cannot write {os.fspath(path)}: {why}") from None
 
 
-def save_frame(image, path: str | os.PathLike, sync: bool = True) -> None:
+def save_frame(
+    image: np.ndarray | PIL.Image.Image, path: str | os.PathLike, sync: bool = True
+) -> None:
     """One picture (an array or a PIL image) as a PNG at ``path`` (:func:`write_out`)."""
     from exhibit.render.offscreen import png_bytes
 
@@ -159,7 +167,7 @@ class Progress:
     def __enter__(self) -> "Progress":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         if self._bar is not None:
             self._bar.close()
 

@@ -13,6 +13,7 @@ Every check on the arguments runs before any GL work: bad input is one line and 
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
@@ -97,7 +98,7 @@ def _conflicts(args) -> None:
         raise ExhibitError("--out is required")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from exhibit.kiosk.review import base_config, check_language
 
     _conflicts(args)

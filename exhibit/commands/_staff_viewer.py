@@ -11,11 +11,14 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Iterable
 
+from exhibit.devices.base import Clock
 from exhibit.devices.config import DeviceConfig
 from exhibit.devices.keyboard import KeyboardBackend
 from exhibit.devices.mapping import Mapper
 from exhibit.devices.url import parse_url
+from exhibit.geometry.view import ViewState
 from exhibit.render.target import Focus, Key
 
 #: The viewer's own keys (the shipped keyboard mapping leaves them free).
@@ -26,7 +29,9 @@ class StaffControls:
     """Keys in, views out: every ``keyboard://`` device of ``config`` and its bindings, read from
     one keyboard."""
 
-    def __init__(self, config: DeviceConfig, home, clock=time.monotonic):
+    def __init__(
+        self, config: DeviceConfig, home: ViewState, clock: Clock = time.monotonic
+    ) -> None:
         names = [n for n, url in config.devices.items() if parse_url(url)[0] == "keyboard"]
         name = names[0] if names else "keyboard"
         binds = tuple(
@@ -40,7 +45,7 @@ class StaffControls:
         self.depth_colour = False
         self.quit = False
 
-    def key(self, name: str, pressed: bool, mods=frozenset()) -> None:
+    def key(self, name: str, pressed: bool, mods: Iterable[str] = frozenset()) -> None:
         """A key went down or up (auto-repeats are the caller's to drop); a view key with
         Ctrl, Alt or Super held does nothing, as in the kiosk."""
         name = name.lower()
@@ -51,7 +56,7 @@ class StaffControls:
         else:
             self.keyboard.key(name, pressed, mods=mods)
 
-    def step(self, view, now: float):
+    def step(self, view: ViewState, now: float) -> ViewState:
         """The view after the keys since the last step, at time ``now``."""
         events = self.keyboard.poll()
         view = self.mapper.apply(view, events, now)

@@ -245,7 +245,7 @@ class Backend:
     def __enter__(self) -> "Backend":
         return self.open()
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
     # -- for subclasses

@@ -24,7 +24,8 @@ import time
 from collections import deque
 from typing import Iterable
 
-from exhibit.devices.base import DeviceError, Kind
+from exhibit.devices.base import Clock, DeviceError, Kind
+
 from exhibit.devices.hid import Layout
 from exhibit.devices.sim import script_lines
 
@@ -74,11 +75,11 @@ class FakeHidDevice:
         product: str = "Fake HID",
         serial: str = "",
         usage_page: int = 0,
-        script=None,
-        clock=time.monotonic,
-        seed=None,
+        script: list[tuple] | None = None,
+        clock: Clock = time.monotonic,
+        seed: int | None = None,
         layout: Layout | None = None,
-    ):
+    ) -> None:
         self.vid, self.pid, self.product, self.serial = vid, pid, product, serial
         self.usage_page = usage_page
         self.path = f"fake-hid-{next(_paths)}".encode()

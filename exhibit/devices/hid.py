@@ -21,7 +21,9 @@ from __future__ import annotations
 
 import importlib
 import struct
+from collections.abc import Iterable
 from dataclasses import dataclass
+
 from pathlib import Path
 from typing import Annotated, Any, Literal, get_args
 
@@ -243,7 +245,7 @@ def load_layout(path: Path) -> Layout:
     return parse_layout(_read(path), str(path))
 
 
-def load_layouts(dirs=None) -> dict[str, Layout]:
+def load_layouts(dirs: Iterable[str | Path] | None = None) -> dict[str, Layout]:
     """Every layout file (a TOML file with a [layout] table) in ``dirs`` (default
     configs/devices), by name; a later directory overrides an earlier one."""
     layouts: dict[str, Layout] = {}
@@ -260,7 +262,9 @@ def load_layouts(dirs=None) -> dict[str, Layout]:
     return layouts
 
 
-def find_layout(layouts: dict[str, Layout], name: str | None, vid, pid, url: str) -> Layout:
+def find_layout(
+    layouts: dict[str, Layout], name: str | None, vid: int | None, pid: int | None, url: str
+) -> Layout:
     if name is not None:
         if name not in layouts:
             raise DeviceError(

@@ -14,7 +14,8 @@ from __future__ import annotations
 import logging
 import time
 
-from exhibit.devices.base import Backend, DeviceError, Event, State
+from exhibit.devices.base import Backend, Clock, DeviceError, Event, State
+
 from exhibit.devices.config import DeviceConfig
 from exhibit.devices.keyboard import KeyboardBackend
 from exhibit.devices.url import backend_for_url
@@ -27,7 +28,9 @@ RETRY_S = 2.0
 
 
 class DeviceSet:
-    def __init__(self, config: DeviceConfig, clock=time.monotonic, hid_api=None):
+    def __init__(
+        self, config: DeviceConfig, clock: Clock = time.monotonic, hid_api: object | None = None
+    ) -> None:
         self.config = config
         self.clock = clock
         # construct every backend first: a bad URL or layout fails before anything is opened
@@ -107,5 +110,5 @@ class DeviceSet:
     def __enter__(self) -> "DeviceSet":
         return self.open()
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()

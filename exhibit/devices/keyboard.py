@@ -19,6 +19,8 @@ from __future__ import annotations
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass, field
+from types import ModuleType
+
 
 from exhibit.devices.base import Backend, Capabilities, Event, Kind, State
 
@@ -42,7 +44,7 @@ SPECIAL_KEYS = {
 }
 
 
-def key_name(glfw, key: int) -> str | None:
+def key_name(glfw: ModuleType, key: int) -> str | None:
     """The name of GLFW key code ``key`` as :meth:`KeyboardBackend.key` takes it (the
     layout's printable name, else a special key's), or None for a key with neither. ``glfw``
     is the module, passed in: devices do not import the window system."""

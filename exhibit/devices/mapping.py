@@ -39,6 +39,7 @@ from dataclasses import dataclass, field
 from typing import Iterable, Literal, get_args
 
 from exhibit.devices.base import Event, Kind
+from exhibit.geometry.view import ViewState
 
 __all__ = [
     "PARAMS",
@@ -279,7 +280,7 @@ class Mapper:
             v = shape(st[0], b.dead_zone, b.curve) * b.rate * dt
             acc[PARAMS.index(b.param)] += -v if b.invert else v
 
-    def apply(self, view, events: Iterable[Event], now: float):
+    def apply(self, view: ViewState, events: Iterable[Event], now: float) -> ViewState:
         """The view after ``events`` and the time up to ``now``."""
         acc = [0.0] * 7
         home = False
@@ -311,12 +312,13 @@ class Mapper:
             return view
         return self._step(view, acc)
 
-    def home(self, view):
+    def home(self, view: ViewState) -> ViewState:
         cfg = self.config
         r = 0.0 if math.isinf(cfg.home_sensor_distance) else 1.0 / cfg.home_sensor_distance
         return view.replace(angles=tuple(math.radians(a) for a in cfg.home_angles), sensor_r=r)
 
-    def _step(self, view, acc: list[float]):
+    def _step(self, view: ViewState, acc: list[float]) -> ViewState:
+
         angles = list(view.angles)
         for i in range(6):
             if not acc[i]:

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+
 from pathlib import Path
 
 from exhibit.devices.base import (
@@ -47,7 +49,7 @@ class Recorder:
         self.count = 0
         self._f.write(json.dumps({"exhibit_recording": FORMAT, "devices": devices}) + "\n")
 
-    def write(self, events) -> None:
+    def write(self, events: Iterable[Event]) -> None:
         for e in events:
             d = e.to_dict()
             d["t"] = round(e.t - self.t0, 6)

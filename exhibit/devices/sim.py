@@ -38,13 +38,15 @@ import tempfile
 import threading
 import time
 import tty
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
+
 from pathlib import Path
 from typing import Any, Protocol
 
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
-from exhibit.schema.files import replace_link
+from exhibit.schema.links import replace_link
 
 __all__ = ["SimController", "Step", "parse_script", "ScriptPlayer"]
 
@@ -76,7 +78,7 @@ _ARITY = {
 }
 
 
-def script_lines(text: str, source: str):
+def script_lines(text: str, source: str) -> Iterator[tuple[int, str, str, list[str], list[str]]]:
     """The commands of a simulator script, one a line, '#' starting a comment: yields (line
     number, where, command in lower case, its words, the words as written) per non-empty line."""
     for n, raw in enumerate(text.splitlines(), 1):
@@ -199,21 +201,21 @@ class SimController:
         self,
         link: str | os.PathLike | None = None,
         *,
-        firmware=(1, 1, 0),
+        firmware: tuple[int, int, int] = (1, 1, 0),
         n_buttons: int = p.N_BUTTONS,
         version: int = p.PROTOCOL_VERSION,
         heartbeat_ms: int = 250,
         script: list[Step] | None = None,
         seed: int | None = None,
-        clock=time.monotonic,
+        clock: Callable[[], float] = time.monotonic,
         sync: bool = False,
-    ):
+    ) -> None:
         self._tmpdir = None
         if link is None:
             self._tmpdir = tempfile.TemporaryDirectory(prefix="exhibit-sim-")
             link = Path(self._tmpdir.name) / "controller"
         self.link = Path(link)
-        self.firmware = tuple(firmware)
+        self.firmware = firmware
         self.n_buttons = n_buttons
         self.version = version
         self.heartbeat_ms = heartbeat_ms
@@ -283,7 +285,7 @@ class SimController:
 
     # ---- what a visitor (or a test) does
 
-    def set_axes(self, values) -> None:
+    def set_axes(self, values: Iterable[float]) -> None:
         with self._lock:
             self._axes = [_to_raw(v) for v in values]
 
@@ -451,7 +453,7 @@ class SimController:
     def __enter__(self) -> "SimController":
         return self.start()
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()
 
 

@@ -25,12 +25,14 @@ import subprocess
 import tempfile
 import threading
 import time
+from collections.abc import Iterable
 from pathlib import Path
+
 
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
 from exhibit.devices.sim import ScriptPlayer, Step
-from exhibit.schema.files import replace_link
+from exhibit.schema.links import replace_link
 
 __all__ = [
     "Harness",
@@ -388,7 +390,7 @@ class FirmwareController:
             if self.harness is not None:
                 self.harness.adc(ch, mv)
 
-    def set_axes(self, values) -> None:
+    def set_axes(self, values: Iterable[float]) -> None:
         for ch, v in enumerate(values):
             self.set_volts(ch, deflection_mv(v))
 
@@ -424,7 +426,7 @@ class FirmwareController:
     def watchdog_hang(self) -> None:
         self.send_to_firmware(p.WatchdogTest())
 
-    def reset(self, cause=None) -> None:
+    def reset(self, cause: p.ResetCause | None = None) -> None:
         with self._lock:
             if self.harness is not None:
                 self.harness.reset()
@@ -469,5 +471,5 @@ class FirmwareController:
     def __enter__(self) -> "FirmwareController":
         return self.start()
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.stop()

@@ -18,6 +18,9 @@ from exhibit.devices.controller import SerialController
 from exhibit.devices.sim import SimController, Step
 
 if TYPE_CHECKING:
+    from exhibit.devices.base import Clock
+    from exhibit.devices.hid import HidBackend, Layout
+
     from exhibit.devices.simavr import FirmwareController
 
 __all__ = ["SimulatedController", "SimulatedFirmware", "simulated_hid"]
@@ -60,7 +63,13 @@ class SimulatedFirmware(SimulatedController):
         return FirmwareController(Path(self.firmware), script=self.script, seed=self.seed)
 
 
-def simulated_hid(name, clock, layout, script=None, seed=None):
+def simulated_hid(
+    name: str,
+    clock: Clock,
+    layout: Layout,
+    script: list[tuple] | None = None,
+    seed: int | None = None,
+) -> HidBackend:
     from exhibit.devices.fakehid import FakeHidBus, FakeHidDevice
     from exhibit.devices.hid import HidBackend
 

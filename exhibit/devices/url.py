@@ -20,7 +20,9 @@ recorded or real device by changing only the URL.
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable
 from dataclasses import dataclass
+
 from pathlib import Path
 from urllib.parse import parse_qs, urlsplit
 
@@ -77,8 +79,8 @@ def backend_for_url(
     name: str | None = None,
     *,
     clock: Clock = time.monotonic,
-    layout_dirs=None,
-    hid_api=None,
+    layout_dirs: Iterable[str | Path] | None = None,
+    hid_api: object | None = None,
 ) -> Backend:
     """A backend for ``url``, not yet opened. ``name`` tags its events (default: the scheme).
     ``layout_dirs`` overrides where HID layouts are looked up; ``hid_api`` replaces the hidapi
@@ -99,8 +101,8 @@ class _Where:
     query: dict[str, str]
     name: str
     clock: Clock
-    layout_dirs: object
-    hid_api: object
+    layout_dirs: Iterable[str | Path] | None
+    hid_api: object | None
     scheme: str
 
 

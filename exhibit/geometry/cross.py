@@ -8,9 +8,10 @@ the (n-1)-volume spanned by them. In R^3 it is the ordinary cross product.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def generalized_cross(*vectors) -> np.ndarray:
+def generalized_cross(*vectors: ArrayLike) -> np.ndarray:
     """⊗ of n-1 vectors in R^n; each argument may carry the same leading batch dimensions.
 
     Zero (not NaN) when the vectors are linearly dependent.
@@ -31,7 +32,7 @@ def generalized_cross(*vectors) -> np.ndarray:
     return np.stack(components, axis=-1)
 
 
-def cross4(a, b, c) -> np.ndarray:
+def cross4(a: ArrayLike, b: ArrayLike, c: ArrayLike) -> np.ndarray:
     """⊗(a, b, c) in R^4, written out: this is the per-vertex work of Lemma 1(b), so it is
     vectorised
     without the general determinant."""
@@ -57,7 +58,7 @@ def cross4(a, b, c) -> np.ndarray:
     )
 
 
-def bivector_norm(a, b) -> np.ndarray:
+def bivector_norm(a: ArrayLike, b: ArrayLike) -> np.ndarray:
     """|a ∧ b| = sqrt(|a|²|b|² - (a·b)²): the area spanned by a and b (0 when parallel)."""
     a = np.asarray(a, dtype=float)
     b = np.asarray(b, dtype=float)

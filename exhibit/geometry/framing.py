@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Sequence
+from typing import Iterable, Protocol, Sequence
+
 
 import numpy as np
 
@@ -34,6 +35,39 @@ SAMPLE = 20_000
 #: surfaces: the hypersphere's w axis at sensor distance 3 reaches far out and would shrink
 #: the tori to a third of the screen.
 CURVE_REACH = 0.5
+
+
+class _Positions(Protocol):
+    @property
+    def positions(self) -> np.ndarray: ...
+
+
+class _Points(Protocol):
+    @property
+    def points(self) -> np.ndarray: ...
+
+
+class _Position(Protocol):
+    @property
+    def position(self) -> np.ndarray: ...
+
+
+class Drawn(Protocol):
+    """What framing reads of a mesh: a surfaces.Mesh4D, which geometry, below surfaces, does
+    not import."""
+
+    @property
+    def surfaces(self) -> Sequence[_Positions]: ...
+
+    @property
+    def curves(self) -> Sequence[_Points]: ...
+
+    @property
+    def markers(self) -> Sequence[_Position]: ...
+
+
+#: A mesh_sample: (surface vertices and markers, curve points); or plain points (n, 4).
+Sample = tuple[np.ndarray, np.ndarray] | np.ndarray
 
 
 @dataclass(frozen=True)
@@ -56,7 +90,7 @@ class Bounds:
         )
 
 
-def mesh_sample(mesh, limit: int = SAMPLE) -> tuple[np.ndarray, np.ndarray]:
+def mesh_sample(mesh: Drawn, limit: int = SAMPLE) -> tuple[np.ndarray, np.ndarray]:
     """A Mesh4D as (surface vertices and markers, curve points) for :func:`sample_bounds`."""
     parts = [s.positions for s in mesh.surfaces if len(s.positions)]
     core = np.concatenate(parts) if parts else np.zeros((0, 4))
@@ -70,7 +104,7 @@ def mesh_sample(mesh, limit: int = SAMPLE) -> tuple[np.ndarray, np.ndarray]:
     )
 
 
-def sample_bounds(sample, view: ViewState) -> Bounds | None:
+def sample_bounds(sample: Sample, view: ViewState) -> Bounds | None:
     """The image bounds of a :func:`mesh_sample` (or of plain points): the surfaces and markers
     whole, the curves (axes, wire frames) only up to CURVE_REACH of the surfaces' extent beyond
     it, so a long axis through the sensor's neighbourhood does not shrink the surfaces to a
@@ -111,7 +145,7 @@ def to_pixels(
     return x0, y0, x1, y1
 
 
-def mesh_points(mesh, limit: int = SAMPLE) -> np.ndarray:
+def mesh_points(mesh: Drawn, limit: int = SAMPLE) -> np.ndarray:
     """What is drawn of a Mesh4D, as points (n, 4): surface vertices (evenly thinned to
     ``limit``), curve points and markers."""
     parts = [s.positions for s in mesh.surfaces if len(s.positions)]
@@ -144,7 +178,7 @@ def _ndc(area: Sequence[float], size: tuple[int, int]) -> tuple[float, float, fl
     return 2 * x0 / width - 1, 1 - 2 * y1 / height, 2 * x1 / width - 1, 1 - 2 * y0 / height
 
 
-def _half_height(bounds: Bounds, size: tuple[int, int], area) -> float | None:
+def _half_height(bounds: Bounds, size: tuple[int, int], area: Sequence[float]) -> float | None:
     """The half_height that makes ``bounds`` just fit ``area`` (None: an empty area)."""
     nx0, ny0, nx1, ny1 = _ndc(area, size)
     if nx1 <= nx0 or ny1 <= ny0:
@@ -191,21 +225,29 @@ def _centered(bounds: Bounds, size, area, half: float) -> tuple[float, float]:
     )
 
 
-def fitting_half_height(bounds: Bounds, size: tuple[int, int], area) -> float | None:
+def fitting_half_height(
+    bounds: Bounds, size: tuple[int, int], area: Sequence[float]
+) -> float | None:
     """The ``half_height`` at which ``bounds`` just fits ``area`` (a pixel rectangle), not
     limited by MAX_ZOOM; None for an empty area."""
     return _half_height(bounds, size, area)
 
 
 def centered_in(
-    view: ViewState, bounds: Bounds, size: tuple[int, int], area, half_height: float
+    view: ViewState,
+    bounds: Bounds,
+    size: tuple[int, int],
+    area: Sequence[float],
+    half_height: float,
 ) -> ViewState:
     """``view`` at ``half_height`` with the lens shift that puts the middle of ``bounds`` at
     the middle of ``area`` (a pixel rectangle)."""
     return view.replace(half_height=half_height, center=_centered(bounds, size, area, half_height))
 
 
-def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> ViewState:
+def zoom_about(
+    view: ViewState, factor: float, area: Sequence[float], size: tuple[int, int]
+) -> ViewState:
     """``view`` zoomed out by ``factor`` about the middle of ``area`` (a pixel rectangle): what
     was there stays there, everything else moves towards it."""
     nx0, ny0, nx1, ny1 = _ndc(area, size)
@@ -221,7 +263,7 @@ def zoom_about(view: ViewState, factor: float, area, size: tuple[int, int]) -> V
 
 def frame(
     view: ViewState,
-    points,
+    points: Sample,
     size: tuple[int, int],
     areas: Iterable[Sequence[float]],
     poses: Iterable[ViewState] = (),

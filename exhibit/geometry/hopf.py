@@ -7,9 +7,10 @@ Z = a is the torus x² + z² = (1 + a)/2, y² + w² = (1 - a)/2; of a pole (a = 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
-def hopf_map(points) -> np.ndarray:
+def hopf_map(points: ArrayLike) -> np.ndarray:
     """h: S^3 -> S^2 applied to points (..., 4)."""
     x, y, z, w = np.moveaxis(np.asarray(points, dtype=float), -1, 0)
     return np.stack(
@@ -24,7 +25,7 @@ def torus_radii(latitude: float) -> tuple[float, float]:
     return float(np.sqrt((1 + latitude) / 2)), float(np.sqrt((1 - latitude) / 2))
 
 
-def hopf_torus(latitude: float, alpha, beta) -> np.ndarray:
+def hopf_torus(latitude: float, alpha: ArrayLike, beta: ArrayLike) -> np.ndarray:
     """Points of the torus over Z = latitude at angles alpha (xz circle) and beta (yw circle).
 
     Returns shape broadcast(alpha, beta) + (4,). A pole (latitude ±1) gives its fibre circle.
@@ -37,7 +38,9 @@ def hopf_torus(latitude: float, alpha, beta) -> np.ndarray:
     )
 
 
-def hopf_torus_tangents(latitude: float, alpha, beta) -> tuple[np.ndarray, np.ndarray]:
+def hopf_torus_tangents(
+    latitude: float, alpha: ArrayLike, beta: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """∂/∂alpha and ∂/∂beta of hopf_torus: the tangents Lemma 1(b) needs."""
     r_xz, r_yw = torus_radii(latitude)
     alpha, beta = np.broadcast_arrays(np.asarray(alpha, float), np.asarray(beta, float))

@@ -22,6 +22,7 @@ mark nothing (`marking_vertices`, a flag uploaded with each vertex).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: The interpolant is degenerate (u vanishes along a curve, not at a point) when its Jacobian's
 #: determinant is below this times the largest |u|² on the triangle: no point is marked.
@@ -41,14 +42,16 @@ def _dot(a, b):
     return np.einsum("...i,...i", a, b)
 
 
-def edge_turns(m1, m2, u, lo, hi) -> np.ndarray:
+def edge_turns(
+    m1: np.ndarray, m2: np.ndarray, u: np.ndarray, lo: np.ndarray, hi: np.ndarray
+) -> np.ndarray:
     """The angle by which u turns from vertex lo to vertex hi, both seen in lo's normal frame."""
     a0, b0 = _dot(u[lo], m1[lo]), _dot(u[lo], m2[lo])
     a1, b1 = _dot(u[hi], m1[lo]), _dot(u[hi], m2[lo])
     return np.arctan2(a0 * b1 - b0 * a1, a0 * a1 + b0 * b1)
 
 
-def turns(m1, m2, rays, triangles) -> np.ndarray:
+def turns(m1: ArrayLike, m2: ArrayLike, rays: ArrayLike, triangles: ArrayLike) -> np.ndarray:
     """The angle by which u = P_N ρ turns around each triangle: a multiple of 2π up to the
     rounding of the frames (the sign follows the triangle's vertex order)."""
     m1, m2, rays = (np.asarray(v, dtype=float) for v in (m1, m2, rays))
@@ -62,7 +65,9 @@ def turns(m1, m2, rays, triangles) -> np.ndarray:
     return turn
 
 
-def lemma2_marks(m1, m2, rays, triangles) -> tuple[np.ndarray, np.ndarray]:
+def lemma2_marks(
+    m1: ArrayLike, m2: ArrayLike, rays: ArrayLike, triangles: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """(triangle indices, barycentric coordinates (K, 3)) of the Lemma 2 marks.
 
     m1, m2: each vertex's orthonormal normals (V, 4) in the coordinates of ``rays`` (V, 4), the
@@ -100,7 +105,9 @@ def lemma2_marks(m1, m2, rays, triangles) -> tuple[np.ndarray, np.ndarray]:
     return index, bary[index]
 
 
-def marking_vertices(positions, normals, triangles, reach: float = SINGULAR_REACH) -> np.ndarray:
+def marking_vertices(
+    positions: ArrayLike, normals: ArrayLike, triangles: ArrayLike, reach: float = SINGULAR_REACH
+) -> np.ndarray:
     """(V,) bool: the vertices farther than ``reach`` median edge lengths from every singular
     vertex (zero normals); a triangle may mark a Lemma 2 point only if all three are. A
     distance, not rings of triangles: a singular vertex belongs to one sheet's triangles, and
@@ -137,14 +144,18 @@ def marking_vertices(positions, normals, triangles, reach: float = SINGULAR_REAC
     return marking
 
 
-def eligible_triangles(positions, normals, triangles, reach: float = SINGULAR_REACH) -> np.ndarray:
+def eligible_triangles(
+    positions: ArrayLike, normals: ArrayLike, triangles: ArrayLike, reach: float = SINGULAR_REACH
+) -> np.ndarray:
     """Indices of the triangles that may mark Lemma 2 points (all three vertices marking)."""
     tris = np.asarray(triangles, dtype=np.int64).reshape(-1, 3)
     marking = marking_vertices(positions, normals, tris, reach)
     return np.flatnonzero(marking[tris].all(axis=1))
 
 
-def lemma2_exclusion(positions, normals, triangles, reach: float = SINGULAR_REACH) -> dict:
+def lemma2_exclusion(
+    positions: ArrayLike, normals: ArrayLike, triangles: ArrayLike, reach: float = SINGULAR_REACH
+) -> dict:
     """Where the Lemma 2 marks stop next to singular vertices, as distances of a point:
 
     - ``never_within`` = reach·e (e the median edge): a triangle marks only if its three

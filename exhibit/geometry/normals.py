@@ -9,6 +9,7 @@ shader evaluates with these same formulas.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.geometry.cross import cross4
 
@@ -17,7 +18,7 @@ def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i", a, b)
 
 
-def complement_plane(u1, u2) -> tuple[np.ndarray, np.ndarray]:
+def complement_plane(u1: ArrayLike, u2: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Two orthogonal vectors spanning the plane orthogonal to span(u1, u2) in R^4.
 
     The paper's construction: w1 = ⊗(u1, u2, a) with a basis vector a chosen per point so the
@@ -35,7 +36,7 @@ def complement_plane(u1, u2) -> tuple[np.ndarray, np.ndarray]:
     return _normalise_or_zero(w1), _normalise_or_zero(w2)
 
 
-def orthonormal_normals(n1, n2) -> np.ndarray:
+def orthonormal_normals(n1: ArrayLike, n2: ArrayLike) -> np.ndarray:
     """(..., 2, 4): an orthonormal pair spanning the same plane as n1, n2 (e.g. ∇f1, ∇f2),
     made as the complement of the complement (zero where n1, n2 are dependent)."""
     t1, t2 = complement_plane(n1, n2)
@@ -66,17 +67,17 @@ def _normalise_or_zero(v: np.ndarray, tiny: float = 1e-300) -> np.ndarray:
     return np.where(length > tiny, v / np.where(length > tiny, length, 1.0), 0.0)
 
 
-def tangents_from_normals(n1, n2) -> tuple[np.ndarray, np.ndarray]:
+def tangents_from_normals(n1: ArrayLike, n2: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal tangents of the plane orthogonal to the normals (zero at singular points)."""
     return complement_plane(n1, n2)
 
 
-def normals_from_tangents(t1, t2) -> tuple[np.ndarray, np.ndarray]:
+def normals_from_tangents(t1: ArrayLike, t2: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
     """Orthonormal normals of the plane orthogonal to the tangents (zero at degenerate points)."""
     return complement_plane(t1, t2)
 
 
-def projected_normal_from_tangents(t1, t2, ray) -> np.ndarray:
+def projected_normal_from_tangents(t1: ArrayLike, t2: ArrayLike, ray: ArrayLike) -> np.ndarray:
     """Lemma 1(b): π_XYZ(⊗(t1, t2, ρ)) is the normal of the projected surface v(S) at v(p).
 
     ``ray`` is ρ (any positive multiple, e.g. projection.sensor_ray). Zero exactly where p is a
@@ -85,7 +86,7 @@ def projected_normal_from_tangents(t1, t2, ray) -> np.ndarray:
     return cross4(t1, t2, ray)[..., :3]
 
 
-def projected_normal_from_normals(n1, n2, ray) -> np.ndarray:
+def projected_normal_from_normals(n1: ArrayLike, n2: ArrayLike, ray: ArrayLike) -> np.ndarray:
     """Lemma 1(c): n = (n2·ρ) n1 - (n1·ρ) n2 is the combination of n1, n2 orthogonal to ρ, and
     π_XYZ(n) is the normal of v(S) at v(p). Zero exactly at silhouette or singular points."""
     n1 = np.asarray(n1, dtype=float)

@@ -12,7 +12,11 @@ resolution 40 (30,000 triangles) costs about 1.5 ms a frame.
 
 from __future__ import annotations
 
+from typing import Iterable, Protocol
+
+
 import numpy as np
+
 
 from exhibit.geometry.pipeline import ClipTransform
 
@@ -20,7 +24,17 @@ from exhibit.geometry.pipeline import ClipTransform
 DEPTH_TOLERANCE = 2e-3
 
 
-def hidden(points: np.ndarray, surfaces, ct: ClipTransform) -> np.ndarray:
+class Triangles(Protocol):
+    """What occlusion reads of a surface (a surfaces.Surface, above geometry)."""
+
+    @property
+    def positions(self) -> np.ndarray: ...
+
+    @property
+    def triangles(self) -> np.ndarray: ...
+
+
+def hidden(points: np.ndarray, surfaces: Iterable[Triangles], ct: ClipTransform) -> np.ndarray:
     """For each 4D point (n, 4), whether some triangle of ``surfaces`` (objects with
     ``positions`` (m, 4) and ``triangles`` (k, 3)) covers it nearer to the eye. Points that are
     themselves clipped or behind a centre count as not hidden (they are not drawn at all)."""

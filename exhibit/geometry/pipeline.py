@@ -22,6 +22,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.geometry.projection import Projected
 from exhibit.geometry.view import ViewState
@@ -97,21 +98,21 @@ class ClipTransform:
     pose: np.ndarray
 
     @staticmethod
-    def _homogeneous(points) -> np.ndarray:
+    def _homogeneous(points: ArrayLike) -> np.ndarray:
         points = np.asarray(points, dtype=float)
         if points.shape[-1:] != (4,):
             raise ValueError(f"expected points of R^4 (last axis 4), got shape {points.shape}")
         return np.concatenate([points, np.ones(points.shape[:-1] + (1,))], axis=-1)
 
-    def clip(self, points) -> np.ndarray:
+    def clip(self, points: ArrayLike) -> np.ndarray:
         """Clip coordinates (..., 4) of scene points (..., 4)."""
         return self._homogeneous(points) @ self.matrix.T
 
-    def clip_distances(self, points) -> np.ndarray:
+    def clip_distances(self, points: ArrayLike) -> np.ndarray:
         """gl_ClipDistance values (..., 2); a point survives where all are >= 0."""
         return self._homogeneous(points) @ self.clip_planes.T
 
-    def to_ndc(self, points) -> Projected:
+    def to_ndc(self, points: ArrayLike) -> Projected:
         """Normalised device coordinates and whether each point is visible (in front of both
         centres, inside both clip planes and inside the view volume)."""
         clip = self.clip(points)
@@ -122,7 +123,7 @@ class ClipTransform:
         ok &= np.all(np.abs(ndc) <= 1.0, axis=-1)
         return Projected(ndc, ok)
 
-    def to_pixels(self, points, width: int, height: int) -> Projected:
+    def to_pixels(self, points: ArrayLike, width: int, height: int) -> Projected:
         """Image coordinates (x right, y down, pixel i covers [i, i+1)) and visibility."""
         ndc, ok = self.to_ndc(points)
         x = (ndc[..., 0] + 1.0) * 0.5 * width

@@ -14,6 +14,7 @@ from __future__ import annotations
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: Points whose homogeneous depth 1 - r p_w (or 1 - r1 p_w - r2 p_z) is at most this are at or
 #: behind a projection centre: they have no image and are reported as not in front.
@@ -27,7 +28,7 @@ class Projected(NamedTuple):
     in_front: np.ndarray
 
 
-def _check_points(points) -> np.ndarray:
+def _check_points(points: ArrayLike) -> np.ndarray:
     points = np.asarray(points, dtype=float)
     if points.shape[-1:] != (4,):
         raise ValueError(f"expected points of R^4 (last axis 4), got shape {points.shape}")
@@ -49,19 +50,19 @@ def _divide(numerators: np.ndarray, depth: np.ndarray) -> Projected:
     return Projected(np.where(in_front[..., None], numerators / safe[..., None], 0.0), in_front)
 
 
-def sensor_depth(points, r: float) -> np.ndarray:
+def sensor_depth(points: ArrayLike, r: float) -> np.ndarray:
     """Homogeneous coordinate 1 - r p_w of the sensor projection (> 0 in front of the sensor)."""
     points = _check_points(points)
     return 1.0 - _check_reciprocal(r, "sensor r") * points[..., 3]
 
 
-def project_to_3d(points, r: float) -> Projected:
+def project_to_3d(points: ArrayLike, r: float) -> Projected:
     """v(p) = (p_x, p_y, p_z) / (1 - r p_w): the sensor's view of R^4 in R^3 (paper, section 2)."""
     points = _check_points(points)
     return _divide(points[..., :3], sensor_depth(points, r))
 
 
-def project_to_2d(points, r_sensor: float, r_eye: float) -> Projected:
+def project_to_2d(points: ArrayLike, r_sensor: float, r_eye: float) -> Projected:
     """v(p) = (p_x, p_y) / (1 - r1 p_w - r2 p_z): sensor and eye in one map (paper, Lemma 3).
 
     Equal to projecting by the sensor to R^3 and then by the eye to the plane, in either order.
@@ -72,7 +73,7 @@ def project_to_2d(points, r_sensor: float, r_eye: float) -> Projected:
     return _divide(points[..., :2], 1.0 - r1 * points[..., 3] - r2 * points[..., 2])
 
 
-def sensor_jacobian(points, r: float) -> np.ndarray:
+def sensor_jacobian(points: ArrayLike, r: float) -> np.ndarray:
     """Derivative of v at p, shape (..., 3, 4): dv(t) = t_xyz/h + p_xyz (r t_w)/h², h = 1 - r
     p_w."""
     points = _check_points(points)
@@ -84,7 +85,7 @@ def sensor_jacobian(points, r: float) -> np.ndarray:
     return np.nan_to_num(jac, nan=0.0)
 
 
-def sensor_ray(points, r: float) -> np.ndarray:
+def sensor_ray(points: ArrayLike, r: float) -> np.ndarray:
     """r·(l/r - p): the ray from p towards the sensor, scaled to stay finite (e_w when r = 0)."""
     points = _check_points(points)
     r = _check_reciprocal(r, "sensor r")
@@ -93,7 +94,7 @@ def sensor_ray(points, r: float) -> np.ndarray:
     return ray
 
 
-def eye_ray(points, r_eye: float) -> np.ndarray:
+def eye_ray(points: ArrayLike, r_eye: float) -> np.ndarray:
     """r2·(k/r2 - p): the ray from p towards the eye on the z-axis (e_z when the eye is at
     infinity)."""
     points = _check_points(points)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: Size (relative to the column) below which the two components that define an angle count as
 #: zero: gimbal lock. A few ulps, so only rounding noise is dropped, never a real rotation.
@@ -66,7 +67,7 @@ def euler_planes(n: int) -> list[tuple[int, int]]:
     return planes
 
 
-def plane_rotation(n: int, i: int, j: int, theta) -> np.ndarray:
+def plane_rotation(n: int, i: int, j: int, theta: ArrayLike) -> np.ndarray:
     """Basic rotation R_ij(θ) in R^n; θ may be an array, giving a stack of shape θ.shape + (n,
     n)."""
     if not (0 <= i < n and 0 <= j < n and i != j):
@@ -81,7 +82,7 @@ def plane_rotation(n: int, i: int, j: int, theta) -> np.ndarray:
     return out
 
 
-def euler_to_matrix(angles) -> np.ndarray:
+def euler_to_matrix(angles: ArrayLike) -> np.ndarray:
     """Direction cosine matrix of the n-D Euler angles (1, 3, 6 or 10 ... angles, in radians).
 
     ``angles`` may carry leading batch dimensions: shape (..., n(n-1)/2) -> (..., n, n).
@@ -146,7 +147,7 @@ def _check_rotation(matrix: np.ndarray) -> None:
         raise ValueError("matrix is a reflection (det = -1), not a rotation")
 
 
-def matrix_to_euler(matrix) -> np.ndarray:
+def matrix_to_euler(matrix: ArrayLike) -> np.ndarray:
     """Euler angles of a rotation matrix in R^n (n >= 2), by the paper's steps with atan2.
 
     Returns n(n-1)/2 angles in the documented ranges; euler_to_matrix of the result reproduces

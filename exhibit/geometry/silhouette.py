@@ -9,6 +9,7 @@ are never silhouettes, as in the paper's cusp example (section 4.2).
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.geometry.cross import bivector_norm, cross4
 
@@ -30,7 +31,7 @@ def _safe_ratio(numerator, denominator):
     return np.where(denominator > 0, numerator / np.where(denominator > 0, denominator, 1.0), 0.0)
 
 
-def is_singular_pair(u1, u2, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
+def is_singular_pair(u1: ArrayLike, u2: ArrayLike, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
     """True where u1, u2 (two tangents or two normals) do not span a plane."""
     u1 = np.asarray(u1, dtype=float)
     u2 = np.asarray(u2, dtype=float)
@@ -40,7 +41,7 @@ def is_singular_pair(u1, u2, tol: float = SINGULAR_TOLERANCE) -> np.ndarray:
 # ----------------------------------------------------------------------------- Lemma 2 (4D -> 3D)
 
 
-def lemma2_measure_tangents(t1, t2, ray) -> np.ndarray:
+def lemma2_measure_tangents(t1: ArrayLike, t2: ArrayLike, ray: ArrayLike) -> np.ndarray:
     """sin of the angle between the ray ρ and the tangent plane: |⊗(t1,t2,ρ)| / (|t1∧t2| |ρ|).
 
     0 on the silhouette (ρ in the tangent plane, Lemma 2); 0 too at singular points.
@@ -48,7 +49,7 @@ def lemma2_measure_tangents(t1, t2, ray) -> np.ndarray:
     return _safe_ratio(_norm(cross4(t1, t2, ray)), bivector_norm(t1, t2) * _norm(ray))
 
 
-def lemma2_measure_normals(n1, n2, ray) -> np.ndarray:
+def lemma2_measure_normals(n1: ArrayLike, n2: ArrayLike, ray: ArrayLike) -> np.ndarray:
     """The same measure from normals: |(n2·ρ)n1 - (n1·ρ)n2| / (|n1∧n2| |ρ|), the length of ρ's
     component in the normal plane over |ρ|."""
     n1 = np.asarray(n1, dtype=float)
@@ -59,15 +60,23 @@ def lemma2_measure_normals(n1, n2, ray) -> np.ndarray:
 
 
 def is_silhouette_point_3d(
-    t1=None, t2=None, ray=None, *, n1=None, n2=None, tol: float = SILHOUETTE_TOLERANCE
+    t1: ArrayLike | None = None,
+    t2: ArrayLike | None = None,
+    ray: ArrayLike | None = None,
+    *,
+    n1: ArrayLike | None = None,
+    n2: ArrayLike | None = None,
+    tol: float = SILHOUETTE_TOLERANCE,
 ) -> np.ndarray:
     """Lemma 2: p is a silhouette point of the sensor projection iff t1, t2, ρ are dependent.
 
     Give tangents (t1, t2) or normals (n1=, n2=). Singular points are never silhouettes.
     """
+    if ray is None:
+        raise ValueError("give t1, t2 and ray, or n1=, n2= and ray")
     if n1 is not None and n2 is not None:
         return (lemma2_measure_normals(n1, n2, ray) <= tol) & ~is_singular_pair(n1, n2)
-    if t1 is None or t2 is None or ray is None:
+    if t1 is None or t2 is None:
         raise ValueError("give t1, t2 and ray, or n1=, n2= and ray")
     return (lemma2_measure_tangents(t1, t2, ray) <= tol) & ~is_singular_pair(t1, t2)
 
@@ -75,7 +84,9 @@ def is_silhouette_point_3d(
 # ----------------------------------------------------------------------------- Lemma 3 (4D -> 2D)
 
 
-def silhouette_function(n1, n2, ray1, ray2) -> np.ndarray:
+def silhouette_function(
+    n1: ArrayLike, n2: ArrayLike, ray1: ArrayLike, ray2: ArrayLike
+) -> np.ndarray:
     """s = (n1·ρ1)(n2·ρ2) - (n1·ρ2)(n2·ρ1) = (n1∧n2)·(ρ1∧ρ2).
 
     Smooth and signed over the surface; its zero set is the 4D -> 2D silhouette curve (Lemma 3(c):
@@ -88,7 +99,9 @@ def silhouette_function(n1, n2, ray1, ray2) -> np.ndarray:
     return (_dot(n1, ray1) * _dot(n2, ray2)) - (_dot(n1, ray2) * _dot(n2, ray1))
 
 
-def silhouette_function_normalized(n1, n2, ray1, ray2) -> np.ndarray:
+def silhouette_function_normalized(
+    n1: ArrayLike, n2: ArrayLike, ray1: ArrayLike, ray2: ArrayLike
+) -> np.ndarray:
     """s / (|n1∧n2| |ρ1∧ρ2|) in [-1, 1]: the same zero set, independent of the normals' lengths.
 
     0 at singular points and where the rays are parallel (no defined 2D image).
@@ -97,7 +110,9 @@ def silhouette_function_normalized(n1, n2, ray1, ray2) -> np.ndarray:
     return _safe_ratio(s, bivector_norm(n1, n2) * bivector_norm(ray1, ray2))
 
 
-def lemma3_measure_tangents(t1, t2, ray1, ray2) -> np.ndarray:
+def lemma3_measure_tangents(
+    t1: ArrayLike, t2: ArrayLike, ray1: ArrayLike, ray2: ArrayLike
+) -> np.ndarray:
     """|det[t1, t2, ρ1, ρ2]| / (|t1∧t2| |ρ1∧ρ2|) in [0, 1]: Lemma 3(b)'s test, scale-free."""
     t1, t2, ray1, ray2 = np.broadcast_arrays(
         *(np.asarray(v, dtype=float) for v in (t1, t2, ray1, ray2))
@@ -107,14 +122,23 @@ def lemma3_measure_tangents(t1, t2, ray1, ray2) -> np.ndarray:
 
 
 def is_silhouette_point_2d(
-    t1=None, t2=None, ray1=None, ray2=None, *, n1=None, n2=None, tol: float = SILHOUETTE_TOLERANCE
+    t1: ArrayLike | None = None,
+    t2: ArrayLike | None = None,
+    ray1: ArrayLike | None = None,
+    ray2: ArrayLike | None = None,
+    *,
+    n1: ArrayLike | None = None,
+    n2: ArrayLike | None = None,
+    tol: float = SILHOUETTE_TOLERANCE,
 ) -> np.ndarray:
     """Lemma 3: p is a silhouette point of the 4D -> 2D map iff t1, t2, ρ1, ρ2 are dependent
     (b), equivalently iff n1, n2 and the plane orthogonal to ρ1, ρ2 are dependent (c)."""
+    if ray1 is None or ray2 is None:
+        raise ValueError("give t1, t2, ray1 and ray2, or n1=, n2=, ray1 and ray2")
     if n1 is not None and n2 is not None:
         measure = np.abs(silhouette_function_normalized(n1, n2, ray1, ray2))
         return (measure <= tol) & ~is_singular_pair(n1, n2)
-    if t1 is None or t2 is None or ray1 is None or ray2 is None:
+    if t1 is None or t2 is None:
         raise ValueError("give t1, t2, ray1 and ray2, or n1=, n2=, ray1 and ray2")
     return (lemma3_measure_tangents(t1, t2, ray1, ray2) <= tol) & ~is_singular_pair(t1, t2)
 
@@ -122,7 +146,7 @@ def is_silhouette_point_2d(
 # ----------------------------------------------------------------------------- zero sets on meshes
 
 
-def zero_set_segments(positions, triangles, values) -> np.ndarray:
+def zero_set_segments(positions: ArrayLike, triangles: ArrayLike, values: ArrayLike) -> np.ndarray:
     """Line segments where a per-vertex scalar crosses zero on a triangle mesh (marching triangles).
 
     Each triangle whose vertex values change sign gives one segment between the two crossing

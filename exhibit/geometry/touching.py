@@ -32,6 +32,7 @@ crosses gives its sign-change segment instead, never both.
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 #: |H(λ*)| over the change of the derivative across the edge (about κℓ²), at most.
 TOUCH_TOLERANCE = 0.02
@@ -46,7 +47,7 @@ BISECTION_STEPS = 16
 _EDGES = ((0, 1), (1, 2), (2, 0))
 
 
-def tangential_gradient(gradient, normals) -> np.ndarray:
+def tangential_gradient(gradient: ArrayLike, normals: ArrayLike) -> np.ndarray:
     """(V, 4): a gradient (one 4-vector, or one per vertex) minus its parts along each vertex's
     two orthonormal normals (normals (V, 2, 4); zero at singular points, leaving it whole)."""
     normals = np.asarray(normals, dtype=float)
@@ -54,7 +55,9 @@ def tangential_gradient(gradient, normals) -> np.ndarray:
     return g - np.einsum("vk,vki->vi", np.einsum("vki,vi->vk", normals, g), normals)
 
 
-def hermite_dip(h0, h1, d0, d1):
+def hermite_dip(
+    h0: ArrayLike, h1: ArrayLike, d0: ArrayLike, d1: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """For each edge: whether |h| dips on it (same sign at the ends, σd0 < 0 < σd1), the λ* in
     [0, 1] where the cubic Hermite interpolant's derivative vanishes, and H(λ*)."""
     h0, h1, d0, d1 = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (h0, h1, d0, d1)))
@@ -73,7 +76,9 @@ def hermite_dip(h0, h1, d0, d1):
     return dip, lam, value
 
 
-def touching_edges(h0, h1, d0, d1):
+def touching_edges(
+    h0: ArrayLike, h1: ArrayLike, d0: ArrayLike, d1: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
     """Whether each edge touches zero (hermite_dip, then the tolerance), and λ* on it."""
     dip, lam, value = hermite_dip(h0, h1, d0, d1)
     sign = np.where(np.asarray(h0) > 0, 1.0, -1.0)
@@ -82,7 +87,13 @@ def touching_edges(h0, h1, d0, d1):
     return dip & near, lam
 
 
-def touching_segments(positions, triangles, values, gradients, singular=None) -> np.ndarray:
+def touching_segments(
+    positions: ArrayLike,
+    triangles: ArrayLike,
+    values: ArrayLike,
+    gradients: ArrayLike,
+    singular: np.ndarray | None = None,
+) -> np.ndarray:
     """Segments (S, 2, dim) where ``values`` touches zero without changing sign: per triangle with
     no sign change, the points on its first two touching edges. ``gradients`` (V, 4) are the
     values' gradients along the surface (tangential_gradient); ``singular`` (V,) marks vertices
@@ -123,7 +134,7 @@ def touching_segments(positions, triangles, values, gradients, singular=None) ->
 GATE_GRADIENT = 0.5
 
 
-def critical_values(positions, normals) -> tuple[np.ndarray, ...]:
+def critical_values(positions: ArrayLike, normals: ArrayLike) -> tuple[np.ndarray, ...]:
     """Per axis a, the sorted x_a of the regular vertices where |P_T e_a| ≤ GATE_GRADIENT: a
     slice x_a = c can touch the surface only near these (normals orthonormal, so |P_T e_a|² =
     1 − n1_a² − n2_a²)."""

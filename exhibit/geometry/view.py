@@ -27,8 +27,11 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass, field
+from typing import Any
+
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.geometry.rotations import euler_to_matrix
 
@@ -147,7 +150,10 @@ class ViewState:
         """Vertical field of view in degrees (0 for an eye at infinity)."""
         return math.degrees(2.0 * math.atan(self.half_height * self.eye_r))
 
-    def replace(self, **changes) -> "ViewState":
+    def replace(self, **changes: Any) -> "ViewState":
+        """A copy with ``changes`` to its fields, checked by __post_init__. Any: callers build
+        the changes as dicts of several fields' values (kiosk/attract.py, commands/render.py),
+        which a TypedDict of the fields would refuse."""
         return dataclasses.replace(self, **changes)
 
     def with_sensor_distance(self, distance: float) -> "ViewState":
@@ -184,12 +190,12 @@ class ViewState:
         pose[:4, 4] = self.offset
         return pose
 
-    def to_view(self, points) -> np.ndarray:
+    def to_view(self, points: ArrayLike) -> np.ndarray:
         """Scene points (..., 4) in view coordinates."""
         points = np.asarray(points, dtype=float)
         return points @ self.rotation().T + np.asarray(self.offset)
 
-    def vectors_to_view(self, vectors) -> np.ndarray:
+    def vectors_to_view(self, vectors: ArrayLike) -> np.ndarray:
         """Scene directions (tangents, normals) in view coordinates: rotated, not translated."""
         return np.asarray(vectors, dtype=float) @ self.rotation().T
 

@@ -10,6 +10,10 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:  # sound.py is imported where a tape is mixed down
+    from exhibit.narration.sound import Sound
 
 
 @dataclass
@@ -26,7 +30,7 @@ class TapePlayer:
         self.clock = clock
         self.takes: list[Take] = []
 
-    def play(self, sound) -> None:
+    def play(self, sound: Sound) -> None:
         self.stop()
         now = self.clock()
         self.takes.append(Take(now, now + float(sound.duration), sound))
@@ -46,7 +50,7 @@ class TapePlayer:
     def close(self) -> None:
         self.stop()
 
-    def mixdown(self, duration: float):
+    def mixdown(self, duration: float) -> Sound:
         """The tape as one sound of ``duration`` seconds (exhibit.narration.sound.mix), each take
         cut where it was stopped."""
         from exhibit.narration.sound import RATE, Sound, mix

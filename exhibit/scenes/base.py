@@ -3,6 +3,7 @@ preset views. Scenes know nothing of GL or devices."""
 
 from __future__ import annotations
 
+import argparse
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -153,7 +154,7 @@ def parse_overrides(items: list[str] | None) -> dict[str, str]:
     return overrides
 
 
-def parse_resolution(text) -> int | None:
+def parse_resolution(text: str | int | None) -> int | None:
     """`--resolution N`: None (the scene's default) or a whole number within the one cap that
     scene files and the kiosk config share."""
     if text is None:
@@ -173,7 +174,7 @@ def parse_resolution(text) -> int | None:
     return value
 
 
-def build_from_arguments(scene: "Scene", args) -> Mesh4D:
+def build_from_arguments(scene: "Scene", args: argparse.Namespace) -> Mesh4D:
     """The mesh the shared options (add_scene_arguments: --param, --resolution) ask for, with a
     progress line while it builds when a person watches a terminal."""
     from exhibit.surfaces import progress
@@ -184,7 +185,7 @@ def build_from_arguments(scene: "Scene", args) -> Mesh4D:
         return scene.build(overrides, resolution)
 
 
-def add_scene_arguments(parser) -> None:
+def add_scene_arguments(parser: argparse.ArgumentParser) -> None:
     """The scene, --param and --resolution options every scene command shares."""
     parser.add_argument("scene", help="scene name (see `exhibit scenes`)")
     parser.add_argument(

@@ -45,7 +45,12 @@ def _load() -> set[str]:
     return _passed
 
 
-def check(text: str, variables: Sequence[str], parameters: Mapping[str, float], box) -> None:
+def check(
+    text: str,
+    variables: Sequence[str],
+    parameters: Mapping[str, float],
+    box: Sequence[tuple[float, float]],
+) -> None:
     """check_expression on the box, unless this exact check has passed before."""
     key = _key(text, variables, parameters, box)
     passed = _load()

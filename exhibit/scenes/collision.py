@@ -8,13 +8,14 @@ speed vc, the sphere (radius rs) along -z at speed vs; both are at the origin at
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
 from exhibit.geometry.view import ViewState
 from exhibit.scenes import palette
 from exhibit.scenes.base import Parameter, Preset, Scene
-from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
+from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette, mesh_implicit
 from exhibit.surfaces.mesh import Curve, Marker, Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 from exhibit.surfaces.slice import SLICE_MATERIAL
@@ -57,7 +58,7 @@ def initial_colliding_point_closed_form(params: dict) -> dict:
     return {"t": -(rc + rs) / v, "x": 0.0, "y": -rs * vc / v, "z": vs * rc / v}
 
 
-def refine_colliding_point(part, start: np.ndarray) -> np.ndarray | None:
+def refine_colliding_point(part: ImplicitPart, start: np.ndarray) -> np.ndarray | None:
     """Newton on the paper's condition C with Lagrange multipliers: minimise t on f = g = 0, i.e.
     e_t = λ∇f + μ∇g, f = 0, g = 0 (six equations in x, y, z, t, λ, μ)."""
     f, g = part.f1, part.f2
@@ -89,7 +90,7 @@ def refine_colliding_point(part, start: np.ndarray) -> np.ndarray | None:
     return x[:4] if np.max(np.abs(residual(x))) < 1e-9 else None
 
 
-def colliding_point(part) -> np.ndarray | None:
+def colliding_point(part: ImplicitPart) -> np.ndarray | None:
     """The point of the collision surface with the smallest t, refined from the lowest vertex."""
     vertices = part.surface.positions
     if len(vertices) == 0:
@@ -256,7 +257,9 @@ def touching_curves(params: dict, c: float, samples: int = 720) -> list[Curve]:
     return curves
 
 
-def build_part(params: dict, resolution: int, progress=None):
+def build_part(
+    params: dict, resolution: int, progress: Callable[[str], None] | None = None
+) -> ImplicitPart:
     lo, hi = box(params)
     return mesh_implicit(
         "collision surface",

@@ -29,7 +29,12 @@ from dataclasses import dataclass
 from typing import Iterable, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 from colorspacious import cspace_convert
+
+from exhibit.scenes.base import Scene
+from exhibit.surfaces.mesh import Mesh4D
+
 
 #: The least ΔE (CAM02-UCS) between two parts of different colours, in every vision.
 LIMIT = 15.0
@@ -79,7 +84,7 @@ class Clash:
         )
 
 
-def luminance(rgb):
+def luminance(rgb: ArrayLike) -> float | np.ndarray:
     """Relative luminance (WCAG 2.x) of sRGB colours (..., 3) in 0..1: CIE Y, as colorspacious
     computes it; a float for one colour."""
     rgb = np.clip(np.asarray(rgb, dtype=float)[..., :3], 0.0, 1.0)
@@ -87,13 +92,13 @@ def luminance(rgb):
     return float(y) if np.ndim(y) == 0 else y
 
 
-def contrast_ratio(a, b):
+def contrast_ratio(a: ArrayLike, b: ArrayLike) -> float | np.ndarray:
     """WCAG contrast ratio between sRGB colours (either order, broadcast), 1..21."""
     la, lb = luminance(a), luminance(b)
     return (np.maximum(la, lb) + 0.05) / (np.minimum(la, lb) + 0.05)
 
 
-def parts_of(mesh) -> list[Part]:
+def parts_of(mesh: Mesh4D) -> list[Part]:
     """The parts of a Mesh4D with a colour of their own: one per distinct colour and kind, in
     mesh order (the first part names it)."""
     found: dict[tuple, Part] = {}
@@ -150,18 +155,18 @@ def least_delta_e(parts: Iterable[Part]) -> tuple[float, str]:
     return best
 
 
-def scene_parts(scene) -> list[Part]:
+def scene_parts(scene: Scene) -> list[Part]:
     """A scene's coloured parts, read from its mesh at PROBE_RESOLUTION at its default
     parameters."""
     return parts_of(scene.build(scene.resolve(), PROBE_RESOLUTION))
 
 
-def scene_clashes(scene) -> list[Clash]:
+def scene_clashes(scene: Scene) -> list[Clash]:
     """The clashes of a scene's colours."""
     return clashes(scene_parts(scene))
 
 
-def colour_problems(scene, parts: Sequence[Part] | None = None) -> list[str]:
+def colour_problems(scene: Scene, parts: Sequence[Part] | None = None) -> list[str]:
     """The clashes of a scene (of ``parts``, when the caller has them) as ``where: colours:
     ...`` lines, where is the scene's file (a curator's TOML scene) or its name; a scene that
     cannot be built says so once."""

@@ -3,18 +3,21 @@
 from __future__ import annotations
 
 import hashlib
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.geometry.silhouette import silhouette_function
 from exhibit.surfaces.crossings import find_crossings, join_at_crossings
 from exhibit.surfaces.curves import zero_set_curves
 from exhibit.surfaces.double_zeros import touching_silhouette
-from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, refine_curves
+from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
 from exhibit.surfaces.expressions import ScalarField, compile_field
 from exhibit.surfaces.implicit import ImplicitResult, polygonize
 from exhibit.surfaces.mesh import Curve, Material, Surface
+from exhibit.surfaces.silhouette_curves import refine_curves
 
 
 @dataclass
@@ -39,13 +42,13 @@ def mesh_implicit(
     name: str,
     f1_text: str,
     f2_text: str,
-    axes,
+    axes: Sequence[str],
     params: dict,
-    lo,
-    hi,
+    lo: ArrayLike,
+    hi: ArrayLike,
     resolution: int,
     material: Material,
-    progress=None,
+    progress: Callable[[str], None] | None = None,
 ) -> ImplicitPart:
     f1 = compile_field(f1_text, axes, params)
     f2 = compile_field(f2_text, axes, params)

@@ -18,7 +18,7 @@ import numpy as np
 from exhibit.geometry.view import ViewState
 from exhibit.scenes import palette
 from exhibit.scenes.base import Parameter, Preset, Scene
-from exhibit.scenes.implicit_scene import fixed_silhouette, mesh_implicit
+from exhibit.scenes.implicit_scene import ImplicitPart, fixed_silhouette, mesh_implicit
 from exhibit.surfaces.mesh import Curve, Material, Mesh4D
 
 PIPE = "(x - u)^2 + (y - v)^2 - r^2"
@@ -44,7 +44,15 @@ def _base_curve(points_uv: np.ndarray) -> Curve:
     )
 
 
-def build_pipe(name: str, f_text: str, u_range, v_range, base_points, params, resolution):
+def build_pipe(
+    name: str,
+    f_text: str,
+    u_range: tuple[float, float],
+    v_range: tuple[float, float],
+    base_points: np.ndarray,
+    params: dict,
+    resolution: int,
+) -> tuple[ImplicitPart, Mesh4D]:
     lo, hi = _box(u_range, v_range, params["r"])
     part = mesh_implicit(
         name, PIPE, f_text, XYUV, params, lo, hi, resolution, Material(color=PIPE_COLOR)

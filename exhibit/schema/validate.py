@@ -2,13 +2,20 @@
 
 from __future__ import annotations
 
+import os
 import typing
+from collections.abc import Callable
+
 from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
 from exhibit.errors import ConfigError
 from exhibit.schema.types import shorten
+
+#: Where a problem is said to be: a file name, or a function from an error's location to the
+#: file that holds that key (layered configs).
+Source = str | os.PathLike[str] | Callable[[tuple[int | str, ...]], str | os.PathLike[str]]
 
 M = TypeVar("M", bound=BaseModel)
 
@@ -63,7 +70,7 @@ def _fields(model: type[BaseModel]) -> dict:
     return {field.alias or name: field for name, field in model.model_fields.items()}
 
 
-def problems(exc: ValidationError, source, model: type[BaseModel]) -> list[str]:
+def problems(exc: ValidationError, source: Source, model: type[BaseModel]) -> list[str]:
     """One ``file: key: reason`` line per error; ``source`` is a file name, or a function from
     an error's location to the file that holds that key (layered configs)."""
     out = []
@@ -93,7 +100,7 @@ def problems(exc: ValidationError, source, model: type[BaseModel]) -> list[str]:
     return out
 
 
-def validate(model: type[M], data: Any, source, context: dict | None = None) -> M:
+def validate(model: type[M], data: Any, source: Source, context: dict | None = None) -> M:
     """``model`` from parsed data; ConfigError lists every problem as ``source: key: reason``
     (``source`` as for :func:`problems`)."""
     try:

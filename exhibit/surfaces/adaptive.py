@@ -27,13 +27,14 @@ does (∇f1, ∇f2 made orthonormal, Surface.from_normals) and are regular.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
 from exhibit.geometry.normals import orthonormal_normals
 from exhibit.surfaces.metrics import distance_to_surface
-from exhibit.surfaces.newton import project_onto
+from exhibit.surfaces.newton import Field, project_onto
 from exhibit.surfaces.parametric import finite_directions
 from exhibit.surfaces.singular import nearest_distance, project_onto_singular_set
 
@@ -56,7 +57,7 @@ class RefineStats:
     onto_singular_set: int = 0
 
 
-def normal_pairs(fields, points: np.ndarray) -> np.ndarray:
+def normal_pairs(fields: Sequence[Field], points: np.ndarray) -> np.ndarray:
     """Orthonormal normal pairs (N, 2, 4) from the fields' gradients, as Surface.from_normals
     makes them (zero where the gradients are dependent or not finite)."""
     with np.errstate(all="ignore"):
@@ -153,7 +154,7 @@ def _split_on_singular_set(fields, a, b, newton, newton_ok, sag, tolerance, sing
 
 @np.errstate(all="ignore")
 def refine(
-    fields,
+    fields: Sequence[Field],
     positions: np.ndarray,
     normals: np.ndarray,
     singular: np.ndarray,
@@ -162,7 +163,7 @@ def refine(
     rounds: int = ROUNDS,
     singular_set: np.ndarray | None = None,
     reach: float = 0.0,
-):
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, RefineStats]:
     """Split the edges whose midpoints sag more than ``tolerance`` off {f = 0 for f in fields}
     (see the module's docstring); edges with a midpoint within ``reach`` of the traced
     ``singular_set`` may be split on it. Returns (positions, normals, singular, triangles,

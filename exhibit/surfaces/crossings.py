@@ -27,9 +27,9 @@ from exhibit.surfaces.exact_silhouette import (
     RESIDUAL_TOLERANCE,
     SilhouetteSystem,
     index_runs,
-    polyline_length,
 )
 from exhibit.surfaces.mesh import Curve
+from exhibit.surfaces.silhouette_curves import polyline_length
 
 #: Refined points where s changes along the surface at under this fraction of the curve's median
 #: rate start a crossing search (near a crossing the rate falls to 0 linearly).

@@ -16,10 +16,18 @@ joined like marching triangles: a triangle with two kept edges gives a segment b
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.surfaces.curves import chain_segments
-from exhibit.surfaces.mesh import Surface
+from exhibit.surfaces.mesh import Curve, Material, Surface
+
+if TYPE_CHECKING:
+    from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
+    from exhibit.surfaces.expressions import ScalarField
 
 #: |∇h along the surface| at a kept point over its largest value at the mesh's vertices, at most.
 #: Newton on a double zero converges linearly to about √(residual) ≈ 1e-6 off the curve, where
@@ -33,7 +41,9 @@ def surface_gradient(surface: Surface, gradients: np.ndarray) -> np.ndarray:
     return gradients - np.einsum("vk,vki->vi", np.einsum("vki,vi->vk", n, gradients), n)
 
 
-def dip_candidates(surface: Surface, values: np.ndarray, gradients: np.ndarray):
+def dip_candidates(
+    surface: Surface, values: np.ndarray, gradients: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Edges (E, 2) on which |h| dips between two ends of the same sign, and the seed points
     (E, 4) where the linear interpolant of the edge derivative vanishes."""
     tris = np.asarray(surface.triangles, dtype=np.int64).reshape(-1, 3)
@@ -61,7 +71,7 @@ def dip_candidates(surface: Surface, values: np.ndarray, gradients: np.ndarray):
     return edges[dip], p[a[dip]] + lam[dip, None] * d[dip]
 
 
-def tangential_part(normals_f: list, gradient_h: np.ndarray) -> np.ndarray:
+def tangential_part(normals_f: Sequence[np.ndarray], gradient_h: np.ndarray) -> np.ndarray:
     """|P_T ∇h| with T the orthogonal complement of the two normals."""
     n = np.stack(normals_f, 1)  # (N, 2, 4)
     gram = n @ np.transpose(n, (0, 2, 1))
@@ -70,7 +80,14 @@ def tangential_part(normals_f: list, gradient_h: np.ndarray) -> np.ndarray:
     return np.linalg.norm(gradient_h - np.einsum("nk,nki->ni", coef, n), axis=1)
 
 
-def double_zero_chains(surface: Surface, values, gradients, refine, normals, h_gradient):
+def double_zero_chains(
+    surface: Surface,
+    values: ArrayLike,
+    gradients: ArrayLike,
+    refine: Callable[[np.ndarray], tuple[np.ndarray, np.ndarray]],
+    normals: Callable[[np.ndarray], Sequence[np.ndarray]],
+    h_gradient: Callable[[np.ndarray], np.ndarray],
+) -> list[tuple[np.ndarray, bool]]:
     """Polylines [(points, closed)] of the double zeros of h on ``surface``.
 
     ``refine(seeds) -> (points, keep)`` projects seeds onto the exact zero set (and judges them);
@@ -113,26 +130,26 @@ def double_zero_chains(surface: Surface, values, gradients, refine, normals, h_g
 
 
 def touching_silhouette(
-    f1,
-    f2,
+    f1: ScalarField,
+    f2: ScalarField,
     surface: Surface,
     along: tuple[int, int],
     cell: float,
-    singular_points=None,
+    singular_points: np.ndarray | None = None,
     exclusion_radius: float = 0.0,
     name: str = "",
-    material=None,
-    stats=None,
-    others=None,
-):
+    material: Material | None = None,
+    stats: RefineStats | None = None,
+    others: Iterable[np.ndarray] | None = None,
+) -> list[Curve]:
     """The silhouette branches along ``along`` where s touches zero without changing sign,
     refined onto f1 = f2 = s = 0 like the traced ones (surfaces/exact_silhouette.py), each open
     end continued along the exact branch (`extend_touching_end`) until the exclusion every
     silhouette point has (σ_min/σ_max of the normals below EXCLUSION_RATIO, or within
     ``exclusion_radius`` of a traced singular point) or half a cell from another branch (one of
     ``others``, the sign-change curves, or another touching one: a crossing)."""
-    from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem, drop_fragments
-    from exhibit.surfaces.mesh import Curve, Material
+    from exhibit.surfaces.exact_silhouette import RefineStats, SilhouetteSystem
+    from exhibit.surfaces.silhouette_curves import drop_fragments
 
     system = SilhouetteSystem(f1, f2, along)
     p = surface.positions
@@ -187,11 +204,11 @@ def touching_silhouette(
 
 
 def extend_touching_end(
-    system,
+    system: SilhouetteSystem,
     end: np.ndarray,
     outward: np.ndarray,
     cell: float,
-    singular_points,
+    singular_points: np.ndarray | None,
     exclusion_radius: float,
     scale: float,
     others: np.ndarray,

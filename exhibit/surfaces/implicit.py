@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.surfaces import adaptive
 from exhibit.surfaces import progress as progress_line
@@ -364,8 +365,8 @@ def polygonize(
     name: str,
     f1: ScalarField,
     f2: ScalarField,
-    domain_lo,
-    domain_hi,
+    domain_lo: ArrayLike,
+    domain_hi: ArrayLike,
     resolution: int,
     material: Material | None = None,
     seed: int = 0,

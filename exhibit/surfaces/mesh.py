@@ -18,6 +18,7 @@ import zipfile
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.geometry.normals import complement_plane, orthonormal_normals
 
@@ -78,13 +79,29 @@ class Surface:
         self.singular = np.asarray(self.singular, dtype=bool).reshape(-1)
 
     @classmethod
-    def from_normals(cls, name, positions, n1, n2, triangles, material=None) -> "Surface":
+    def from_normals(
+        cls,
+        name: str,
+        positions: np.ndarray,
+        n1: ArrayLike,
+        n2: ArrayLike,
+        triangles: np.ndarray,
+        material: Material | None = None,
+    ) -> "Surface":
         """From two normals per vertex (e.g. ∇f1, ∇f2); they are orthonormalised here."""
         normals = orthonormal_normals(n1, n2)
         return cls(name, positions, normals, triangles, material or Material())
 
     @classmethod
-    def from_tangents(cls, name, positions, t1, t2, triangles, material=None) -> "Surface":
+    def from_tangents(
+        cls,
+        name: str,
+        positions: np.ndarray,
+        t1: ArrayLike,
+        t2: ArrayLike,
+        triangles: np.ndarray,
+        material: Material | None = None,
+    ) -> "Surface":
         """From two tangents per vertex (parametric ∂/∂s, ∂/∂t), turned into normals with ⊗."""
         m1, m2 = complement_plane(t1, t2)
         return cls(name, positions, np.stack([m1, m2], axis=1), triangles, material or Material())

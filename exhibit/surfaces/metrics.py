@@ -32,8 +32,10 @@ whose true largest distance is 2.6e-7 (tests/surfaces/test_vertex_distance.py).
 from __future__ import annotations
 
 import itertools
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.newton import project_onto
@@ -50,7 +52,9 @@ def boundary_vertices(triangles: np.ndarray) -> np.ndarray:
     return np.unique(unique[counts == 1])
 
 
-def boundary_box_distance(positions, triangles, lo, hi) -> float:
+def boundary_box_distance(
+    positions: ArrayLike, triangles: np.ndarray, lo: ArrayLike, hi: ArrayLike
+) -> float:
     """The largest distance of a boundary vertex from the nearest face of the box [lo, hi]."""
     b = boundary_vertices(triangles)
     if len(b) == 0:
@@ -69,7 +73,9 @@ def _segment_distance(p, a, b):
     return np.linalg.norm(p - (a + t[:, None] * d), axis=1)
 
 
-def point_triangle_distance(p, a, b, c) -> np.ndarray:
+def point_triangle_distance(
+    p: np.ndarray, a: np.ndarray, b: np.ndarray, c: np.ndarray
+) -> np.ndarray:
     """Distances from points p to triangles (a, b, c), all (N, d), exactly."""
     e1, e2 = b - a, c - a
     gram = np.stack(
@@ -94,7 +100,9 @@ def point_triangle_distance(p, a, b, c) -> np.ndarray:
     return np.where(inside, np.minimum(plane, edges), edges)
 
 
-def distance_to_mesh(points, positions, triangles, candidates: int = 24) -> np.ndarray:
+def distance_to_mesh(
+    points: ArrayLike, positions: np.ndarray, triangles: ArrayLike, candidates: int = 24
+) -> np.ndarray:
     """Distance from each point to the nearest triangle among those at its ``candidates`` nearest
     vertices (exact for the meshes here, whose triangles are small)."""
     points = np.asarray(points, dtype=float).reshape(-1, positions.shape[1])
@@ -225,7 +233,13 @@ def _project_near_singular(fields, points: np.ndarray, max_move: float, rcond: f
 
 
 @np.errstate(all="ignore")
-def distance_to_surface(fields, points, max_move: float, fallback=None, known=None) -> np.ndarray:
+def distance_to_surface(
+    fields: Sequence[ScalarField],
+    points: ArrayLike,
+    max_move: float,
+    fallback: ArrayLike | None = None,
+    known: np.ndarray | None = None,
+) -> np.ndarray:
     """How far each point is from {f = 0 for f in fields}: the distance to a point of the surface
     found by Newton (minimum-norm steps) and foot-point steps, or ``fallback`` (an upper bound per
     point, e.g. the distance to a nearby vertex) where that is smaller, or where Newton fails (a
@@ -314,7 +328,13 @@ def unique_edges(triangles: np.ndarray) -> np.ndarray:
     return np.unique(edges, axis=0)
 
 
-def surface_sag(fields, positions, triangles, cell: float, singular_positions=None) -> dict:
+def surface_sag(
+    fields: Sequence[ScalarField],
+    positions: ArrayLike,
+    triangles: ArrayLike,
+    cell: float,
+    singular_positions: np.ndarray | None = None,
+) -> dict:
     """``max_vertex_distance`` and ``max_sag`` (see the module's docstring) of a mesh of
     f1 = f2 = 0, with Newton allowed to move a point two ``cell`` sizes. A vertex Newton cannot
     place (a singular vertex) is measured to the nearest traced singular point; edge midpoints

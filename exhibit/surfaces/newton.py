@@ -5,6 +5,9 @@ surface (`metrics.py`)."""
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Protocol
+
 import numpy as np
 
 #: σ_min/σ_max of the Jacobian below which a vertex counts as a singular point.
@@ -41,7 +44,9 @@ def _solve_gram(gram: np.ndarray, rhs: np.ndarray) -> np.ndarray:
 
 
 @np.errstate(all="ignore")
-def project_onto(fields, points: np.ndarray, max_move: float):
+def project_onto(
+    fields: Sequence[Field], points: np.ndarray, max_move: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Newton-project points onto {f = 0 for f in fields} with the minimum-norm step
     x <- x - Jᵀ(JJᵀ)⁻¹F (k fields, k <= 4).
 
@@ -89,16 +94,25 @@ def project_onto(fields, points: np.ndarray, max_move: float):
     return x, singular, unconverged
 
 
+class Field(Protocol):
+    """A scalar function of R^4 with its gradient, vectorised over points (..., 4): a
+    ScalarField, or a :class:`CoordinatePlane` (a box face, a slicing hyperplane)."""
+
+    def value(self, points: np.ndarray) -> np.ndarray: ...
+
+    def gradient(self, points: np.ndarray) -> np.ndarray: ...
+
+
 class CoordinatePlane:
     """The field x[axis] - bound (a box face, a slicing hyperplane) for project_onto and Newton."""
 
     def __init__(self, axis: int, bound: float):
         self.axis, self.bound = axis, bound
 
-    def value(self, points):
+    def value(self, points: np.ndarray) -> np.ndarray:
         return points[..., self.axis] - self.bound
 
-    def gradient(self, points):
+    def gradient(self, points: np.ndarray) -> np.ndarray:
         g = np.zeros(points.shape)
         g[..., self.axis] = 1.0
         return g

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import sys
 import time
+from typing import Literal
 
 _enabled = False
 _last = 0.0
@@ -36,11 +37,11 @@ def done() -> None:
 class on_terminal:
     """Context manager: show build progress while the block runs, if stderr is a terminal."""
 
-    def __enter__(self):
+    def __enter__(self) -> on_terminal:
         enable(sys.stderr.isatty())
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> Literal[False]:
         done()
         enable(False)
         return False

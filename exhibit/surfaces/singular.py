@@ -16,7 +16,8 @@ import itertools
 
 import numpy as np
 
-from exhibit.surfaces.expressions import ScalarField, evaluate, lambdify
+from exhibit.surfaces.evaluation import evaluate, lambdify
+from exhibit.surfaces.expressions import ScalarField
 
 #: Vertices whose σ_min/σ_max is below this multiple of the cell size (relative to the box)
 #: start a search: near a singular set the ratio falls off like the distance to it.

@@ -66,7 +66,9 @@ class ImplicitSlice:
         )
         return np.where(np.isnan(r), np.inf, r).max(axis=1)
 
-    def refine(self, points: np.ndarray, max_move: float):
+    def refine(
+        self, points: np.ndarray, max_move: float
+    ) -> tuple[np.ndarray, np.ndarray, RefineStats]:
         points = np.asarray(points, dtype=float).reshape(-1, 4)
         x = min_norm_newton(
             (self.f1, self.f2, CoordinatePlane(self.axis, self.at)), self.residual, points
@@ -200,7 +202,9 @@ SEEDS_PER_CHAIN = 6
 TANGENCY_TRIES = 40
 
 
-def implicit_slice(surface: Surface, f1, f2, axis: int, at: float, total: RefineStats):
+def implicit_slice(
+    surface: Surface, f1: ScalarField, f2: ScalarField, axis: int, at: float, total: RefineStats
+) -> list[tuple[np.ndarray, bool]]:
     """[(points (N, 4), closed)] of f1 = f2 = 0, x_axis = at, traced along the exact curves
     (surfaces/slice_trace.py): tangency curves first, then the transverse ones through seeds
     from the mesh at ``at`` and at ``at`` ± δ."""

@@ -35,6 +35,7 @@ Every point is accepted by its distance to the exact slice, not only its residua
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -101,7 +102,9 @@ def transverse_tangent(grads: np.ndarray) -> tuple[np.ndarray, float]:
 
 
 @np.errstate(all="ignore")
-def correct(plane: SlicePlane, guess: np.ndarray, tangent: np.ndarray, max_move: float):
+def correct(
+    plane: SlicePlane, guess: np.ndarray, tangent: np.ndarray, max_move: float
+) -> np.ndarray | None:
     """Newton on (F1, F2, t·(u − guess)) from ``guess`` (3-vector): the point of the slice in the
     plane through ``guess`` across the curve, or None."""
     u = np.asarray(guess, dtype=float).copy()
@@ -167,7 +170,9 @@ def _march(plane: SlicePlane, seed: np.ndarray, sign: float, max_step: float, in
     return out, False, False
 
 
-def trace_transverse(plane: SlicePlane, seed: np.ndarray, max_step: float, inside) -> Trace:
+def trace_transverse(
+    plane: SlicePlane, seed: np.ndarray, max_step: float, inside: Callable[[np.ndarray], bool]
+) -> Trace:
     """The whole transverse curve through ``seed`` (3-vector on the slice)."""
     ahead, closed, stalled_ahead = _march(plane, seed, 1.0, max_step, inside)
     if closed:
@@ -300,7 +305,7 @@ def tangency_residual(plane: SlicePlane, u: np.ndarray) -> float:
     return float(np.max(np.abs(values) / np.linalg.norm(grads, axis=1)))
 
 
-def tangency_seed(plane: SlicePlane, u: np.ndarray, h: float):
+def tangency_seed(plane: SlicePlane, u: np.ndarray, h: float) -> np.ndarray | None:
     """(u, λ) on a tangency curve near ``u``, or None: λ from ∇F2 = λ∇F1 by least squares,
     then the corrector across the curve."""
     _, grads = plane.evaluate(plane.lift(u))
@@ -316,7 +321,9 @@ def tangency_seed(plane: SlicePlane, u: np.ndarray, h: float):
     return z
 
 
-def trace_tangency(plane: SlicePlane, seed: np.ndarray, max_step: float, inside) -> Trace:
+def trace_tangency(
+    plane: SlicePlane, seed: np.ndarray, max_step: float, inside: Callable[[np.ndarray], bool]
+) -> Trace:
     """The tangency curve through ``seed`` ((u, λ) from tangency_seed)."""
     fd = 1e-6 * plane.scale
     cos_max, cos_grow = math.cos(math.radians(MAX_TURN)), math.cos(math.radians(GROW_TURN))

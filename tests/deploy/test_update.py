@@ -14,10 +14,10 @@ import pytest
 
 from exhibit.cli import main
 from exhibit.commands import install as inst
-from exhibit.commands import rollback, update
+from exhibit.commands import _bounded, _releases, rollback, update
 from exhibit.commands.update import LOCK, Kiosk
 from exhibit.errors import ExhibitError
-from exhibit.schema import files
+from exhibit.schema import links
 from tests.deploy.unitfile import environment, units
 
 PREFIX = "/opt/exhibit"
@@ -375,7 +375,7 @@ def real_runner(root):
         if command[:2] == ["install", "-d"]:
             return subprocess.CompletedProcess(command, 0, "", "")
         command = [str(root / c.lstrip("/")) if c.startswith(RELEASES) else c for c in command]
-        return update._run(command, timeout)
+        return _bounded.run_bounded(command, timeout)
 
     return run
 
@@ -541,14 +541,14 @@ def test_a_release_that_cannot_be_pruned_is_kept_and_the_update_is_done(root, mo
     make_release(root, "r4")
     r1 = root / "opt/exhibit-releases/r1"
     if how == "busy":
-        real = update.shutil.rmtree
+        real = _releases.shutil.rmtree
 
         def rmtree(path, *args, **kwargs):
             if path.name.startswith(".r1."):
                 raise OSError(errno.EBUSY, "Device or resource busy")
             real(path, *args, **kwargs)
 
-        monkeypatch.setattr(update.shutil, "rmtree", rmtree)
+        monkeypatch.setattr(_releases.shutil, "rmtree", rmtree)
     else:
         real_ismount = os.path.ismount
         monkeypatch.setattr(
@@ -573,7 +573,7 @@ def test_a_release_that_cannot_be_pruned_is_kept_and_the_update_is_done(root, mo
 def test_only_one_update_or_rollback_at_a_time(root):
     make_release(root, "new")
     lock = root / "opt/exhibit-releases" / LOCK
-    fd = files.hold_lock(lock, "pid 4242, exhibit update /opt/exhibit-releases/other\n")
+    fd = links.hold_lock(lock, "pid 4242, exhibit update /opt/exhibit-releases/other\n")
     try:
         runner = Runner()
         for command in (lambda k: k.update(f"{RELEASES}/new"), lambda k: k.rollback()):
@@ -655,7 +655,7 @@ def killed_at(root, n: int, action) -> bool:
         code = 1
         try:
             count = [0]
-            real_exchange = files.exchange
+            real_exchange = links.exchange
 
             def dies(real):
                 def call(*args, **kwargs):
@@ -668,7 +668,7 @@ def killed_at(root, n: int, action) -> bool:
 
             for name in _MUTATIONS:
                 setattr(os, name, dies(getattr(os, name)))
-            files.exchange = dies(real_exchange)  # type: ignore[assignment]
+            links.exchange = dies(real_exchange)  # type: ignore[assignment]
             action()
             code = 0
         finally:  # never back into pytest in the child, whatever happened

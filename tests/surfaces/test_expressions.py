@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from exhibit.surfaces import expressions
+from exhibit.surfaces import formula
 from exhibit.surfaces.expressions import (
     ExpressionError,
     check_expression,
@@ -121,7 +121,7 @@ def test_anything_sympy_raises_becomes_an_expression_error(monkeypatch):
     def broken(*args):
         raise RuntimeError("sympy broke")
 
-    monkeypatch.setattr(expressions._SympyAlgebra, "function", broken)
+    monkeypatch.setattr(formula._SympyAlgebra, "function", broken)
     for call in (
         lambda: check_expression("sin(x)", V, None, box=BOX),
         lambda: compile_field("sin(x)", V),
