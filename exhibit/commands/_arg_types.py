@@ -6,7 +6,8 @@ and numbers are written with the ASCII digits only, as device inputs and files a
 from __future__ import annotations
 
 import argparse
-from typing import Any, Callable, TypeVar
+from typing import Any, TypeVar
+from collections.abc import Callable
 
 from pydantic_core import PydanticCustomError
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 import os
 import signal
 import subprocess
+import contextlib
 
 
 def run_bounded(command: list[str], timeout: float | None = None) -> subprocess.CompletedProcess:
@@ -33,10 +34,8 @@ def run_bounded(command: list[str], timeout: float | None = None) -> subprocess.
 def stop_group(process: subprocess.Popen) -> tuple[bytes, bytes]:
     """SIGTERM to the process group, SIGKILL after 10 s; what it printed."""
     for sig, grace in ((signal.SIGTERM, 10), (signal.SIGKILL, 10)):
-        try:
+        with contextlib.suppress(ProcessLookupError):
             os.killpg(process.pid, sig)
-        except ProcessLookupError:
-            pass
         try:
             out, err = process.communicate(timeout=grace)
             return out or b"", err or b""

@@ -164,7 +164,7 @@ class Progress:
                 flush=True,
             )
 
-    def __enter__(self) -> "Progress":
+    def __enter__(self) -> Progress:
         return self
 
     def __exit__(self, *exc: object) -> None:

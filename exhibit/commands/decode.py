@@ -39,7 +39,7 @@ def run(args) -> int:
     decoder = p.StreamDecoder()
     out = sys.stdout
     try:
-        stream = sys.stdin.buffer if args.file == "-" else open(args.file, "rb")
+        stream = sys.stdin.buffer if args.file == "-" else open(args.file, "rb")  # noqa: SIM115 - closed by the with below
     except OSError as exc:
         raise ExhibitError(f"cannot read {args.file}: {exc.strerror or exc}") from None
     with stream:

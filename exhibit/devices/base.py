@@ -15,7 +15,8 @@ from __future__ import annotations
 import enum
 import time
 from dataclasses import dataclass, field
-from typing import Callable, Self
+from typing import Self
+from collections.abc import Callable
 
 from exhibit.errors import ConfigError, ExhibitError
 
@@ -105,7 +106,7 @@ class Event:
         }
 
     @classmethod
-    def from_dict(cls, d: dict) -> "Event":
+    def from_dict(cls, d: dict) -> Event:
         return cls(
             float(d["t"]), str(d["device"]), Kind(d["kind"]), int(d["index"]), float(d["value"])
         )
@@ -242,7 +243,7 @@ class Backend:
             "ever_connected": self.ever_connected,
         }
 
-    def __enter__(self) -> "Backend":
+    def __enter__(self) -> Backend:
         return self.open()
 
     def __exit__(self, *exc: object) -> None:

@@ -23,6 +23,7 @@ a step or rate can never carry a parameter to inf or NaN.
 
 from __future__ import annotations
 
+import contextlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -124,10 +125,8 @@ def _binding(spec: BindSpec, where: str, devices: dict, problem) -> Binding | No
     words = spec.input.split()
     number = None
     if len(words) == 2 and words[0] in _INPUTS:
-        try:
+        with contextlib.suppress(ValueError):
             number = parse_int(words[1], 1, 256)  # ASCII digits only: never "²", "①" or "٣"
-        except ValueError:
-            pass
     if number is None:
         return problem(
             f"{where}.input",

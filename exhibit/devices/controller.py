@@ -26,6 +26,7 @@ import serial
 from exhibit.devices import protocol as p
 from exhibit.devices.base import Capabilities, Event, Kind, State
 from exhibit.devices.reconnect import ReconnectingBackend
+import contextlib
 
 __all__ = ["SerialController", "DeviceClock"]
 
@@ -107,10 +108,8 @@ class SerialController(ReconnectingBackend):
     def _disconnect(self) -> None:
         port, self._port = self._port, None
         if port is not None:
-            try:
+            with contextlib.suppress(OSError, serial.SerialException):
                 port.close()
-            except (OSError, serial.SerialException):
-                pass
 
     def _connect(self, now: float) -> str | None:
         try:

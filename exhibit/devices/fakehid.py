@@ -22,7 +22,7 @@ import itertools
 import random
 import time
 from collections import deque
-from typing import Iterable
+from collections.abc import Iterable
 
 from exhibit.devices.base import Clock, DeviceError, Kind
 
@@ -166,7 +166,7 @@ class FakeHidDevice:
 class _Handle:
     """What ``hid.device()`` returns: opened on one fake device."""
 
-    def __init__(self, bus: "FakeHidBus"):
+    def __init__(self, bus: FakeHidBus):
         self._bus = bus
         self._dev: FakeHidDevice | None = None
         self._generation = -1

@@ -35,6 +35,7 @@ from exhibit.errors import ConfigError
 from exhibit.resources import shipped
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Integer, Name, Number, Text
+import contextlib
 
 __all__ = [
     "Field",
@@ -346,10 +347,8 @@ class HidBackend(ReconnectingBackend):
     def _disconnect(self) -> None:
         dev, self._dev = self._dev, None
         if dev is not None:
-            try:
+            with contextlib.suppress(OSError, ValueError):
                 dev.close()
-            except (OSError, ValueError):
-                pass
 
     def _candidates(self) -> list[bytes]:
         api = self.api
@@ -377,10 +376,8 @@ class HidBackend(ReconnectingBackend):
             dev.open_path(paths[0])
             dev.set_nonblocking(1)
         except (OSError, ValueError) as exc:
-            try:
+            with contextlib.suppress(OSError, ValueError):
                 dev.close()
-            except (OSError, ValueError):
-                pass
             return (
                 f"cannot open {self.target} ({self.backend}): {exc}; check the udev "
                 "rule's permissions (docs/DEVICES.md)"

@@ -11,6 +11,7 @@ months); later ones only count up in the backend's status detail.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import time
 
@@ -42,7 +43,7 @@ class DeviceSet:
         self._errors: dict[int, int] = {}  # backend index -> exceptions so far
         self._logged: set[tuple[int, str]] = set()  # (index, exception type) with a traceback
 
-    def open(self) -> "DeviceSet":
+    def open(self) -> DeviceSet:
         for i, b in enumerate(self.backends):
             self._guard(i, b.open)
         return self
@@ -52,10 +53,8 @@ class DeviceSet:
             return fn()
         except Exception as exc:  # noqa: BLE001 - one device's bug must not stop the exhibit
             b = self.backends[i]
-            try:
+            with contextlib.suppress(Exception):  # a closing device's own error changes nothing
                 b.close()
-            except Exception:  # noqa: BLE001
-                pass
             count = self._errors[i] = self._errors.get(i, 0) + 1
             known = isinstance(exc, DeviceError)  # a problem a person fixes: no traceback
             if (i, type(exc).__name__) not in self._logged:
@@ -92,10 +91,8 @@ class DeviceSet:
 
     def close(self) -> None:
         for b in self.backends:
-            try:
+            with contextlib.suppress(Exception):  # a closing device's own error changes nothing
                 b.close()
-            except Exception:  # noqa: BLE001
-                pass
 
     def statuses(self, now: float | None = None) -> list[dict]:
         """Every backend's status(); ``now`` (on ``clock``) if the caller has read it."""
@@ -107,7 +104,7 @@ class DeviceSet:
         """The keyboard backend, for the window owner to feed."""
         return next((b for b in self.backends if isinstance(b, KeyboardBackend)), None)
 
-    def __enter__(self) -> "DeviceSet":
+    def __enter__(self) -> DeviceSet:
         return self.open()
 
     def __exit__(self, *exc: object) -> None:

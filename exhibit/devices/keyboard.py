@@ -97,17 +97,16 @@ class KeyboardBackend(Backend):
         if pressed and set(mods) - {"shift"}:
             return
         name = name.lower()
-        if name in BUTTON_KEYS:
-            if pressed != (name in self._down):
-                self._queue.append(
-                    Event(
-                        self._t(t),
-                        self.name,
-                        Kind.BUTTON,
-                        BUTTON_KEYS[name],
-                        1.0 if pressed else 0.0,
-                    )
+        if name in BUTTON_KEYS and pressed != (name in self._down):
+            self._queue.append(
+                Event(
+                    self._t(t),
+                    self.name,
+                    Kind.BUTTON,
+                    BUTTON_KEYS[name],
+                    1.0 if pressed else 0.0,
                 )
+            )
         (self._down.add if pressed else self._down.discard)(name)
         if name not in self.keys:
             return

@@ -36,7 +36,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Iterable, Literal, get_args
+from typing import Literal, get_args
+from collections.abc import Iterable
 
 from exhibit.devices.base import Event, Kind
 from exhibit.geometry.view import ViewState
@@ -143,10 +144,7 @@ class ActivityDetector:
         st[2] = t
 
     def observe(self, e: Event) -> None:
-        if e.kind is Kind.REL:
-            if e.value:
-                self._mark(e.t)
-        elif e.kind is Kind.BUTTON:
+        if e.kind is Kind.REL or e.kind is Kind.BUTTON:
             if e.value:
                 self._mark(e.t)
         else:

@@ -26,11 +26,12 @@ whole beside its C mirror in firmware/, so the two are read side by side."""
 
 from __future__ import annotations
 
+import contextlib
 import binascii
 import enum
 import struct
 from dataclasses import dataclass, field
-from typing import ClassVar, Union
+from typing import ClassVar
 
 __all__ = [
     "PROTOCOL_VERSION",
@@ -192,7 +193,7 @@ class Message:
         raise NotImplementedError
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "Message":  # pragma: no cover
+    def unpack(cls, payload: bytes) -> Message:  # pragma: no cover
         raise NotImplementedError
 
     def to_dict(self) -> dict:
@@ -242,7 +243,7 @@ class Hello(Message):
         )
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "Hello":
+    def unpack(cls, payload: bytes) -> Hello:
         ma, mi, pa, board, na, nb, hz, hb, rc = struct.unpack(cls._FMT, payload)
         return cls((ma, mi, pa), board, na, nb, hz, hb, ResetCause(rc))
 
@@ -264,7 +265,7 @@ class Heartbeat(Message):
         return struct.pack(self._FMT, self.uptime_ms, self.rx_ok, self.rx_rejected)
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "Heartbeat":
+    def unpack(cls, payload: bytes) -> Heartbeat:
         return cls(*struct.unpack(cls._FMT, payload))
 
 
@@ -287,7 +288,7 @@ class Axes(Message):
         return struct.pack(self._FMT, self.t_ms, *self.axes, self.buttons)
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "Axes":
+    def unpack(cls, payload: bytes) -> Axes:
         t, *axes, buttons = struct.unpack(cls._FMT, payload)
         return cls(t, tuple(axes), buttons)
 
@@ -315,12 +316,10 @@ class Calibration(Message):
         return struct.pack(self._FMT, int(self.reason), self.eeprom_mask, *self.zeros)
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "Calibration":
+    def unpack(cls, payload: bytes) -> Calibration:
         reason, mask, *zeros = struct.unpack(cls._FMT, payload)
-        try:
+        with contextlib.suppress(ValueError):  # a reason added later: keep the number
             reason = CalibrationReason(reason)
-        except ValueError:
-            pass  # a reason added later: keep the number
         return cls(reason, mask, tuple(zeros))
 
 
@@ -335,7 +334,7 @@ class HelloRequest(Message):
         return b""
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "HelloRequest":
+    def unpack(cls, payload: bytes) -> HelloRequest:
         return cls()
 
 
@@ -350,7 +349,7 @@ class Calibrate(Message):
         return b""
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "Calibrate":
+    def unpack(cls, payload: bytes) -> Calibrate:
         return cls()
 
 
@@ -369,7 +368,7 @@ class WatchdogTest(Message):
         return bytes(self.key)
 
     @classmethod
-    def unpack(cls, payload: bytes) -> "WatchdogTest":
+    def unpack(cls, payload: bytes) -> WatchdogTest:
         return cls(bytes(payload))
 
 
@@ -448,7 +447,7 @@ def decode_frame(chunk: bytes) -> Frame:
     return Frame(cls.TYPE, seq, cls.unpack(payload), version)
 
 
-Item = Union[Frame, Rejected]
+Item = Frame | Rejected
 
 
 class StreamDecoder:

@@ -42,7 +42,7 @@ class Recorder:
     def __init__(self, path: str | Path, devices: dict[str, str], t0: float):
         self.path = Path(path)
         try:
-            self._f = open(self.path, "w")
+            self._f = open(self.path, "w")  # noqa: SIM115 - open while recording; close()
         except OSError as exc:
             raise DeviceError(f"cannot write {self.path}: {exc.strerror or exc}") from None
         self.t0 = t0

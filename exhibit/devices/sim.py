@@ -47,6 +47,7 @@ from typing import Any, Protocol
 from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
 from exhibit.schema.links import replace_link
+import contextlib
 
 __all__ = ["SimController", "Step", "parse_script", "ScriptPlayer"]
 
@@ -269,15 +270,11 @@ class SimController:
                 return
             self.plugged = False
             for fd in (self._master, self._slave):
-                try:
+                with contextlib.suppress(OSError):
                     os.close(fd)
-                except OSError:
-                    pass
             self._master = self._slave = -1
-            try:
+            with contextlib.suppress(FileNotFoundError):
                 self.link.unlink()
-            except FileNotFoundError:
-                pass
 
     def replug(self) -> None:
         self.unplug()
@@ -416,7 +413,7 @@ class SimController:
 
     # ---- running in a thread
 
-    def start(self) -> "SimController":
+    def start(self) -> SimController:
         self.plug()
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="sim-controller", daemon=True)
@@ -450,7 +447,7 @@ class SimController:
             self._tmpdir.cleanup()
             self._tmpdir = None
 
-    def __enter__(self) -> "SimController":
+    def __enter__(self) -> SimController:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:

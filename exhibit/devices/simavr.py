@@ -33,6 +33,7 @@ from exhibit.devices import protocol as p
 from exhibit.devices.base import DeviceError
 from exhibit.devices.sim import ScriptPlayer, Step
 from exhibit.schema.links import replace_link
+import contextlib
 
 __all__ = [
     "Harness",
@@ -129,7 +130,7 @@ class Harness:
             self._tmp = tempfile.TemporaryDirectory(prefix="exhibit-harness-")
             log = Path(self._tmp.name) / "harness.log"
         self.log_path = Path(log)
-        self._log = open(self.log_path, "w")
+        self._log = open(self.log_path, "w")  # noqa: SIM115 - the harness's log while it runs
         cmd = [str(exe), "--speed", f"{speed:g}"]
         if eeprom is not None:
             cmd += ["--eeprom", str(eeprom)]
@@ -260,10 +261,8 @@ class Harness:
 
     def close(self) -> None:
         if self.alive:
-            try:
+            with contextlib.suppress(DeviceError):
                 self.cmd("quit")
-            except DeviceError:
-                pass
         try:
             self.proc.wait(timeout=5)
         except subprocess.TimeoutExpired:
@@ -271,10 +270,8 @@ class Harness:
             self.proc.wait()
         for f in (self.proc.stdin, self.proc.stdout):
             assert f is not None  # Popen(stdin=PIPE, stdout=PIPE)
-            try:
+            with contextlib.suppress(OSError):
                 f.close()
-            except OSError:
-                pass
         self._log.close()
         if self._tmp is not None:
             self._tmp.cleanup()
@@ -445,7 +442,7 @@ class FirmwareController:
             if self.player is not None:
                 self.player.advance(self, now)
 
-    def start(self) -> "FirmwareController":
+    def start(self) -> FirmwareController:
         self.plug()
         self._stop.clear()
         self._thread = threading.Thread(target=self._run, name="fw-controller", daemon=True)
@@ -468,7 +465,7 @@ class FirmwareController:
         self.unplug()
         self._tmpdir.cleanup()
 
-    def __enter__(self) -> "FirmwareController":
+    def __enter__(self) -> FirmwareController:
         return self.start()
 
     def __exit__(self, *exc: object) -> None:

@@ -17,7 +17,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Iterable, Protocol, Sequence
+from typing import Protocol
+from collections.abc import Iterable, Sequence
 
 
 import numpy as np
@@ -79,7 +80,7 @@ class Bounds:
     x1: float
     y1: float
 
-    def union(self, other: "Bounds | None") -> "Bounds":
+    def union(self, other: Bounds | None) -> Bounds:
         if other is None:
             return self
         return Bounds(

@@ -12,7 +12,8 @@ resolution 40 (30,000 triangles) costs about 1.5 ms a frame.
 
 from __future__ import annotations
 
-from typing import Iterable, Protocol
+from typing import Protocol
+from collections.abc import Iterable
 
 
 import numpy as np

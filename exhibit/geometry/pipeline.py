@@ -45,10 +45,7 @@ def depth_range(view: ViewState) -> tuple[float, float]:
     depth_extent towards the viewer for an eye at infinity), the far plane depth_extent behind
     the origin."""
     far = -view.depth_extent
-    if view.eye_r > 0:
-        near = (1.0 - NEAR_FRACTION) / view.eye_r
-    else:
-        near = view.depth_extent
+    near = (1.0 - NEAR_FRACTION) / view.eye_r if view.eye_r > 0 else view.depth_extent
     return near, far
 
 

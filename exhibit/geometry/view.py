@@ -150,17 +150,17 @@ class ViewState:
         """Vertical field of view in degrees (0 for an eye at infinity)."""
         return math.degrees(2.0 * math.atan(self.half_height * self.eye_r))
 
-    def replace(self, **changes: Any) -> "ViewState":
+    def replace(self, **changes: Any) -> ViewState:
         """A copy with ``changes`` to its fields, checked by __post_init__. Any: callers build
         the changes as dicts of several fields' values (kiosk/attract.py, commands/render.py),
         which a TypedDict of the fields would refuse."""
         return dataclasses.replace(self, **changes)
 
-    def with_sensor_distance(self, distance: float) -> "ViewState":
+    def with_sensor_distance(self, distance: float) -> ViewState:
         """Place the sensor at ``distance`` (math.inf for orthographic)."""
         return self.replace(sensor_r=_reciprocal(distance, "sensor distance"))
 
-    def with_eye(self, distance: float, field_of_view: float | None = None) -> "ViewState":
+    def with_eye(self, distance: float, field_of_view: float | None = None) -> ViewState:
         """Place the eye at ``distance``; with a field of view (degrees) also set the zoom."""
         eye_r = _reciprocal(distance, "eye distance")
         if field_of_view is None:

@@ -37,13 +37,17 @@ def load_recording(path: Path, root: Path) -> Sound:
     try:
         real_root = Path(root).resolve(strict=True)
     except OSError as exc:
-        raise NarrationError(f"{shown}: its folder {root} cannot be read: {exc.strerror or exc}")
+        raise NarrationError(
+            f"{shown}: its folder {root} cannot be read: {exc.strerror or exc}"
+        ) from None
     try:
         real = Path(root, path).resolve(strict=True)
     except FileNotFoundError:
         raise NarrationError(f"{shown}: no such file") from None
     except (OSError, RuntimeError) as exc:  # a loop of links is a RuntimeError before 3.13
-        raise NarrationError(f"{shown}: cannot be read: {getattr(exc, 'strerror', None) or exc}")
+        raise NarrationError(
+            f"{shown}: cannot be read: {getattr(exc, 'strerror', None) or exc}"
+        ) from None
     if not _inside(real, real_root):
         raise NarrationError(f"{shown}: lies outside {root} (it leads to {real})")
     try:

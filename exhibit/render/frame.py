@@ -237,7 +237,7 @@ class FramePipeline:
         if options.hud and hud is not None:
             renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text)
 
-    def _inset(self, inset: "Inset", destination, size: tuple[int, int]) -> None:
+    def _inset(self, inset: Inset, destination, size: tuple[int, int]) -> None:
         """The inset's own small picture (the direct path: its background, no antialiasing,
         on software GL a few ms), then laid into the frame with a border and its label."""
         x, y, w, h = (int(round(v)) for v in inset.rect)

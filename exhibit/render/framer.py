@@ -9,7 +9,7 @@ A scene's start view and each of its presets are framed unless the scene or pres
 
 from __future__ import annotations
 
-from typing import Callable
+from collections.abc import Callable
 
 from exhibit.geometry.framing import frame, mesh_sample
 from exhibit.geometry.view import ViewState

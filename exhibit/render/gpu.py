@@ -67,7 +67,7 @@ def segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
 SURFACE_SAMPLE = 256
 
 
-def surface_sample(gpu: "GpuMesh") -> np.ndarray:
+def surface_sample(gpu: GpuMesh) -> np.ndarray:
     """About SURFACE_SAMPLE of the surfaces' vertices (a zero point for a mesh without any),
     taken once and kept on the mesh."""
     if gpu.sample is None:
@@ -104,7 +104,7 @@ def mesh_sag(surface: Surface) -> float:
     return float((length * np.arcsin(np.clip(sine, 0.0, 1.0))).max() / 8.0)
 
 
-def silhouette_key(surface: "GpuSurface", view, slice_width: float) -> str:
+def silhouette_key(surface: GpuSurface, view, slice_width: float) -> str:
     """The silhouette program a surface is drawn with: with the slice's tangency test only
     when a slice is drawn near one of the surface's critical values (geometry/touching.py)."""
     if (

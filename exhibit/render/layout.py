@@ -102,15 +102,15 @@ class Rect(NamedTuple):
     def height(self) -> float:
         return self.y1 - self.y0
 
-    def grow(self, by: float) -> "Rect":
+    def grow(self, by: float) -> Rect:
         return Rect(self.x0 - by, self.y0 - by, self.x1 + by, self.y1 + by)
 
-    def overlaps(self, other: "Rect") -> bool:
+    def overlaps(self, other: Rect) -> bool:
         return (
             self.x0 < other.x1 and other.x0 < self.x1 and self.y0 < other.y1 and other.y0 < self.y1
         )
 
-    def contains(self, other: "Rect") -> bool:
+    def contains(self, other: Rect) -> bool:
         return (
             self.x0 <= other.x0
             and self.y0 <= other.y0

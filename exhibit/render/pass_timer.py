@@ -22,9 +22,8 @@ from __future__ import annotations
 import time
 from collections import deque
 from collections.abc import Callable, Iterator
-from contextlib import contextmanager, nullcontext
+from contextlib import AbstractContextManager, contextmanager, nullcontext
 from dataclasses import dataclass, field
-from typing import ContextManager
 
 import moderngl
 
@@ -116,7 +115,7 @@ class PassTimer:
         else:
             self._pending.append((self._frame, self._queries))
 
-    def section(self, name: str) -> ContextManager[None]:
+    def section(self, name: str) -> AbstractContextManager[None]:
         """Time what runs inside as the pass ``name`` (nothing on an unmeasured frame)."""
         if not self._measuring or self._open:
             return nullcontext()

@@ -10,7 +10,7 @@ from __future__ import annotations
 import logging
 import os
 import re
-from functools import lru_cache
+from functools import cache
 from importlib import resources
 from typing import Any
 
@@ -36,7 +36,7 @@ class UniformError(RuntimeError):
     """A uniform name the program's source does not declare: a typo on the Python side."""
 
 
-@lru_cache(maxsize=None)
+@cache
 def source(name: str) -> str:
     """The text of shaders/NAME with its includes expanded (each file at most once)."""
     return _expand(name, set())
@@ -50,7 +50,7 @@ def _expand(name: str, seen: set[str]) -> str:
     return _INCLUDE.sub(lambda m: _expand(m.group(1), seen), text)
 
 
-@lru_cache(maxsize=None)
+@cache
 def declared_uniforms(name: str) -> frozenset[str]:
     """Every uniform name shaders/NAME (with its includes) declares, in any #if branch."""
     names = set()

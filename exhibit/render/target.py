@@ -18,7 +18,8 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Callable, Protocol, Union
+from typing import TYPE_CHECKING, Protocol
+from collections.abc import Callable
 
 import moderngl
 import numpy as np
@@ -71,7 +72,7 @@ class CloseRequest:
     """The window system asked to close (Alt+F4, the compositor)."""
 
 
-InputEvent = Union[Key, Focus, CloseRequest]
+InputEvent = Key | Focus | CloseRequest
 InputHandler = Callable[[InputEvent], None]
 
 

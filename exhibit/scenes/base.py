@@ -7,7 +7,8 @@ import argparse
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable, Mapping
+from typing import Any
+from collections.abc import Callable, Mapping
 
 from exhibit.errors import ExhibitError
 from exhibit.geometry.view import ViewState
@@ -174,7 +175,7 @@ def parse_resolution(text: str | int | None) -> int | None:
     return value
 
 
-def build_from_arguments(scene: "Scene", args: argparse.Namespace) -> Mesh4D:
+def build_from_arguments(scene: Scene, args: argparse.Namespace) -> Mesh4D:
     """The mesh the shared options (add_scene_arguments: --param, --resolution) ask for, with a
     progress line while it builds when a person watches a terminal."""
     from exhibit.surfaces import progress

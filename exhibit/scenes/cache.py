@@ -22,7 +22,7 @@ import os
 import stat
 import time
 from pathlib import Path
-from typing import Mapping
+from collections.abc import Mapping
 
 from exhibit import __version__
 from exhibit.scenes.base import Scene

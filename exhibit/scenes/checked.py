@@ -12,7 +12,7 @@ from __future__ import annotations
 import hashlib
 import json
 import logging
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 from exhibit.errors import ConfigError
 from exhibit.scenes.cache import cache_dir, code_version, store

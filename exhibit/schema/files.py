@@ -28,6 +28,7 @@ from pathlib import Path
 from typing import Any
 
 from exhibit.errors import ConfigError
+import contextlib
 
 #: The most a config, timeline, layout or scene file may hold.
 MAX_CONFIG_BYTES = 1 << 20
@@ -358,10 +359,8 @@ def _probe(fd: int, shown: str) -> None:
         os.close(os.open(tmp, flags, 0o600, dir_fd=fd))
     except OSError as exc:
         raise UnsafePath(f"{shown}: cannot write there: {exc.strerror or exc}") from None
-    try:
+    with contextlib.suppress(OSError):
         os.unlink(tmp, dir_fd=fd)
-    except OSError:
-        pass
 
 
 def check_output(path: str | os.PathLike) -> None:
@@ -496,10 +495,8 @@ def write_atomic(
                 os.rmdir(name, dir_fd=fd)  # an empty folder in its place; a full one stays
                 os.replace(tmp, name, src_dir_fd=fd, dst_dir_fd=fd)
         except BaseException:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(tmp, dir_fd=fd)
-            except OSError:
-                pass
             raise
     finally:
         os.close(fd)

@@ -14,6 +14,7 @@ import stat
 from pathlib import Path
 
 from exhibit.schema.files import UnsafePath, kind_of
+import contextlib
 
 # ---------------------------------------------------------------------- symbolic links
 
@@ -56,10 +57,8 @@ def replace_link(link: str | os.PathLike, target: str) -> None:
     try:
         os.replace(tmp, link)
     except BaseException:
-        try:
+        with contextlib.suppress(OSError):
             os.unlink(tmp)
-        except OSError:
-            pass
         raise
 
 

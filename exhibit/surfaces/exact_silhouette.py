@@ -52,7 +52,7 @@ class RefineStats:
     excluded: int = 0
     max_residual: float = 0.0
 
-    def add(self, other: "RefineStats") -> None:
+    def add(self, other: RefineStats) -> None:
         self.refined += other.refined
         self.dropped += other.dropped
         self.excluded += other.excluded
@@ -353,7 +353,7 @@ def parametric_silhouette(
     )
     out: list[Curve] = []
     total = RefineStats()
-    for points, st, closed in chains:
+    for _points, st, closed in chains:
         x, keep, s = exact.refine(st, along, 2.0 * edge)
         runs = split_runs(x, keep, closed)
         s.refined = sum(len(run) + closed for run, closed in runs)  # the points exported

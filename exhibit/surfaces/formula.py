@@ -23,7 +23,8 @@ import contextlib
 import math
 from collections.abc import Iterator
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Mapping, Sequence
+from typing import TYPE_CHECKING
+from collections.abc import Mapping, Sequence
 
 if TYPE_CHECKING:  # sympy is imported where it is used: it costs half a second
     import sympy
@@ -429,7 +430,7 @@ def check_structure(
 
 def parse_expression(
     text: str, variables: Sequence[str], parameters: Mapping[str, float] | None = None
-) -> "sympy.Expr":
+) -> sympy.Expr:
     """Translate ``text`` into a sympy expression in ``variables`` with parameters substituted.
 
     The cheap check runs first, so sympy never sees a formula that could exhaust it."""

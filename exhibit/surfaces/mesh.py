@@ -87,7 +87,7 @@ class Surface:
         n2: ArrayLike,
         triangles: np.ndarray,
         material: Material | None = None,
-    ) -> "Surface":
+    ) -> Surface:
         """From two normals per vertex (e.g. ∇f1, ∇f2); they are orthonormalised here."""
         normals = orthonormal_normals(n1, n2)
         return cls(name, positions, normals, triangles, material or Material())
@@ -101,7 +101,7 @@ class Surface:
         t2: ArrayLike,
         triangles: np.ndarray,
         material: Material | None = None,
-    ) -> "Surface":
+    ) -> Surface:
         """From two tangents per vertex (parametric ∂/∂s, ∂/∂t), turned into normals with ⊗."""
         m1, m2 = complement_plane(t1, t2)
         return cls(name, positions, np.stack([m1, m2], axis=1), triangles, material or Material())
@@ -208,7 +208,7 @@ class Mesh4D:
         return buffer.getvalue()
 
     @classmethod
-    def from_bytes(cls, data: bytes) -> "Mesh4D":
+    def from_bytes(cls, data: bytes) -> Mesh4D:
         """Inverse of to_bytes; ValueError for anything that is not exactly such an archive.
 
         The bytes come from a disk the kiosk does not control (a cache file), so nothing in them

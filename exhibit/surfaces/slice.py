@@ -182,7 +182,7 @@ def slice_curves(
 def _parametric_slice(surface, exact, axis, at, name, material, total) -> list[Curve]:
     max_move = MAX_MOVE_EDGES * mean_edge(surface)
     out: list[Curve] = []
-    for points, st, closed in traced_with_parameters(
+    for _points, st, closed in traced_with_parameters(
         surface, exact, surface.positions[:, axis] - at
     ):
         x, keep, s = _refine_parametric(exact, st, axis, at, max_move)

@@ -130,11 +130,8 @@ def main(argv: list[str]) -> int:
         )
     # Last, as systemd does: the allow-list does not allow loading further filters.
     if args.syscalls:
-        names = [
-            line.strip()
-            for line in open(args.syscalls, encoding="ascii")
-            if line.strip() and not line.startswith("#")
-        ]
+        with open(args.syscalls, encoding="ascii") as listed:
+            names = [line.strip() for line in listed if line.strip() and not line.startswith("#")]
         deny = (
             SCMP_ACT_KILL_PROCESS
             if args.errno == "kill"

@@ -247,7 +247,7 @@ def test_the_bundle_holds_every_wheel_of_the_lock_and_its_debs(bundle):
     wheels = {
         canonicalize_name(w.name.split("-")[0]): w.name for w in (bundle / "wheels").glob("*.whl")
     }
-    for name, (version, hashes) in {**lock("run"), **lock("build")}.items():
+    for name, (version, _hashes) in {**lock("run"), **lock("build")}.items():
         assert name in wheels, name
         assert f"-{version}-" in wheels[name], wheels[name]
         assert re.search(

@@ -348,7 +348,9 @@ class Stage:
         argv = sandbox(self.python, unit, self.base, "kiosk") + words
         if yes(unit, "PrivateUsers"):
             argv = user_namespace(self.as_user) + argv
-        log = self.logs.enter_context(open(self.base / f"cage-{len(self.processes)}.log", "w+"))
+        log = self.logs.enter_context(
+            open(self.base / f"cage-{len(self.processes)}.log", "w+")  # noqa: SIM115 - an ExitStack's
+        )
         cage = subprocess.Popen(
             argv,
             stdout=log,
@@ -523,7 +525,7 @@ def kiosk_on_cage(staged):
         )
         if yes(app_unit, "PrivateUsers"):
             app_argv = user_namespace(as_user) + app_argv
-        app_log = st.logs.enter_context(open(base / "app.log", "w+"))
+        app_log = st.logs.enter_context(open(base / "app.log", "w+"))  # noqa: SIM115 - ExitStack
         t1 = time.monotonic()
         app = subprocess.Popen(
             app_argv,
@@ -626,7 +628,7 @@ def client_on_cage(staged):
             assert client.stdout.readline().startswith("ready"), client.stderr.read()
             grabs = []
             for colour in COLOURS:
-                client.stdin.write("%d %d %d\n" % colour)
+                client.stdin.write("{} {} {}\n".format(*colour))
                 client.stdin.flush()
                 assert client.stdout.readline().split() == ["shown", *map(str, colour)]
                 _, picture, error = st.grab()

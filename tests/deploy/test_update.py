@@ -708,7 +708,11 @@ def test_a_kill_at_any_moment_leaves_a_working_prefix_and_the_next_run_finishes(
             kiosk(root, Runner()).update(f"{RELEASES}/{name}")
         make_release(root, "b")
         before = valid(root)
-        if not killed_at(root, n, lambda: kiosk(root, Runner()).update(f"{RELEASES}/b", keep=2)):
+
+        def update(root=root):  # made in the child, where the changes die
+            kiosk(root, Runner()).update(f"{RELEASES}/b", keep=2)
+
+        if not killed_at(root, n, update):
             break
         now = valid(root)
         # the old release (the checkout, maybe moved into the releases already) or the new one

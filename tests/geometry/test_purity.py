@@ -7,7 +7,7 @@ import sys
 
 import exhibit.geometry
 
-ALLOWED = {"__future__", "math", "dataclasses", "typing", "numpy"}
+ALLOWED = {"__future__", "math", "dataclasses", "typing", "collections", "numpy"}
 PACKAGE = pathlib.Path(exhibit.geometry.__file__).parent
 
 

@@ -108,9 +108,12 @@ def seeds(vertices: np.ndarray, image: np.ndarray, cell: float = 6.0, apart: flo
         ]
         for i in members:
             for j in around:
-                if j > i and np.linalg.norm(vertices[i] - vertices[j]) > apart:
-                    if np.linalg.norm(image[i] - image[j]) < cell:
-                        out.append((i, j))
+                if (
+                    j > i
+                    and np.linalg.norm(vertices[i] - vertices[j]) > apart
+                    and np.linalg.norm(image[i] - image[j]) < cell
+                ):
+                    out.append((i, j))
     return out
 
 

@@ -156,7 +156,7 @@ def label_problems(image: np.ndarray, labels, color) -> list[str]:
     color = np.asarray(color, dtype=float) * 255
     out = []
     for text, rect, _, _ in labels:
-        if not (0 <= rect.x0 and rect.x1 <= width and 0 <= rect.y0 and rect.y1 <= height):
+        if not (rect.x0 >= 0 and rect.x1 <= width and rect.y0 >= 0 and rect.y1 <= height):
             out.append(
                 f"label {text!r} at {tuple(round(v) for v in rect)} is not inside the "
                 f"{width}x{height} screen"

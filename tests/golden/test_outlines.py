@@ -125,7 +125,8 @@ def test_the_offset_curve_is_one_piece_in_the_object_ids(headless, number):
         gpu.release()
     counts = {}
     for name, pixels, runs in curves:
-        shown = near(ids, pixels, lambda value, i=names.index(name) + 1: value == i)
+        index = names.index(name) + 1
+        shown = near(ids, pixels, lambda value, i=index: value == i)
         counts[name] = pieces(shown, runs)
     assert whole(counts), (
         f"Figure {number}, object ids: (pieces, share shown) per visible run: {report(counts)}"

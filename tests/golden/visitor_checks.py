@@ -62,7 +62,7 @@ def label_problems(labels, layout: HudLayout, extra: tuple[Rect, ...] = ()) -> l
     width, height = layout.size
     out = []
     for text, rect, *_ in labels:
-        if not (0 <= rect.x0 and rect.x1 <= width and 0 <= rect.y0 and rect.y1 <= height):
+        if not (rect.x0 >= 0 and rect.x1 <= width and rect.y0 >= 0 and rect.y1 <= height):
             out.append(f"label {text!r} at {_box(rect)} is not inside the {width}x{height} screen")
         for panel in [*layout.panels, *extra]:
             if _overlap(rect, panel):

@@ -37,7 +37,10 @@ def crossing_planes(one_surface: bool) -> Mesh4D:
     return Mesh4D(surfaces=[merged])
 
 
-def draw(gl, mesh, intersections: bool, quality=Quality("f", "fxaa")):
+FXAA = Quality("f", "fxaa")
+
+
+def draw(gl, mesh, intersections: bool, quality=FXAA):
     gpu = gl.renderer.upload(mesh)
     view = scenes.get("hopf").view.replace(angles=(0.0,) * 6, half_height=1.2)
     # Line widths as at 720 px.

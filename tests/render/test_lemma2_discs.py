@@ -40,10 +40,10 @@ def blobs(mask: np.ndarray) -> int:
             y, x = stack.pop()
             for dy, dx in ((1, 0), (-1, 0), (0, 1), (0, -1)):
                 ny, nx = y + dy, x + dx
-                if 0 <= ny < mask.shape[0] and 0 <= nx < mask.shape[1]:
-                    if mask[ny, nx] and not seen[ny, nx]:
-                        seen[ny, nx] = True
-                        stack.append((ny, nx))
+                inside = 0 <= ny < mask.shape[0] and 0 <= nx < mask.shape[1]
+                if inside and mask[ny, nx] and not seen[ny, nx]:
+                    seen[ny, nx] = True
+                    stack.append((ny, nx))
     return count
 
 

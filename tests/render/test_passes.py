@@ -161,9 +161,8 @@ def test_the_timer_reads_timer_queries_latency_frames_later_without_finishing():
             timer.measure_next_frame()
         timer.begin_frame()
         for name in ("surfaces", "curves", "composite", "composite"):
-            with timer.section(name):
-                with timer.section("nested, ignored"):
-                    pass
+            with timer.section(name), timer.section("nested, ignored"):
+                pass
         timer.end_frame()
 
     frame(False)

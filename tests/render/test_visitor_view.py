@@ -115,7 +115,7 @@ def collision_poses():
         found = {}
         for turn in range(0, 360, 20):
             for tilt in (0, -35, 35):
-                view = case_view(scene, "figure-%d" % number, turn, tilt)
+                view = case_view(scene, f"figure-{number}", turn, tilt)
                 ct = clip_transform(view, 16 / 9)
                 behind = bool(hidden(np.array([mesh.markers[0].position]), mesh.surfaces, ct)[0])
                 found.setdefault(behind, (turn, tilt))
@@ -151,7 +151,7 @@ def test_marker_labels_are_on_screen_off_the_panels_and_above_the_surfaces(
     assert [label for label, *_ in labels] == [m.label for m in mesh.markers if m.label]
     layout = gl.renderer.hud.layout
     for text, rect, (x, y), covered in labels:
-        assert 0 <= rect.x0 and rect.x1 <= size[0] and 0 <= rect.y0 and rect.y1 <= size[1]
+        assert rect.x0 >= 0 and rect.x1 <= size[0] and rect.y0 >= 0 and rect.y1 <= size[1]
         for panel in layout.panels:
             assert not rect.overlaps(panel), (text, rect, panel)
         assert covered == behind

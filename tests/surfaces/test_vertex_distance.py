@@ -43,7 +43,7 @@ def cusp_distance(points: np.ndarray, r: float = 1.0) -> np.ndarray:
     for chunk in np.array_split(points, max(1, len(points) // 2000)):
         x, y, u, v = (chunk[:, k, None] for k in range(4))
 
-        def squared(t):
+        def squared(t, x=x, y=y, u=u, v=v):  # this chunk's, where ternary_minimum calls it
             cu, cv = t**2, t**3
             return (np.hypot(x - cu, y - cv) - r) ** 2 + (u - cu) ** 2 + (v - cv) ** 2
 

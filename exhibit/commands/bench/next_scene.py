@@ -109,10 +109,13 @@ class Visitor:
             self.ready_at_press = k.content.levels(self.wanted) is not None
         levels = k.content.levels(self.wanted) or {}
         drawn = getattr(k.window, "drawn", None)
-        if (frame.scene, frame.params) == self.wanted and drawn is not None:
-            if any(drawn[0] is gpu for gpu in levels.values()):
-                self.arrived = time.perf_counter()
-                return True
+        if (
+            (frame.scene, frame.params) == self.wanted
+            and drawn is not None
+            and any(drawn[0] is gpu for gpu in levels.values())
+        ):
+            self.arrived = time.perf_counter()
+            return True
         self.waited_frames += 1
         return time.perf_counter() - self.pressed > TIMEOUT_S
 

@@ -84,13 +84,13 @@ def _time_to_ready(
         while ready is None and time.perf_counter() - start < timeout:
             try:
                 message = server.recv(4096).decode()
-            except socket.timeout:
+            except TimeoutError:
                 if child.poll() is not None:
                     reader.join(timeout=5)
                     raise ExhibitError(
                         "the kiosk exited before its first frame: "
                         + ([s.strip() for s in lines if s.strip()] or ["?"])[-1]
-                    )
+                    ) from None
                 continue
             if "READY=1" in message:
                 ready = time.perf_counter() - start
