@@ -22,7 +22,7 @@ It survives what it can, because a crash is a black screen until someone comes:
 * GLFW errors (exhibit.render.window) and device backends that raise (DeviceSet) are logged,
   never fatal; losing the input focus neither iconifies nor stops the fullscreen window.
 
-Under systemd the log goes to the journal in its native protocol (exhibit.kiosk.journal), and
+Under systemd the log goes to the journal in its native protocol (exhibit.operations.journal), and
 every record, the mode and scene changes and the errors among them, carries the mode and the
 scene on screen as the fields EXHIBIT_MODE and EXHIBIT_SCENE (`journalctl -u exhibit
 EXHIBIT_SCENE=hopf`); EXHIBIT_MODE is "notice" when no scene could be prepared.
@@ -45,7 +45,7 @@ from pathlib import Path
 
 from exhibit import scenes
 from exhibit.errors import ExhibitError
-from exhibit.kiosk import journal
+from exhibit.operations import journal
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import nearest_level
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
@@ -106,7 +106,7 @@ class Kiosk:
         self.window = window
         self.clock = clock
         self.notifier = notifier
-        #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog), or None.
+        #: The visitor-session recorder (exhibit.operations.sessions.SessionLog), or None.
         self.sessions = sessions
         #: For the health file: [{"scene", "reason"}] and one line per problem, for people.
         self.scenes_failed = parts.scenes_failed

@@ -261,7 +261,7 @@ def _worker(connection, framers: Framers, nice: int = WORKER_NICE) -> None:
             os.nice(nice)
     except OSError:  # a system call filter without setpriority: the same priority, then
         pass
-    from exhibit.kiosk import journal
+    from exhibit.operations import journal
 
     journal.install()
     scenes.load()

@@ -17,7 +17,7 @@ import numpy as np
 
 from exhibit.kiosk import app, preparing
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.kiosk.sessions import Session
+from exhibit.operations.sessions import Session
 from exhibit.render.target import HeadlessTarget
 from tests.golden.kiosk_frames import FakeClock, keyboard_devices
 

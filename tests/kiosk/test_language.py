@@ -134,7 +134,7 @@ def test_attract_mode_changes_language_on_its_timer(headless, tmp_path):
 def test_the_health_file_says_the_language_and_the_session_writer_counts(headless, tmp_path):
     import json
 
-    from exhibit.kiosk.sessions import SessionLog, SessionWriter
+    from exhibit.operations.sessions import SessionLog, SessionWriter
     from tests.kiosk.support import HeadlessKiosk
 
     run = HeadlessKiosk(headless, tmp_path)

@@ -1,5 +1,5 @@
-"""Logging to the journal in its native protocol (exhibit.kiosk.journal), checked against a unix
-datagram socket bound in a temporary folder standing in for journald's; and the kiosk's records
+"""Logging to the journal in its native protocol (exhibit.operations.journal), checked against a
+unix datagram socket bound in a temporary folder standing in for journald's; and the kiosk's records
 carrying EXHIBIT_MODE and EXHIBIT_SCENE, and its health file carrying the device durations."""
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from exhibit.kiosk import journal
-from exhibit.kiosk.journal import JournalHandler, encode
+from exhibit.operations import journal
+from exhibit.operations.journal import JournalHandler, encode
 
 
 def decode(data: bytes) -> dict[str, str]:

@@ -23,7 +23,7 @@ from collections.abc import Callable, Mapping
 
 __all__ = ["Notifier"]
 
-log = logging.getLogger("exhibit.kiosk.notify")
+log = logging.getLogger("exhibit.operations.notify")
 
 
 class Notifier:

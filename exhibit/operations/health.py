@@ -2,7 +2,7 @@
 
 Its schema is one pydantic model, Health (with DeviceHealth per device): the kiosk builds one
 (Kiosk._report, through report()) and writes it, and every reader gets one back from
-read_health (`exhibit status`, the Prometheus metrics in exhibit.kiosk.prometheus). The fields'
+read_health (`exhibit status`, the Prometheus metrics in exhibit.operations.prometheus). The fields'
 comments say what each holds. "frames" drawn and "frame_errors" (frames that raised) count since
 the start, "uptime_s" is the seconds since the kiosk process started (process_uptime),
 "problems" has one line each for people (scenes skipped, frames failing), and "mode" and "scene"
@@ -195,7 +195,7 @@ class Health(BaseModel):
     #: [{"scene", "reason"}]
     scenes_failed: Annotated[list[dict[str, Any]] | None, Unchecked] = None
     language: Annotated[str | None, Unchecked] = None
-    #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog.health).
+    #: The visitor-session recorder (exhibit.operations.sessions.SessionLog.health).
     sessions: Annotated[dict[str, Any] | None, Unchecked] = None
     #: The frame governor (exhibit.kiosk.governor.Governor.health).
     quality: Annotated[str | None, Unchecked] = None

@@ -1,5 +1,5 @@
-"""What visitors do (exhibit.kiosk.sessions, `exhibit stats`): a visitor session recorded through
-the kiosk's state machine and its frame loop and reported by `exhibit stats --json`; the
+"""What visitors do (exhibit.operations.sessions, `exhibit stats`): a visitor session recorded
+through the kiosk's state machine and its frame loop and reported by `exhibit stats --json`; the
 database surviving SIGKILL in the middle of writes; rotation; broken files moved aside; the
 writer never blocking a frame; the stats arithmetic against hand-computed values; the plot."""
 
@@ -23,10 +23,10 @@ from exhibit.cli import main
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
-from exhibit.kiosk import sessions as sessions_module
+from exhibit.operations import sessions as sessions_module
 from exhibit.kiosk.attract import Playlist
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
-from exhibit.kiosk.sessions import (
+from exhibit.operations.sessions import (
     Session,
     SessionLog,
     SessionStore,
@@ -273,7 +273,7 @@ def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
 
     # The frames run to the end while the write is still stuck: not one of them waited for it
     # (one that did would wait for `release`, which comes only after this check).
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         loop = threading.Thread(target=frames, daemon=True)
         loop.start()
         loop.join(timeout=30)
@@ -293,7 +293,7 @@ def test_a_recorder_bug_is_logged_once_and_never_reaches_the_frame(caplog):
             raise RuntimeError("bug")
 
     recorder = SessionLog(Broken())
-    with caplog.at_level(logging.ERROR, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.ERROR, logger="exhibit.operations.sessions"):
         for i in range(10):
             recorder.observe(VISITOR, "hopf", [], float(i))
             recorder.observe(ATTRACT, "hopf", [], i + 0.5)
@@ -303,7 +303,7 @@ def test_a_recorder_bug_is_logged_once_and_never_reaches_the_frame(caplog):
 def test_an_unwritable_place_turns_recording_off_with_one_line(tmp_path, caplog):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         writer = SessionWriter(blocker / "sessions.db")
         recorder = SessionLog(writer)
         recorder.observe(VISITOR, "hopf", [], 0.0)
@@ -316,7 +316,7 @@ def test_an_unwritable_place_turns_recording_off_with_one_line(tmp_path, caplog)
 
 CHILD = r"""
 import sys, time
-from exhibit.kiosk.sessions import Session, SessionLog, SessionWriter
+from exhibit.operations.sessions import Session, SessionLog, SessionWriter
 from tests.kiosk.support import numbered
 
 def committed(session, row):
@@ -427,7 +427,7 @@ def test_rotation_shrinks_the_file_and_runs_while_writing(tmp_path, monkeypatch)
 def test_a_file_that_is_no_database_is_moved_aside_and_a_fresh_one_started(tmp_path, caplog):
     db = tmp_path / "sessions.db"
     db.write_bytes(b"this is not SQLite" * 100)
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         writer = SessionWriter(db)
         writer.submit(session(NOON_ISH, 10))
         writer.close()
@@ -695,7 +695,7 @@ def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
         return real_add(self, s)
 
     monkeypatch.setattr(SessionStore, "add", add)
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         writer = SessionWriter(tmp_path / "s.db")
         writer.submit(numbered(1))
         writer.close()
@@ -786,7 +786,7 @@ def test_stats_survives_every_hostile_row_at_once(tmp_path, capsys):
 
 
 def test_read_sessions_bounds_every_value():
-    from exhibit.kiosk.sessions import _session_from_row
+    from exhibit.operations.sessions import _session_from_row
 
     ok = _session_from_row(*_row())
     assert ok.scenes == ["hopf"] and ok.duration_s == 60.0

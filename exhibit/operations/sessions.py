@@ -30,7 +30,7 @@ Why it is built like this:
   started, with one log line. A folder that cannot be written turns the log off, with one line.
 
 Where: ``[sessions] path`` in kiosk.toml, else ``sessions.db`` in the state folder
-(exhibit.kiosk.health.state_dir: $EXHIBIT_STATE_DIR, /var/lib/exhibit under systemd).
+(exhibit.operations.health.state_dir: $EXHIBIT_STATE_DIR, /var/lib/exhibit under systemd).
 `exhibit stats` reads it (:func:`read_sessions`).
 
 Why one module of this size: the recorder, its SQLite store and the writer thread share one row
@@ -56,12 +56,12 @@ from pydantic import PlainValidator
 
 from exhibit.devices.base import Event, Kind
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.health import SERVICE_STATE_DIR, state_dir
+from exhibit.operations.health import SERVICE_STATE_DIR, state_dir
 from exhibit.schema import Model
 from exhibit.schema.files import loads_json
 from exhibit.schema.types import Integer, fail, text_check
 
-log = logging.getLogger("exhibit.kiosk.sessions")
+log = logging.getLogger("exhibit.operations.sessions")
 
 __all__ = [
     "DB_FILE",
@@ -177,7 +177,8 @@ def default_db_path() -> Path:
 
 def candidate_paths() -> list[Path]:
     """Where a reader looks without --db: the state folder, then the service's (so staff can
-    run `exhibit stats` from their own shell), as exhibit.kiosk.health does for the health file."""
+    run `exhibit stats` from their own shell), as exhibit.operations.health does for the health
+    file."""
     paths = [default_db_path()]
     service = SERVICE_STATE_DIR / DB_FILE
     if not os.environ.get("EXHIBIT_STATE_DIR") and service not in paths:

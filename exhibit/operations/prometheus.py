@@ -1,6 +1,6 @@
 """The kiosk's health as Prometheus metrics, for node_exporter's textfile collector.
 
-`exhibit status --prometheus FILE` renders the health file (exhibit.kiosk.health.Health) in the
+`exhibit status --prometheus FILE` renders the health file (exhibit.operations.health.Health) in the
 Prometheus text exposition format (version 0.0.4) with prometheus_client, in a registry of its
 own, and writes it atomically (exhibit.schema.files.write_atomic), so a museum that already
 runs node_exporter on its machines watches every kiosk with the Prometheus it has: no new
@@ -30,7 +30,7 @@ from prometheus_client import CollectorRegistry, generate_latest
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
 
 from exhibit.devices.base import State
-from exhibit.kiosk.health import MODES, Health, as_health, device_label
+from exhibit.operations.health import MODES, Health, as_health, device_label
 from exhibit.schema.files import check_target, write_atomic
 
 __all__ = ["HEALTH_STATUSES", "FAMILIES", "registry", "render", "write_metrics", "escape_label"]
