@@ -24,6 +24,7 @@ from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
 from exhibit.operations import sessions as sessions_module
+from exhibit.operations.sessions import store as sessions_store, writer as sessions_writer
 from exhibit.kiosk.attract import Playlist
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
 from exhibit.operations.sessions import (
@@ -401,7 +402,7 @@ def test_rotation_by_age_and_by_count_at_open(tmp_path):
 def test_rotation_shrinks_the_file_and_runs_while_writing(tmp_path, monkeypatch):
     """Sessions beyond max_sessions go every ROTATE_EVERY writes, and the file gives the space
     back (incremental auto-vacuum): it is bounded, not just reused."""
-    monkeypatch.setattr(sessions_module, "ROTATE_EVERY", 500)
+    monkeypatch.setattr(sessions_writer, "ROTATE_EVERY", 500)
     db = tmp_path / "s.db"
     store = SessionStore(db, max_sessions=10_000_000).open()
     for i in range(5000):
@@ -479,7 +480,7 @@ def test_only_the_last_few_moved_aside_files_are_kept(tmp_path):
         db.write_bytes(b"garbage %d" % i)
         store = SessionStore(db, wall=lambda: NOON_ISH + i).open()
         store.close()
-    assert len(list(tmp_path.glob("sessions.db.corrupt-*"))) == sessions_module.KEEP_ASIDE
+    assert len(list(tmp_path.glob("sessions.db.corrupt-*"))) == sessions_store.KEEP_ASIDE
 
 
 # ---------------------------------------------------------------------- the arithmetic
@@ -786,7 +787,7 @@ def test_stats_survives_every_hostile_row_at_once(tmp_path, capsys):
 
 
 def test_read_sessions_bounds_every_value():
-    from exhibit.operations.sessions import _session_from_row
+    from exhibit.operations.sessions.reading import _session_from_row
 
     ok = _session_from_row(*_row())
     assert ok.scenes == ["hopf"] and ok.duration_s == 60.0
