@@ -51,7 +51,8 @@ from exhibit.kiosk.content import nearest_level
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
 from exhibit.kiosk.language import PREPARING
 from exhibit.kiosk.assembly import KioskParts, assemble
-from exhibit.kiosk.preparing import Framers, Preparer
+from exhibit.kiosk.jobs import Framers
+from exhibit.kiosk.preparing import Preparer
 from exhibit.kiosk.state import ATTRACT, KioskState
 from exhibit.kiosk.warm_up import WarmUp
 from exhibit.geometry.view import ViewState

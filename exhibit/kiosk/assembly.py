@@ -23,7 +23,8 @@ from exhibit.kiosk.follow import Aims
 from exhibit.kiosk.governor import Governor, for_kiosk, mesh_levels
 from exhibit.kiosk.language import LanguageChoice, Translator, in_every_language, translator_for
 from exhibit.kiosk.narrator import Narrator, for_kiosk as narrator_for
-from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
+from exhibit.kiosk.jobs import Framers, scene_jobs
+from exhibit.kiosk.preparing import Preparer
 from exhibit.kiosk.reporting import Reporter
 from exhibit.kiosk.slice_inset import SliceInset
 from exhibit.kiosk.start_views import StartViews

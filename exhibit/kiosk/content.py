@@ -10,7 +10,8 @@ import logging
 import time
 from collections.abc import Callable
 
-from exhibit.kiosk.preparing import Framers, InlinePreparer, Job, Prepared, Preparer, run_job
+from exhibit.kiosk.jobs import Framers, Job, Prepared, run_job
+from exhibit.kiosk.preparing import InlinePreparer, Preparer
 from exhibit.kiosk.state import VISITOR, KioskState
 from exhibit.surfaces import progress
 from exhibit.surfaces.mesh import Mesh4D
@@ -121,7 +122,7 @@ class Content:
             for job in pending:
                 self.preparer.submit(job)
             return
-        self._status(getattr(preparer, "status", lambda: None)())
+        self._status(preparer.status())
         for prepared in results:
             self.take_in(prepared, now)
             if prepared.error is None:

@@ -15,7 +15,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from exhibit.kiosk import app, preparing
+from exhibit.kiosk import app, jobs
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.operations.sessions import Session
 from exhibit.render.target import HeadlessTarget
@@ -145,7 +145,7 @@ def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_mot
             raise RuntimeError(f"cannot build {scene.name}")
         return f"mesh {scene.name}", None
 
-    monkeypatch.setattr(preparing, "build_cached", build)
+    monkeypatch.setattr(jobs, "build_cached", build)
     if clock is None:
         ticks = iter(np.arange(1e6) * 0.1)
 

@@ -13,7 +13,7 @@ import sys
 import numpy as np
 from PIL import Image
 
-from exhibit.kiosk import app, preparing
+from exhibit.kiosk import app, jobs
 from exhibit.render.window import GlfwErrors
 from tests.kiosk.support import ROOT, FakeWindow, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
@@ -107,10 +107,10 @@ def test_glfw_errors_are_logged_once_then_counted(caplog):
 
 NOTICE_RUN = r"""
 import sys
-from exhibit.kiosk import preparing
+from exhibit.kiosk import jobs
 def build(scene, params, resolution):
     raise RuntimeError("no mesh today")
-preparing.build_cached = build
+jobs.build_cached = build
 from exhibit.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -211,7 +211,7 @@ def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monk
         assert opened and opened[0].scene_problems == config.scene_problems
 
         monkeypatch.setattr(
-            preparing, "build_cached", lambda scene, params, res: (f"mesh {scene.name}", None)
+            jobs, "build_cached", lambda scene, params, res: (f"mesh {scene.name}", None)
         )
         ticks = iter(np.arange(1e6) * 0.1)
         k = app.Kiosk(
