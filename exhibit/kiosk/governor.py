@@ -30,11 +30,14 @@ STARTUP_S after the first frame (the first frames compile shaders and fill cache
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
 from dataclasses import dataclass
 
 from exhibit.render.quality import LADDER, Quality, ladder, software_renderer
+
+log = logging.getLogger("exhibit.kiosk")
 
 #: When the display does not say its refresh rate.
 DEFAULT_REFRESH_HZ = 60.0
@@ -202,6 +205,16 @@ class Governor:
         self._changed = now
         self._restart(now)
         return True
+
+    def adapt(self, frame_ms: float | None, now: float) -> None:
+        """update() after a frame drawn, and a log line when the level changed."""
+        if self.update(frame_ms, now):
+            log.info(
+                "quality %s (frames took %.1f ms, the target is %.1f ms)",
+                self.quality.describe(),
+                self.recent_ms or 0.0,
+                self.settings.target_ms,
+            )
 
     def frame_done(self, frame_ms: float, now: float) -> None:
         """A whole frame's wall time (ms; poll to swap), for the longest since start-up."""

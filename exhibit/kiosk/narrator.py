@@ -23,8 +23,14 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 from exhibit.narration.script import Segment, segment_at, segments
+
+if TYPE_CHECKING:
+    from exhibit.kiosk.attract import Timeline
+    from exhibit.kiosk.config import KioskConfig
+    from exhibit.kiosk.language import Translator
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -44,6 +50,18 @@ class Spoken:
     language: str
 
 
+class SoundPlayer(Protocol):
+    """What the narrator plays through: exhibit.narration.player.Player on the site's sound
+    device, or a review's tape (exhibit.narration.tape.TapePlayer)."""
+
+    def play(self, sound: Any) -> None: ...
+    def stop(self) -> None: ...
+    @property
+    def playing(self) -> bool: ...
+    def status(self) -> dict: ...
+    def close(self) -> None: ...
+
+
 class Narrator:
     """``timelines``: the kiosk's (exhibit.kiosk.attract.Timeline); ``translate(text, code)``:
     its words (exhibit.kiosk.language); ``player``: an exhibit.narration.player.Player (or one
@@ -55,12 +73,13 @@ class Narrator:
         timelines: Sequence,
         languages: Sequence[str],
         translate: Callable[[str, str], str],
-        player,
+        player: SoundPlayer,
         attract: bool = False,
         make: Callable[[Segment], object] | None = None,
         background: bool = True,
     ) -> None:
-        self.player = player
+        #: Any: a review reads its tape back through it (exhibit.narration.tape.TapePlayer).
+        self.player: Any = player
         self.attract = attract
         self.pressed_on = False
         self._translate = translate
@@ -235,7 +254,12 @@ class Narrator:
         self.player.close()
 
 
-def for_kiosk(config, timelines: Sequence, translate, player=None) -> Narrator:
+def for_kiosk(
+    config: KioskConfig,
+    timelines: Sequence[Timeline],
+    translate: Translator,
+    player: SoundPlayer | None = None,
+) -> Narrator:
     """The kiosk's narrator: its [narration] settings (exhibit.kiosk.config.NarrationConfig),
     every timeline in every language shown, its player opened on the site's device (or
     ``player``: a review's tape, whose sounds are made when wanted)."""

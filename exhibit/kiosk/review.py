@@ -324,7 +324,8 @@ class KioskPlayer:
                 logger.setLevel(level)
             if self.kiosk.state is None:
                 raise ExhibitError(
-                    f"the kiosk could not prepare {self.scene}: " + "; ".join(self.kiosk.problems)
+                    f"the kiosk could not prepare {self.scene}: "
+                    + "; ".join(self.kiosk.parts.problems)
                 )
             translate = self.kiosk.translate
             if self.language in translate.order:  # shown first already; select it all the same

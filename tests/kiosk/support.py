@@ -162,7 +162,7 @@ def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_mot
     )
     # the start-up warm-up drew every quality level once through a crossfade (not frames;
     # nothing when no scene could be prepared)
-    warm = len(k.governor.levels) if k.state is not None else 0
+    warm = len(k.parts.governor.levels) if k.state is not None else 0
     assert len(k.window.drawn) == len(k.window.captured) == warm
     k.window.drawn, k.window.captured, k.window.fades = [], [], []
     return k, notifier

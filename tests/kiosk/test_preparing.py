@@ -4,6 +4,7 @@ and what it cannot do comes back as a named failure."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -97,14 +98,14 @@ def _kiosk(tmp_path, window=None):
 def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built):
     """...and nothing else is prepared until it is drawn."""
     k = _kiosk(tmp_path)
-    level = k.governor.quality.mesh
-    assert list(k.content.gpu) == [("hopf", k.state.frame.params)]
-    assert list(k.content.gpu[("hopf", k.state.frame.params)]) == [level]
+    level = k.parts.governor.quality.mesh
+    assert list(k.content.meshes.gpu) == [("hopf", k.state.frame.params)]
+    assert list(k.content.meshes.gpu[("hopf", k.state.frame.params)]) == [level]
     assert len(built.calls) == 1 and built.calls[0][0] == "hopf"
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
     assert k.window.drawn == [] and k.window.captured == [], "no warm-up before the first frame"
     k.run(max_frames=1)
-    assert len(k.content.gpu) == 1 and len(built.calls) == 1
+    assert len(k.content.meshes.gpu) == 1 and len(built.calls) == 1
 
 
 def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
@@ -114,16 +115,19 @@ def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
     order = list(dict.fromkeys(name for name, _ in built.calls))
     assert order == ["hopf", "clifford-torus", "veronese"]
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
-    assert all(set(levels) == set(mesh_levels(k.governor)) for levels in k.content.gpu.values())
-    assert k.content.prepared_at is not None and k.problems == []
+    assert all(
+        set(levels) == set(mesh_levels(k.parts.governor))
+        for levels in k.content.meshes.gpu.values()
+    )
+    assert k.content.prepared_at is not None and k.parts.problems == []
 
 
 def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
     k = _kiosk(tmp_path)
     k.step()
     before = k.state.frame
-    k.content.collect(k.clock(), k.started)  # the rest of hopf
-    k.content.collect(k.clock(), k.started)  # the Clifford torus and its timeline
+    k.content.collect(k.clock(), k.parts.started)  # the rest of hopf
+    k.content.collect(k.clock(), k.parts.started)  # the Clifford torus and its timeline
     assert len(k.state.playlist.timelines) == 2
     k.step()
     after = k.state.frame
@@ -133,7 +137,7 @@ def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
 def test_warm_up_runs_one_piece_per_frame_after_the_first(tmp_path, built):
     k = _kiosk(tmp_path)
     pieces = len(k.warm.chores)
-    assert pieces > len(k.governor.levels)  # text panels, then the quality levels
+    assert pieces > len(k.parts.governor.levels)  # text panels, then the quality levels
     k.run(max_frames=1)
     assert len(k.warm.chores) == pieces
     k.run(max_frames=3)
@@ -162,7 +166,7 @@ def test_a_visitor_who_asks_for_a_scene_not_ready_keeps_the_picture_with_a_notic
         assert (hud.title, hud.caption) == (before.title, before.caption), "its words stay true"
         assert hud.note == PREPARING.replace("{title}", title)
     assert k.content.preparer._queue[0].scene == "clifford-torus", "...and goes first"
-    k.content.collect(k.clock(), k.started)
+    k.content.collect(k.clock(), k.parts.started)
     k.step()
     assert not k.waiting and window.drawn[-1].startswith("mesh clifford-torus")
     assert window.captured[-1] == held and window.fades[-1] > 0.9, "a crossfade from it"
@@ -269,8 +273,8 @@ def test_a_scene_that_fails_later_is_left_out_and_the_visitor_moves_on(tmp_path,
     assert "clifford-torus" not in k.state.content
     assert k.state.frame.scene != "clifford-torus"
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
-    assert any("scene clifford-torus skipped" in p for p in k.problems)
-    assert any("timeline" in p and "skipped" in p for p in k.problems)
+    assert any("scene clifford-torus skipped" in p for p in k.parts.problems)
+    assert any("timeline" in p and "skipped" in p for p in k.parts.problems)
 
 
 def test_a_first_scene_that_fails_hands_the_first_frame_to_the_next(tmp_path, built):
@@ -423,9 +427,9 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(
     k.devices.keyboard.key("q", False)
     view = k.state.frame.view
     assert k.state.mode == "visitor"
-    k.content.collect(k.clock(), k.started)  # hopf's other levels: they fail
+    k.content.collect(k.clock(), k.parts.started)  # hopf's other levels: they fail
     assert k.state.frame.view == view
-    assert k.problems == [] and k.scenes_failed == [] and "hopf" in k.state.content
+    assert k.parts.problems == [] and k.parts.scenes_failed == [] and "hopf" in k.state.content
 
 
 def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monkeypatch, caplog):
@@ -507,7 +511,7 @@ def test_the_kiosk_runs_with_the_parts_it_is_handed(tmp_path, built):
         def report(self, now, **what):
             self.calls.append((now, what["frames"], what["state"].mode))
 
-    parts.reporter = Reports()
+    parts = dataclasses.replace(parts, reporter=Reports())
     k = app.Kiosk(config, window, clock, parts=parts)
     k.run(max_frames=20)
     assert parts.reporter.calls and all(mode == "attract" for _, _, mode in parts.reporter.calls)
@@ -692,7 +696,7 @@ def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
         workers[-1][3].put(jobs_module.Prepared(job, meshes, list(job.timelines)))
 
     def frame():
-        k._frame(k.clock())
+        k.tick(k.clock())
 
     frame()  # the first frame
     frame()  # the worker starts
@@ -702,7 +706,7 @@ def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
     now[0] += worker_watch.STALL_S + 1
     frame()
     assert "clifford-torus" not in k.state.content
-    k._report(k.clock())
+    k.report(k.clock())
     problems = json.loads((tmp_path / "health.json").read_text())["problems"]
     assert any(
         p.startswith("scene clifford-torus skipped: the preparing process stalled")
@@ -728,7 +732,10 @@ def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
     frame()
     assert k.state.content == ("hopf", "clifford-torus", "veronese")
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
-    assert not any("clifford-torus skipped" in p for p in k.problems) and not k.scenes_failed
+    assert (
+        not any("clifford-torus skipped" in p for p in k.parts.problems)
+        and not k.parts.scenes_failed
+    )
     workers[-1][3].put(worker_watch.ENDED)  # it leaves: everything is prepared
     workers[-1][1].alive = False
     frame()

@@ -279,12 +279,12 @@ def test_kiosk_records_carry_the_mode_and_scene(tmp_path, monkeypatch, kiosk_jou
 
     k, _ = kiosk(tmp_path, monkeypatch)
     for _ in range(5):
-        k._frame(k.clock())
+        k.tick(k.clock())
     k.devices.keyboard.key("space", True)  # a visitor takes over
-    k._frame(k.clock())
+    k.tick(k.clock())
     k.window.fail = 1  # and the next frame raises
     for _ in range(5):
-        k._frame(k.clock())
+        k.tick(k.clock())
     k.devices.close()
     records = [r for r in all_received(kiosk_journal) if r["LOGGER"] == "exhibit.kiosk"]
     mode = next(r for r in records if r["MESSAGE"].startswith("mode visitor"))

@@ -147,7 +147,7 @@ def test_the_kiosk_frame_loop_records_sessions(tmp_path, monkeypatch, capsys):
 
     def frames(n):
         for _ in range(n):
-            assert k._frame(k.clock())
+            assert k.tick(k.clock())
 
     frames(10)
     assert k.state.mode == ATTRACT and k.sessions.current is None
