@@ -41,6 +41,7 @@ import os
 import time
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from exhibit.devices.base import Event
 from exhibit.devices.hub import DeviceSet
@@ -65,6 +66,9 @@ from exhibit.operations.sessions import SessionLog
 from exhibit.render.gpu import GpuMesh
 from exhibit.render.options import RenderOptions
 from exhibit.render.target import RenderTarget
+
+if TYPE_CHECKING:
+    from exhibit.render.window import Window
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -329,7 +333,7 @@ class Kiosk:
         Image.fromarray(self.window.read()).save(path)
 
 
-def open_window(config: KioskConfig, windowed: bool):
+def open_window(config: KioskConfig, windowed: bool) -> Window:
     """The kiosk's window, or a clear ExhibitError when there is no display."""
     from exhibit.render.context import RenderUnavailable
     from exhibit.render.window import Window

@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from exhibit import scenes
-from exhibit.kiosk.attract import Timeline
+from exhibit.kiosk.attract import Params, Timeline
 from exhibit.kiosk.governor import level_resolution
 from exhibit.kiosk.timeline_framing import frame_timeline
 from exhibit.render.framer import Framer
@@ -22,9 +22,6 @@ if TYPE_CHECKING:  # the worker process does not load the kiosk's config
     from exhibit.kiosk.config import KioskConfig
 
 log = logging.getLogger("exhibit.kiosk")
-
-
-Params = tuple[tuple[str, float], ...]
 
 
 def params_of(timeline: Timeline) -> Params:

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from exhibit.kiosk.attract import Timeline
     from exhibit.kiosk.config import KioskConfig
     from exhibit.kiosk.language import Translator
+    from exhibit.narration.sound import Sound
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -176,7 +177,7 @@ class Narrator:
 
     # ------------------------------------------------------------------ each frame
 
-    def speak_timeline(self, timeline, t: float, language: str, now: float) -> None:
+    def speak_timeline(self, timeline: Timeline, t: float, language: str, now: float) -> None:
         """Speak the segment of ``timeline`` whose window holds ``t``, once (attract mode)."""
         parts = self._scripts.get((timeline.path, language))
         if not parts:
@@ -186,7 +187,7 @@ class Narrator:
             return
         self._speak(Spoken(timeline.path, n, language), parts[n], now)
 
-    def speak_scene(self, scene: str, title: str, caption: str, language: str, now: float):
+    def speak_scene(self, scene: str, title: str, caption: str, language: str, now: float) -> None:
         """Speak a visitor's scene: its title and caption, once."""
         text = " ".join(
             w.strip()
@@ -226,7 +227,7 @@ class Narrator:
         busy = self.player.playing or self._pending_since is not None
         return (s.source, parts[s.index].end - HOLD_EPSILON_S) if busy else None
 
-    def hold_at(self, timeline, t: float, language: str) -> float | None:
+    def hold_at(self, timeline: Timeline, t: float, language: str) -> float | None:
         """Where attract mode must hold ``timeline`` instead of reaching ``t`` (see
         speaking_until); None: no need."""
         until = self.speaking_until(language)
@@ -283,7 +284,7 @@ def for_kiosk(
     )
 
 
-def make_sound(segment: Segment):
+def make_sound(segment: Segment) -> Sound:
     """A segment's sound: the curator's recording (checked: exhibit.narration.recordings) when
     it has one, else its words synthesised (cached: exhibit.narration.cache)."""
     from exhibit.narration.cache import spoken
@@ -310,7 +311,11 @@ class Prepared:
         return 0.0 if self.seconds is None else max(0.0, self.seconds - self.segment.window)
 
 
-def prepare_all(config, timelines: Sequence, progress=None) -> list[Prepared]:
+def prepare_all(
+    config: KioskConfig,
+    timelines: Sequence,
+    progress: Callable[[str], object] | None = None,
+) -> list[Prepared]:
     """Every segment of every timeline in every language shown, its sound made (synthesised
     into the cache, recordings checked) as the kiosk will want it; ``progress(text)`` is told
     each one."""

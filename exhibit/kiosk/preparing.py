@@ -15,6 +15,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
+from exhibit.kiosk.attract import Params
 from exhibit.kiosk.jobs import Framers, Job, Prepared, run_job
 
 
@@ -26,7 +27,7 @@ class Preparer(Protocol):
     def submit(self, job: Job) -> None: ...
     @property
     def busy(self) -> bool: ...
-    def first(self, key: tuple) -> None: ...
+    def first(self, key: tuple[str, Params]) -> None: ...
     def pending(self) -> list[Job]: ...
     def results(self) -> list[Prepared]: ...
     def status(self) -> str | None: ...
@@ -48,7 +49,7 @@ class InlinePreparer:
     def busy(self) -> bool:
         return bool(self._queue)
 
-    def first(self, key) -> None:
+    def first(self, key: tuple[str, Params]) -> None:
         """The job for ``key`` (scene, params), if waiting, runs next."""
         self._queue.sort(key=lambda job: job.key != key)
 

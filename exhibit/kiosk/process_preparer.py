@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 
+from exhibit.kiosk.attract import Params
 from exhibit.kiosk.jobs import Framers, Job, Prepared
 from exhibit.kiosk.worker import serve
 from exhibit.kiosk.worker_watch import ENDED, Watch, read_results
@@ -135,7 +136,7 @@ class ProcessPreparer:
             or bool(self._retries)
         )
 
-    def first(self, key) -> None:
+    def first(self, key: tuple[str, Params]) -> None:
         """The job for ``key`` (scene, params), if waiting, runs next: in an urgent worker of
         its own (``urgent``), else next in the niced one. Called every frame while a visitor
         waits: an urgent worker starts once per scene."""
@@ -179,8 +180,7 @@ class ProcessPreparer:
             if why is not None:
                 self._stalls += 1
                 self._last_loss = (
-                    f"urgent pid {getattr(urgent.process, 'pid', '?')} stalled "
-                    f"preparing {urgent.job.scene}: {why}"
+                    f"urgent pid {urgent.process.pid} stalled preparing {urgent.job.scene}: {why}"
                 )
                 log.error("the preparing process (%s): it waits its turn", self._last_loss)
                 self._stop_urgent(kill=True)
@@ -264,7 +264,7 @@ class ProcessPreparer:
         self._stopped.append(process)  # reaped by a later results()
         self._leaving = False
         self._stalls += 1
-        self._last_loss = f"pid {getattr(process, 'pid', '?')} stalled preparing {job.scene}: {why}"
+        self._last_loss = f"pid {process.pid} stalled preparing {job.scene}: {why}"
         log.error("the preparing process (%s): it is replaced", self._last_loss)
         return self._lost(job, f"the preparing process stalled ({why})", now)
 
@@ -366,8 +366,7 @@ class ProcessPreparer:
         )
         self._died += 1
         self._last_loss = (
-            f"pid {getattr(process, 'pid', '?')} died (exit code {code}) preparing "
-            f"{job.scene if job else 'nothing'}"
+            f"pid {process.pid} died (exit code {code}) preparing {job.scene if job else 'nothing'}"
         )
         return self._lost(job, f"the preparing process died (exit code {code})", now)
 

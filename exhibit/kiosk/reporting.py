@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
+from exhibit.operations.notify import Notifier
 
 if TYPE_CHECKING:
     from exhibit.kiosk.governor import Governor
@@ -47,7 +48,7 @@ def _round(seconds: float | None) -> float | None:
 class Reporter:
     """Writes the reports; ``notifier`` (systemd) and ``health_path`` may each be None."""
 
-    def __init__(self, notifier, health_path: Path | None, started: float):
+    def __init__(self, notifier: Notifier | None, health_path: Path | None, started: float):
         self.notifier = notifier
         self.health_path = health_path
         self.started = started

@@ -69,7 +69,7 @@ class Watch:
         if now - self.checked_at < CHECK_EVERY_S:
             return None
         self.checked_at = now
-        seen = worker_progress(getattr(process, "pid", None))
+        seen = worker_progress(process.pid)
         if seen is not None:
             state, cpu = seen
             if self.cpu is not None and cpu > self.cpu:

@@ -286,7 +286,7 @@ def candidate_paths(environ: Mapping[str, str] | None = None) -> list[Path]:
     return paths
 
 
-def report(**fields) -> Health:
+def report(**fields: Any) -> Health:
     """The Health the kiosk writes, from its numbers: non-finite floats (an fps before the first
     second) become null, as JSON has no NaN. Raises TypeError for a value of the wrong type."""
     try:

@@ -215,7 +215,7 @@ def write_metrics(
     write_atomic(path, text, mode=0o644, sync=False)  # rewritten every 15 s: spare the flash
 
 
-def _clean(value) -> str:
+def _clean(value: object) -> str:
     """A label value without control or invisible characters (C0, DEL, C1, bidi overrides,
     lone surrogates), whitespace runs as they are but line breaks and tabs as spaces, at most
     MAX_LABEL_CHARS long."""
@@ -224,7 +224,7 @@ def _clean(value) -> str:
     return out[:MAX_LABEL_CHARS]
 
 
-def escape_label(value) -> str:
+def escape_label(value: object) -> str:
     """A label value for the text format: cleaned (_clean), then backslash, double quote and
     line feed escaped."""
     return _clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")

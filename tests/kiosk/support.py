@@ -84,9 +84,10 @@ class FakeWindow:
 
     def __init__(self):
         self.close_allowed, self.handler = True, None
-        self.ctx = SimpleNamespace(error="GL_NO_ERROR")
+        self.ctx = SimpleNamespace(error="GL_NO_ERROR", info={})
         self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
         self.size = (640, 360)
+        self.refresh_hz = None
         self.frame_ms = None
         self.fail = 0
         self.drawn, self.notices = [], 0
