@@ -132,7 +132,8 @@ class Content:
             self.prepared_at = now
             log.info("every scene is prepared (%.1f s after start)", now - started)
 
-    #: How the preparer's own line in ``problems`` begins (exhibit.kiosk.preparing.status).
+    #: How the preparer's own line in ``problems`` begins (ProcessPreparer.status:
+    #: exhibit.kiosk.process_preparer).
     STATUS = "preparing process "
 
     def _status(self, line: str | None) -> None:

@@ -1,7 +1,7 @@
 """The kiosk's health file: what the running exhibit is doing, rewritten about once a second.
 
 Its schema is one pydantic model, Health (with DeviceHealth per device): the kiosk builds one
-(Kiosk._report, through report()) and writes it, and every reader gets one back from
+(Kiosk.report, through report()) and writes it, and every reader gets one back from
 read_health (`exhibit status`, the Prometheus metrics in exhibit.operations.prometheus). The fields'
 comments say what each holds. "frames" drawn and "frame_errors" (frames that raised) count since
 the start, "uptime_s" is the seconds since the kiosk process started (process_uptime),
@@ -169,7 +169,7 @@ class DeviceHealth(BaseModel):
 
 
 class Health(BaseModel):
-    """The health file, as the kiosk writes it (Kiosk._report, through report()) and every
+    """The health file, as the kiosk writes it (Kiosk.report, through report()) and every
     reader reads it (read_health: `exhibit status`, the metrics). "time" is the only required
     key; null is "not known yet" (fps before the first second); unknown keys are kept (a newer
     kiosk may add some) and so is which keys the file had (as_dict)."""
