@@ -31,6 +31,7 @@ LAYERS = {
     "devices": 3,
     "narration": 3,
     "scenes": 4,
+    "operations": 4,
     "render": 5,
     "kiosk": 6,
     "commands": 7,

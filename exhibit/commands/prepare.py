@@ -14,7 +14,7 @@ from exhibit.kiosk.attract import load_playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
 from exhibit.kiosk.narrator import prepare_all
-from exhibit.kiosk.preparing import run_job, scene_jobs
+from exhibit.kiosk.jobs import run_job, scene_jobs
 from exhibit.scenes.cache import cache_dir, entry_path, entry_problem
 from exhibit.surfaces import progress
 

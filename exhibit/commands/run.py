@@ -9,7 +9,7 @@ import os
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
-from exhibit.kiosk import journal
+from exhibit.operations import journal
 from exhibit.kiosk.config import load_kiosk_config
 
 HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
@@ -54,10 +54,10 @@ def run(args) -> int:
         os.environ.setdefault("PYGLFW_LIBRARY_VARIANT", "wayland")
 
     from exhibit.kiosk.app import Kiosk, open_window
-    from exhibit.kiosk.health import default_path
-    from exhibit.kiosk.notify import Notifier
-    from exhibit.kiosk.preparing import ProcessPreparer
-    from exhibit.kiosk.sessions import open_session_log
+    from exhibit.operations.health import default_path
+    from exhibit.operations.notify import Notifier
+    from exhibit.kiosk.process_preparer import ProcessPreparer
+    from exhibit.operations.sessions import open_session_log
 
     window = open_window(config, args.windowed)
     try:

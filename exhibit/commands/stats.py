@@ -27,8 +27,8 @@ from collections import Counter
 from pathlib import Path
 
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.health import format_duration
-from exhibit.kiosk.sessions import Session, candidate_paths, read_sessions
+from exhibit.operations.health import format_duration
+from exhibit.operations.sessions import Session, candidate_paths, read_sessions
 
 HELP = (
     "what visitors do: sessions per day and hour, median length, most-used scenes and "

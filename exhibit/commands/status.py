@@ -35,7 +35,7 @@ from pathlib import Path
 
 from exhibit.commands import _arg_types as _args
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.health import (
+from exhibit.operations.health import (
     MISSING_STATES,
     DeviceHealth,
     Health,
@@ -186,7 +186,7 @@ def _missing_text(m: dict, max_lost: float) -> str:
 
 
 def _write_metrics(target: Path, data: Health | None, status: str, age: float | None = None) -> int:
-    from exhibit.kiosk.prometheus import write_metrics
+    from exhibit.operations.prometheus import write_metrics
 
     try:
         write_metrics(target, data, status, age)

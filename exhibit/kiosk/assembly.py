@@ -16,31 +16,37 @@ from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.attract import Playlist, load_playlist
+from exhibit.kiosk.attract import Playlist, Timeline, load_playlist
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.content import Content
+from exhibit.kiosk.content import Content, prepare_first
 from exhibit.kiosk.follow import Aims
 from exhibit.kiosk.governor import Governor, for_kiosk, mesh_levels
+from exhibit.kiosk.hud_words import HudWords
 from exhibit.kiosk.language import LanguageChoice, Translator, in_every_language, translator_for
-from exhibit.kiosk.narrator import Narrator, for_kiosk as narrator_for
-from exhibit.kiosk.preparing import Framers, Preparer, scene_jobs
+from exhibit.kiosk.narration_cues import NarrationCues
+from exhibit.kiosk.narrator import Narrator, SoundPlayer, for_kiosk as narrator_for
+from exhibit.kiosk.jobs import Framers, scene_jobs
+from exhibit.kiosk.preparing import Preparer
 from exhibit.kiosk.reporting import Reporter
+from exhibit.kiosk.scene_meshes import SceneMeshes
 from exhibit.kiosk.slice_inset import SliceInset
 from exhibit.kiosk.start_views import StartViews
 from exhibit.kiosk.state import KioskState
+from exhibit.kiosk.visits import Visits
 from exhibit.render.framer import Framer
 from exhibit.render.inset import inset_rect
 from exhibit.render.layout import TextSizes, hud_layout
+from exhibit.operations.notify import Notifier
 from exhibit.render.target import RenderTarget
 
 log = logging.getLogger("exhibit.kiosk")
 
 
-@dataclass
+@dataclass(frozen=True)
 class KioskParts:
-    """What a Kiosk runs with. ``state`` is None when no scene could be prepared (the window
-    then shows a notice); ``problems`` and ``scenes_failed`` are the health file's lists,
-    appended to as scenes arrive or fail."""
+    """What a Kiosk runs with, built whole before it starts. ``state`` is None when no scene
+    could be prepared (the window then shows a notice); ``problems`` and ``scenes_failed`` are
+    the health file's lists, appended to as scenes arrive or fail."""
 
     devices: DeviceSet
     governor: Governor
@@ -54,11 +60,27 @@ class KioskParts:
     reporter: Reporter
     started: float
     narrator: Narrator
+    #: The HUD's words in the language on screen, and the narration's cues to the frames.
+    words: HudWords
+    cues: NarrationCues
+    #: The language and the session log followed as visitors come and go.
+    visits: Visits
     problems: list[str] = field(default_factory=list)
     scenes_failed: list[dict] = field(default_factory=list)
 
+    def health(self, now: float) -> dict:
+        """What the parts tell the health file (exhibit.kiosk.reporting.Reporter.report)."""
+        return {
+            "devices": self.devices.statuses(now),
+            "problems": self.problems,
+            "scenes_failed": self.scenes_failed,
+            "language": self.translate.language,
+            "governor": self.governor,
+            "narration": self.narrator.status(),
+        }
 
-def _timelines(config: KioskConfig, problems: list[str]) -> list:
+
+def _timelines(config: KioskConfig, problems: list[str]) -> list[Timeline]:
     try:
         if config.attract_dir is None:  # load_config always sets it
             raise ExhibitError("no attract folder is set")
@@ -73,10 +95,10 @@ def assemble(
     config: KioskConfig,
     window: RenderTarget,
     clock: Callable[[], float] = time.monotonic,
-    notifier=None,
+    notifier: Notifier | None = None,
     health_path: Path | None = None,
     preparer: Callable[[Framers], Preparer] | None = None,
-    narration_player=None,
+    narration_player: SoundPlayer | None = None,
 ) -> KioskParts:
     """The parts, the first scene prepared (the first frame needs it); ``preparer(framers)``
     makes the preparer of the rest (exhibit.kiosk.preparing), None: all of them now.
@@ -84,7 +106,7 @@ def assemble(
     tape, exhibit.narration.tape), its sounds then made when wanted, not on a worker."""
     problems: list[str] = []
     scenes_failed: list[dict] = []
-    for problem in getattr(config, "scene_problems", ()):  # broken files, left out
+    for problem in config.scene_problems:  # broken files, left out
         log.error("scene file left out: %s", problem)
         problems.append(f"scene file left out: {problem}")
     timelines = _timelines(config, problems)
@@ -100,7 +122,7 @@ def assemble(
     # The framing keeps the picture clear of the panels in every language shown.
     versions = functools.partial(in_every_language, translate)
     words = tuple(translate.hud_words(code) for code in translate.order)
-    size = tuple(getattr(window, "size", config.size))
+    size = window.size
     framer = Framer(size, text, config.drift_px, hud=config.hud, versions=versions, words=words)
     inset = SliceInset(
         inset_rect(size, hud_layout(size, sizes=text).margin), window.renderer.upload
@@ -117,29 +139,31 @@ def assemble(
     started = clock()
     framers = Framers(framer, inset_framer)
     jobs = scene_jobs(config, timelines, mesh_levels(governor))
-    content = Content(window.renderer.upload, jobs, problems, scenes_failed)
-    first = content.prepare_first(jobs, framers, governor.quality.mesh, clock, notifier)
+    order = [t for job in jobs for t in job.timelines]  # the attract folder's, before any runs
+    meshes = SceneMeshes(window.renderer.upload, problems, scenes_failed)
+    first = prepare_first(meshes, jobs, framers, governor.quality.mesh, clock, notifier)
     state = None
-    if content.gpu:
+    if meshes.gpu:
         state = KioskState(
             Playlist(first),
             mapper,
-            content.shown(config.scenes),
+            meshes.shown(config.scenes),
             config.idle_timeout_s,
             config.blend_s,
             started,
-            framer=StartViews(framer, content),
+            framer=StartViews(framer, meshes),
             reduced_motion=config.reduced_motion,
-            follow=Aims(framer, content),
+            follow=Aims(framer, meshes),
         )
-        content.state = state
-        content.prepare_rest(jobs, framers, preparer, started)
     else:
         log.critical(
             "no scene could be prepared: the kiosk shows a notice until it is fixed and restarted"
         )
         problems.append("no scene could be prepared: the screen shows a notice")
-        content.prepare_rest(jobs, framers, None, started)
+        preparer = None  # nothing to show them on: the rest here and now, for the health file
+    content = Content(meshes, state, order)
+    content.prepare_rest(jobs, framers, preparer, started)
+    narrator = narrator_for(config, timelines, translate, narration_player)
     return KioskParts(
         devices=devices,
         governor=governor,
@@ -152,7 +176,10 @@ def assemble(
         state=state,
         reporter=Reporter(notifier, health_path, started),
         started=started,
-        narrator=narrator_for(config, timelines, translate, narration_player),
+        narrator=narrator,
+        words=HudWords(translate),
+        cues=NarrationCues(narrator, translate),
+        visits=Visits(language, translate, narrator),
         problems=problems,
         scenes_failed=scenes_failed,
     )

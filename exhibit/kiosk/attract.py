@@ -133,6 +133,10 @@ class PictureClaims:
         return tuple(dict.fromkeys(named))
 
 
+#: A scene's parameters as a hashable key: (name, value) pairs, sorted by name.
+Params = tuple[tuple[str, float], ...]
+
+
 @dataclass(frozen=True)
 class Keyframe:
     t: float

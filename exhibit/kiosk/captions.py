@@ -18,7 +18,10 @@ import bisect
 import dataclasses
 import math
 
-from exhibit.kiosk.attract import Condition, Timeline
+from collections.abc import Callable, Sequence
+
+from exhibit.geometry.view import ViewState
+from exhibit.kiosk.attract import Condition, Keyframe, Timeline
 
 #: Sampling step (s): a tenth of the shortest stretch anyone would write between keyframes.
 STEP_S = 0.05
@@ -46,7 +49,9 @@ def reading_time(caption: str) -> float:
     return 0.0 if not words else max(MIN_READ_S, SECONDS_PER_WORD * words)
 
 
-def caption_runs(timeline: Timeline, key) -> list[tuple[int, float, float]]:
+def caption_runs(
+    timeline: Timeline, key: Callable[[Keyframe], object]
+) -> list[tuple[int, float, float]]:
     """(first keyframe index, start t, end t) of each run of keyframes with the same ``key``."""
     frames = timeline.keyframes
     runs: list[tuple[int, float, float]] = []
@@ -88,7 +93,7 @@ class _Poses:
         self.timeline = timeline
         self.times = [k.t for k in timeline.keyframes]
 
-    def __call__(self, t: float):
+    def __call__(self, t: float) -> ViewState:
         frames = self.timeline.keyframes
         t = min(max(t, 0.0), self.timeline.duration)
         i = max(0, bisect.bisect_right(self.times, t) - 1)
@@ -126,7 +131,7 @@ POSE_NAMES = ("θ1", "θ2", "θ3", "θ4", "θ5", "θ6", "eye azimuth", "eye inci
 
 
 def turn_problems(
-    where: str, condition: Condition, times: list[float], views, first: int
+    where: str, condition: Condition, times: list[float], views: Sequence[ViewState], first: int
 ) -> list[str]:
     """The pose turned more than ``angles_within`` degrees from the stating keyframe's."""
     limit, stated = condition.angles_within, condition.pose

@@ -19,9 +19,12 @@ import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING
 
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Condition, PictureClaims, Timeline
+from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.captions import (
     distance_problems,
     motion_problems,
@@ -31,6 +34,9 @@ from exhibit.kiosk.captions import (
 )
 from exhibit.kiosk.review import KioskPlayer, caption_spans, read_timeline
 from exhibit.render.passes.ids import ObjectCoverage, object_names
+
+if TYPE_CHECKING:
+    from exhibit.render import Headless
 
 #: Seconds between the samples of a caption (its two ends always among them).
 SAMPLE_S = 0.5
@@ -307,13 +313,13 @@ class Verdict:
 
 
 def verify(
-    path,
-    config,
+    path: str | Path,
+    config: KioskConfig,
     size: tuple[int, int],
     fps: float,
     languages: tuple[str, ...],
     reduced: tuple[bool, ...] = (False, True),
-    headless=None,
+    headless: Headless | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Verdict:
     """Play the timeline at ``path`` in each language and each motion setting (``reduced``:

@@ -27,7 +27,7 @@ from pydantic_core import PydanticCustomError
 from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.kiosk.language import SOURCE, LanguagesSection, load_catalogues
-from exhibit.kiosk.sessions import SessionsConfig, SessionsSection, sessions_config
+from exhibit.operations.sessions import SessionsConfig, SessionsSection, sessions_config
 from exhibit.resources import shipped
 from exhibit.schema import Model, check_file_ref, read_toml, validate
 from exhibit.schema.layers import leaves, merge, source_of
@@ -270,7 +270,7 @@ class KioskConfig:
     text: TextConfig = TextConfig()
     #: [quality]: what the frame governor may change, and what is pinned
     quality: QualityConfig = QualityConfig()
-    #: [sessions]: the visitor-session log (exhibit.kiosk.sessions)
+    #: [sessions]: the visitor-session log (exhibit.operations.sessions)
     sessions: SessionsConfig = SessionsConfig()
     #: [languages]: the languages shown (the first at start), their catalogues' folder (None:
     #: English only), and attract mode's own language change (seconds; 0: buttons only)

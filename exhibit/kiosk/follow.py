@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Callable, Protocol
+from typing import Callable, Iterable, Protocol
 
 from exhibit import scenes
 from exhibit.geometry.framing import (
@@ -46,7 +46,10 @@ from exhibit.geometry.framing import (
     to_pixels,
 )
 from exhibit.geometry.view import ViewState
+from exhibit.kiosk.attract import Params
 from exhibit.kiosk.timeline_framing import FILL_LIMIT
+from exhibit.render.framer import Framer
+from exhibit.surfaces.mesh import Mesh4D
 
 #: Seconds of kiosk time between two measurements of where the framing should go.
 SAMPLE_S = 0.15
@@ -86,8 +89,16 @@ class Aim:
     comfortable: bool
 
 
+class MeshLookup(Protocol):
+    """Where the framing finds a scene's mesh (exhibit.kiosk.scene_meshes.SceneMeshes)."""
+
+    def mesh(self, name: str, params: Iterable) -> Mesh4D | None: ...
+
+
 class Aimer(Protocol):
-    def __call__(self, scene: str, params, view: ViewState, reference_r: float) -> Aim | None: ...
+    def __call__(
+        self, scene: str, params: Params, view: ViewState, reference_r: float
+    ) -> Aim | None: ...
 
 
 class Aims:
@@ -96,7 +107,7 @@ class Aims:
     (``content.mesh(name, params)``); None where the framing is to hold: a scene that opts out
     of framing (``fit = False``), a mesh not prepared, nothing seen."""
 
-    def __init__(self, framer, content, points: int = POINTS) -> None:
+    def __init__(self, framer: Framer, content: MeshLookup, points: int = POINTS) -> None:
         self.framer = framer
         self.content = content
         self.points = points
@@ -158,7 +169,9 @@ class Aims:
                 return True
         return False
 
-    def __call__(self, scene: str, params, view: ViewState, reference_r: float) -> Aim | None:
+    def __call__(
+        self, scene: str, params: Params, view: ViewState, reference_r: float
+    ) -> Aim | None:
         if not scenes.get(scene).fit:
             return None
         sample = self._sample(scene, params)
@@ -232,7 +245,9 @@ class Follow:
         self._framing = (half, center)
         return view.replace(half_height=half, center=center)
 
-    def __call__(self, scene: str, params, view: ViewState, now: float) -> tuple[ViewState, bool]:
+    def __call__(
+        self, scene: str, params: Params, view: ViewState, now: float
+    ) -> tuple[ViewState, bool]:
         if view.half_height <= 0:
             return view, False
         if self._framing != (view.half_height, view.center):

@@ -22,6 +22,23 @@ class FrameStats:
     gl_errors: int = 0
     slow_frames: int = 0
 
+    def gl_error(self, error: str) -> None:
+        """The GL error state after a frame: an error is counted, and logged the 1st, 2nd,
+        4th, 8th... time (a few lines, even over months)."""
+        if error == "GL_NO_ERROR":
+            return
+        self.gl_errors += 1
+        n = self.gl_errors
+        if n & (n - 1) == 0:
+            log.error("GL error: %s (%d so far)", error, n)
+
+    def slow(self, ms: float, scene: str | None) -> None:
+        """A frame over the kiosk's limit: counted, and logged as GL errors are."""
+        self.slow_frames += 1
+        n = self.slow_frames
+        if n & (n - 1) == 0:
+            log.warning("slow frame: %.0f ms (scene %s; %d so far)", ms, scene, n)
+
 
 class FrameErrors:
     """Frames that raised. The first of each kind (exception type and the line that raised it)

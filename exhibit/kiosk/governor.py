@@ -30,11 +30,22 @@ STARTUP_S after the first frame (the first frames compile shaders and fill cache
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from exhibit.render.quality import LADDER, Quality, ladder, software_renderer
+
+if TYPE_CHECKING:  # types only: a worker process imports this module, not the kiosk's config
+    from exhibit.geometry.view import ViewState
+    from exhibit.kiosk.config import KioskConfig, QualityConfig
+    from exhibit.render.target import RenderTarget
+    from exhibit.scenes.base import Scene
+
+log = logging.getLogger("exhibit.kiosk")
 
 #: When the display does not say its refresh rate.
 DEFAULT_REFRESH_HZ = 60.0
@@ -70,7 +81,7 @@ class Settings:
     far: float = 2.0
 
 
-def percentile(values, q: float) -> float:
+def percentile(values: Iterable[float], q: float) -> float:
     """The q-th percentile (0..100) by linear interpolation, as numpy's default."""
     ordered = sorted(values)
     if not ordered:
@@ -130,7 +141,7 @@ class Governor:
 
     # ------------------------------------------------------------------ what happens on screen
 
-    def observe(self, mode: str, scene: str, view, now: float) -> None:
+    def observe(self, mode: str, scene: str, view: ViewState, now: float) -> None:
         """The frame about to be drawn: a new scene restarts the measurement (its frames cost
         differently), and a visitor turning the view quickly holds decisions back."""
         previous, self._previous = self._previous, (scene, view, now)
@@ -203,6 +214,16 @@ class Governor:
         self._restart(now)
         return True
 
+    def adapt(self, frame_ms: float | None, now: float) -> None:
+        """update() after a frame drawn, and a log line when the level changed."""
+        if self.update(frame_ms, now):
+            log.info(
+                "quality %s (frames took %.1f ms, the target is %.1f ms)",
+                self.quality.describe(),
+                self.recent_ms or 0.0,
+                self.settings.target_ms,
+            )
+
     def frame_done(self, frame_ms: float, now: float) -> None:
         """A whole frame's wall time (ms; poll to swap), for the longest since start-up."""
         if self._first_frame is None:
@@ -244,7 +265,7 @@ class Governor:
         }
 
 
-def fast(a, b, dt: float) -> bool:
+def fast(a: ViewState, b: ViewState, dt: float) -> bool:
     """Whether the view moved from a to b in dt seconds faster than a visitor turning a knob
     slowly: any angle (or the eye's orbit) above FAST_DEG_S, or the sensor above FAST_R_S."""
     if dt <= 0:
@@ -260,7 +281,9 @@ def fast(a, b, dt: float) -> bool:
 # ---------------------------------------------------------------------- the kiosk's governor
 
 
-def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bool]:
+def kiosk_levels(
+    quality_config: QualityConfig | None, renderer: str
+) -> tuple[tuple[Quality, ...], bool]:
     """The ladder for this kiosk: its [quality] pins applied, MSAA and render scales below 1
     left out on software GL (unless pinned), cut at the lowest level allowed. Returns (levels,
     pinned)."""
@@ -294,11 +317,11 @@ def kiosk_levels(quality_config, renderer: str) -> tuple[tuple[Quality, ...], bo
     return levels, len(levels) == 1
 
 
-def target_ms(config, refresh_hz: float | None) -> float:
+def target_ms(config: KioskConfig, refresh_hz: float | None) -> float:
     """The frame time to hold: [quality] target_fps, else the refresh interval with vsync (60 Hz
     when unknown), else 1 / fps_limit."""
-    q = getattr(config, "quality", None)
-    if q is not None and q.target_fps is not None:
+    q = config.quality
+    if q.target_fps is not None:
         return 1000.0 / q.target_fps
     if config.vsync:
         hz = refresh_hz if refresh_hz and 10 <= refresh_hz <= 1000 else DEFAULT_REFRESH_HZ
@@ -306,21 +329,19 @@ def target_ms(config, refresh_hz: float | None) -> float:
     return 1000.0 / config.fps_limit
 
 
-def for_kiosk(config, window, now: float) -> Governor:
-    """The governor of a running kiosk, from its config and window (a real Window or a test's
-    stand-in: a missing renderer name counts as a GPU, a missing refresh rate as 60 Hz)."""
-    info = getattr(getattr(window, "ctx", None), "info", None) or {}
+def for_kiosk(config: KioskConfig, window: RenderTarget, now: float) -> Governor:
+    """The governor of a running kiosk, from its config and window (no renderer name counts as
+    a GPU, no refresh rate as 60 Hz)."""
+    info = window.ctx.info
     renderer = info.get("GL_RENDERER", "") if isinstance(info, dict) else ""
-    q = getattr(config, "quality", None)
+    q = config.quality
     levels, pinned = kiosk_levels(q, renderer)
-    settings = Settings(target_ms=target_ms(config, getattr(window, "refresh_hz", None)))
-    if q is not None:
-        settings = Settings(
-            target_ms=settings.target_ms,
-            step_interval_s=q.step_interval_s,
-            calm_s=q.calm_s,
-            up=q.headroom,
-        )
+    settings = Settings(
+        target_ms=target_ms(config, window.refresh_hz),
+        step_interval_s=q.step_interval_s,
+        calm_s=q.calm_s,
+        up=q.headroom,
+    )
     return Governor(levels, settings, now=now, pinned=pinned)
 
 
@@ -329,7 +350,7 @@ def mesh_levels(governor: Governor) -> list[int]:
     return sorted({q.mesh for q in governor.levels})
 
 
-def level_resolution(scene, configured: int | None, level: int) -> int:
+def level_resolution(scene: Scene, configured: int | None, level: int) -> int:
     """A scene's mesh resolution at a mesh level: content.resolution (else the scene's own)
     times the level's factor."""
     from exhibit.render.quality import mesh_resolution

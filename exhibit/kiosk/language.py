@@ -24,11 +24,12 @@ import logging
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Annotated, Iterable
+from typing import Annotated, Callable, Iterable, Protocol, Sequence
 
 from pydantic import Field, field_validator
 
 from exhibit.errors import ConfigError
+from exhibit.kiosk.attract import Timeline
 from exhibit.render.layout import PINCH_KEY
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Caption, Name, Number, Text
@@ -164,7 +165,21 @@ class Translator:
         return catalogue.text.get(text, text) if catalogue is not None else text
 
 
-def translator_for(config, problems: list[str]) -> Translator:
+class LanguageSettings(Protocol):
+    """What the languages read of the kiosk's config (exhibit.kiosk.config.KioskConfig, which
+    imports this module)."""
+
+    @property
+    def languages(self) -> tuple[str, ...]: ...
+    @property
+    def catalogues_dir(self) -> Path | None: ...
+    @property
+    def attract_dir(self) -> Path | None: ...
+    @property
+    def scenes(self) -> tuple[str, ...]: ...
+
+
+def translator_for(config: LanguageSettings, problems: list[str]) -> Translator:
     """The languages of [languages]; a catalogue that cannot be read is left out (its visitors
     read English), said once in the log and in ``problems`` (the health file's)."""
     catalogues = {SOURCE: Catalogue(SOURCE, "English")}
@@ -185,7 +200,13 @@ class LanguageChoice:
     museum's own) when attract mode returns, so the next visitor does not find the last one's.
     ``on_change(language)`` hears of each change (the session log)."""
 
-    def __init__(self, translator: Translator, switch_s: float, now: float, on_change=None):
+    def __init__(
+        self,
+        translator: Translator,
+        switch_s: float,
+        now: float,
+        on_change: Callable[[str], None] | None = None,
+    ):
         self.translator = translator
         self.switch_s = switch_s
         self.on_change = on_change
@@ -218,7 +239,7 @@ def in_every_language(translator: Translator, text: str) -> tuple[str, ...]:
 # ---------------------------------------------------------------------- for check-config
 
 
-def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
+def shown_texts(scene_names: Iterable[str], timelines: Sequence[Timeline]) -> dict[str, str]:
     """Every English text the kiosk can show, with where it comes from: the content scenes'
     titles and captions, every timeline's scene title and keyframe captions, the HUD's words."""
     from exhibit import scenes
@@ -244,7 +265,7 @@ def shown_texts(scene_names: Iterable[str], timelines) -> dict[str, str]:
     return texts
 
 
-def coverage_problems(config) -> list[str]:
+def coverage_problems(config: LanguageSettings) -> list[str]:
     """For `exhibit check-config`: every text the kiosk shows, in every language it shows, has
     a translation, in characters the HUD's fonts can draw (the catalogues load: checked with the
     config)."""

@@ -23,8 +23,15 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 from exhibit.narration.script import Segment, segment_at, segments
+
+if TYPE_CHECKING:
+    from exhibit.kiosk.attract import Timeline
+    from exhibit.kiosk.config import KioskConfig
+    from exhibit.kiosk.language import Translator
+    from exhibit.narration.sound import Sound
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -44,6 +51,18 @@ class Spoken:
     language: str
 
 
+class SoundPlayer(Protocol):
+    """What the narrator plays through: exhibit.narration.player.Player on the site's sound
+    device, or a review's tape (exhibit.narration.tape.TapePlayer)."""
+
+    def play(self, sound: Any) -> None: ...
+    def stop(self) -> None: ...
+    @property
+    def playing(self) -> bool: ...
+    def status(self) -> dict: ...
+    def close(self) -> None: ...
+
+
 class Narrator:
     """``timelines``: the kiosk's (exhibit.kiosk.attract.Timeline); ``translate(text, code)``:
     its words (exhibit.kiosk.language); ``player``: an exhibit.narration.player.Player (or one
@@ -55,12 +74,13 @@ class Narrator:
         timelines: Sequence,
         languages: Sequence[str],
         translate: Callable[[str, str], str],
-        player,
+        player: SoundPlayer,
         attract: bool = False,
         make: Callable[[Segment], object] | None = None,
         background: bool = True,
     ) -> None:
-        self.player = player
+        #: Any: a review reads its tape back through it (exhibit.narration.tape.TapePlayer).
+        self.player: Any = player
         self.attract = attract
         self.pressed_on = False
         self._translate = translate
@@ -157,7 +177,7 @@ class Narrator:
 
     # ------------------------------------------------------------------ each frame
 
-    def speak_timeline(self, timeline, t: float, language: str, now: float) -> None:
+    def speak_timeline(self, timeline: Timeline, t: float, language: str, now: float) -> None:
         """Speak the segment of ``timeline`` whose window holds ``t``, once (attract mode)."""
         parts = self._scripts.get((timeline.path, language))
         if not parts:
@@ -167,7 +187,7 @@ class Narrator:
             return
         self._speak(Spoken(timeline.path, n, language), parts[n], now)
 
-    def speak_scene(self, scene: str, title: str, caption: str, language: str, now: float):
+    def speak_scene(self, scene: str, title: str, caption: str, language: str, now: float) -> None:
         """Speak a visitor's scene: its title and caption, once."""
         text = " ".join(
             w.strip()
@@ -207,7 +227,7 @@ class Narrator:
         busy = self.player.playing or self._pending_since is not None
         return (s.source, parts[s.index].end - HOLD_EPSILON_S) if busy else None
 
-    def hold_at(self, timeline, t: float, language: str) -> float | None:
+    def hold_at(self, timeline: Timeline, t: float, language: str) -> float | None:
         """Where attract mode must hold ``timeline`` instead of reaching ``t`` (see
         speaking_until); None: no need."""
         until = self.speaking_until(language)
@@ -235,7 +255,12 @@ class Narrator:
         self.player.close()
 
 
-def for_kiosk(config, timelines: Sequence, translate, player=None) -> Narrator:
+def for_kiosk(
+    config: KioskConfig,
+    timelines: Sequence[Timeline],
+    translate: Translator,
+    player: SoundPlayer | None = None,
+) -> Narrator:
     """The kiosk's narrator: its [narration] settings (exhibit.kiosk.config.NarrationConfig),
     every timeline in every language shown, its player opened on the site's device (or
     ``player``: a review's tape, whose sounds are made when wanted)."""
@@ -259,7 +284,7 @@ def for_kiosk(config, timelines: Sequence, translate, player=None) -> Narrator:
     )
 
 
-def make_sound(segment: Segment):
+def make_sound(segment: Segment) -> Sound:
     """A segment's sound: the curator's recording (checked: exhibit.narration.recordings) when
     it has one, else its words synthesised (cached: exhibit.narration.cache)."""
     from exhibit.narration.cache import spoken
@@ -286,7 +311,11 @@ class Prepared:
         return 0.0 if self.seconds is None else max(0.0, self.seconds - self.segment.window)
 
 
-def prepare_all(config, timelines: Sequence, progress=None) -> list[Prepared]:
+def prepare_all(
+    config: KioskConfig,
+    timelines: Sequence,
+    progress: Callable[[str], object] | None = None,
+) -> list[Prepared]:
     """Every segment of every timeline in every language shown, its sound made (synthesised
     into the cache, recordings checked) as the kiosk will want it; ``progress(text)`` is told
     each one."""

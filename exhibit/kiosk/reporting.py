@@ -1,6 +1,6 @@
-"""What the running kiosk tells the world about once a second: the systemd STATUS line (`systemctl
-status exhibit`) and the health file (exhibit.kiosk.health's schema), which `exhibit status`, the
-Prometheus textfile and the watchdog's humans read."""
+"""What the running kiosk tells the world about once a second: the systemd STATUS line
+(`systemctl status exhibit`) and the health file (exhibit.operations.health's schema), which
+`exhibit status`, the Prometheus textfile and the watchdog's humans read."""
 
 from __future__ import annotations
 
@@ -14,10 +14,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
+from exhibit.operations.notify import Notifier
 
 if TYPE_CHECKING:
     from exhibit.kiosk.governor import Governor
-    from exhibit.kiosk.sessions import SessionLog
+    from exhibit.operations.sessions import SessionLog
     from exhibit.kiosk.state import KioskState
 
 log = logging.getLogger("exhibit.kiosk")
@@ -47,7 +48,7 @@ def _round(seconds: float | None) -> float | None:
 class Reporter:
     """Writes the reports; ``notifier`` (systemd) and ``health_path`` may each be None."""
 
-    def __init__(self, notifier, health_path: Path | None, started: float):
+    def __init__(self, notifier: Notifier | None, health_path: Path | None, started: float):
         self.notifier = notifier
         self.health_path = health_path
         self.started = started
@@ -78,7 +79,7 @@ class Reporter:
         stats.times.clear()
         self._since = now
         # Per device: its state, seconds in it, and seconds it has been missing (null when
-        # connected), for `exhibit status --max-lost` and the metrics (exhibit.kiosk.health).
+        # connected), for `exhibit status --max-lost` and the metrics (exhibit.operations.health).
         rows = [
             {
                 "name": s.get("name", ""),
@@ -106,7 +107,7 @@ class Reporter:
             )
         if self.health_path is None:
             return
-        from exhibit.kiosk.health import process_uptime, report, write_health
+        from exhibit.operations.health import process_uptime, report, write_health
 
         # Since the process started (imports, window, first meshes included), not since the
         # kiosk was built: that missed the whole start-up.

@@ -25,7 +25,7 @@ import tempfile
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterable, Iterator
+from typing import TYPE_CHECKING, Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -34,6 +34,9 @@ from exhibit.kiosk.attract import Timeline, load_timeline, timeline_paths
 from exhibit.kiosk.config import KioskConfig, NarrationConfig, QualityConfig, load_kiosk_config
 from exhibit.kiosk.language import SOURCE, load_catalogues
 from exhibit.resources import shipped
+
+if TYPE_CHECKING:
+    from exhibit.render import Headless
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -253,7 +256,7 @@ class KioskPlayer:
         scene: str | None = None,
         language: str | None = None,
         config: KioskConfig | None = None,
-        headless=None,
+        headless: Headless | None = None,
         narrate: bool = False,
     ):
         """``narrate``: the kiosk speaks as after a visitor's listen press (every caption
@@ -279,7 +282,7 @@ class KioskPlayer:
         try:
             attract = self._tmp / "attract"
             attract.mkdir()
-            if timeline is not None:  # and so self.timeline
+            if timeline is not None and self.timeline is not None:  # one is the other's
                 shutil.copyfile(timeline, attract / Path(timeline).name)
                 copy_recordings(self.timeline, Path(timeline).parent, attract)
             languages = (self.language, *(c for c in config.languages if c != self.language))
@@ -324,7 +327,8 @@ class KioskPlayer:
                 logger.setLevel(level)
             if self.kiosk.state is None:
                 raise ExhibitError(
-                    f"the kiosk could not prepare {self.scene}: " + "; ".join(self.kiosk.problems)
+                    f"the kiosk could not prepare {self.scene}: "
+                    + "; ".join(self.kiosk.parts.problems)
                 )
             translate = self.kiosk.translate
             if self.language in translate.order:  # shown first already; select it all the same
@@ -389,7 +393,10 @@ class KioskPlayer:
         return play_schedule(self.duration, fps, times)
 
     def play(
-        self, fps: float, times: Iterable[float] | None = None, progress=None
+        self,
+        fps: float,
+        times: Iterable[float] | None = None,
+        progress: Callable[[int], object] | None = None,
     ) -> Iterator[ReviewFrame]:
         """The timeline from t = 0 to its end at ``fps`` frames a second, every frame (or only
         those at ``times``, each after the few frames on the ``fps`` grid a crossfade into it
@@ -406,7 +413,12 @@ class KioskPlayer:
                 shown.t = t
                 yield shown
 
-    def play_through(self, fps: float, progress=None, limit_s: float = 3600.0):
+    def play_through(
+        self,
+        fps: float,
+        progress: Callable[[int], object] | None = None,
+        limit_s: float = 3600.0,
+    ) -> Iterator[tuple[ReviewFrame, float]]:
         """Every frame at ``fps`` until the timeline has played to its end, however long the
         narration holds it (at most ``limit_s`` of kiosk time): (frame, time into the
         timeline) pairs; the frame that would show it looping back to its start is left out."""
@@ -449,17 +461,17 @@ class KioskPlayer:
             del self.kiosk  # closed: no kiosk left (getattr above)
         if self._own_headless and getattr(self, "headless", None) is not None:
             self.headless.release()
-            self.headless = None
+            del self.headless  # released: none left (getattr above)
         shutil.rmtree(self._tmp, ignore_errors=True)
 
     def __enter__(self) -> "KioskPlayer":
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 
-def copy_recordings(timeline, source: Path, attract: Path) -> None:
+def copy_recordings(timeline: Timeline, source: Path, attract: Path) -> None:
     """The timeline's recorded narration beside its copy in a review's attract folder, at the
     same paths relative to it (each read as the kiosk reads it: a file that is not a regular
     file, is too big or lies outside ``source`` is not copied, and the review, like the kiosk,

@@ -12,7 +12,9 @@ from exhibit import scenes
 from exhibit.geometry.framing import mesh_points
 from exhibit.render.frame import Inset
 from exhibit.render.inset import inset_label, inset_view
+from exhibit.kiosk.state import Frame
 from exhibit.render.layout import Rect
+from exhibit.surfaces.mesh import Mesh4D
 
 
 class SliceInset:
@@ -25,7 +27,7 @@ class SliceInset:
         self._mesh: tuple | None = None  # (key, gpu mesh)
         self._view: tuple | None = None  # (key, view)
 
-    def for_frame(self, frame, mesh) -> Inset | None:
+    def for_frame(self, frame: Frame, mesh: Mesh4D | None) -> Inset | None:
         """The inset for ``frame`` (``mesh``: the 4D scene's, for its extent in time), or None
         when the frame does not slice such a scene."""
         view = frame.view

@@ -8,7 +8,11 @@ from collections import OrderedDict
 
 from exhibit import scenes
 from exhibit.geometry.framing import mesh_sample
+from exhibit.geometry.view import ViewState
+from exhibit.kiosk.attract import Params
+from exhibit.kiosk.follow import MeshLookup
 from exhibit.kiosk.timeline_framing import FILL_LIMIT
+from exhibit.render.framer import Framer
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -23,13 +27,13 @@ class StartViews:
     timeline does. A scene not prepared yet is left as it is (KioskState.reframe frames it on
     arrival). Cached: the same few start views come back at every "home" and scene change."""
 
-    def __init__(self, framer, content) -> None:
+    def __init__(self, framer: Framer, content: MeshLookup) -> None:
         self.framer = framer
         self.content = content
-        self._framed: OrderedDict[tuple, object] = OrderedDict()
+        self._framed: OrderedDict[tuple, ViewState] = OrderedDict()
         self._samples: dict[tuple, object] = {}  # (scene, params) -> its mesh_sample
 
-    def __call__(self, name: str, params, view):
+    def __call__(self, name: str, params: Params, view: ViewState) -> ViewState:
         key = (name, tuple(params), view)
         framed = self._framed.get(key)
         if framed is None:

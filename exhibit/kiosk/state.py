@@ -25,13 +25,14 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from exhibit import scenes
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Playlist
+from exhibit.kiosk.attract import Params, Playlist
 from exhibit.kiosk.follow import Aimer, Follow
 
 ATTRACT, VISITOR = "attract", "visitor"
@@ -86,7 +87,7 @@ def _camera(view: ViewState) -> ViewState:
     return view.replace(slice_axis=None, slice_at=0.0)
 
 
-def unframed(scene_name: str, params, view: ViewState) -> ViewState:
+def unframed(scene_name: str, params: Params, view: ViewState) -> ViewState:
     """The framer when there is none: the view as the scene gives it."""
     return view
 
@@ -100,7 +101,7 @@ class KioskState:
         idle_timeout_s: float,
         blend_s: float,
         now: float,
-        framer=unframed,
+        framer: Callable[[str, Params, ViewState], ViewState] = unframed,
         reduced_motion: bool = False,
         follow: Aimer | None = None,
     ):
@@ -247,7 +248,7 @@ class KioskState:
             for e in events
         )
 
-    def start_view(self, scene_name: str, params) -> ViewState:
+    def start_view(self, scene_name: str, params: Params) -> ViewState:
         """Where a scene starts, and where "home" returns: its own view, framed."""
         return self.framer(scene_name, params, scenes.get(scene_name).view)
 

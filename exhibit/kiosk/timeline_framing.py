@@ -28,6 +28,7 @@ import bisect
 import dataclasses
 import functools
 import math
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
@@ -41,9 +42,11 @@ from exhibit.geometry.framing import (
     zoom_about,
 )
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Timeline
+from exhibit.kiosk.attract import Keyframe, Timeline
 from exhibit.render.framer import Framer
 from exhibit.render.layout import hud_layout
+from exhibit.scenes.base import Scene
+from exhibit.surfaces.mesh import Mesh4D
 
 #: Seconds between the poses sampled along a timeline (keyframes are always sampled).
 TIMELINE_STEP_S = 0.5
@@ -64,7 +67,7 @@ MAX_KEYFRAME_POSES = 200
 MAX_FOLLOWED_KEYFRAMES = 64
 
 
-def frame_timeline(framer: Framer, timeline: Timeline, scene, mesh) -> Timeline:
+def frame_timeline(framer: Framer, timeline: Timeline, scene: Scene, mesh: Mesh4D) -> Timeline:
     """The timeline framed for ``framer``'s screen (see the module docstring), or the timeline
     itself when it says ``fit = false``, its scene or preset opts out, or every keyframe fills
     the world."""
@@ -78,10 +81,10 @@ class _TimelineFramer:
         self.framer = framer
         self.size, self.sizes = framer.size, framer.sizes
 
-    def timeline(self, timeline, scene, mesh):
+    def timeline(self, timeline: Timeline, scene: Scene, mesh: Mesh4D) -> Timeline:
         base = timeline.base_view
         presets = [p for p in scene.presets if p.view == base]
-        wanted = getattr(timeline, "fit", None)
+        wanted = timeline.fit
         if wanted is False or not scene.fit or any(not p.fit for p in presets):
             return timeline
         points = mesh_sample(mesh, TIMELINE_POINTS)
@@ -210,7 +213,7 @@ class _TimelineFramer:
         return None
 
 
-def held_groups(frames, fills) -> list[list[int]]:
+def held_groups(frames: Sequence[Keyframe], fills: Sequence[bool]) -> list[list[int]]:
     """Runs of keyframes that share one framing: a keyframe that says ``hold_framing`` joins
     the one before, unless either fills the world (those keep their own view)."""
     groups: list[list[int]] = []
@@ -280,7 +283,9 @@ class FramedTimeline(Timeline):
     fills: tuple = ()
 
     @classmethod
-    def of(cls, timeline: Timeline, views: list[ViewState], fills=()) -> "FramedTimeline":
+    def of(
+        cls, timeline: Timeline, views: list[ViewState], fills: Sequence[bool] = ()
+    ) -> "FramedTimeline":
         fields = {f.name: getattr(timeline, f.name) for f in dataclasses.fields(Timeline)}
         fields["keyframes"] = tuple(
             dataclasses.replace(k, half_height=v.half_height)

@@ -15,9 +15,9 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from exhibit.kiosk import app, preparing
+from exhibit.kiosk import app, jobs
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.kiosk.sessions import Session
+from exhibit.operations.sessions import Session
 from exhibit.render.target import HeadlessTarget
 from tests.golden.kiosk_frames import FakeClock, keyboard_devices
 
@@ -84,9 +84,10 @@ class FakeWindow:
 
     def __init__(self):
         self.close_allowed, self.handler = True, None
-        self.ctx = SimpleNamespace(error="GL_NO_ERROR")
+        self.ctx = SimpleNamespace(error="GL_NO_ERROR", info={})
         self.renderer = SimpleNamespace(upload=lambda mesh: mesh)
         self.size = (640, 360)
+        self.refresh_hz = None
         self.frame_ms = None
         self.fail = 0
         self.drawn, self.notices = [], 0
@@ -145,7 +146,7 @@ def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_mot
             raise RuntimeError(f"cannot build {scene.name}")
         return f"mesh {scene.name}", None
 
-    monkeypatch.setattr(preparing, "build_cached", build)
+    monkeypatch.setattr(jobs, "build_cached", build)
     if clock is None:
         ticks = iter(np.arange(1e6) * 0.1)
 
@@ -162,7 +163,7 @@ def kiosk(tmp_path, monkeypatch, broken=(), clock=None, window=None, reduced_mot
     )
     # the start-up warm-up drew every quality level once through a crossfade (not frames;
     # nothing when no scene could be prepared)
-    warm = len(k.governor.levels) if k.state is not None else 0
+    warm = len(k.parts.governor.levels) if k.state is not None else 0
     assert len(k.window.drawn) == len(k.window.captured) == warm
     k.window.drawn, k.window.captured, k.window.fades = [], [], []
     return k, notifier

@@ -18,7 +18,7 @@ import pytest
 
 from exhibit.commands import install as inst
 from exhibit.errors import ExhibitError
-from exhibit.kiosk import health
+from exhibit.operations import health
 from tests.deploy.unitfile import units
 
 REPO = Path(__file__).resolve().parents[2]

@@ -215,7 +215,8 @@ def test_for_kiosk_target_and_mesh_levels():
     assert g.settings.target_ms == pytest.approx(1000 / 75) and g.quality.name == "fxaa"
     assert mesh_levels(g) == [0, 1, 2]
     config = SimpleNamespace(vsync=False, fps_limit=30.0, quality=QualityConfig(mesh_pin=1))
-    g = for_kiosk(config, SimpleNamespace(ctx=SimpleNamespace(error="GL_NO_ERROR")), now=0.0)
+    window = SimpleNamespace(ctx=SimpleNamespace(info={}), refresh_hz=None)  # a GPU, no rate
+    g = for_kiosk(config, window, now=0.0)
     assert g.settings.target_ms == pytest.approx(1000 / 30) and mesh_levels(g) == [1]
     config = SimpleNamespace(
         vsync=True, fps_limit=60.0, quality=QualityConfig(target_fps=25.0, step_interval_s=10.0)

@@ -134,17 +134,17 @@ def test_attract_mode_changes_language_on_its_timer(headless, tmp_path):
 def test_the_health_file_says_the_language_and_the_session_writer_counts(headless, tmp_path):
     import json
 
-    from exhibit.kiosk.sessions import SessionLog, SessionWriter
+    from exhibit.operations.sessions import SessionLog, SessionWriter
     from tests.kiosk.support import HeadlessKiosk
 
     run = HeadlessKiosk(headless, tmp_path)
     writer = SessionWriter(tmp_path / "sessions.db")
     run.kiosk.sessions = SessionLog(writer)
-    run.kiosk.reporter.health_path = tmp_path / "health.json"
+    run.kiosk.parts.reporter.health_path = tmp_path / "health.json"
     run.target.post(Key("l", True))
     run.run(1.5)
     assert writer.ready.wait(5.0)  # recording only once the database is open
-    run.kiosk._report(run.clock())
+    run.kiosk.report(run.clock())
     health = json.loads((tmp_path / "health.json").read_text())
     assert health["language"] == "de" and health["sessions"]["recording"]
     assert set(health["sessions"]) >= {"written", "dropped", "failed"}

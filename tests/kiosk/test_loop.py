@@ -123,7 +123,7 @@ def test_the_shipped_collision_timeline_travels_through_time(headless, tmp_path)
 
     def border() -> float:
         """How much of the inset's top edge is its border colour."""
-        rect = run.kiosk.inset.rect
+        rect = run.kiosk.parts.inset.rect
         row = run.window.image[int(rect.y0), int(rect.x0) + 2 : int(rect.x1) - 2].astype(int)
         return float((abs(row - [204, 209, 224]).max(axis=1) < 12).mean())
 
@@ -144,7 +144,9 @@ def test_release_frees_every_mesh_the_kiosk_uploaded(headless, tmp_path):
 
     run = HeadlessKiosk(headless, tmp_path)
     run.run(0.3)
-    uploaded = {id(g): g for levels in run.kiosk.content.gpu.values() for g in levels.values()}
+    uploaded = {
+        id(g): g for levels in run.kiosk.content.meshes.gpu.values() for g in levels.values()
+    }
     assert uploaded and all(g.surfaces for g in uploaded.values())
     run.kiosk.release()
-    assert run.kiosk.content.gpu == {} and all(not g.surfaces for g in uploaded.values())
+    assert run.kiosk.content.meshes.gpu == {} and all(not g.surfaces for g in uploaded.values())

@@ -4,6 +4,7 @@ and what it cannot do comes back as a named failure."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import re
@@ -19,12 +20,15 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from exhibit import scenes
-from exhibit.kiosk import app, preparing
+from exhibit.kiosk import app, process_preparer, worker_watch
+from exhibit.kiosk import jobs as jobs_module
 from exhibit.kiosk.attract import Playlist, load_playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.governor import mesh_levels
 from exhibit.kiosk.language import PREPARING
-from exhibit.kiosk.preparing import InlinePreparer, Job, ProcessPreparer, run_job, scene_jobs
+from exhibit.kiosk.jobs import Job, run_job, scene_jobs
+from exhibit.kiosk.preparing import InlinePreparer
+from exhibit.kiosk.process_preparer import ProcessPreparer
 from exhibit.render.framer import Framer
 from exhibit.surfaces.mesh import Mesh4D
 from tests.kiosk.support import ROOT, FakeWindow, Notifier, make_config
@@ -73,8 +77,8 @@ def built(monkeypatch):
             raise RuntimeError(f"cannot build {scene.name}")
         return f"mesh {scene.name} {resolution}", None
 
-    monkeypatch.setattr(preparing, "build_cached", build)
-    monkeypatch.setattr(preparing, "frame", lambda timeline, *rest: timeline)
+    monkeypatch.setattr(jobs_module, "build_cached", build)
+    monkeypatch.setattr(jobs_module, "frame", lambda timeline, *rest: timeline)
     built.calls, built.broken = calls, broken
     return built
 
@@ -94,14 +98,14 @@ def _kiosk(tmp_path, window=None):
 def test_the_first_frame_needs_the_first_scene_at_one_mesh_level(tmp_path, built):
     """...and nothing else is prepared until it is drawn."""
     k = _kiosk(tmp_path)
-    level = k.governor.quality.mesh
-    assert list(k.content.gpu) == [("hopf", k.state.frame.params)]
-    assert list(k.content.gpu[("hopf", k.state.frame.params)]) == [level]
+    level = k.parts.governor.quality.mesh
+    assert list(k.content.meshes.gpu) == [("hopf", k.state.frame.params)]
+    assert list(k.content.meshes.gpu[("hopf", k.state.frame.params)]) == [level]
     assert len(built.calls) == 1 and built.calls[0][0] == "hopf"
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
     assert k.window.drawn == [] and k.window.captured == [], "no warm-up before the first frame"
     k.run(max_frames=1)
-    assert len(k.content.gpu) == 1 and len(built.calls) == 1
+    assert len(k.content.meshes.gpu) == 1 and len(built.calls) == 1
 
 
 def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
@@ -111,16 +115,19 @@ def test_the_rest_arrive_one_per_frame_in_the_playlists_order(tmp_path, built):
     order = list(dict.fromkeys(name for name, _ in built.calls))
     assert order == ["hopf", "clifford-torus", "veronese"]
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
-    assert all(set(levels) == set(mesh_levels(k.governor)) for levels in k.content.gpu.values())
-    assert k.content.prepared_at is not None and k.problems == []
+    assert all(
+        set(levels) == set(mesh_levels(k.parts.governor))
+        for levels in k.content.meshes.gpu.values()
+    )
+    assert k.content.prepared_at is not None and k.parts.problems == []
 
 
 def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
     k = _kiosk(tmp_path)
     k.step()
     before = k.state.frame
-    k.content.collect(k.clock(), k.started)  # the rest of hopf
-    k.content.collect(k.clock(), k.started)  # the Clifford torus and its timeline
+    k.content.collect(k.clock(), k.parts.started)  # the rest of hopf
+    k.content.collect(k.clock(), k.parts.started)  # the Clifford torus and its timeline
     assert len(k.state.playlist.timelines) == 2
     k.step()
     after = k.state.frame
@@ -130,7 +137,7 @@ def test_a_timeline_that_arrives_does_not_move_the_one_playing(tmp_path, built):
 def test_warm_up_runs_one_piece_per_frame_after_the_first(tmp_path, built):
     k = _kiosk(tmp_path)
     pieces = len(k.warm.chores)
-    assert pieces > len(k.governor.levels)  # text panels, then the quality levels
+    assert pieces > len(k.parts.governor.levels)  # text panels, then the quality levels
     k.run(max_frames=1)
     assert len(k.warm.chores) == pieces
     k.run(max_frames=3)
@@ -159,7 +166,7 @@ def test_a_visitor_who_asks_for_a_scene_not_ready_keeps_the_picture_with_a_notic
         assert (hud.title, hud.caption) == (before.title, before.caption), "its words stay true"
         assert hud.note == PREPARING.replace("{title}", title)
     assert k.content.preparer._queue[0].scene == "clifford-torus", "...and goes first"
-    k.content.collect(k.clock(), k.started)
+    k.content.collect(k.clock(), k.parts.started)
     k.step()
     assert not k.waiting and window.drawn[-1].startswith("mesh clifford-torus")
     assert window.captured[-1] == held and window.fades[-1] > 0.9, "a crossfade from it"
@@ -226,23 +233,23 @@ def test_the_scene_a_visitor_waits_for_gets_a_worker_at_full_priority(monkeypatc
         p.submit(job)
     assert p.results() == [] and len(workers) == 1
     niced, urgent = workers[0], None
-    assert niced[0] == preparing.WORKER_NICE and niced[2].sent == [a]
+    assert niced[0] == process_preparer.WORKER_NICE and niced[2].sent == [a]
     for _ in range(3):  # every frame while the visitor waits
         p.first(c.key)
     assert len(workers) == 2
     urgent = workers[1]
     assert urgent[0] == 0 and urgent[2].sent == [c]
-    urgent[3].put(preparing.Prepared(c))
+    urgent[3].put(jobs_module.Prepared(c))
     assert [r.job for r in p.results()] == [c]
     assert urgent[2].sent == [c, None] and p.pending() == [a, b], "c is done: it leaves"
-    niced[3].put(preparing.Prepared(a))
+    niced[3].put(jobs_module.Prepared(a))
     assert [r.job for r in p.results()] == [a] and niced[2].sent == [a, b]
     # the niced worker is already preparing the one wanted: both go on, the first counts
     p.first(b.key)
     assert len(workers) == 3 and workers[2][2].sent == [b]
-    workers[2][3].put(preparing.Prepared(b))
+    workers[2][3].put(jobs_module.Prepared(b))
     assert [r.job for r in p.results()] == [b]
-    niced[3].put(preparing.Prepared(b))
+    niced[3].put(jobs_module.Prepared(b))
     assert p.results() == [], "the niced worker's late result is dropped"
     # without urgent workers: the queue's order only
     p = ProcessPreparer(urgent=False)
@@ -266,8 +273,8 @@ def test_a_scene_that_fails_later_is_left_out_and_the_visitor_moves_on(tmp_path,
     assert "clifford-torus" not in k.state.content
     assert k.state.frame.scene != "clifford-torus"
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf"]
-    assert any("scene clifford-torus skipped" in p for p in k.problems)
-    assert any("timeline" in p and "skipped" in p for p in k.problems)
+    assert any("scene clifford-torus skipped" in p for p in k.parts.problems)
+    assert any("timeline" in p and "skipped" in p for p in k.parts.problems)
 
 
 def test_a_first_scene_that_fails_hands_the_first_frame_to_the_next(tmp_path, built):
@@ -305,7 +312,7 @@ def test_the_worker_process_prepares_and_frames_and_names_what_fails(tmp_path, m
     timelines = load_playlist(config.attract_dir)
     jobs = scene_jobs(config, timelines, [2])
     framer = Framer((640, 360))
-    worker = ProcessPreparer(preparing.Framers(framer, framer))
+    worker = ProcessPreparer(jobs_module.Framers(framer, framer))
     try:
         worker.submit(jobs[0])
         worker.submit(Job("no-such-scene", (), ((2, 8),)))
@@ -379,7 +386,7 @@ def test_exhibit_prepare_fills_the_cache_the_kiosk_then_reads(tmp_path, monkeypa
         hits.append(hit)
         return mesh, hit
 
-    monkeypatch.setattr(preparing, "build_cached", counting)
+    monkeypatch.setattr(jobs_module, "build_cached", counting)
     config = load_kiosk_config(path)
     app.Kiosk(config, Window(), notifier=Notifier(), health_path=tmp_path / "health.json")
     assert hits and all(hits), "every mesh the kiosk loads was in the cache"
@@ -389,7 +396,7 @@ def test_exhibit_prepare_fills_the_cache_the_kiosk_then_reads(tmp_path, monkeypa
             raise RuntimeError("out of memory")
         return real(scene, params, resolution)
 
-    monkeypatch.setattr(preparing, "build_cached", broken)
+    monkeypatch.setattr(jobs_module, "build_cached", broken)
     assert main(["prepare", "--config", str(path)]) == 1
     out = capsys.readouterr().out
     assert "clifford-torus" in out and "failed: RuntimeError: out of memory" in out
@@ -402,7 +409,7 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(
     """The first scene's other mesh levels arrive while a visitor turns it: their zoom stays;
     if those levels cannot be built, the scene keeps the one it has (not "skipped")."""
     built.broken.add("hopf")
-    real = preparing.build_cached
+    real = jobs_module.build_cached
     k_calls = []
 
     def first_only(scene, params, resolution):
@@ -411,7 +418,7 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(
             return f"mesh {scene.name} {resolution}", None
         return real(scene, params, resolution)
 
-    monkeypatch.setattr(preparing, "build_cached", first_only)
+    monkeypatch.setattr(jobs_module, "build_cached", first_only)
     k = _kiosk(tmp_path)
     k.step()
     k.devices.keyboard.key("q", True)  # a visitor turns θ1...
@@ -420,9 +427,9 @@ def test_more_levels_of_the_scene_on_screen_leave_a_visitors_view_alone(
     k.devices.keyboard.key("q", False)
     view = k.state.frame.view
     assert k.state.mode == "visitor"
-    k.content.collect(k.clock(), k.started)  # hopf's other levels: they fail
+    k.content.collect(k.clock(), k.parts.started)  # hopf's other levels: they fail
     assert k.state.frame.view == view
-    assert k.problems == [] and k.scenes_failed == [] and "hopf" in k.state.content
+    assert k.parts.problems == [] and k.parts.scenes_failed == [] and "hopf" in k.state.content
 
 
 def test_no_worker_process_means_the_rest_is_prepared_here(tmp_path, built, monkeypatch, caplog):
@@ -504,7 +511,7 @@ def test_the_kiosk_runs_with_the_parts_it_is_handed(tmp_path, built):
         def report(self, now, **what):
             self.calls.append((now, what["frames"], what["state"].mode))
 
-    parts.reporter = Reports()
+    parts = dataclasses.replace(parts, reporter=Reports())
     k = app.Kiosk(config, window, clock, parts=parts)
     k.run(max_frames=20)
     assert parts.reporter.calls and all(mode == "attract" for _, _, mode in parts.reporter.calls)
@@ -572,22 +579,22 @@ def test_workers_are_replaced_by_rate_not_count_and_what_they_dropped_is_tried_a
         p.submit(job)
     assert p.results() == [] and workers[0][2].sent == [jobs[0]]
     failed = []
-    for _ in range(preparing.WORKER_RESTARTS + 1):  # deaths 10 s apart
+    for _ in range(process_preparer.WORKER_RESTARTS + 1):  # deaths 10 s apart
         now[0] += 10
-        workers[-1][3].put(preparing._ENDED)
+        workers[-1][3].put(worker_watch.ENDED)
         failed += p.results()
     assert [r.job.scene for r in failed] == ["a", "b", "c", "d"]
     assert all("died" in r.error and "tried again in 60 s" in r.error for r in failed)
-    assert len(workers) == 1 + preparing.WORKER_RESTARTS, "three restarts, then held"
+    assert len(workers) == 1 + process_preparer.WORKER_RESTARTS, "three restarts, then held"
     assert p.busy and [j.scene for j in p.pending()] == ["e", "f"], "nothing dropped"
     assert "restarts held" in p.status() and "to try again: a in 30 s" in p.status()
-    now[0] = 10 + preparing.RESTART_WINDOW_S  # an hour after the first death
+    now[0] = 10 + process_preparer.RESTART_WINDOW_S  # an hour after the first death
     assert p.results() == [] and len(workers) == 5
     assert [j.scene for j in p.pending()] == ["e", "f", "a", "b", "c", "d"]
-    workers[-1][3].put(preparing.Prepared(jobs[4]))
-    workers[-1][3].put(preparing.Prepared(jobs[5]))
+    workers[-1][3].put(jobs_module.Prepared(jobs[4]))
+    workers[-1][3].put(jobs_module.Prepared(jobs[5]))
     assert [r.job.scene for r in p.results()] == ["e", "f"]
-    workers[-1][3].put(preparing._ENDED)  # a fails a second time: twice as long to wait
+    workers[-1][3].put(worker_watch.ENDED)  # a fails a second time: twice as long to wait
     again = p.results()
     assert again[0].job is jobs[0] and "tried again in 120 s" in again[0].error
 
@@ -598,7 +605,7 @@ def test_a_stopped_or_stalled_worker_is_found_by_a_deadline_and_replaced(monkeyp
     JOB_DEADLINE_S likewise; status() names it for the health file."""
     workers = _fake_workers(monkeypatch)
     seen = {"state": "R", "cpu": 1.0}
-    monkeypatch.setattr(preparing, "worker_progress", lambda pid: (seen["state"], seen["cpu"]))
+    monkeypatch.setattr(worker_watch, "worker_progress", lambda pid: (seen["state"], seen["cpu"]))
     now = [0.0]
     p = ProcessPreparer(urgent=False, clock=lambda: now[0])
     a, b, c = (Job(name, (), ((0, 8),)) for name in "abc")
@@ -610,7 +617,7 @@ def test_a_stopped_or_stalled_worker_is_found_by_a_deadline_and_replaced(monkeyp
         seen["cpu"] += 0.01
         assert p.results() == []
     seen["state"] = "T"  # SIGSTOP: its CPU time stands still
-    now[0] += preparing.STALL_S - 1
+    now[0] += worker_watch.STALL_S - 1
     assert p.results() == [] and not workers[0][1].killed
     now[0] += 2
     out = p.results()
@@ -618,8 +625,8 @@ def test_a_stopped_or_stalled_worker_is_found_by_a_deadline_and_replaced(monkeyp
     assert workers[0][1].killed and len(workers) == 2 and workers[1][2].sent == [b]
     assert "1 stalled); last: pid 4242 stalled preparing a: no progress" in p.status()
     # without /proc to read: the job's deadline alone
-    monkeypatch.setattr(preparing, "worker_progress", lambda pid: None)
-    now[0] += preparing.JOB_DEADLINE_S
+    monkeypatch.setattr(worker_watch, "worker_progress", lambda pid: None)
+    now[0] += worker_watch.JOB_DEADLINE_S
     out = p.results()
     assert out[0].job is b and "still on one job after 1800 s" in out[0].error
     assert workers[1][1].killed and workers[2][2].sent == [c]
@@ -641,17 +648,17 @@ def test_a_real_stopped_worker_is_found_and_replaced(tmp_path, monkeypatch):
         stopped = p._process
         os.kill(stopped.pid, signal.SIGSTOP)
         for _ in range(600):  # until the stop has taken effect
-            if preparing.worker_progress(stopped.pid)[0] in "Tt":
+            if worker_watch.worker_progress(stopped.pid)[0] in "Tt":
                 break
             time.sleep(0.01)
         assert p.results() == []  # its CPU time, seen once
-        now[0] += preparing.STALL_S + 1
+        now[0] += worker_watch.STALL_S + 1
         out = p.results()
         assert out[0].job is job and "stalled (no progress for 121 s (stopped))" in out[0].error
         stopped.join(timeout=30)
         assert stopped.exitcode == -signal.SIGKILL
         assert f"pid {stopped.pid} stalled preparing no-such-scene" in p.status()
-        now[0] += preparing.RETRY_S
+        now[0] += process_preparer.RETRY_S
         results = []
         for _ in range(600):
             results += p.results()
@@ -671,7 +678,7 @@ def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
     import functools
 
     workers = _fake_workers(monkeypatch)
-    monkeypatch.setattr(preparing, "worker_progress", lambda pid: ("T", 1.0))
+    monkeypatch.setattr(worker_watch, "worker_progress", lambda pid: ("T", 1.0))
     now = [0.0]
     ticks = iter(np.arange(1e6) * 0.1)
     k = app.Kiosk(
@@ -686,20 +693,20 @@ def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
     def deliver():
         job = workers[-1][2].sent[-1]
         meshes = {level: f"mesh {job.scene} {res}" for level, res in job.levels}
-        workers[-1][3].put(preparing.Prepared(job, meshes, list(job.timelines)))
+        workers[-1][3].put(jobs_module.Prepared(job, meshes, list(job.timelines)))
 
     def frame():
-        k._frame(k.clock())
+        k.tick(k.clock())
 
     frame()  # the first frame
     frame()  # the worker starts
     deliver()  # hopf's other mesh levels
     frame()
     assert workers[-1][2].sent[-1].scene == "clifford-torus"
-    now[0] += preparing.STALL_S + 1
+    now[0] += worker_watch.STALL_S + 1
     frame()
     assert "clifford-torus" not in k.state.content
-    k._report(k.clock())
+    k.report(k.clock())
     problems = json.loads((tmp_path / "health.json").read_text())["problems"]
     assert any(
         p.startswith("scene clifford-torus skipped: the preparing process stalled")
@@ -717,16 +724,19 @@ def test_a_stalled_worker_is_named_in_the_health_file_and_its_scene_comes_back(
     deliver()
     frame()
     assert workers[-1][2].sent[-1] is None, "nothing to do now: the worker leaves"
-    workers[-1][3].put(preparing._ENDED)
-    now[0] += preparing.RETRY_S
+    workers[-1][3].put(worker_watch.ENDED)
+    now[0] += process_preparer.RETRY_S
     frame()
     assert workers[-1][2].sent[-1].scene == "clifford-torus", "tried again"
     deliver()
     frame()
     assert k.state.content == ("hopf", "clifford-torus", "veronese")
     assert [t.scene for t in k.state.playlist.timelines] == ["hopf", "clifford-torus"]
-    assert not any("clifford-torus skipped" in p for p in k.problems) and not k.scenes_failed
-    workers[-1][3].put(preparing._ENDED)  # it leaves: everything is prepared
+    assert (
+        not any("clifford-torus skipped" in p for p in k.parts.problems)
+        and not k.parts.scenes_failed
+    )
+    workers[-1][3].put(worker_watch.ENDED)  # it leaves: everything is prepared
     workers[-1][1].alive = False
     frame()
     frame()  # reaped

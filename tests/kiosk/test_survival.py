@@ -13,7 +13,7 @@ import sys
 import numpy as np
 from PIL import Image
 
-from exhibit.kiosk import app, preparing
+from exhibit.kiosk import app, frame_loop, jobs
 from exhibit.render.window import GlfwErrors
 from tests.kiosk.support import ROOT, FakeWindow, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
@@ -48,8 +48,8 @@ def test_a_minute_of_nothing_but_failed_frames_exits_for_systemd_to_restart(
     k, _ = kiosk(tmp_path, monkeypatch)
     k.window.fail = 10**9
     with caplog.at_level(logging.INFO, logger="exhibit.kiosk"):
-        assert k.run(max_frames=10_000) == app.FAILING_EXIT
-    assert 60 <= k.clock() - k.started < 62 and k.frames == 0
+        assert k.run(max_frames=10_000) == frame_loop.FAILING_EXIT
+    assert 60 <= k.clock() - k.parts.started < 62 and k.frames == 0
     assert caplog.text.count("Traceback") == 1 and "exiting, for systemd" in caplog.text
     assert any("frames failing for" in p for p in health(tmp_path)["problems"])
 
@@ -107,10 +107,10 @@ def test_glfw_errors_are_logged_once_then_counted(caplog):
 
 NOTICE_RUN = r"""
 import sys
-from exhibit.kiosk import preparing
+from exhibit.kiosk import jobs
 def build(scene, params, resolution):
     raise RuntimeError("no mesh today")
-preparing.build_cached = build
+jobs.build_cached = build
 from exhibit.cli import main
 sys.exit(main(sys.argv[1:]))
 """
@@ -170,7 +170,7 @@ def test_a_cut_is_crossfaded_from_the_last_frame_shown(tmp_path, monkeypatch):
     assert len(window.captured) == 1, "one loop, one crossfade"
     start = next(i for i, f in enumerate(window.fades) if f > 0)
     fading = [f for f in window.fades[start:] if f > 0]
-    seconds = (k.clock() - k.started) / k.frames  # per frame, on the fake clock
+    seconds = (k.clock() - k.parts.started) / k.frames  # per frame, on the fake clock
     assert 0.5 < fading[0] <= 1.0 and fading == sorted(fading, reverse=True)
     assert len(fading) <= app.CROSSFADE_S / seconds + 1
     assert not any(window.fades[:start]) and not any(window.fades[start + len(fading) :])
@@ -211,7 +211,7 @@ def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monk
         assert opened and opened[0].scene_problems == config.scene_problems
 
         monkeypatch.setattr(
-            preparing, "build_cached", lambda scene, params, res: (f"mesh {scene.name}", None)
+            jobs, "build_cached", lambda scene, params, res: (f"mesh {scene.name}", None)
         )
         ticks = iter(np.arange(1e6) * 0.1)
         k = app.Kiosk(
@@ -221,7 +221,7 @@ def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monk
             health_path=tmp_path / "health.json",
         )
         assert k.state is not None
-        k._report(k.clock())
+        k.report(k.clock())
         report = health(tmp_path)
         assert any(
             "scene file left out" in p and str(folder / "broken.toml") in p

@@ -124,7 +124,7 @@ def one_run(variant: str, busy: int, size: tuple[int, int], headless) -> dict:
     """One kiosk from an empty mesh cache, ``busy`` spinning processes beside it."""
     from exhibit.kiosk.app import Kiosk
     from exhibit.kiosk.config import load_kiosk_config
-    from exhibit.kiosk.preparing import ProcessPreparer
+    from exhibit.kiosk.process_preparer import ProcessPreparer
     from exhibit.kiosk.review import keyboard_only
     from exhibit.render.target import HeadlessTarget
 

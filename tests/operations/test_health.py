@@ -16,8 +16,8 @@ from pathlib import Path
 import pytest
 
 from exhibit.cli import main
-from exhibit.kiosk import health
-from exhibit.kiosk.health import HealthError, freshness, read_health, write_health
+from exhibit.operations import health
+from exhibit.operations.health import HealthError, freshness, read_health, write_health
 
 
 def sample(**changes) -> dict:
@@ -675,7 +675,7 @@ def test_process_uptime_counts_from_the_process_start():
             sys.executable,
             "-c",
             "import time; time.sleep(1.5); "
-            "from exhibit.kiosk.health import process_uptime; "
+            "from exhibit.operations.health import process_uptime; "
             "print(process_uptime())",
         ],
         stdout=subprocess.PIPE,

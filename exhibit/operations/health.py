@@ -1,8 +1,8 @@
 """The kiosk's health file: what the running exhibit is doing, rewritten about once a second.
 
 Its schema is one pydantic model, Health (with DeviceHealth per device): the kiosk builds one
-(Kiosk._report, through report()) and writes it, and every reader gets one back from
-read_health (`exhibit status`, the Prometheus metrics in exhibit.kiosk.prometheus). The fields'
+(Kiosk.report, through report()) and writes it, and every reader gets one back from
+read_health (`exhibit status`, the Prometheus metrics in exhibit.operations.prometheus). The fields'
 comments say what each holds. "frames" drawn and "frame_errors" (frames that raised) count since
 the start, "uptime_s" is the seconds since the kiosk process started (process_uptime),
 "problems" has one line each for people (scenes skipped, frames failing), and "mode" and "scene"
@@ -169,7 +169,7 @@ class DeviceHealth(BaseModel):
 
 
 class Health(BaseModel):
-    """The health file, as the kiosk writes it (Kiosk._report, through report()) and every
+    """The health file, as the kiosk writes it (Kiosk.report, through report()) and every
     reader reads it (read_health: `exhibit status`, the metrics). "time" is the only required
     key; null is "not known yet" (fps before the first second); unknown keys are kept (a newer
     kiosk may add some) and so is which keys the file had (as_dict)."""
@@ -195,7 +195,7 @@ class Health(BaseModel):
     #: [{"scene", "reason"}]
     scenes_failed: Annotated[list[dict[str, Any]] | None, Unchecked] = None
     language: Annotated[str | None, Unchecked] = None
-    #: The visitor-session recorder (exhibit.kiosk.sessions.SessionLog.health).
+    #: The visitor-session recorder (exhibit.operations.sessions.SessionLog.health).
     sessions: Annotated[dict[str, Any] | None, Unchecked] = None
     #: The frame governor (exhibit.kiosk.governor.Governor.health).
     quality: Annotated[str | None, Unchecked] = None
@@ -286,7 +286,7 @@ def candidate_paths(environ: Mapping[str, str] | None = None) -> list[Path]:
     return paths
 
 
-def report(**fields) -> Health:
+def report(**fields: Any) -> Health:
     """The Health the kiosk writes, from its numbers: non-finite floats (an fps before the first
     second) become null, as JSON has no NaN. Raises TypeError for a value of the wrong type."""
     try:

@@ -1,5 +1,5 @@
-"""Logging to the journal in its native protocol (exhibit.kiosk.journal), checked against a unix
-datagram socket bound in a temporary folder standing in for journald's; and the kiosk's records
+"""Logging to the journal in its native protocol (exhibit.operations.journal), checked against a
+unix datagram socket bound in a temporary folder standing in for journald's; and the kiosk's records
 carrying EXHIBIT_MODE and EXHIBIT_SCENE, and its health file carrying the device durations."""
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ from types import SimpleNamespace
 
 import pytest
 
-from exhibit.kiosk import journal
-from exhibit.kiosk.journal import JournalHandler, encode
+from exhibit.operations import journal
+from exhibit.operations.journal import JournalHandler, encode
 
 
 def decode(data: bytes) -> dict[str, str]:
@@ -279,12 +279,12 @@ def test_kiosk_records_carry_the_mode_and_scene(tmp_path, monkeypatch, kiosk_jou
 
     k, _ = kiosk(tmp_path, monkeypatch)
     for _ in range(5):
-        k._frame(k.clock())
+        k.tick(k.clock())
     k.devices.keyboard.key("space", True)  # a visitor takes over
-    k._frame(k.clock())
+    k.tick(k.clock())
     k.window.fail = 1  # and the next frame raises
     for _ in range(5):
-        k._frame(k.clock())
+        k.tick(k.clock())
     k.devices.close()
     records = [r for r in all_received(kiosk_journal) if r["LOGGER"] == "exhibit.kiosk"]
     mode = next(r for r in records if r["MESSAGE"].startswith("mode visitor"))

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from exhibit.kiosk.notify import Notifier
+from exhibit.operations.notify import Notifier
 
 
 class FakeSystemd:
@@ -164,7 +164,7 @@ def test_failed_ping_is_retried_after_a_tenth_of_the_period(caplog):
     clock = Clock()
     missing = f"/tmp/exhibit-no-such-socket-{uuid.uuid4().hex}"
     notifier = Notifier(missing, watchdog_usec=10_000_000, clock=clock)
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.notify"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.notify"):
         assert not notifier.watchdog()
         clock.t += 0.4
         assert not notifier.watchdog()  # not retried before 0.5 s ...

@@ -23,7 +23,7 @@ from collections.abc import Callable, Mapping
 
 __all__ = ["Notifier"]
 
-log = logging.getLogger("exhibit.kiosk.notify")
+log = logging.getLogger("exhibit.operations.notify")
 
 
 class Notifier:
@@ -221,7 +221,7 @@ class Notifier:
     def __enter__(self) -> Notifier:
         return self
 
-    def __exit__(self, *exc) -> None:
+    def __exit__(self, *exc: object) -> None:
         self.close()
 
 

@@ -1,6 +1,6 @@
 """The kiosk's health as Prometheus metrics, for node_exporter's textfile collector.
 
-`exhibit status --prometheus FILE` renders the health file (exhibit.kiosk.health.Health) in the
+`exhibit status --prometheus FILE` renders the health file (exhibit.operations.health.Health) in the
 Prometheus text exposition format (version 0.0.4) with prometheus_client, in a registry of its
 own, and writes it atomically (exhibit.schema.files.write_atomic), so a museum that already
 runs node_exporter on its machines watches every kiosk with the Prometheus it has: no new
@@ -30,7 +30,7 @@ from prometheus_client import CollectorRegistry, generate_latest
 from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
 
 from exhibit.devices.base import State
-from exhibit.kiosk.health import MODES, Health, as_health, device_label
+from exhibit.operations.health import MODES, Health, as_health, device_label
 from exhibit.schema.files import check_target, write_atomic
 
 __all__ = ["HEALTH_STATUSES", "FAMILIES", "registry", "render", "write_metrics", "escape_label"]
@@ -215,7 +215,7 @@ def write_metrics(
     write_atomic(path, text, mode=0o644, sync=False)  # rewritten every 15 s: spare the flash
 
 
-def _clean(value) -> str:
+def _clean(value: object) -> str:
     """A label value without control or invisible characters (C0, DEL, C1, bidi overrides,
     lone surrogates), whitespace runs as they are but line breaks and tabs as spaces, at most
     MAX_LABEL_CHARS long."""
@@ -224,7 +224,7 @@ def _clean(value) -> str:
     return out[:MAX_LABEL_CHARS]
 
 
-def escape_label(value) -> str:
+def escape_label(value: object) -> str:
     """A label value for the text format: cleaned (_clean), then backslash, double quote and
     line feed escaped."""
     return _clean(value).replace("\\", "\\\\").replace('"', '\\"').replace("\n", "\\n")

@@ -26,8 +26,8 @@ from hypothesis import strategies as st
 
 from exhibit.cli import main
 from exhibit.devices.base import State
-from exhibit.kiosk import prometheus as metrics
-from exhibit.kiosk.health import write_health
+from exhibit.operations import prometheus as metrics
+from exhibit.operations.health import write_health
 from tests.hypothesis_profiles import examples
 
 REPO = Path(__file__).resolve().parents[2]

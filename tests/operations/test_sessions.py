@@ -1,5 +1,5 @@
-"""What visitors do (exhibit.kiosk.sessions, `exhibit stats`): a visitor session recorded through
-the kiosk's state machine and its frame loop and reported by `exhibit stats --json`; the
+"""What visitors do (exhibit.operations.sessions, `exhibit stats`): a visitor session recorded
+through the kiosk's state machine and its frame loop and reported by `exhibit stats --json`; the
 database surviving SIGKILL in the middle of writes; rotation; broken files moved aside; the
 writer never blocking a frame; the stats arithmetic against hand-computed values; the plot."""
 
@@ -23,10 +23,11 @@ from exhibit.cli import main
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
-from exhibit.kiosk import sessions as sessions_module
+from exhibit.operations import sessions as sessions_module
+from exhibit.operations.sessions import store as sessions_store, writer as sessions_writer
 from exhibit.kiosk.attract import Playlist
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
-from exhibit.kiosk.sessions import (
+from exhibit.operations.sessions import (
     Session,
     SessionLog,
     SessionStore,
@@ -146,7 +147,7 @@ def test_the_kiosk_frame_loop_records_sessions(tmp_path, monkeypatch, capsys):
 
     def frames(n):
         for _ in range(n):
-            assert k._frame(k.clock())
+            assert k.tick(k.clock())
 
     frames(10)
     assert k.state.mode == ATTRACT and k.sessions.current is None
@@ -273,7 +274,7 @@ def test_a_stalled_disk_never_blocks_a_frame(tmp_path, monkeypatch, caplog):
 
     # The frames run to the end while the write is still stuck: not one of them waited for it
     # (one that did would wait for `release`, which comes only after this check).
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         loop = threading.Thread(target=frames, daemon=True)
         loop.start()
         loop.join(timeout=30)
@@ -293,7 +294,7 @@ def test_a_recorder_bug_is_logged_once_and_never_reaches_the_frame(caplog):
             raise RuntimeError("bug")
 
     recorder = SessionLog(Broken())
-    with caplog.at_level(logging.ERROR, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.ERROR, logger="exhibit.operations.sessions"):
         for i in range(10):
             recorder.observe(VISITOR, "hopf", [], float(i))
             recorder.observe(ATTRACT, "hopf", [], i + 0.5)
@@ -303,7 +304,7 @@ def test_a_recorder_bug_is_logged_once_and_never_reaches_the_frame(caplog):
 def test_an_unwritable_place_turns_recording_off_with_one_line(tmp_path, caplog):
     blocker = tmp_path / "file"
     blocker.write_text("not a folder")
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         writer = SessionWriter(blocker / "sessions.db")
         recorder = SessionLog(writer)
         recorder.observe(VISITOR, "hopf", [], 0.0)
@@ -316,7 +317,7 @@ def test_an_unwritable_place_turns_recording_off_with_one_line(tmp_path, caplog)
 
 CHILD = r"""
 import sys, time
-from exhibit.kiosk.sessions import Session, SessionLog, SessionWriter
+from exhibit.operations.sessions import Session, SessionLog, SessionWriter
 from tests.kiosk.support import numbered
 
 def committed(session, row):
@@ -401,7 +402,7 @@ def test_rotation_by_age_and_by_count_at_open(tmp_path):
 def test_rotation_shrinks_the_file_and_runs_while_writing(tmp_path, monkeypatch):
     """Sessions beyond max_sessions go every ROTATE_EVERY writes, and the file gives the space
     back (incremental auto-vacuum): it is bounded, not just reused."""
-    monkeypatch.setattr(sessions_module, "ROTATE_EVERY", 500)
+    monkeypatch.setattr(sessions_writer, "ROTATE_EVERY", 500)
     db = tmp_path / "s.db"
     store = SessionStore(db, max_sessions=10_000_000).open()
     for i in range(5000):
@@ -427,7 +428,7 @@ def test_rotation_shrinks_the_file_and_runs_while_writing(tmp_path, monkeypatch)
 def test_a_file_that_is_no_database_is_moved_aside_and_a_fresh_one_started(tmp_path, caplog):
     db = tmp_path / "sessions.db"
     db.write_bytes(b"this is not SQLite" * 100)
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         writer = SessionWriter(db)
         writer.submit(session(NOON_ISH, 10))
         writer.close()
@@ -479,7 +480,7 @@ def test_only_the_last_few_moved_aside_files_are_kept(tmp_path):
         db.write_bytes(b"garbage %d" % i)
         store = SessionStore(db, wall=lambda: NOON_ISH + i).open()
         store.close()
-    assert len(list(tmp_path.glob("sessions.db.corrupt-*"))) == sessions_module.KEEP_ASIDE
+    assert len(list(tmp_path.glob("sessions.db.corrupt-*"))) == sessions_store.KEEP_ASIDE
 
 
 # ---------------------------------------------------------------------- the arithmetic
@@ -695,7 +696,7 @@ def test_a_file_found_broken_while_writing_is_moved_aside_and_the_write_retried(
         return real_add(self, s)
 
     monkeypatch.setattr(SessionStore, "add", add)
-    with caplog.at_level(logging.WARNING, logger="exhibit.kiosk.sessions"):
+    with caplog.at_level(logging.WARNING, logger="exhibit.operations.sessions"):
         writer = SessionWriter(tmp_path / "s.db")
         writer.submit(numbered(1))
         writer.close()
@@ -786,7 +787,7 @@ def test_stats_survives_every_hostile_row_at_once(tmp_path, capsys):
 
 
 def test_read_sessions_bounds_every_value():
-    from exhibit.kiosk.sessions import _session_from_row
+    from exhibit.operations.sessions.reading import _session_from_row
 
     ok = _session_from_row(*_row())
     assert ok.scenes == ["hopf"] and ok.duration_s == 60.0

@@ -34,6 +34,7 @@ import struct
 import sys
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TextIO
 
 __all__ = [
     "JOURNAL_SOCKET",
@@ -166,7 +167,9 @@ class JournalHandler(logging.Handler):
             super().close()
 
 
-def stderr_is_journal(environ: Mapping[str, str] | None = None, stream=None) -> bool:
+def stderr_is_journal(
+    environ: Mapping[str, str] | None = None, stream: TextIO | None = None
+) -> bool:
     """Whether ``stream`` (stderr) is the journal: $JOURNAL_STREAM ("DEVICE:INODE", set by systemd
     for a service logging there) names the file ``stream`` writes to."""
     env = os.environ if environ is None else environ
@@ -182,7 +185,7 @@ def stderr_is_journal(environ: Mapping[str, str] | None = None, stream=None) -> 
 
 def install(
     environ: Mapping[str, str] | None = None,
-    stream=None,
+    stream: TextIO | None = None,
     socket_path: str | os.PathLike = JOURNAL_SOCKET,
     logger: logging.Logger | None = None,
 ) -> JournalHandler | None:
