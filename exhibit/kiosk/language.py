@@ -24,7 +24,8 @@ import logging
 from dataclasses import dataclass, field
 from functools import lru_cache
 from pathlib import Path
-from typing import Annotated, Callable, Iterable, Protocol, Sequence
+from typing import Annotated, Protocol
+from collections.abc import Callable, Iterable, Sequence
 
 from pydantic import Field, field_validator
 

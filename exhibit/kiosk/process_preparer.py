@@ -150,10 +150,8 @@ class ProcessPreparer:
         process, connection, inbox = self._spawn(0, "exhibit-prepare-now")
         now = self.clock()
         self._urgent = _Urgent(job, process, connection, inbox, Watch(now, now))
-        try:
+        with contextlib.suppress(OSError):  # it died at once: its reader says so
             connection.send(job)
-        except OSError:
-            pass  # it died at once: its reader says so
         log.info("scene %s: prepared now, for a visitor who waits", job.scene)
 
     def _stop_urgent(self, kill: bool = False) -> None:
@@ -215,10 +213,9 @@ class ProcessPreparer:
         self._in_flight = self._queue.pop(ready[0])
         self._watch = Watch(now, now)
         assert self._connection is not None  # set with the process
-        try:
-            self._connection.send(self._in_flight)  # a Job is small: the pipe takes it at once
-        except OSError:
-            pass  # the worker is gone: the reader says so
+        # A Job is small: the pipe takes it at once. A worker gone: the reader says so.
+        with contextlib.suppress(OSError):
+            self._connection.send(self._in_flight)
 
     def _may_start(self, now: float) -> bool:
         """Whether a worker may start now: not when WORKER_RESTARTS workers died or stalled
@@ -338,10 +335,8 @@ class ProcessPreparer:
         ):
             self._leaving = True  # nothing left: the worker's memory back
             assert self._connection is not None  # set with the process
-            try:
+            with contextlib.suppress(OSError):
                 self._connection.send(None)
-            except OSError:
-                pass
         return out
 
     def _ended(self, now: float) -> list[Prepared]:

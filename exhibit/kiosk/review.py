@@ -25,7 +25,8 @@ import tempfile
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Callable, Iterable, Iterator
+from typing import TYPE_CHECKING
+from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -464,7 +465,7 @@ class KioskPlayer:
             del self.headless  # released: none left (getattr above)
         shutil.rmtree(self._tmp, ignore_errors=True)
 
-    def __enter__(self) -> "KioskPlayer":
+    def __enter__(self) -> KioskPlayer:
         return self
 
     def __exit__(self, *exc: object) -> None:

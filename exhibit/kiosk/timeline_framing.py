@@ -285,7 +285,7 @@ class FramedTimeline(Timeline):
     @classmethod
     def of(
         cls, timeline: Timeline, views: list[ViewState], fills: Sequence[bool] = ()
-    ) -> "FramedTimeline":
+    ) -> FramedTimeline:
         fields = {f.name: getattr(timeline, f.name) for f in dataclasses.fields(Timeline)}
         fields["keyframes"] = tuple(
             dataclasses.replace(k, half_height=v.half_height)

@@ -329,7 +329,7 @@ def test_every_udev_rule_parses_into_known_keys():
         assert ("SUBSYSTEM", None) in keys
         if ("GROUP", None) in keys:
             assert keys[("GROUP", None)] == inst.USER and keys[("MODE", None)] == "0660"
-        for (key, attr), value in keys.items():
+        for (_key, attr), value in keys.items():
             if attr in ("idVendor", "idProduct"):
                 assert re.fullmatch(r"[0-9a-f]{4}(\|[0-9a-f]{4})*", value), value
 

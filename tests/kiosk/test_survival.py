@@ -17,6 +17,7 @@ from exhibit.kiosk import app, frame_loop, jobs
 from exhibit.render.window import GlfwErrors
 from tests.kiosk.support import ROOT, FakeWindow, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
+import contextlib
 
 
 def health(tmp_path):
@@ -204,10 +205,8 @@ def test_a_broken_unused_scene_file_stops_nothing_but_is_reported(tmp_path, monk
 
         monkeypatch.setattr(app, "open_window", open_window)
         monkeypatch.setattr("faulthandler.enable", lambda *a, **k: None)  # pytest's stderr
-        try:
+        with contextlib.suppress(SystemExit):
             main(["run", "--config", str(path), "--windowed"])
-        except SystemExit:
-            pass
         assert opened and opened[0].scene_problems == config.scene_problems
 
         monkeypatch.setattr(

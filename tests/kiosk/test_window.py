@@ -85,7 +85,7 @@ def test_watchdog_pings_follow_the_frame_loop(tmp_path):
         while time.monotonic() < end:
             try:
                 got.append(server.recv(4096).decode())
-            except socket.timeout:
+            except TimeoutError:
                 continue
             if until is not None and until in got[-1]:
                 break

@@ -270,7 +270,7 @@ def all_received(journald) -> list[dict]:
     while True:
         try:
             out.append(journald.receive())
-        except (TimeoutError, socket.timeout):
+        except TimeoutError:
             return out
 
 

@@ -478,7 +478,7 @@ def test_only_the_last_few_moved_aside_files_are_kept(tmp_path):
     db = tmp_path / "sessions.db"
     for i in range(6):
         db.write_bytes(b"garbage %d" % i)
-        store = SessionStore(db, wall=lambda: NOON_ISH + i).open()
+        store = SessionStore(db, wall=lambda i=i: NOON_ISH + i).open()
         store.close()
     assert len(list(tmp_path.glob("sessions.db.corrupt-*"))) == sessions_store.KEEP_ASIDE
 
@@ -791,7 +791,7 @@ def test_read_sessions_bounds_every_value():
 
     ok = _session_from_row(*_row())
     assert ok.scenes == ["hopf"] and ok.duration_s == 60.0
-    for what, row in HOSTILE_ROWS.items():
+    for row in HOSTILE_ROWS.values():
         with pytest.raises(ValueError):
             _session_from_row(*row)
 

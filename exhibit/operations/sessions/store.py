@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from exhibit.operations.sessions.session import Session
+import contextlib
 
 log = logging.getLogger("exhibit.operations.sessions")
 
@@ -82,7 +83,7 @@ class SessionStore:
 
     # -- opening
 
-    def open(self) -> "SessionStore":
+    def open(self) -> SessionStore:
         """Open (creating the folder and file if needed); a broken file is moved aside and a
         fresh one started. Raises OSError or sqlite3.Error when even a fresh file cannot be
         made (a read-only folder): the caller logs it and records nothing."""
@@ -189,10 +190,8 @@ class SessionStore:
         old = asides[:-KEEP_ASIDE]
         for p in old:
             for q in (p, Path(f"{p}-wal"), Path(f"{p}-journal")):
-                try:
+                with contextlib.suppress(OSError):
                     q.unlink()
-                except OSError:
-                    pass
 
     # -- writing
 
