@@ -233,6 +233,8 @@ def summary(
     ]
     if data.quality is not None:
         rows.append(("quality", quality_line(data)))
+    if isinstance(data.frame_passes, dict):
+        rows.append(("frame passes", passes_line(data.frame_passes)))
     narration = data.narration
     if isinstance(narration, dict):
         rows.append(("narration", narration_line(narration)))
@@ -328,6 +330,30 @@ def _print_json(obj: dict) -> None:
     """JSON with every non-ASCII and control character escaped (ensure_ascii), so it is valid
     and inert on a terminal; read_health has already refused NaN and infinities."""
     sys.stdout.write(json.dumps(obj, indent=2, sort_keys=True, ensure_ascii=True) + "\n")
+
+
+#: At most this many passes on the status line (a damaged file may list thousands).
+MAX_PASSES = 16
+
+
+def passes_line(passes: dict) -> str:
+    """ "direct, 4 s ago: background 3.1, surfaces 5.2, ..., other 0.3 ms; frame 17.5 ms" from
+    the health file's frame_passes (any value may be missing or odd: shown as ?)."""
+
+    def ms(value: object) -> str:
+        ok = isinstance(value, (int, float)) and not isinstance(value, bool)
+        return f"{value:.1f}" if ok else "?"
+
+    times = passes.get("passes_ms")
+    times = times if isinstance(times, dict) else {}
+    parts = [f"{printable(name)[:40]} {ms(value)}" for name, value in times.items()][:MAX_PASSES]
+    parts.append(f"other {ms(passes.get('other_ms'))}")
+    age = passes.get("age_s")
+    when = f"{ms(age)} s ago" if isinstance(age, (int, float)) else "? s ago"
+    return (
+        f"{printable(passes.get('level', '?'))[:40]}, {when}: {', '.join(parts)} ms; "
+        f"frame {ms(passes.get('total_ms'))} ms"
+    )
 
 
 def narration_line(narration: dict) -> str:

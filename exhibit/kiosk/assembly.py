@@ -27,6 +27,7 @@ from exhibit.kiosk.narration_cues import NarrationCues
 from exhibit.kiosk.narrator import Narrator, SoundPlayer, for_kiosk as narrator_for
 from exhibit.kiosk.jobs import Framers, scene_jobs
 from exhibit.kiosk.preparing import Preparer
+from exhibit.kiosk.frame_passes import PassSampler
 from exhibit.kiosk.reporting import Reporter
 from exhibit.kiosk.scene_meshes import SceneMeshes
 from exhibit.kiosk.slice_inset import SliceInset
@@ -65,6 +66,8 @@ class KioskParts:
     cues: NarrationCues
     #: The language and the session log followed as visitors come and go.
     visits: Visits
+    #: One frame measured pass by pass now and then, for the health file.
+    passes: PassSampler
     problems: list[str] = field(default_factory=list)
     scenes_failed: list[dict] = field(default_factory=list)
 
@@ -77,6 +80,7 @@ class KioskParts:
             "language": self.translate.language,
             "governor": self.governor,
             "narration": self.narrator.status(),
+            "frame_passes": self.passes.health(now),
         }
 
 
@@ -180,6 +184,7 @@ def assemble(
         words=HudWords(translate),
         cues=NarrationCues(narrator, translate),
         visits=Visits(language, translate, narrator),
+        passes=PassSampler(window, lambda: governor.quality.name),
         problems=problems,
         scenes_failed=scenes_failed,
     )

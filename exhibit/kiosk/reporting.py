@@ -69,6 +69,7 @@ class Reporter:
         sessions: SessionLog | None,
         governor: Governor,
         narration: dict | None = None,
+        frame_passes: dict | None = None,
     ) -> None:
         """The frame times since the last report (``stats`` is emptied), the devices' states
         and seconds missing, what is on screen, and every problem, the frames' failing too."""
@@ -136,6 +137,7 @@ class Reporter:
                         **(sessions.health() if sessions is not None else {}),
                         **governor.health(),  # quality level, frame_ms, target_ms
                         **({"narration": narration} if narration is not None else {}),
+                        **({"frame_passes": frame_passes} if frame_passes is not None else {}),
                     }
                 ),
             )

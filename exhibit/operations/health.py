@@ -206,6 +206,9 @@ class Health(BaseModel):
     target_ms: Annotated[float | None, Unchecked] = None
     #: "Listen" (exhibit.kiosk.narrator.Narrator.status): on, speaking, the player's device.
     narration: Annotated[dict[str, Any] | None, Unchecked] = None
+    #: One frame measured pass by pass (exhibit.kiosk.frame_passes): its level, its age, the
+    #: frame's total and each pass's milliseconds.
+    frame_passes: Annotated[dict[str, Any] | None, Unchecked] = None
 
     def as_dict(self) -> dict[str, Any]:
         """The keys the file had (or the writer set), unknown ones included, as JSON values."""

@@ -42,6 +42,8 @@ MODE_LABELS = (*MODES, "notice")
 MAX_LABEL_CHARS = 200
 #: At most this many devices are written (a config has a handful; a corrupt file could have more).
 MAX_DEVICES = 64
+#: At most this many render passes become series (a damaged file may list thousands).
+MAX_PASSES = 16
 
 #: name -> (type, help), in the order they are written.
 FAMILIES = {
@@ -90,6 +92,10 @@ FAMILIES = {
     "exhibit_problems": ("gauge", "Problems the kiosk reports for people (see exhibit status)"),
     "exhibit_resident_memory_bytes": ("gauge", "Resident memory of the kiosk process"),
     "exhibit_open_fds": ("gauge", "Open file descriptors of the kiosk process"),
+    "exhibit_frame_pass_seconds": (
+        "gauge",
+        "One measured kiosk frame's time per render pass (the health file's frame_passes)",
+    ),
 }
 
 
@@ -197,6 +203,12 @@ def _kiosk(data: Health, add) -> None:
     fds = data.fds
     if _is_number(fds) and fds >= 0:  # -1: could not be counted
         add("exhibit_open_fds", fds)
+    passes = data.frame_passes
+    times = passes.get("passes_ms") if isinstance(passes, dict) else None
+    if isinstance(times, dict):
+        for name, ms in list(times.items())[:MAX_PASSES]:
+            if _is_number(ms) and ms >= 0:
+                add("exhibit_frame_pass_seconds", round(ms / 1000.0, 6), **{"pass": _clean(name)})
 
 
 def write_metrics(

@@ -29,6 +29,7 @@ from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud_info import HudInfo
 from exhibit.render.layout import TextSizes
 from exhibit.render.options import RenderOptions
+from exhibit.render.pass_timer import PassTimes
 from exhibit.render.renderer import Renderer
 
 if TYPE_CHECKING:
@@ -109,6 +110,11 @@ class RenderTarget(Protocol):
 
     def release_snapshot(self) -> None: ...
 
+    def measure_passes(self) -> None: ...
+
+    @property
+    def pass_times(self) -> PassTimes | None: ...
+
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None: ...
 
     def read(self) -> np.ndarray: ...
@@ -173,6 +179,16 @@ class FrameDrawing:
         """Lay out and upload the HUD panels of ``huds`` at this target's size now, so the
         frame that first shows them does not (exhibit.kiosk.warm_up)."""
         self.renderer.hud.warm(self.size, huds, text)
+
+    def measure_passes(self) -> None:
+        """Time each pass of the next frame drawn (exhibit.render.pass_timer): the kiosk asks
+        for one frame now and then, so the health file says what a frame costs."""
+        self.renderer.measure_next_frame()
+
+    @property
+    def pass_times(self) -> PassTimes | None:
+        """The latest measured frame's per-pass times (None before the first)."""
+        return self.renderer.pass_times
 
     def release_snapshot(self) -> None:
         """Drop the crossfade's captured frame: it holds the outgoing frame's mesh (a review or

@@ -92,6 +92,7 @@ class FakeWindow:
         self.fail = 0
         self.drawn, self.notices = [], 0
         self.fades, self.captured = [], []
+        self.measure_asked, self.pass_times = 0, None
 
     def draw(self, gpu, view, options, hud, fade=0.0, inset=None):
         if self.fail > 0:
@@ -108,6 +109,9 @@ class FakeWindow:
 
     def release_snapshot(self):
         pass
+
+    def measure_passes(self):
+        self.measure_asked += 1
 
     def notice(self, lines, drift=(0.0, 0.0)):
         self.notices += 1

@@ -74,6 +74,13 @@ def sample(**changes) -> dict:
         "frame_errors": 2,
         "problems": ["scene veronese skipped: boom"],
         "scenes_failed": [{"scene": "veronese", "reason": "boom"}],
+        "frame_passes": {
+            "level": "direct",
+            "age_s": 3.0,
+            "total_ms": 12.0,
+            "passes_ms": {"background": 3.0, "surfaces": 5.5, "hud": 2.5},
+            "other_ms": 1.0,
+        },
     }
     data.update(changes)
     return data
@@ -155,6 +162,7 @@ def test_a_fresh_file_gives_every_family():
     assert at(got, "exhibit_health", status="ok") == 1
     assert at(got, "exhibit_health", status="stale") == 0
     assert at(got, "exhibit_fps") == 59.8
+    assert at(got, "exhibit_frame_pass_seconds", **{"pass": "surfaces"}) == 0.0055
     assert at(got, "exhibit_frame_time_p95_seconds") == pytest.approx(0.0169)
     assert at(got, "exhibit_mode", mode="attract") == 1
     assert at(got, "exhibit_mode", mode="visitor") == 0
