@@ -324,3 +324,44 @@ def test_a_long_module_without_its_reason_is_found(tmp_path):
         f'"""Long, and {SIZE_REASON}\nit has to be."""\n' + "x = 1\n" * MAX_MODULE_LINES
     )
     assert oversized(tmp_path) == ["long.py"]
+
+
+#: No module is longer than this, reason or not (issue 34).
+HARD_MODULE_LINES = 600
+#: The frame loop's class stays a frame loop; its parts live beside it (issue 34).
+MAX_KIOSK_LINES = 250
+
+
+def too_long(root: pathlib.Path) -> list[str]:
+    """Modules of more than HARD_MODULE_LINES lines."""
+    return [
+        f"{path.relative_to(root)}: {n} lines"
+        for path in sorted(root.rglob("*.py"))
+        if (n := path.read_text().count("\n") + 1) > HARD_MODULE_LINES
+    ]
+
+
+def class_lines(path: pathlib.Path, name: str) -> int:
+    """Lines of class ``name`` in ``path``, decorators to its last statement."""
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.ClassDef) and node.name == name:
+            first = min([node.lineno] + [d.lineno for d in node.decorator_list])
+            assert node.end_lineno is not None
+            return node.end_lineno - first + 1
+    raise AssertionError(f"no class {name} in {path}")
+
+
+def test_no_module_is_over_the_hard_limit():
+    assert too_long(ROOT) == []
+
+
+def test_the_kiosk_class_stays_small():
+    assert class_lines(ROOT / "kiosk" / "app.py", "Kiosk") <= MAX_KIOSK_LINES
+
+
+def test_a_module_over_the_hard_limit_is_found(tmp_path):
+    (tmp_path / "long.py").write_text('"""Why one module of this size: no."""\n' + "x\n" * 600)
+    (tmp_path / "ok.py").write_text("x\n" * 598)
+    assert too_long(tmp_path) == ["long.py: 602 lines"]
+    (tmp_path / "k.py").write_text("@dataclass\nclass Kiosk:\n" + "    x = 1\n" * 10 + "y = 2\n")
+    assert class_lines(tmp_path / "k.py", "Kiosk") == 12
