@@ -1,6 +1,6 @@
 """`exhibit stats [--db PATH] [--since DATE] [--json] [--plot FILE.png]`: what visitors do.
 
-Reads the kiosk's session log (exhibit.kiosk.sessions) and reports, for a curator: sessions per
+Reads the kiosk's session log (exhibit.operations.sessions) and reports, for a curator: sessions per
 day and per hour of the day (the kiosk's local time when each session started, wherever the
 report is made), the median session length (takeover to idle return, and to the last real
 input), and the most-used scenes, inputs and languages (each counted once per session).
@@ -12,7 +12,7 @@ folder, then the service's /var/lib/exhibit. The database is opened read-only: a
 goes on writing. A date that is not a date, a path that is no sessions database (a FIFO, a
 folder, another file) is one line on stderr and exit 2, never a traceback. Rows that no kiosk
 writes (a start outside 2000..2200, a duration over a week or not finite, JSON lists too long or
-nested: exhibit.kiosk.sessions.read_sessions) are left out of every figure and counted in the
+nested: exhibit.operations.sessions.read_sessions) are left out of every figure and counted in the
 report: "skipped N rows: why (count)", and "skipped" and "skipped_reasons" in --json.
 """
 

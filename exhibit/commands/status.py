@@ -1,7 +1,7 @@
 """`exhibit status [--json] [--max-age S] [--max-lost S] [--file PATH] [--prometheus FILE]`: is
 the kiosk alive, and what is it doing?
 
-Reads the health file the running kiosk rewrites every second (exhibit.kiosk.health) and prints
+Reads the health file the running kiosk rewrites every second (exhibit.operations.health) and prints
 a summary for staff: mode, scene, frame rate, devices (with how long a missing one has been
 missing), uptime and how old the file is. The exit code is for monitoring scripts:
 

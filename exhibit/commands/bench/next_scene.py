@@ -1,7 +1,7 @@
 """`exhibit bench next-scene [--busy 0 2] [--repeat N] [--json]`: from a visitor pressing "next
 scene" to the first frame of that scene, when it is not prepared yet. The real kiosk
 (exhibit.kiosk.app.Kiosk) with the shipped config on the headless renderer (EGL; llvmpipe where
-there is no GPU), its real worker process (exhibit.kiosk.preparing.ProcessPreparer) and the
+there is no GPU), its real worker process (exhibit.kiosk.process_preparer.ProcessPreparer) and the
 wall clock; the frame loop runs flat out as under vsync (the headless target has no vsync to
 wait for), with the governor choosing the quality. The keyboard's n goes down after the first
 frames, while the worker is still preparing the first scene's other mesh levels from an empty
