@@ -9,7 +9,6 @@ import math
 import shutil
 import tempfile
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 from exhibit import scenes
 from exhibit.commands import _arg_types as _args
@@ -26,12 +25,9 @@ from exhibit.commands._media import (
     write_out,
 )
 from exhibit.errors import ExhibitError
-from exhibit.scenes.base import parse_overrides
+from exhibit.geometry.view import ViewState
+from exhibit.scenes.base import Scene, parse_overrides
 from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
-
-if TYPE_CHECKING:
-    from exhibit.geometry.view import ViewState
-    from exhibit.scenes.base import Scene
 
 #: The most --fps and --after a review may ask for (exhibit.commands._review).
 MAX_FPS = 120
