@@ -11,6 +11,7 @@ colours a colour-blind visitor cannot tell apart (exhibit.scenes.colours)."""
 
 from __future__ import annotations
 
+import argparse
 import json
 from collections.abc import Mapping
 
@@ -23,7 +24,7 @@ from exhibit.render.layout import PINCH_KEY
 HELP = "check the kiosk configuration and all the files it names; exit 2 on any problem"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "config",
         nargs="?",
@@ -38,7 +39,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     notes: list[str] = []
     try:
         config = load_kiosk_config(args.config)

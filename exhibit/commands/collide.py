@@ -3,6 +3,7 @@ The paper's section 4.3 as a tool: the collision 2-surface in XYZT and its lowes
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 
@@ -11,13 +12,14 @@ import numpy as np
 from exhibit.errors import ExhibitError
 from exhibit.scenes import collision
 from exhibit.scenes.base import parse_resolution
+from exhibit.scenes.implicit_scene import ImplicitPart
 from exhibit.surfaces import progress
 from exhibit.surfaces.topology import connected_components, edge_counts
 
 HELP = "first contact of a moving cylinder and sphere (paper, section 4.3)"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     for name, help_text in (
         ("rc", "cylinder radius"),
         ("rs", "sphere radius"),
@@ -29,7 +31,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
-def components_through_singular_points(part, cell: float) -> int:
+def components_through_singular_points(part: ImplicitPart, cell: float) -> int:
     """Mesh components, joined where they meet at a singular point (the surface is one set
     there even though no triangle crosses the pinch, as in Figure 15)."""
     surface = part.surface
@@ -48,7 +50,7 @@ def components_through_singular_points(part, cell: float) -> int:
     return len(np.unique(labels[np.unique(surface.triangles)]))
 
 
-def first_contact(part, unit: dict) -> np.ndarray:
+def first_contact(part: ImplicitPart, unit: dict) -> np.ndarray:
     """(x, y, z, t) of first contact in scale-free units (t = -1): the mesh's lowest point
     refined by Newton on condition C where it agrees with the closed form, else the closed form
     (moving bodies with a speed always touch: the centres meet the axis at t = 0)."""
@@ -60,7 +62,7 @@ def first_contact(part, unit: dict) -> np.ndarray:
     return exact
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     params = {}
     for name in ("rc", "rs", "vc", "vs"):
         raw = getattr(args, name)

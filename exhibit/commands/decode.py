@@ -8,6 +8,7 @@ is read in blocks, so a capture of any size decodes in constant memory.
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 
@@ -18,7 +19,7 @@ HELP = "decode captured controller bytes to JSON lines (one per frame, then a su
 BLOCK = 1 << 16
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--protocol",
         choices=["controller"],
@@ -35,7 +36,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     decoder = p.StreamDecoder()
     out = sys.stdout
     try:

@@ -8,9 +8,11 @@ name, and does the exhibit talk to it?"
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import time
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
@@ -23,7 +25,7 @@ from exhibit.devices.hub import DeviceSet
 HELP = "list configured devices with their state, and detected serial and HID devices"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true", help="one JSON document")
     parser.add_argument(
@@ -55,7 +57,7 @@ def detected_serial() -> list[dict]:
     ]
 
 
-def detected_hid(layout_dirs) -> list[dict]:
+def detected_hid(layout_dirs: Iterable[str | Path] | None) -> list[dict]:
     layouts = load_layouts(layout_dirs)
     found: list[dict[str, Any]] = []  # one JSON object a device
     for backend in ("hid", "hidraw"):
@@ -83,7 +85,7 @@ def detected_hid(layout_dirs) -> list[dict]:
     return found
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     with DeviceSet(config) as devices:
         end = time.monotonic() + args.wait

@@ -3,7 +3,9 @@ how closely the vertices satisfy the surface's equations."""
 
 from __future__ import annotations
 
+import argparse
 import json
+from typing import TYPE_CHECKING, cast
 
 import numpy as np
 
@@ -11,17 +13,21 @@ from exhibit import scenes
 from exhibit.geometry.lemma2_marks import lemma2_exclusion
 from exhibit.scenes.base import add_scene_arguments, build_from_arguments
 from exhibit.surfaces import analyse
+from exhibit.surfaces.mesh import Surface
 from exhibit.surfaces.metrics import boundary_box_distance, distance_to_mesh, surface_sag
+
+if TYPE_CHECKING:
+    from exhibit.scenes.implicit_scene import ImplicitPart
 
 HELP = "build a scene and check its mesh: components, Euler characteristic, edges, residuals"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_arguments(parser)
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
-def part_report(surface) -> dict:
+def part_report(surface: Surface) -> dict:
     topology = analyse(surface.triangles, len(surface.positions))
     info = surface.info
     return {
@@ -41,7 +47,7 @@ def part_report(surface) -> dict:
     }
 
 
-def exactness(surface) -> dict:
+def exactness(surface: Surface) -> dict:
     """For implicit parts: how far the boundary is from the box's faces (0: the surface is cut
     exactly at the box, or closed), how far the traced singular set is from the mesh, and how far
     the vertices and the triangles between them are from the true surface (None where the part
@@ -70,7 +76,8 @@ def exactness(surface) -> dict:
     if result is None:
         report.update(max_vertex_distance=None, max_sag=None)
     else:
-        exact = surface.exact
+        # An exact surface with a result is an implicit part (scenes.implicit_scene).
+        exact = cast("ImplicitPart", surface.exact)
         report.update(
             surface_sag(
                 (exact.f1, exact.f2),
@@ -85,7 +92,7 @@ def exactness(surface) -> dict:
     return report
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     scene = scenes.get(args.scene)
     mesh = build_from_arguments(scene, args)
     parts = [part_report(surface) for surface in mesh.surfaces]

@@ -21,6 +21,7 @@ docs/DEPLOYMENT.md and its test read as one."""
 
 from __future__ import annotations
 
+import argparse
 import grp
 import os
 import pwd
@@ -93,7 +94,7 @@ class Planned:
 FOR_UPDATE_ENV = "EXHIBIT_INSTALL_FOR_UPDATE"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--root",
         metavar="DIR",
@@ -114,7 +115,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     prefix = check_prefix(args.prefix)
     if args.root == "":  # Path("") is ".": an empty variable in a script would stage into cwd
         raise ExhibitError(

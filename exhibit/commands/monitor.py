@@ -11,6 +11,7 @@ every line is a JSON object, for scripts.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import time
@@ -26,7 +27,7 @@ from exhibit.geometry.view import ViewState
 HELP = "show the live mapped parameters (angles, sensor distance) and device states"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_config_arguments(parser)
     parser.add_argument("--json", action="store_true", help="one JSON object per line")
     parser.add_argument(
@@ -113,7 +114,7 @@ def text_line(s: dict) -> str:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     mapper = Mapper(config.mapping, ActivityDetector(config.activity_threshold))
     view = ViewState()

@@ -6,12 +6,13 @@ while the visitors wait for the scenes beyond the first."""
 
 from __future__ import annotations
 
+import argparse
 import json
 import time
 from typing import Any
 
 from exhibit.kiosk.attract import load_playlist
-from exhibit.kiosk.config import load_kiosk_config
+from exhibit.kiosk.config import KioskConfig, load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
 from exhibit.kiosk.narrator import prepare_all
 from exhibit.kiosk.jobs import run_job, scene_jobs
@@ -21,7 +22,7 @@ from exhibit.surfaces import progress
 HELP = "build the mesh cache the kiosk loads at start (run before the service starts)"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--config",
         help="site config over the shipped defaults (default: "
@@ -30,7 +31,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
-def mesh_levels_for(config) -> list[int]:
+def mesh_levels_for(config: KioskConfig) -> list[int]:
     """Every mesh level the kiosk may use on any machine: its ladder on a GPU and on software
     GL (the renderer is only known once the kiosk's window is open)."""
     quality = getattr(config, "quality", None)
@@ -56,7 +57,7 @@ def _not_cached(job, resolutions: list[int]) -> str | None:
     return None
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     config = load_kiosk_config(args.config)
     timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
     jobs = scene_jobs(config, timelines, mesh_levels_for(config))

@@ -6,6 +6,7 @@ the tests replay it deterministically.
 
 from __future__ import annotations
 
+import argparse
 import time
 
 from exhibit.commands import _arg_types as _args
@@ -16,7 +17,7 @@ from exhibit.devices.replay import Recorder
 HELP = "record device events to a JSON-lines file (play it back with replay://FILE)"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", help="where to write the recording (.jsonl)")
     add_config_arguments(parser)
     parser.add_argument(
@@ -27,7 +28,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     config = config_from_args(args)
     with DeviceSet(config) as devices:
         start = time.monotonic()

@@ -25,7 +25,8 @@ from exhibit.commands._media import (
     write_out,
 )
 from exhibit.errors import ExhibitError
-from exhibit.scenes.base import parse_overrides
+from exhibit.geometry.view import ViewState
+from exhibit.scenes.base import Scene, parse_overrides
 from exhibit.schema.types import MAX_ANGLE, MAX_RESOLUTION, MIN_RESOLUTION
 
 #: The most --fps and --after a review may ask for (exhibit.commands._review).
@@ -35,7 +36,7 @@ MAX_AFTER_S = 600.0
 HELP = "render a scene or a figure of the paper to a PNG (or frames, GIF, MP4) headlessly"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("scene", nargs="?", help="scene name (see `exhibit scenes`)")
     parser.add_argument(
         "--figure",
@@ -193,7 +194,7 @@ def _floats(text: str, count: int, name: str) -> list[float]:
     return values
 
 
-def resolve(args):
+def resolve(args: argparse.Namespace) -> tuple[Scene, dict[str, object], ViewState, str]:
     """(scene, params, view, caption line) from the arguments; every problem is an ExhibitError."""
     if args.figure is not None and args.scene:
         raise ExhibitError("give a scene or --figure, not both")
@@ -244,7 +245,7 @@ def parse_slice(text: str, axes: tuple[str, ...]) -> tuple[int, float]:
     return axes.index(name), at
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.timeline is not None or args.takeover is not None:
         from exhibit.commands import _review
 
@@ -290,7 +291,7 @@ def run(args) -> int:
         depth_colour=args.depth_colour,
         hud=not args.no_hud,
     )
-    hud = HudInfo(scene.title, scene.caption, tuple(scene.axes), note)
+    hud = HudInfo(scene.title, scene.caption, scene.axes, note)
     mesh = scene.build(params, resolution)
     fit = not args.no_fit and (args.figure is None or scenes.figure(int(args.figure))[1].fit)
     inset = None

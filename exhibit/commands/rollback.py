@@ -10,17 +10,19 @@ The releases are made by `./bootstrap.sh update`
 
 from __future__ import annotations
 
+import argparse
+
 from exhibit.commands import install as inst
 from exhibit.commands.update import Kiosk, add_prefix, need_root
 
 HELP = "switch a deployed kiosk back to its previous release (made by ./bootstrap.sh update)"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_prefix(parser)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     prefix = inst.check_prefix(args.prefix)
     need_root("rollback", prefix)
     return Kiosk(prefix).rollback()

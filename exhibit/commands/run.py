@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import faulthandler
 import logging
 import math
@@ -15,7 +16,7 @@ from exhibit.kiosk.config import load_kiosk_config
 HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--config",
         help="site config over the shipped defaults (default: "
@@ -27,7 +28,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--screenshot", metavar="FILE.png", help="save the last frame on exit")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     duration = None
     if args.duration is not None:
         try:

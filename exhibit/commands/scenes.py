@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 
@@ -10,7 +11,7 @@ from exhibit import scenes
 HELP = "list the scenes with their titles and parameters"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
     parser.add_argument(
         "--check-colours",
@@ -21,7 +22,7 @@ def add_arguments(parser) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.check_colours:
         return _check_colours()
     listing = [scenes.get(name).to_json() for name in scenes.names()]

@@ -4,9 +4,12 @@ surface along u, v, or the collision curve along x, y."""
 
 from __future__ import annotations
 
+import argparse
 import json
+from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from exhibit import scenes
 from exhibit.errors import ExhibitError
@@ -26,13 +29,13 @@ from exhibit.surfaces.exact_silhouette import (
     parametric_silhouette,
 )
 from exhibit.surfaces.singular import jacobian_ratio
-from exhibit.surfaces.mesh import Material
+from exhibit.surfaces.mesh import Curve, Material, Surface
 from exhibit.surfaces.whole_silhouette import whole_silhouette_components
 
 HELP = "silhouette curves of a scene for the orthographic view along two axes"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_arguments(parser)
     parser.add_argument(
         "--along",
@@ -55,7 +58,7 @@ def parse_along(text: str, axes: tuple[str, ...]) -> tuple[int, int]:
     return axes.index(names[0]), axes.index(names[1])
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     scene = scenes.get(args.scene)
     along = parse_along(args.along, scene.axes)
     mesh = build_from_arguments(scene, args)
@@ -113,7 +116,7 @@ def run(args) -> int:
     return 0
 
 
-def smallest_ratio(surfaces, curves) -> float | None:
+def smallest_ratio(surfaces: Sequence[Surface], curves: Sequence[ArrayLike]) -> float | None:
     """The smallest σ_min/σ_max of (∇f1, ∇f2) over the exported points (implicit surfaces):
     how close to the singular set the curves reach (the exclusion is EXCLUSION_RATIO)."""
     if not curves:
@@ -129,7 +132,7 @@ def smallest_ratio(surfaces, curves) -> float | None:
     return float(np.nanmin(best)) if np.isfinite(best).any() else None
 
 
-def exclusion_report(surfaces, curves) -> dict:
+def exclusion_report(surfaces: Sequence[Surface], curves: Sequence[ArrayLike]) -> dict:
     """The exclusion used (implicit surfaces) and how close each open curve's ends got to the
     traced singular set: ``exclusion`` {"ratio": EXCLUSION_RATIO, "cell", "singular_radius"
     (half a cell, `implicit_scene.exclusion_radius`)} and ``ends`` [{"curve", "end" (0 first,
@@ -159,7 +162,9 @@ def exclusion_report(surfaces, curves) -> dict:
     }
 
 
-def exact_silhouette_curves(surface, along, stats: RefineStats):
+def exact_silhouette_curves(
+    surface: Surface, along: tuple[int, int], stats: RefineStats
+) -> list[Curve]:
     exact = surface.exact
     if isinstance(exact, ImplicitPart):
         # Sign changes of s, and the branches where s only touches zero (double zeros).

@@ -32,7 +32,7 @@ if TYPE_CHECKING:
 HELP = "run a simulated controller on a pseudo-terminal (prints the tty path)"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("device", choices=["controller"], help="what to simulate")
     parser.add_argument("--script", type=Path, help="a script of stick moves, buttons and faults")
     parser.add_argument(
@@ -107,7 +107,7 @@ def check_link(link: Path | None) -> None:
     )
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     check_link(args.link)
     script = None
     if args.script is not None:

@@ -5,6 +5,7 @@ the ball meet then). Every point is refined onto the exact surface and the hyper
 
 from __future__ import annotations
 
+import argparse
 import json
 
 from exhibit import scenes
@@ -19,7 +20,7 @@ HELP = "the curves where a scene's surfaces cross a hyperplane (e.g. the collisi
 MAX_AT = 1e6
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_arguments(parser)
     parser.add_argument(
         "--axis",
@@ -46,7 +47,7 @@ def parse_axis(name: str, axes: tuple[str, ...]) -> int:
     return axes.index(name)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     scene = scenes.get(args.scene)
     axis = parse_axis(args.axis, tuple(scene.axes))
     mesh = build_from_arguments(scene, args)

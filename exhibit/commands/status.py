@@ -68,7 +68,7 @@ _ESCAPES = re.compile(
 )
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--json",
         action="store_true",
@@ -119,7 +119,7 @@ def _metrics_file(text: str) -> Path:
     return Path(text)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.prometheus is not None:
         try:
             check_target(args.prometheus)  # a FIFO, device or folder there: misuse, before reading
@@ -317,7 +317,7 @@ def quality_line(data: Health) -> str:
     )
 
 
-def printable(text) -> str:
+def printable(text: object) -> str:
     """``text`` as one line safe for a terminal: escape sequences and every other control or
     invisible formatting character (C0, DEL, C1, bidi overrides) removed, and tabs and line
     breaks turned into spaces."""

@@ -7,6 +7,7 @@ significantly while the red one enlarges only moderately", measured by the geome
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 from typing import Any
@@ -25,7 +26,7 @@ TORI = (("green", -math.sqrt(2) / 2), ("gray", 0.0), ("red", math.sqrt(2) / 2))
 HYPERSPHERE_OFFSET = (0.0, 0.0, 0.0, 1.0)
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--distances",
         type=_args.distances,
@@ -62,7 +63,7 @@ def torus_image_area(latitude: float, view: ViewState, samples: int) -> tuple[fl
     return float(area), float(np.linalg.norm(image, axis=-1).max())
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     distances = args.distances
     base = ViewState(offset=HYPERSPHERE_OFFSET)
     rows = []

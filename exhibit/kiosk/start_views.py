@@ -7,7 +7,7 @@ import logging
 from collections import OrderedDict
 
 from exhibit import scenes
-from exhibit.geometry.framing import mesh_sample
+from exhibit.geometry.framing import Sample, mesh_sample
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.attract import Params
 from exhibit.kiosk.follow import MeshLookup
@@ -31,7 +31,7 @@ class StartViews:
         self.framer = framer
         self.content = content
         self._framed: OrderedDict[tuple, ViewState] = OrderedDict()
-        self._samples: dict[tuple, object] = {}  # (scene, params) -> its mesh_sample
+        self._samples: dict[tuple, Sample] = {}  # (scene, params) -> its mesh_sample
 
     def __call__(self, name: str, params: Params, view: ViewState) -> ViewState:
         key = (name, tuple(params), view)

@@ -9,11 +9,19 @@ A scene's start view and each of its presets are framed unless the scene or pres
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
+from typing import TYPE_CHECKING
 
-from exhibit.geometry.framing import frame, mesh_sample
+from exhibit.geometry.framing import Sample, frame, mesh_sample
 from exhibit.geometry.view import ViewState
 from exhibit.render.layout import Rect, TextSizes, free_rectangles, hud_layout
+
+if TYPE_CHECKING:
+    from exhibit.scenes.base import Scene
+    from exhibit.surfaces.mesh import Mesh4D
+
+#: Captions a picture is kept clear of: each a tuple of paragraphs (caption, note).
+Captions = Sequence[tuple[str, ...]]
 
 
 def _as_shown(text: str) -> tuple[str, ...]:
@@ -47,7 +55,7 @@ class Framer:
         #: The numbers panel's words (HudInfo.words) in each version, in the same order.
         self.words = tuple(words) or ((),)
 
-    def panels(self, title: str, captions) -> list[Rect]:
+    def panels(self, title: str, captions: Captions) -> list[Rect]:
         """Every panel the HUD may draw with ``title`` and any one of ``captions`` (each a
         tuple of paragraphs: caption, note), in every version of the words."""
         out: list[Rect] = list(self.extra)
@@ -64,12 +72,20 @@ class Framer:
                 ).panels
         return out
 
-    def areas(self, title: str, captions) -> list[Rect]:
+    def areas(self, title: str, captions: Captions) -> list[Rect]:
         """The free area: the largest rectangles clear of every panel by the layout's margin."""
         layout = hud_layout(self.size, title, ("",), self.sizes, self.drift)
         return free_rectangles(self.size, self.panels(title, captions), layout.margin)
 
-    def view(self, mesh, view: ViewState, title: str, captions, poses=(), points=None) -> ViewState:
+    def view(
+        self,
+        mesh: Mesh4D,
+        view: ViewState,
+        title: str,
+        captions: Captions,
+        poses: Iterable[ViewState] = (),
+        points: Sample | None = None,
+    ) -> ViewState:
         """``view`` zoomed and shifted so ``mesh`` (at ``view`` and every pose of ``poses``)
         lies in the free area."""
         if points is None:
@@ -78,12 +94,12 @@ class Framer:
 
     def scene_view(
         self,
-        scene,
-        mesh,
+        scene: Scene,
+        mesh: Mesh4D,
         view: ViewState | None = None,
         note: str = "",
         fit: bool = True,
-        points=None,
+        points: Sample | None = None,
     ) -> ViewState:
         """A scene's start view (or ``view``, e.g. a preset's, or a visitor's pose), framed
         for the scene's own title and caption unless the scene or the caller opts out;

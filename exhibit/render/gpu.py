@@ -7,15 +7,20 @@ each drawn as a screen-space quad. Nothing here depends on the view.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
 
 from exhibit.geometry.lemma2_marks import marking_vertices
 from exhibit.geometry.touching import critical_values, near_critical
-from exhibit.surfaces.mesh import Mesh4D, Surface
+from exhibit.surfaces.mesh import Curve, Mesh4D, Surface
 from exhibit.surfaces.metrics import unique_edges
+
+if TYPE_CHECKING:
+    from exhibit.geometry.view import ViewState
 
 #: NDC depth by which curves are pulled towards the viewer (surfaces are also pushed back by a
 #: slope-scaled polygon offset), so a curve lying on a surface is not half-buried in it.
@@ -56,7 +61,13 @@ LAYERS = 20
 CURVE_ATTRIBUTES = ("in_p0", "in_p1", "in_style", "in_layer")
 
 
-def segment_rows(starts, ends, color, width, layer: int = 0) -> np.ndarray:
+def segment_rows(
+    starts: np.ndarray,
+    ends: np.ndarray,
+    color: tuple[float, float, float],
+    width: float,
+    layer: int = 0,
+) -> np.ndarray:
     """One instance row per segment: p0 (4), p1 (4), rgb and width, depth layer."""
     n = len(starts)
     style = np.tile(np.array([*color, width, min(layer, LAYERS - 1)], dtype=np.float64), (n, 1))
@@ -104,7 +115,7 @@ def mesh_sag(surface: Surface) -> float:
     return float((length * np.arcsin(np.clip(sine, 0.0, 1.0))).max() / 8.0)
 
 
-def silhouette_key(surface: GpuSurface, view, slice_width: float) -> str:
+def silhouette_key(surface: GpuSurface, view: ViewState, slice_width: float) -> str:
     """The silhouette program a surface is drawn with: with the slice's tangency test only
     when a slice is drawn near one of the surface's critical values (geometry/touching.py)."""
     if (
@@ -116,14 +127,16 @@ def silhouette_key(surface: GpuSurface, view, slice_width: float) -> str:
     return "silhouette"
 
 
-def wire_rows(surface: Surface, color, layer: int = 0) -> np.ndarray:
+def wire_rows(surface: Surface, color: tuple[float, float, float], layer: int = 0) -> np.ndarray:
     """A wire surface's edges, each once, as instance rows in ``color``."""
     edges = unique_edges(surface.triangles)
     p = surface.positions
     return segment_rows(p[edges[:, 0]], p[edges[:, 1]], color, surface.material.line_width, layer)
 
 
-def curve_rows(curve, color, layer: int = 0) -> np.ndarray | None:
+def curve_rows(
+    curve: Curve, color: tuple[float, float, float], layer: int = 0
+) -> np.ndarray | None:
     """A curve's segments as instance rows in ``color`` (None for a curve with none)."""
     segments = curve.segments()
     if not len(segments):
@@ -194,7 +207,9 @@ class GpuMesh:
         self.surfaces, self.vaos, self.lines, self.markers = [], {}, None, None
 
 
-def attribute_format(program: moderngl.Program, attributes) -> tuple[str, list[str]]:
+def attribute_format(
+    program: moderngl.Program, attributes: Iterable[tuple[str, int]]
+) -> tuple[str, list[str]]:
     """'4f 4f 4f 1f'-style format for (name, float count) attributes, skipping those the
     program does not use (or its compiler removed)."""
     parts, used = [], []

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Iterable
-from typing import NamedTuple
+from collections.abc import Callable, Iterable, Sequence
+from typing import NamedTuple, cast
 
 import moderngl
 import numpy as np
@@ -67,10 +67,11 @@ AXIS_COLORS = (palette.RED, palette.AMBER, palette.LAVENDER, palette.BLUE)
 LEGIBLE = 0.45
 
 
-def legible(rgb, minimum: float = LEGIBLE) -> tuple[float, float, float]:
+def legible(rgb: Sequence[float], minimum: float = LEGIBLE) -> tuple[float, float, float]:
     """``rgb`` mixed toward white just enough to reach the luminance ``minimum`` (itself when
     it does): the same hue, light enough for text on the HUD's dark panels."""
-    rgb = tuple(float(c) for c in rgb[:3])
+    # (r, g, b): the casts only tell the type checker the length it cannot count.
+    rgb = cast("tuple[float, float, float]", tuple(float(c) for c in rgb[:3]))
     if luminance(rgb) >= minimum:
         return rgb
     lo, hi = 0.0, 1.0
@@ -80,7 +81,7 @@ def legible(rgb, minimum: float = LEGIBLE) -> tuple[float, float, float]:
             hi = mid
         else:
             lo = mid
-    return tuple(c + hi * (1.0 - c) for c in rgb)
+    return cast("tuple[float, float, float]", tuple(c + hi * (1.0 - c) for c in rgb))
 
 
 #: The gizmo's letters: the axis colours lifted to LEGIBLE (the lines keep AXIS_COLORS).
@@ -465,7 +466,7 @@ def halo_rows(
         )
 
 
-def marker_text(label: str, word) -> str:
+def marker_text(label: str, word: Callable[[str], str]) -> str:
     """A marker's label in the language on screen: labels are words, then a formula after a
     comma ("first contact, t = 0.123", exhibit.scenes.collision); ``word`` translates the
     words, the formula reads the same in every language."""

@@ -11,6 +11,8 @@ panel, so the main picture is framed into the space left free by the text and by
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from exhibit.geometry.framing import frame, mesh_points
@@ -20,6 +22,9 @@ from exhibit.render.options import RenderOptions
 from exhibit.surfaces.exact_silhouette import RefineStats
 from exhibit.surfaces.mesh import Curve, Mesh4D
 from exhibit.surfaces.slice import SLICE_MATERIAL, slice_curves
+
+if TYPE_CHECKING:
+    from exhibit.scenes.base import Scene
 
 #: The inset's height as a fraction of the screen's, and its aspect.
 HEIGHT = 0.36
@@ -54,7 +59,7 @@ def _last_axis(points: np.ndarray, axis: int) -> np.ndarray:
 
 
 def inset_mesh(
-    scene, params: dict, mesh: Mesh4D, axis: int, at: float, stats: RefineStats | None = None
+    scene: Scene, params: dict, mesh: Mesh4D, axis: int, at: float, stats: RefineStats | None = None
 ) -> Mesh4D:
     """The 3D world at the slice: Scene.world_at's when the scene has one for this axis (with
     its own touching curve: the collision's in closed form, cheap enough for every frame of a

@@ -20,11 +20,15 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import NamedTuple
+from collections.abc import Sequence
+from typing import TYPE_CHECKING, NamedTuple
 
 import numpy as np
 
 from exhibit.render.text import ellipsize, font, line_height, text_width, units, wrap_balanced
+
+if TYPE_CHECKING:
+    from exhibit.geometry.view import ViewState
 
 #: The smallest caption cap height the exhibit allows, as a fraction of the screen height.
 MIN_CAPTION_CAP = 1.0 / 45.0
@@ -135,7 +139,7 @@ def format_angle(radians: float) -> str:
 
 
 def status_lines(
-    view, beyond: float = INFINITY_BEYOND, words: tuple[tuple[str, str], ...] = ()
+    view: ViewState, beyond: float = INFINITY_BEYOND, words: tuple[tuple[str, str], ...] = ()
 ) -> list[str]:
     """The numbers panel: six angles on two lines and the two distances, every field of fixed
     width so nothing jitters while a knob turns. θ with plain digits: subscripts are too small
@@ -436,7 +440,7 @@ def gizmo_caption_rect(caption: str, layout: HudLayout) -> Rect:
 
 
 def gizmo_labels(
-    rotation: np.ndarray, axes, layout: HudLayout, caption: str = "4D axes"
+    rotation: np.ndarray, axes: Sequence[str], layout: HudLayout, caption: str = "4D axes"
 ) -> list[tuple[str, Rect]]:
     """Where each axis' letter goes: (letter, rectangle in whole pixels), in axis order.
 

@@ -12,11 +12,20 @@ while the view turns and the occlusion test costs little per frame.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
-from exhibit.render.gpu import surface_sample
+from exhibit.render.gpu import GpuMesh, surface_sample
 from exhibit.render.layout import Rect
+
+if TYPE_CHECKING:
+    from exhibit.geometry.pipeline import ClipTransform
+
+#: Where a tag's leader ends: ((x, y) pixels, the object's rgb, whether a surface hides it).
+Anchor = tuple[tuple[float, float], tuple[float, float, float], bool]
 
 #: Points of an object considered for its anchor, and how many of them (the outermost first)
 #: the occlusion test looks at.
@@ -42,7 +51,7 @@ def _inside(x: float, y: float, rect: Rect) -> bool:
     return rect.x0 <= x <= rect.x1 and rect.y0 <= y <= rect.y1
 
 
-def picture_box(gpu, ct, size) -> Rect | None:
+def picture_box(gpu: GpuMesh, ct: ClipTransform, size: tuple[int, int]) -> Rect | None:
     """The surfaces' box on screen, from the mesh's kept sample of their vertices (exhibit.
     render.gpu.surface_sample); None when none of it shows."""
     if not any(len(s.positions) for s in gpu.mesh.surfaces):
@@ -60,16 +69,23 @@ class TagAnchors:
 
     def __init__(self) -> None:
         self._frame = 0
-        self._last_ct = None
+        self._last_ct: ClipTransform | None = None
 
-    def tick(self, ct) -> None:
+    def tick(self, ct: ClipTransform) -> None:
         """Once a frame. A view drawn again (a crossfade's capture, a check's redraw) is not
         counted: the same view gets the same tags."""
         if ct is not self._last_ct:
             self._frame += 1
             self._last_ct = ct
 
-    def anchor(self, gpu, name: str, ct, size, panels=()):
+    def anchor(
+        self,
+        gpu: GpuMesh,
+        name: str,
+        ct: ClipTransform,
+        size: tuple[int, int],
+        panels: Sequence[Rect] = (),
+    ) -> Anchor | None:
         """((x, y) pixels, rgb, hidden) for the object ``name`` in this frame, None when no
         part of it is on the screen off the ``panels`` (a leader from under a panel would cross
         its words)."""

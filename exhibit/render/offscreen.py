@@ -6,6 +6,7 @@ Tests, the `exhibit render` command and the benchmark all draw through this; the
 
 from __future__ import annotations
 
+import os
 from typing import TYPE_CHECKING
 
 import moderngl
@@ -16,7 +17,13 @@ from exhibit.render.context import headless_context
 from exhibit.render.renderer import Renderer
 
 if TYPE_CHECKING:
-    from exhibit.render.frame import FramePipeline
+    from exhibit.geometry.view import ViewState
+    from exhibit.render.frame import FramePipeline, Inset
+    from exhibit.render.gpu import GpuMesh
+    from exhibit.render.hud_info import HudInfo
+    from exhibit.render.options import RenderOptions
+    from exhibit.render.passes.ids import ObjectCoverage
+    from exhibit.render.quality import Quality
 
 #: 4x MSAA: surfaces' edges antialiased; curves are antialiased by their own coverage.
 DEFAULT_SAMPLES = 4
@@ -123,7 +130,13 @@ class Headless:
         return self._targets[key]
 
     def image(
-        self, gpu, view, size, options=None, hud=None, samples: int = DEFAULT_SAMPLES
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions | None = None,
+        hud: HudInfo | None = None,
+        samples: int = DEFAULT_SAMPLES,
     ) -> np.ndarray:
         from exhibit.render.options import RenderOptions
 
@@ -142,7 +155,14 @@ class Headless:
         return self._pipeline
 
     def draw_frame(
-        self, gpu, view, size, options=None, hud=None, quality=None, inset=None
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions | None = None,
+        hud: HudInfo | None = None,
+        quality: Quality | None = None,
+        inset: Inset | None = None,
     ) -> Offscreen:
         """A whole kiosk frame at a quality level (default: FXAA at full scale) into a
         single-sampled target, as a window's screen gets it (with the time-slice ``inset``,
@@ -165,13 +185,27 @@ class Headless:
         return target
 
     def frame(
-        self, gpu, view, size, options=None, hud=None, quality=None, inset=None
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions | None = None,
+        hud: HudInfo | None = None,
+        quality: Quality | None = None,
+        inset: Inset | None = None,
     ) -> np.ndarray:
         """draw_frame()'s picture: (height, width, 3) uint8, top row first."""
         return self.draw_frame(gpu, view, size, options, hud, quality, inset).read()
 
     def still(
-        self, gpu, view, size, options=None, hud=None, samples: int = DEFAULT_SAMPLES, inset=None
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions | None = None,
+        hud: HudInfo | None = None,
+        samples: int = DEFAULT_SAMPLES,
+        inset: Inset | None = None,
     ) -> np.ndarray:
         """A picture through the kiosk's frame pipeline at full quality (MSAA with ``samples``,
         else no antialiasing), so `exhibit render` shows what the kiosk shows, intersection
@@ -190,12 +224,18 @@ class Headless:
         quality = LADDER[0] if wanted else replace(LADDER[1], name="none", antialiasing="none")
         return self.frame(gpu, view, size, options, hud, quality, inset)
 
-    def ids(self, gpu, view, size) -> np.ndarray:
+    def ids(self, gpu: GpuMesh, view: ViewState, size: tuple[int, int]) -> np.ndarray:
         """(height, width) int triangle ids + 1 (0 = background), no multisampling."""
         self.activate()
         return self.renderer.ids.triangles(gpu, view, size)
 
-    def objects(self, gpu, view, size, options=None):
+    def objects(
+        self,
+        gpu: GpuMesh,
+        view: ViewState,
+        size: tuple[int, int],
+        options: RenderOptions | None = None,
+    ) -> ObjectCoverage:
         """Each named object's pixels in front (exhibit.render.passes.ids.ObjectCoverage)."""
         from exhibit.render.options import RenderOptions
 
@@ -213,7 +253,7 @@ class Headless:
         self.ctx.release()
 
 
-def png_bytes(image) -> bytes:
+def png_bytes(image: np.ndarray | Image.Image) -> bytes:
     """A picture (an RGB(A) array or a PIL image) as the bytes of a PNG file."""
     import io
 
@@ -223,7 +263,7 @@ def png_bytes(image) -> bytes:
     return buffer.getvalue()
 
 
-def save_png(image, path, sync: bool = True) -> None:
+def save_png(image: np.ndarray | Image.Image, path: str | os.PathLike, sync: bool = True) -> None:
     """A picture to a PNG at ``path`` through the one safe writer (exhibit.schema.files): never
     through a symbolic link, FIFO, device or folder there (UnsafePath, an OSError)."""
     from exhibit.schema.files import write_atomic

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import logging
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING
 
 import moderngl
@@ -42,13 +43,13 @@ class GlfwErrors:
     raises (pyGLFW would re-raise it from the next GLFW call, ending the frame loop). ``last``
     is the latest message, for the reason when a window cannot be made."""
 
-    def __init__(self, every: float = 60.0, clock=time.monotonic):
+    def __init__(self, every: float = 60.0, clock: Callable[[], float] = time.monotonic):
         self.every = every
         self.clock = clock
         self.last = ""
         self._seen: dict[str, list] = {}  # message -> [repeats not logged yet, when logged]
 
-    def __call__(self, code: int, description) -> None:
+    def __call__(self, code: int, description: bytes | str) -> None:
         try:
             if isinstance(description, bytes):
                 description = description.decode("utf-8", "replace")

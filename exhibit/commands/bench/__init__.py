@@ -9,6 +9,7 @@ same run, so ratios hold on a noisy machine.
 
 from __future__ import annotations
 
+import argparse
 import contextlib
 import importlib
 import os
@@ -47,7 +48,7 @@ BENCHMARKS = {
 }
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     sub = parser.add_subparsers(dest="benchmark", metavar="BENCHMARK", required=True)
     for name, module_name in BENCHMARKS.items():
         try:
@@ -71,6 +72,6 @@ def one_blas_thread():
     return threadpool_limits(limits=1, user_api="blas")
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     with one_blas_thread():
         return args._bench(args)

@@ -8,16 +8,21 @@ at 60 fps that holds the target (no step at all)."""
 
 from __future__ import annotations
 
+import argparse
 import json
+from typing import TYPE_CHECKING
 
 from exhibit.errors import ExhibitError
+
+if TYPE_CHECKING:
+    from exhibit.render.quality import Quality
 
 HELP = "seconds the frame governor takes to step down at a few frames a second (fake clock)"
 #: How long each machine is run (seconds of its fake clock).
 RUN_S = 120.0
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--fps",
         type=float,
@@ -28,7 +33,9 @@ def add_arguments(parser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
 
 
-def drive(fps: float, levels, target_ms: float, seconds: float = RUN_S) -> dict:
+def drive(
+    fps: float, levels: tuple[Quality, ...], target_ms: float, seconds: float = RUN_S
+) -> dict:
     """A governor fed frames of 1000 / fps ms, back to back from t = 0: the time of each step
     (s) and the levels it stepped to."""
     from exhibit.kiosk.governor import Governor, Settings
@@ -48,7 +55,7 @@ def drive(fps: float, levels, target_ms: float, seconds: float = RUN_S) -> dict:
     }
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from exhibit.kiosk.governor import DEFAULT_REFRESH_HZ, kiosk_levels
     from exhibit.kiosk.config import QualityConfig
 

@@ -12,6 +12,7 @@ Goals (issue 5): p99 <= 2 ms; decoding >= 100x the controller's frame rate.
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import platform
@@ -31,7 +32,7 @@ HELP = "input latency (pty bytes -> ViewState) and controller decoder throughput
 CONTROLLER_HZ = 100
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--frames", type=int, default=2000, help="latency samples (default 2000)")
     parser.add_argument(
         "--decode-frames",
@@ -119,7 +120,7 @@ def decoder_throughput(n: int) -> float:
     return n / dt
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if args.frames < 10 or args.decode_frames < 1000:
         raise ExhibitError("--frames must be >= 10 and --decode-frames >= 1000")
     floor = kernel_floor(args.frames)

@@ -3,6 +3,7 @@ growing resolution, against a dense baseline that visits all n⁴ cells, in the 
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import platform
@@ -17,7 +18,7 @@ from exhibit.surfaces.implicit import polygonize
 HELP = "time the implicit polygonizer (collision surface) against a dense n^4 baseline"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--sizes", default="16,32,64,128", help="resolutions (default: %(default)s)"
     )
@@ -42,7 +43,7 @@ def _sizes(text: str, option: str) -> list[int]:
     return sizes
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     sizes = _sizes(args.sizes, "--sizes")
     dense_sizes = _sizes(args.dense_sizes, "--dense-sizes")
     if args.repeat < 1:

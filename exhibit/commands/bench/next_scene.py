@@ -16,6 +16,7 @@ does other work."""
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import functools
 import json
@@ -27,8 +28,13 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING, cast
 
 from exhibit.errors import ExhibitError
+
+if TYPE_CHECKING:
+    from exhibit.kiosk.app import Kiosk
+    from exhibit.render.offscreen import Headless
 
 HELP = "seconds from 'next scene' to that scene's first frame while it is being prepared"
 #: Frames drawn before the key goes down (the worker starts after the first).
@@ -38,7 +44,7 @@ TIMEOUT_S = 300.0
 VARIANTS = ("before", "after")
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--repeat", type=int, default=2, help="rounds (default: %(default)s)")
     parser.add_argument(
         "--busy",
@@ -82,7 +88,7 @@ class Visitor:
     """run()'s ``until``: presses n after FRAMES_BEFORE frames, then watches for the first
     frame drawn of the scene it asked for."""
 
-    def __init__(self, kiosk):
+    def __init__(self, kiosk: Kiosk) -> None:
         self.kiosk = kiosk
         self.pressed: float | None = None
         self.arrived: float | None = None
@@ -91,14 +97,15 @@ class Visitor:
         self.ready_at_press = False
 
     def __call__(self) -> bool:
-        from exhibit.render.target import Key
+        from exhibit.render.target import HeadlessTarget, Key
 
         k = self.kiosk
         assert k.state is not None
         if self.pressed is None:
             if k.frames >= FRAMES_BEFORE:
-                k.window.post(Key("n", True))
-                k.window.post(Key("n", False))
+                window = cast(HeadlessTarget, k.window)  # one_run's kiosk draws into one
+                window.post(Key("n", True))
+                window.post(Key("n", False))
                 self.pressed = time.perf_counter()
             return False
         frame = k.state.frame
@@ -120,7 +127,7 @@ class Visitor:
         return time.perf_counter() - self.pressed > TIMEOUT_S
 
 
-def one_run(variant: str, busy: int, size: tuple[int, int], headless) -> dict:
+def one_run(variant: str, busy: int, size: tuple[int, int], headless: Headless) -> dict:
     """One kiosk from an empty mesh cache, ``busy`` spinning processes beside it."""
     from exhibit.kiosk.app import Kiosk
     from exhibit.kiosk.config import load_kiosk_config
@@ -175,7 +182,7 @@ def one_run(variant: str, busy: int, size: tuple[int, int], headless) -> dict:
         subprocess.run(["rm", "-rf", str(folder)], check=False)
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from exhibit.commands.render import parse_size
     from exhibit.render import Headless
 

@@ -23,12 +23,14 @@ visitor would, and moves the slice.
 
 from __future__ import annotations
 
+import argparse
 import json
 import math
 import os
 import platform
 import statistics
 import time
+from typing import TYPE_CHECKING
 
 import moderngl
 import numpy as np
@@ -37,11 +39,16 @@ from exhibit.errors import ExhibitError
 from exhibit.geometry.pipeline import clip_transform
 from exhibit.render import shaders
 
+if TYPE_CHECKING:
+    from exhibit.geometry.view import ViewState
+    from exhibit.render.renderer import Renderer
+    from exhibit.surfaces.mesh import Mesh4D
+
 HELP = "renderer frame times: pipeline vs CPU baseline vs pass-through floor (Hopf scene)"
 DEFAULT_TRIANGLES = "20k,200k,1M"
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--json", action="store_true", help="print JSON")
     parser.add_argument(
         "--size", default="1280x720", metavar="WxH", help="framebuffer size (default: %(default)s)"
@@ -82,7 +89,7 @@ def parse_count(text: str) -> int:
 class CpuBaseline:
     """Per frame on the CPU: clip position, clip distances, Lemma 1(c) normal, view vector."""
 
-    def __init__(self, ctx, renderer, mesh):
+    def __init__(self, ctx: moderngl.Context, renderer: Renderer, mesh: Mesh4D) -> None:
         self.ctx = ctx
         self.program = shaders.program(ctx, "baseline.glsl")
         self.renderer = renderer
@@ -98,7 +105,7 @@ class CpuBaseline:
             )
             self.parts.append((s, vbo, ibo, vao))
 
-    def draw(self, view, size) -> None:
+    def draw(self, view: ViewState, size: tuple[int, int]) -> None:
         ct = clip_transform(view, size[0] / size[1])
         rotation, offset = ct.pose[:4, :4], ct.pose[:4, 4]
         r1, r2 = view.sensor_r, view.eye_r
@@ -148,7 +155,7 @@ def cpu_model() -> str:
     return platform.processor() or "unknown"
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     from exhibit import scenes
     from exhibit.commands.render import parse_size
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
@@ -290,7 +297,7 @@ def run(args) -> int:
     return 0
 
 
-def uniform(program, name: str) -> moderngl.Uniform:
+def uniform(program: moderngl.Program, name: str) -> moderngl.Uniform:
     """A program's uniform by name (moderngl types the lookup as any member)."""
     member = program[name]
     assert isinstance(member, moderngl.Uniform), name

@@ -7,6 +7,7 @@ the same run: a bare interpreter, and the interpreter importing the kiosk's modu
 
 from __future__ import annotations
 
+import argparse
 import json
 import os
 import platform
@@ -28,7 +29,7 @@ PREPARED = "every scene is prepared"
 WARM_GOAL, COLD_GOAL = 2.5, 2.5
 
 
-def add_arguments(parser) -> None:
+def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--config", help="kiosk config (default: the shipped one)")
     parser.add_argument(
         "--repeat",
@@ -110,7 +111,7 @@ def _time_to_ready(
         server.close()
 
 
-def run(args) -> int:
+def run(args: argparse.Namespace) -> int:
     if not 1 <= args.repeat <= 100:
         raise ExhibitError(
             f"--repeat {args.repeat}: give 1 to 100 rounds (each is a cold and "
