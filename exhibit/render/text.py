@@ -240,6 +240,19 @@ class Glyph:
     left: int
 
 
+def rasterise_glyph(char: str, style: str, size: int) -> tuple[np.ndarray, int]:
+    """One glyph's coverage (uint8, the line's height, one column of margin each side) and its
+    image's left edge from the pen position, as Pillow draws it."""
+    f = font(style, size)
+    ascent, descent = f.getmetrics()
+    left, _, right, _ = f.getbbox(char)
+    left = min(int(math.floor(left)), 0) - 1
+    width = max(int(math.ceil(right)) - left + 1, 1)
+    image = Image.new("L", (width, ascent + descent), 0)
+    ImageDraw.Draw(image).text((-left, 0), char, font=f, fill=255)
+    return np.asarray(image), left
+
+
 #: The eight directions a halo spreads a glyph in (exhibit.render.hud's text halos).
 HALO_DIRECTIONS = ((-1, 0), (1, 0), (0, -1), (0, 1), (-1, -1), (1, 1), (-1, 1), (1, -1))
 
@@ -288,15 +301,8 @@ class GlyphAtlas:
         found = self._glyphs.get(key)
         if found is not None:
             return found
-        f = font(style, size)
-        ascent, descent = f.getmetrics()
-        left, _, right, _ = f.getbbox(char)
-        left = min(int(math.floor(left)), 0) - 1
-        width = max(int(math.ceil(right)) - left + 1, 1)
-        height = ascent + descent
-        image = Image.new("L", (width, height), 0)
-        ImageDraw.Draw(image).text((-left, 0), char, font=f, fill=255)
-        glyph = self._glyphs[key] = self._place(np.asarray(image), left)
+        image, left = rasterise_glyph(char, style, size)
+        glyph = self._glyphs[key] = self._place(image, left)
         return glyph
 
     def halo(self, char: str, style: str, size: int, reach: int, alpha: float) -> Glyph:
@@ -309,14 +315,8 @@ class GlyphAtlas:
         found = self._halos.get(key)
         if found is not None:
             return found
-        f = font(style, size)
-        ascent, descent = f.getmetrics()
-        left, _, right, _ = f.getbbox(char)
-        left = min(int(math.floor(left)), 0) - 1
-        width = max(int(math.ceil(right)) - left + 1, 1)
-        image = Image.new("L", (width, ascent + descent), 0)
-        ImageDraw.Draw(image).text((-left, 0), char, font=f, fill=255)
-        coverage = np.asarray(image, dtype=np.float64) / 255.0
+        image, left = rasterise_glyph(char, style, size)
+        coverage = image / 255.0
         h, w = coverage.shape
         clear = np.ones((h + 2 * reach, w + 2 * reach))
         for step in halo_steps(reach):
