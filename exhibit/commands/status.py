@@ -234,7 +234,7 @@ def summary(
     if data.quality is not None:
         rows.append(("quality", quality_line(data)))
     if isinstance(data.frame_passes, dict):
-        rows.append(("frame passes", passes_line(data.frame_passes)))
+        rows.append(("passes", passes_line(data.frame_passes)))
     narration = data.narration
     if isinstance(narration, dict):
         rows.append(("narration", narration_line(narration)))
