@@ -46,7 +46,14 @@ from exhibit.render.layout import (
     key_swatch,
     status_lines,
 )
-from exhibit.render.text import block_image, has_greek, line_height, text_width
+from exhibit.render.text import (
+    HALO_DIRECTIONS,
+    block_image,
+    halo_steps,
+    has_greek,
+    line_height,
+    text_width,
+)
 from exhibit.scenes import palette
 from exhibit.scenes.colours import luminance
 
@@ -455,11 +462,18 @@ def halo_rows(
     """A dark halo for a line of text at (x, y): its glyphs in HALO, moved in eight directions
     by two distances (at least 1 and 2 pixels; px / 10 at most), so no pixel of the picture
     touches a stroke (text over a bright surface keeps 7:1, tests/golden/contrast.py). Each
-    glyph's halo is one image in the atlas (GlyphAtlas.halo), drawn as one quad."""
+    glyph's halo is one image in the atlas (GlyphAtlas.halo), drawn as one quad; where a line
+    and its halos do not fit in the atlas together, sixteen moved copies of its glyphs."""
     reach = max(2, round(px / 10))
     x, y = round(x), round(y)
     r, g, b, alpha = HALO
-    for dx, halo in drawing.atlas.halo_layout(text, style, px, reach, alpha):
+    laid = drawing.atlas.halo_layout(text, style, px, reach, alpha)
+    if laid is None:
+        for step in halo_steps(reach):
+            for ox, oy in HALO_DIRECTIONS:
+                drawing.glyph_rows(text, style, px, x + ox * step, y + oy * step, HALO, rows)
+        return
+    for dx, halo in laid:
         rows.append(
             (x + dx, y - reach, halo.width, halo.height, halo.u, halo.v, halo.width, halo.height)
             + (r, g, b, 1.0)

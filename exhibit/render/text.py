@@ -270,22 +270,39 @@ class GlyphAtlas:
     pixel (NEAREST), as crisp as whole-line rasterising; monospaced text advances by the font's
     fixed advance, so digits never jitter, and proportional text keeps Pillow's kerning (pen
     positions are the lengths of the line's prefixes). When the atlas fills up it starts again
-    empty (the HUD uses a few hundred glyphs, so that is rare)."""
+    empty (the HUD uses a few hundred glyphs, so that is rare); when one line does not fit in an
+    empty atlas (text hundreds of pixels tall, an 8192 x 8192 render) it doubles its size."""
 
     SIZE = 1024
 
     def __init__(self, ctx: moderngl.Context, size: int = SIZE):
         self.ctx = ctx
         self.size = size
-        self.texture = ctx.texture((size, size), 1, dtype="f1")
-        self.texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
-        self.texture.repeat_x = self.texture.repeat_y = False
-        self.texture.write(np.zeros((size, size), dtype=np.uint8).tobytes())
+        self.texture = self._new_texture(size)
         self._glyphs: dict[tuple[str, int, str], Glyph] = {}
         self._halos: dict[tuple[str, int, str, int, float], Glyph] = {}
         self._layouts: OrderedDict[tuple[str, str, int], list[tuple[int, Glyph]]] = OrderedDict()
         self.resets = 0
         self._clear()
+
+    def _new_texture(self, size: int) -> moderngl.Texture:
+        texture = self.ctx.texture((size, size), 1, dtype="f1")
+        texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+        texture.repeat_x = texture.repeat_y = False
+        texture.write(np.zeros((size, size), dtype=np.uint8).tobytes())
+        return texture
+
+    def _grow(self) -> bool:
+        """Double the texture and start again empty; False at the GL's largest texture."""
+        limit = int(self.ctx.info.get("GL_MAX_TEXTURE_SIZE", 8192))
+        if 2 * self.size > limit:
+            return False
+        self.texture.release()
+        self.size *= 2
+        self.texture = self._new_texture(self.size)
+        self.resets += 1
+        self._clear()
+        return True
 
     def _clear(self) -> None:
         self._glyphs.clear()
@@ -331,6 +348,9 @@ class GlyphAtlas:
         """Shelf-pack one single-channel image into the texture, emptying it when full (the
         caller's layout notices by ``resets``)."""
         height, width = image.shape
+        while max(width, height) + 4 > self.size:
+            if not self._grow():  # larger than the GL's largest texture: shown as nothing
+                return Glyph(0, 0, 0, 0, left)
         if self._x + width + 1 > self.size:
             self._x, self._y, self._shelf = 0, self._y + self._shelf + 1, 0
         if self._y + height > self.size or width > self.size:
@@ -348,19 +368,24 @@ class GlyphAtlas:
 
     def halo_layout(
         self, text: str, style: str, size: int, reach: int, alpha: float
-    ) -> list[tuple[int, Glyph]]:
+    ) -> list[tuple[int, Glyph]] | None:
         """(x offset of the halo image, halo) for each visible character of one line, placed as
-        ``layout`` places the glyphs (the halo image starts ``reach`` pixels up and left)."""
-        resets = self.resets
-        out = [
-            (dx - reach, self.halo(char, style, size, reach, alpha))
-            for (dx, _), char in zip(
-                self.layout(text, style, size), (c for c in text if not c.isspace())
-            )
-        ]
-        if self.resets != resets:  # emptied on the way: the earlier halos are gone
-            return self.halo_layout(text, style, size, reach, alpha)
-        return out
+        ``layout`` places the glyphs (the halo image starts ``reach`` pixels up and left); None
+        when the line's glyphs and halos do not fit in the atlas together (text hundreds of
+        pixels tall: the caller moves the glyphs themselves instead)."""
+        for attempt in range(4):  # emptied on the way: the earlier halos are gone, again
+            resets = self.resets
+            out = [
+                (dx - reach, self.halo(char, style, size, reach, alpha))
+                for (dx, _), char in zip(
+                    self.layout(text, style, size), (c for c in text if not c.isspace())
+                )
+            ]
+            if self.resets == resets:
+                return out
+            if attempt and not self._grow():
+                break
+        return None
 
     def layout(self, text: str, style: str, size: int) -> list[tuple[int, Glyph]]:
         """(x offset of the glyph image, glyph) for each visible character of one line."""
@@ -370,20 +395,25 @@ class GlyphAtlas:
             self._layouts.move_to_end(key)
             return found
         f = font(style, size)
-        resets = self.resets
-        out = []
         if style == "mono":
             advance = f.getlength("0")
             pens = [i * advance for i in range(len(text))]
         else:
             pens = [f.getlength(text[:i]) for i in range(len(text))]
-        for pen, char in zip(pens, text):
-            if char.isspace():
-                continue
-            glyph = self.glyph(char, style, size)
-            out.append((int(round(pen)) + 1 + glyph.left, glyph))
-        if self.resets != resets:  # the atlas was emptied while laying out: lay out again
-            return self.layout(text, style, size)
+        for attempt in range(4):
+            resets = self.resets
+            out = [
+                (int(round(pen)) + 1 + glyph.left, glyph)
+                for pen, char in zip(pens, text)
+                if not char.isspace()
+                for glyph in (self.glyph(char, style, size),)
+            ]
+            if self.resets == resets:
+                break
+            # The atlas was emptied while laying out: lay out again, in a larger atlas when
+            # the line alone filled it; at the GL's largest texture its first glyphs are lost.
+            if attempt and not self._grow():
+                break
         self._layouts[key] = out
         while len(self._layouts) > 256:
             self._layouts.popitem(last=False)

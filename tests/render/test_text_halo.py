@@ -61,3 +61,40 @@ def test_halo_survives_the_atlas_emptying(gl):
         atlas.halo(c, "sans", 30, 3, HALO[3]).width for c in "halo"
     ]
     assert all(g.height == out[0][1].height for _, g in out)
+
+
+def test_a_line_too_large_for_the_atlas_grows_it(gl):
+    """Text hundreds of pixels tall (an 8192 x 8192 render): a line whose glyphs and halos do
+    not fit in an empty atlas doubles it instead of emptying it forever."""
+    from exhibit.render.text import GlyphAtlas
+
+    atlas = GlyphAtlas(gl.ctx, size=160)
+    try:
+        laid = atlas.halo_layout("halo", "sans", 70, 7, HALO[3])
+        assert laid is not None and atlas.size > 160
+        glyphs = atlas.layout("halo", "sans", 70)
+        for _, g in [*laid, *glyphs]:
+            assert g.width > 0 and g.u + g.width <= atlas.size and g.v + g.height <= atlas.size
+        assert atlas.halo_layout("halo", "sans", 70, 7, HALO[3]) == laid  # all still there
+        assert gl.ctx.error == "GL_NO_ERROR"
+    finally:
+        atlas.release()
+
+
+def test_halos_that_cannot_fit_are_sixteen_moved_glyphs(gl, monkeypatch):
+    """At the GL's largest atlas, a line whose halos do not fit beside its glyphs gets the
+    halo as sixteen moved copies of its glyphs."""
+    from exhibit.render.text import GlyphAtlas
+
+    small = GlyphAtlas(gl.ctx, size=160)
+    try:
+        monkeypatch.setattr(small, "_grow", lambda: False)
+        assert small.halo_layout("halo", "sans", 60, 6, HALO[3]) is None
+        drawing = gl.renderer.drawing
+        monkeypatch.setattr(drawing, "atlas", small)
+        rows: list = []
+        halo_rows(drawing, "halo", "sans", 60, 0, 0, rows)
+        assert len(rows) == 16 * 4  # each glyph moved in 8 directions by 2 distances
+        assert all(tuple(row[8:]) == HALO for row in rows)
+    finally:
+        small.release()
