@@ -46,14 +46,8 @@ from exhibit.render.layout import (
     key_swatch,
     status_lines,
 )
-from exhibit.render.text import (
-    HALO_DIRECTIONS,
-    block_image,
-    halo_steps,
-    has_greek,
-    line_height,
-    text_width,
-)
+from exhibit.render.glyph_atlas import HALO_DIRECTIONS, halo_steps
+from exhibit.render.text import block_image, has_greek, line_height, text_width
 from exhibit.scenes import palette
 from exhibit.scenes.colours import luminance
 

@@ -16,7 +16,8 @@ import numpy as np
 
 from exhibit.render import shaders
 from exhibit.render.passes.shared import BLEND_OVER, BLEND_PREMULTIPLIED
-from exhibit.render.text import GlyphAtlas, TextCache, line_height, text_width
+from exhibit.render.glyph_atlas import GlyphAtlas
+from exhibit.render.text import TextCache, line_height, text_width
 
 OVERLAY_FLOATS = 9  # a (2), b (2), rgba (4), width (1)
 GLYPH_FLOATS = 12  # rect (4), texel rect (4), rgba (4)

@@ -42,7 +42,8 @@ from exhibit.render.passes.shared import (  # noqa: F401 - pipeline_uniforms: te
 from exhibit.render.passes.silhouettes import SLICE_COLOR, silhouette_passes  # noqa: F401
 from exhibit.render.passes.surfaces import SurfacePass
 from exhibit.render.scene_target import SceneTarget
-from exhibit.render.text import GlyphAtlas, TextCache
+from exhibit.render.glyph_atlas import GlyphAtlas
+from exhibit.render.text import TextCache
 from exhibit.surfaces.mesh import Mesh4D
 
 if TYPE_CHECKING:  # compiled on first use (Renderer.ids)

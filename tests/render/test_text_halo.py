@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from exhibit.render.hud import HALO, halo_rows
-from exhibit.render.text import HALO_DIRECTIONS, halo_steps
+from exhibit.render.glyph_atlas import HALO_DIRECTIONS, halo_steps
 
 SIZE = (360, 90)
 
@@ -66,7 +66,7 @@ def test_halo_survives_the_atlas_emptying(gl):
 def test_a_line_too_large_for_the_atlas_grows_it(gl):
     """Text hundreds of pixels tall (an 8192 x 8192 render): a line whose glyphs and halos do
     not fit in an empty atlas doubles it instead of emptying it forever."""
-    from exhibit.render.text import GlyphAtlas
+    from exhibit.render.glyph_atlas import GlyphAtlas
 
     atlas = GlyphAtlas(gl.ctx, size=160)
     try:
@@ -84,7 +84,7 @@ def test_a_line_too_large_for_the_atlas_grows_it(gl):
 def test_halos_that_cannot_fit_are_sixteen_moved_glyphs(gl, monkeypatch):
     """At the GL's largest atlas, a line whose halos do not fit beside its glyphs gets the
     halo as sixteen moved copies of its glyphs."""
-    from exhibit.render.text import GlyphAtlas
+    from exhibit.render.glyph_atlas import GlyphAtlas
 
     small = GlyphAtlas(gl.ctx, size=160)
     try:
