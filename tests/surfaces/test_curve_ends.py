@@ -117,7 +117,11 @@ def exact_end(r: float, ratio: float) -> float:
 
 @pytest.mark.parametrize(
     "r, resolution",
-    [(0.3, 24), (0.3, 48), pytest.param(0.1, 48, marks=pytest.mark.slow)],  # 0.1: a cell > r at 24
+    [
+        (0.3, 24),
+        pytest.param(0.3, 48, marks=pytest.mark.slow),  # slow: CI runs it
+        pytest.param(0.1, 48, marks=pytest.mark.slow),  # 0.1: a cell > r at 24
+    ],
 )
 def test_branches_meeting_at_a_singular_point_both_reach_the_exclusion(capsys, r, resolution):
     """Issue 32: at r = 0.3 two of the four half-branches stopped at |t| = 0.061-0.064 (0.26-0.30

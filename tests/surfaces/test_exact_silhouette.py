@@ -78,7 +78,7 @@ def _cusp_check(points, r):
 
 @pytest.mark.parametrize(
     "r",
-    [0.4, 1.0, pytest.param(1.7, marks=pytest.mark.slow)],  # slow: CI runs it
+    [0.4, pytest.param(1.0, marks=pytest.mark.slow), pytest.param(1.7, marks=pytest.mark.slow)],
 )
 def test_cusp_offset_curve_has_no_false_arcs(r):
     """The false arcs ran along the singular circle u = v = 0, x² + y² = r²: their (u, v) is at
@@ -175,7 +175,7 @@ def test_collision_silhouettes_are_exact_for_any_parameters(rc, rs, vc, vs):
 def _silhouette_scenes():
     return [
         ("offset-parabola", "u,v"),
-        ("offset-cusp", "u,v"),
+        pytest.param("offset-cusp", "u,v", marks=pytest.mark.slow),  # slow: CI; traced below
         ("offset-cusp-traced", "t,w"),
         ("collision", "x,y"),
         ("sphere-slice", "x,y"),
