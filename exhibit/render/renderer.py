@@ -27,19 +27,9 @@ from exhibit.render.options import RenderOptions
 from exhibit.render.pass_timer import PassTimer, PassTimes
 from exhibit.render.passes.background import BackgroundPass
 from exhibit.render.passes.curves import CurvePass
-from exhibit.render.passes.intersections import (  # noqa: F401 - tests import them from here
-    FULL_CROSSING,
-    MIN_CROSSING,
-    IntersectionPass,
-    screen_extent,
-)
-from exhibit.render.passes.shared import (  # noqa: F401 - pipeline_uniforms: tests import it here
-    FrameInputs,
-    Pipeline,
-    RenderPass,
-    pipeline_uniforms,
-)
-from exhibit.render.passes.silhouettes import SLICE_COLOR, silhouette_passes  # noqa: F401
+from exhibit.render.passes.intersections import IntersectionPass
+from exhibit.render.passes.shared import FrameInputs, Pipeline, RenderPass
+from exhibit.render.passes.silhouettes import silhouette_passes
 from exhibit.render.passes.surfaces import SurfacePass
 from exhibit.render.scene_target import SceneTarget
 from exhibit.render.glyph_atlas import GlyphAtlas
@@ -242,12 +232,6 @@ class Renderer:
     ) -> None:
         """The intersection pass alone over ``sheets`` (IntersectionPass.ink)."""
         self.intersections.ink(gpu, sheets, size, options, view)
-
-    def _screen_extent(
-        self, gpu: GpuMesh, view: ViewState, size: tuple[int, int]
-    ) -> tuple[float, tuple[int, int, int, int] | None]:
-        """passes.intersections.screen_extent (the golden crossing tests call it here)."""
-        return screen_extent(self.pipeline, gpu, view, size)
 
     # ------------------------------------------------------------------ object ids
 

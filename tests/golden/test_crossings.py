@@ -22,7 +22,7 @@ from exhibit.geometry.pipeline import clip_transform
 from exhibit.render import RenderOptions
 from exhibit.render.framer import Framer
 from exhibit.render.quality import LADDER
-from exhibit.render.renderer import FULL_CROSSING, MIN_CROSSING
+from exhibit.render.passes.intersections import FULL_CROSSING, MIN_CROSSING, screen_extent
 from tests.golden.crossing_pieces import (
     Pairs,
     curves,
@@ -97,7 +97,7 @@ def figure_16(headless, gpu, mesh, view):
         return np.array([(y - vc * t) ** 2 + z**2 - rc**2, x**2 + y**2 + (z + vs * t) ** 2 - rs**2])
 
     ct = clip_transform(view, SIZE[0] / SIZE[1])
-    scale = headless.renderer._screen_extent(gpu, view, SIZE)[0]
+    scale = screen_extent(headless.renderer.pipeline, gpu, view, SIZE)[0]
 
     def residual(u):
         return np.concatenate(
@@ -184,7 +184,7 @@ def test_the_clifford_torus_takeover_crossings_are_one_piece(headless, mesh_cach
         gpu, view, options, _ = player.window.drawn
         quality = options.quality
         ct = clip_transform(view, SIZE[0] / SIZE[1])
-        scale = headless.renderer._screen_extent(gpu, view, SIZE)[0]
+        scale = screen_extent(headless.renderer.pipeline, gpu, view, SIZE)[0]
         params = dict(player.kiosk.state.frame.params)
         pairs = torus_pairs(ct, scale, params["radius"])
         surface = gpu.mesh.surfaces[0]

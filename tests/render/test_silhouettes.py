@@ -214,7 +214,7 @@ def test_the_live_slice_glows_at_exact_tangency(gl):
     circle in the slice's colour, all of it but the ends at the two singular points (0, ±1, 0,
     0)."""
     from exhibit.geometry.touching import tangential_gradient, touching_segments
-    from exhibit.render.renderer import SLICE_COLOR
+    from exhibit.render.passes.silhouettes import SLICE_COLOR
 
     size = (320, 240)
     (image,), view, surface = _figure_15_slice(gl, [0.0], size)

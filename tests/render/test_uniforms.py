@@ -11,7 +11,7 @@ import pytest
 from exhibit.geometry.pipeline import clip_transform
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
-from exhibit.render.renderer import pipeline_uniforms
+from exhibit.render.passes.shared import pipeline_uniforms
 
 
 def test_declared_uniforms_read_the_source_with_its_includes():
