@@ -44,6 +44,11 @@ class Feed:
         self.volume = clamp_volume(volume)
         #: time.monotonic() of the callback's last request for frames.
         self.last_request = time.monotonic()
+        #: The tap: frames of sound (not silence) the device has taken, and how many sounds it
+        #: began, counted in the device's own thread, so they show what really went out (the
+        #: health file's proof that narration sounds, on the null device of a test too).
+        self.frames_played = 0
+        self.sounds_begun = 0
 
     def load(self, sound: Sound) -> None:
         """Play ``sound`` from its start, replacing whatever played."""
@@ -68,7 +73,10 @@ class Feed:
             samples = self._samples
             if samples is not None:
                 chunk = samples[self._position : self._position + frames]
+                if self._position == 0 and len(chunk):
+                    self.sounds_begun += 1
                 self._position += len(chunk)
+                self.frames_played += len(chunk)
                 if len(chunk) == 0:
                     self._samples = None
             volume = self.volume

@@ -122,9 +122,16 @@ class Player:
 
     def status(self) -> dict:
         """{"state": "ok" | "absent" | "error", "device": its name or None, "error": why or
-        None}, for the health file and `exhibit status`."""
+        None, "sounds_begun": how many sounds the device began, "played_s": seconds of sound
+        it took}, for the health file and `exhibit status`."""
         state = self._check()
-        return {"state": state, "device": self._name, "error": self._error}
+        return {
+            "state": state,
+            "device": self._name,
+            "error": self._error,
+            "sounds_begun": self._feed.sounds_begun,
+            "played_s": round(self._feed.frames_played / RATE, 3),
+        }
 
     def close(self) -> None:
         """Stop and let the device go (the kiosk is quitting). Idempotent."""

@@ -1,7 +1,7 @@
 """Run a command under the seccomp filters systemd would load for a unit, without systemd.
 
     python sandbox_exec.py [--syscalls FILE] [--errno EPERM] [--families AF_UNIX,AF_NETLINK]
-                           [--mdwe] -- COMMAND [ARGS...]
+                           [--mdwe] [--no-realtime] -- COMMAND [ARGS...]
 
 CI machines (and this one) have no systemd as PID 1, so `systemd-run -p ...` cannot apply a unit's
 sandbox. The settings that matter most for a GL client, the system call filter and
@@ -15,6 +15,9 @@ MemoryDenyWriteExecute=, are plain seccomp filters, and systemd builds them the 
 --families LIST   RestrictAddressFamilies=: socket() with any other family fails with EAFNOSUPPORT.
 --mdwe            MemoryDenyWriteExecute=yes: mmap with PROT_WRITE|PROT_EXEC, mprotect and
                   pkey_mprotect adding PROT_EXEC, and shmat with SHM_EXEC fail with EPERM.
+--no-realtime     RestrictRealtime=yes: sched_setscheduler with any policy but SCHED_OTHER,
+                  SCHED_BATCH and SCHED_IDLE fails with EPERM (systemd's
+                  seccomp_restrict_realtime: every lower policy not allowed, and all above).
 
 Loading a filter sets no_new_privs (NoNewPrivileges=yes), as systemd does. Standard library only
 (ctypes and libseccomp.so.2, which systemd itself depends on), so any Python can run it.
@@ -32,10 +35,12 @@ import sys
 
 SCMP_ACT_KILL_PROCESS = 0x80000000
 SCMP_ACT_ALLOW = 0x7FFF0000
-SCMP_CMP_EQ, SCMP_CMP_GE, SCMP_CMP_MASKED_EQ = 4, 5, 7
+SCMP_CMP_EQ, SCMP_CMP_GE, SCMP_CMP_GT, SCMP_CMP_MASKED_EQ = 4, 5, 6, 7
 PROT_WRITE, PROT_EXEC = 0x2, 0x4
 SHM_EXEC = 0o100000
 AF_MAX = 46  # linux/socket.h in Debian 12's kernel headers
+#: What RestrictRealtime=yes leaves: SCHED_OTHER, SCHED_BATCH, SCHED_IDLE (linux/sched.h).
+NOT_REALTIME = (0, 3, 5)
 
 
 def SCMP_ACT_ERRNO(code: int) -> int:
@@ -101,6 +106,7 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--errno", default="EPERM")
     parser.add_argument("--families")
     parser.add_argument("--mdwe", action="store_true")
+    parser.add_argument("--no-realtime", action="store_true")
     parser.add_argument("command", nargs=argparse.REMAINDER)
     args = parser.parse_args(argv)
     command = args.command[1:] if args.command[:1] == ["--"] else args.command
@@ -128,6 +134,16 @@ def main(argv: list[str]) -> int:
                 (eperm, "shmat", [(2, SCMP_CMP_MASKED_EQ, SHM_EXEC, SHM_EXEC)]),
             ],
         )
+    if args.no_realtime:
+        eperm = SCMP_ACT_ERRNO(errno.EPERM)
+        top = max(NOT_REALTIME)
+        rules = [
+            (eperm, "sched_setscheduler", [(1, SCMP_CMP_EQ, policy, 0)])
+            for policy in range(top)
+            if policy not in NOT_REALTIME
+        ]
+        rules.append((eperm, "sched_setscheduler", [(1, SCMP_CMP_GT, top, 0)]))
+        sc.load(SCMP_ACT_ALLOW, rules)
     # Last, as systemd does: the allow-list does not allow loading further filters.
     if args.syscalls:
         with open(args.syscalls, encoding="ascii") as listed:

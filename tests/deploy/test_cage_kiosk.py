@@ -44,7 +44,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
-from tests.deploy.unitfile import allowed_syscalls, environment, units, yes
+from tests.deploy.unitfile import environment, sandbox_options, units, yes
 
 # Seconds of a real compositor and kiosk, with timing checks on the screen: CI runs them, alone.
 pytestmark = [pytest.mark.slow, pytest.mark.serial]
@@ -203,20 +203,7 @@ def user_namespace(user: AsUser) -> list[str]:
 
 def sandbox(python: list[str], service: dict[str, list[str]], folder: Path, name: str) -> list[str]:
     """sandbox_exec.py arguments for the unit's seccomp settings."""
-    argv = python + [str(SANDBOX)]
-    calls = allowed_syscalls(service)
-    if calls is not None:
-        listing = folder / f"{name}.syscalls"
-        listing.write_text("\n".join(sorted(calls)) + "\n")
-        listing.chmod(0o644)
-        errno_name = service.get("SystemCallErrorNumber", ["kill"])[-1]
-        argv += ["--syscalls", str(listing), "--errno", errno_name]
-    families = service.get("RestrictAddressFamilies", [""])[-1].split()
-    if families:
-        argv += ["--families", ",".join(families)]
-    if yes(service, "MemoryDenyWriteExecute"):
-        argv += ["--mdwe"]
-    return argv + ["--"]
+    return python + [str(SANDBOX), *sandbox_options(service, folder, name), "--"]
 
 
 def stop(process: subprocess.Popen | None) -> None:

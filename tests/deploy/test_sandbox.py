@@ -1,10 +1,13 @@
-"""The units' seccomp settings against the exhibit's own renderer, without systemd: the system
-call filter both units carry leaves the picture unchanged, and MemoryDenyWriteExecute=, which
-neither carries, kills Mesa's llvmpipe at its first draw call (why it is left out). Also checks
-that sandbox_exec.py, which the cage test relies on, really filters."""
+"""The units' seccomp settings against the exhibit's own renderer and narration player, without
+systemd: the system call filter both units carry leaves the picture unchanged and lets narration
+sound, and MemoryDenyWriteExecute=, which neither carries, kills Mesa's llvmpipe at its first draw
+call (why it is left out). Also checks that sandbox_exec.py, which the cage test relies on, really
+filters."""
 
 from __future__ import annotations
 
+import errno
+import json
 import os
 import signal
 import subprocess
@@ -13,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.deploy.unitfile import allowed_syscalls, syscall_group, units
+from tests.deploy.unitfile import allowed_syscalls, sandbox_options, syscall_group, units
 
 REPO = Path(__file__).resolve().parents[2]
 SANDBOX = Path(__file__).with_name("sandbox_exec.py")
@@ -62,7 +65,10 @@ def test_the_filter_is_what_the_unit_says():
     except FileNotFoundError:
         unavailable("systemd-analyze is not installed (Debian: apt-get install systemd)")
     assert {"read", "ioctl", "mmap", "openat", "execve", "sendmsg", "memfd_create"} <= calls
-    assert not (syscall_group("@privileged") | syscall_group("@resources")) & calls
+    assert not syscall_group("@privileged") & calls
+    # Of @resources only the one narration needs (its real-time policies refused by
+    # RestrictRealtime=, test_restrict_realtime_refuses_real_time_policies_only).
+    assert syscall_group("@resources") & calls == {"sched_setscheduler"}
     assert not {"mount", "reboot", "init_module", "ptrace", "swapon"} & calls
 
 
@@ -138,3 +144,66 @@ def test_memory_deny_write_execute_kills_llvmpipe(tmp_path):
     result = render(tmp_path / "mdwe.png", "--mdwe")
     assert result.returncode == -signal.SIGSEGV, (result.returncode, result.stderr[-1000:])
     assert not (tmp_path / "mdwe.png").exists()
+
+
+#: Plays 0.3 s of sound on miniaudio's null device (which takes samples in real time, as a card
+#: would) and prints the player's status as JSON.
+PLAY = """
+import json, time
+from exhibit.narration import Player, silence
+with Player(backend="null") as player:
+    player.play(silence(0.3))
+    deadline = time.monotonic() + 60
+    while player.status()["played_s"] < 0.3 and time.monotonic() < deadline:
+        time.sleep(0.02)
+    print(json.dumps(player.status()))
+"""
+
+
+def test_narration_sounds_under_the_apps_sandbox(tmp_path):
+    """The app unit's seccomp settings as the unit file states them (its system call filter,
+    address families, RestrictRealtime=): the narration player opens the null device and the
+    device's own thread takes the whole sound. Under `~@resources` alone miniaudio's audio thread
+    could not start (sched_setscheduler refused: "failed to init device, -3")."""
+    service = units(REPO / "systemd/exhibit.service")["Service"]
+    try:
+        options = sandbox_options(service, tmp_path, "app")
+    except FileNotFoundError:
+        unavailable("systemd-analyze is not installed (Debian: apt-get install systemd)")
+    assert "--no-realtime" in options
+    result = sandboxed(*options, command=[sys.executable, "-c", PLAY])
+    assert result.returncode == 0, result.stderr[-2000:]
+    status = json.loads(result.stdout.strip().splitlines()[-1])
+    assert status["state"] == "ok", status
+    assert status["sounds_begun"] == 1 and status["played_s"] >= 0.3, status
+
+
+def test_restrict_realtime_refuses_real_time_policies_only(tmp_path):
+    """What the unit's RestrictRealtime=yes keeps refusing now that sched_setscheduler is
+    allowed: SCHED_FIFO and SCHED_RR (even for root, as here); normal policies pass."""
+    service = units(REPO / "systemd/exhibit.service")["Service"]
+    try:
+        options = sandbox_options(service, tmp_path, "app")
+    except FileNotFoundError:
+        unavailable("systemd-analyze is not installed (Debian: apt-get install systemd)")
+    probe = (
+        "import os\n"
+        "for name in ('SCHED_OTHER', 'SCHED_BATCH', 'SCHED_IDLE', 'SCHED_FIFO', 'SCHED_RR'):\n"
+        "    policy = getattr(os, name)\n"
+        "    level = os.sched_get_priority_min(policy)\n"
+        "    try:\n"
+        "        os.sched_setscheduler(0, policy, os.sched_param(level))\n"
+        "        print(name, 'allowed')\n"
+        "    except OSError as exc:\n"
+        "        print(name, exc.errno)\n"
+    )
+    result = sandboxed(*options, command=[sys.executable, "-c", probe])
+    assert result.returncode == 0, result.stderr[-2000:]
+    answers = dict(line.split() for line in result.stdout.splitlines())
+    assert answers == {
+        "SCHED_OTHER": "allowed",
+        "SCHED_BATCH": "allowed",
+        "SCHED_IDLE": "allowed",
+        "SCHED_FIFO": str(errno.EPERM),
+        "SCHED_RR": str(errno.EPERM),
+    }

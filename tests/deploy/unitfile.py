@@ -91,3 +91,26 @@ def allowed_syscalls(service: dict[str, list[str]]) -> set[str] | None:
         else:
             allowed |= _items(value)
     return allowed
+
+
+def sandbox_options(service: dict[str, list[str]], folder: Path, name: str) -> list[str]:
+    """sandbox_exec.py's options for a unit's seccomp settings, read from the unit itself so a
+    test and the unit cannot drift: SystemCallFilter= (its list written to ``folder``/NAME.syscalls)
+    with SystemCallErrorNumber=, RestrictAddressFamilies=, MemoryDenyWriteExecute= and
+    RestrictRealtime=."""
+    options: list[str] = []
+    calls = allowed_syscalls(service)
+    if calls is not None:
+        listing = folder / f"{name}.syscalls"
+        listing.write_text("\n".join(sorted(calls)) + "\n")
+        listing.chmod(0o644)
+        errno_name = service.get("SystemCallErrorNumber", ["kill"])[-1]
+        options += ["--syscalls", str(listing), "--errno", errno_name]
+    families = service.get("RestrictAddressFamilies", [""])[-1].split()
+    if families:
+        options += ["--families", ",".join(families)]
+    if yes(service, "MemoryDenyWriteExecute"):
+        options += ["--mdwe"]
+    if yes(service, "RestrictRealtime"):
+        options += ["--no-realtime"]
+    return options

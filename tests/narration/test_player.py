@@ -45,6 +45,24 @@ def test_the_stream_plays_the_sound_then_silence():
     assert not feed.playing
 
 
+def test_the_tap_counts_what_the_device_took():
+    """Only frames of sound count, and a sound counts once it has begun, not when loaded."""
+    feed = Feed(volume=1.0)
+    gen = started(feed)
+    gen.send(8)
+    assert (feed.sounds_begun, feed.frames_played) == (0, 0)
+    feed.load(ramp(10))
+    assert feed.sounds_begun == 0
+    gen.send(4)
+    gen.send(8)
+    gen.send(8)
+    assert (feed.sounds_begun, feed.frames_played) == (1, 10)
+    feed.load(ramp(3))
+    feed.clear()
+    gen.send(4)
+    assert (feed.sounds_begun, feed.frames_played) == (1, 10)
+
+
 def test_play_replaces_and_stop_silences():
     feed = Feed(volume=1.0)
     gen = started(feed)
@@ -134,7 +152,12 @@ def test_a_device_that_does_not_exist_is_absent():
 
 def test_a_named_device_is_found():
     with Player(device="null playback", backend="null") as player:
-        assert player.status() == {"state": "ok", "device": "NULL Playback Device", "error": None}
+        status = player.status()
+        assert (status["state"], status["device"], status["error"]) == (
+            "ok",
+            "NULL Playback Device",
+            None,
+        )
 
 
 def test_an_unknown_backend_is_an_error_not_an_exception():
