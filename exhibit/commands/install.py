@@ -28,7 +28,7 @@ import pwd
 import re
 import shlex
 import subprocess
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -274,9 +274,14 @@ def as_service(exe: str, args: list[str], env: list[str]) -> list[str]:
 
 def prepare_steps(exe: str, env: list[str]) -> list[list[str]]:
     """Build the mesh cache before a start: the cache folder for the user (systemd makes it only
-    at the first start), then `exhibit prepare` as the user, with the service's environment."""
+    at the first start), everything already in it given to the user too (a check-config or an
+    update run as root before the user existed left root's folders there, which the user could
+    not write: "could not write the mesh cache ... Permission denied"; systemd's CacheDirectory=
+    does the same at each start), then `exhibit prepare` as the user, with the service's
+    environment."""
     return [
         ["install", "-d", "-o", USER, "-g", USER, "-m", "0755", CACHE_ROOT],
+        ["chown", "-R", f"{USER}:{USER}", CACHE_ROOT],
         as_service(exe, ["prepare"], env),
     ]
 
@@ -287,12 +292,15 @@ def steps(
     site_env: list[str] | tuple = (),
     source: Path = SOURCE_DIR,
     prepare: bool = True,
+    missing_groups: Sequence[str] = (),
 ) -> list[list[str]]:
-    """The commands that finish an installation on the target, in order; the last ones build
-    the mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's
+    """The commands that finish an installation on the target, in order: first the groups of
+    the unit's SupplementaryGroups= the machine lacks (as systemd-sysusers would make them: a
+    minimal Debian without udev's rules has no `render`), the user; the last ones build the
+    mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's
     (``prepare`` False: not, for an update that built it)."""
     unit = render((source / "exhibit.service").read_text(encoding="utf-8"), prefix)
-    commands = []
+    commands: list[list[str]] = [["groupadd", "--system", group] for group in missing_groups]
     if need_user:
         commands.append(
             [
@@ -378,13 +386,6 @@ def install(
                 "./bootstrap.sh run --help), or give --prefix"
             )
         _check_interpreter(Path(prefix))
-        missing = [g for g in GROUPS if not group_exists(g)]
-        if missing:
-            raise ExhibitError(
-                f"group(s) {', '.join(missing)} do not exist here; exhibit.service "
-                "names them in SupplementaryGroups= and would not start: create "
-                f"them (groupadd --system {missing[0]}) or edit that line"
-            )
     for item in planned:
         if item.state == "unchanged":
             out(f"unchanged: {item.path}")
@@ -397,6 +398,7 @@ def install(
     # Staging for another machine: whether its user exists cannot be known from here.
     todo = steps(
         need_user=not user_exists(USER) if on_target else True,
+        missing_groups=[g for g in GROUPS if not group_exists(g)] if on_target else (),
         prefix=prefix,
         site_env=environment_file(root / SITE_ENVIRONMENT),
         source=source,

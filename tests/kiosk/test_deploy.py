@@ -613,6 +613,7 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
         ["systemctl", "daemon-reload"],
         ["systemctl", "enable"],
         ["install", "-d"],
+        ["chown", "-R"],
         ["runuser", "-u"],
     ]
     assert runner.commands[0][-1] == "exhibit"
@@ -678,19 +679,32 @@ def test_perform_stops_at_a_failing_step_and_says_what_is_left(tmp_path, prefix)
     assert "  systemctl daemon-reload" in lines and "  udevadm control --reload" in lines
 
 
-def test_perform_refuses_without_the_venv_or_the_groups(tmp_path, prefix):
+def test_perform_refuses_without_the_venv(tmp_path):
     with pytest.raises(ExhibitError, match=r"/nowhere/\.venv/bin/exhibit does not exist"):
         inst.install(tmp_path, "/nowhere", perform=True, out=lambda s: None, runner=Runner())
-    with pytest.raises(ExhibitError, match="group\\(s\\) render do not exist"):
+    assert not (tmp_path / "etc").exists()
+
+
+def test_perform_makes_the_units_missing_groups_first(tmp_path, prefix):
+    """A minimal Debian without udev's rules has no `render` group; the unit's
+    SupplementaryGroups= names it, so the install makes it (as systemd-sysusers would) before
+    the user, instead of stopping a first install halfway (the offline install did)."""
+    runner, lines = Runner(), []
+    assert (
         inst.install(
             tmp_path,
             prefix,
             perform=True,
-            out=lambda s: None,
-            runner=Runner(),
+            out=lines.append,
+            runner=runner,
+            user_exists=lambda name: False,
             group_exists=lambda name: name != "render",
         )
-    assert not (tmp_path / "etc").exists()
+        == 0
+    )
+    assert runner.commands[0] == ["groupadd", "--system", "render"]
+    assert runner.commands[1][0] == "useradd"
+    assert not any(c[0] == "groupadd" and c[-1] != "render" for c in runner.commands)
 
 
 @pytest.fixture
