@@ -6,8 +6,11 @@ What runs is taken from the unit files as `exhibit install --root` writes them: 
 (with Xwayland installed, as Debian's cage 0.1.4 refuses to start without it), the app's
 Environment= (the native Wayland build of GLFW), the socket wait of its ExecStartPre=, cage's
 ExecStop=, and the sandbox settings that are seccomp filters (SystemCallFilter=,
-SystemCallErrorNumber=, RestrictAddressFamilies=, NoNewPrivileges=, via sandbox_exec.py),
-PrivateUsers= (a user namespace through `unshare`, where the kernel allows it) and UMask=. What
+SystemCallErrorNumber=, RestrictAddressFamilies=, RestrictRealtime=, NoNewPrivileges=, via
+sandbox_exec.py), PrivateUsers= (a user namespace through `unshare`, where the kernel allows it)
+and UMask=; for the app also its file system and identity (ProtectSystem=strict with its
+writable folders, PrivateTmp=, ProtectHome=, User=, SupplementaryGroups=, WorkingDirectory=, via
+unit_mounts.py), with narration on, played to the null device. What
 differs from a museum PC: cage uses wlroots' headless backend and pixman renderer (no GPU, no seat
 here), with its output turned by 180 degrees while the exhibit is watched (CI_TURN: on the
 headless output grim cannot see a directly scanned-out client frame; cage_client.py shows it, and
@@ -44,6 +47,7 @@ import numpy as np
 import pytest
 from PIL import Image
 
+from tests.deploy.unit_mounts import can_confine, confined
 from tests.deploy.unitfile import environment, sandbox_options, units, yes
 
 # Seconds of a real compositor and kiosk, with timing checks on the screen: CI runs them, alone.
@@ -404,7 +408,8 @@ class Stage:
 @contextlib.contextmanager
 def stage(kiosk_unit: dict):
     check_prerequisites()
-    base = Path(tempfile.mkdtemp(prefix="exhibit-cage-", dir="/tmp"))
+    # Not under /tmp: the app's PrivateTmp= gives it an empty /tmp of its own.
+    base = Path(tempfile.mkdtemp(prefix="exhibit-cage-", dir="/var/lib"))
     base.chmod(0o755)  # the test user reads its configs and the seccomp lists here
     processes: list[subprocess.Popen] = []
     try:
@@ -468,9 +473,12 @@ def kiosk_on_cage(staged):
         (base / "attract").mkdir()
         shutil.copy(REPO / "configs/attract/01-hypersphere.toml", base / "attract")
         site = base / "kiosk.toml"
+        # Narration on in attract mode, to the null device (no sound card here): the player's
+        # tap in the health file shows what the device took.
         site.write_text(
             '[content]\nscenes = ["hopf", "clifford-torus"]\n'
-            'start_scene = "hopf"\n\n[attract]\ntimelines = "attract"\n'
+            'start_scene = "hopf"\n\n[attract]\ntimelines = "attract"\n\n'
+            '[narration]\nattract = true\nbackend = "null"\n'
         )
         for path in (site, *base.joinpath("attract").iterdir()):
             path.chmod(0o644)
@@ -512,13 +520,27 @@ def kiosk_on_cage(staged):
         )
         if yes(app_unit, "PrivateUsers"):
             app_argv = user_namespace(as_user) + app_argv
+        # The unit's file system and identity (ProtectSystem=strict with its writable folders,
+        # PrivateTmp=, ProtectHome=, User=, SupplementaryGroups=, UMask=, WorkingDirectory=),
+        # entered as root as systemd does; without root's mount namespace, as the user only.
+        why_not = can_confine()
+        if why_not:
+            unavailable(f"cannot apply the unit's file-system sandbox: {why_not}")
+        writable = [folders["state"], folders["cache"], folders["run"]]
+        confine, note = confined(
+            app_unit, st.user.pw_uid, st.user.pw_gid, writable, folders["state"]
+        )
+        if note:
+            print(f"note: {note}")
+        app_argv = confine + app_argv
         app_log = st.logs.enter_context(open(base / "app.log", "w+"))  # noqa: SIM115 - ExitStack
         t1 = time.monotonic()
         app = subprocess.Popen(
             app_argv,
             stdout=app_log,
             stderr=subprocess.STDOUT,
-            **as_user.kwargs(umask=int(app_unit["UMask"][0], 8), env=env),
+            env=dict(as_user.env, **env),
+            start_new_session=True,
         )
         st.processes.append(app)
 
@@ -538,6 +560,7 @@ def kiosk_on_cage(staged):
         health = wait_for(lambda: (h := read_health(health_file)) and h.get("frames") and h, 10)
         running = programs_of(st.user.pw_uid)
         code = app.wait(RUN_S + 60)
+        after_exit = programs_of(st.user.pw_uid)
         with contextlib.suppress(TimeoutError):
             while True:
                 messages.extend(notify.recv(4096).decode().splitlines())
@@ -563,6 +586,7 @@ def kiosk_on_cage(staged):
             "t_ready": t_ready - t1,
             "pid": app.pid,
             "running": running,
+            "after_exit": after_exit,
             "sandboxed": {"app": app_argv, "cage": cage_argv},
         }
     summary = {k: (last_health or {}).get(k) for k in ("fps", "frames", "frame_ms_p95")}
@@ -715,12 +739,26 @@ def test_grim_sees_an_old_frame_of_a_scanned_out_client(client_on_cage):
 
 
 def test_it_ran_under_the_units_sandbox(kiosk_on_cage, staged):
-    """The commands above really were wrapped: each unit's seccomp settings, and PrivateUsers=
-    for the app where the kernel allows it."""
+    """The commands above really were wrapped: each unit's seccomp settings (RestrictRealtime=
+    too), the app's file system and identity, and PrivateUsers= where the kernel allows it."""
     app, cage = kiosk_on_cage["sandboxed"]["app"], kiosk_on_cage["sandboxed"]["cage"]
     assert "--syscalls" in app and "--families" in app and "--syscalls" in cage
+    assert "--no-realtime" in app
+    assert app[:2] == ["unshare", "--mount"] and any(w.startswith("--reuid=") for w in app)
     assert app[app.index("--errno") + 1] == "EPERM"
     assert "/usr/bin/cage" in cage
+
+
+def test_narration_sounds_under_the_units_sandbox(kiosk_on_cage):
+    """Attract mode speaks (narration on, to the null device): under the unit's sandbox the
+    player opened its device, and the device's own thread took the sound (the tap); no speech
+    engine outlives the kiosk."""
+    narration = (kiosk_on_cage["last_health"] or {}).get("narration") or {}
+    player = narration.get("player") or {}
+    assert player.get("state") == "ok", (narration, kiosk_on_cage["log"][-3000:])
+    assert player["sounds_begun"] >= 1 and player["played_s"] > 0.5, narration
+    assert narration["failed"] == [], narration
+    assert "espeak-ng" not in kiosk_on_cage["after_exit"], kiosk_on_cage["after_exit"]
 
 
 def test_the_worker_prepared_the_other_scenes_under_the_sandbox(kiosk_on_cage):
