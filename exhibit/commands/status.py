@@ -2,32 +2,45 @@
 the kiosk alive, and what is it doing?
 
 Reads the health file the running kiosk rewrites every second (exhibit.operations.health) and prints
-a summary for staff: mode, scene, frame rate, devices (with how long a missing one has been
-missing), uptime and how old the file is. The exit code is for monitoring scripts:
+a summary for staff: mode, scene, frame rate, the version and release that run, devices (with how
+long a missing one has been missing), problems, the state folder's free space, uptime, and the
+file read with its owner and age. The exit code is for monitoring scripts (the issues judged by
+exhibit.operations.assessment; with several, the first in this order: 1, 5, 3, 6), each issue
+on stderr in one line:
 
-- 0: fresh, and every configured device connected or missing for at most --max-lost seconds;
-- 1: stale, missing or broken (with a one-line reason; a FIFO, device or oversized file in its
-  place is broken, and is refused without hanging);
+- 0: fresh, drawing, and nothing below;
+- 1: stale, missing or broken (a FIFO, device or oversized file in its place is broken, and is
+  refused without hanging), or fresh but no frame drawn for --max-age (NOT DRAWING);
 - 2: a bad argument;
-- 3: fresh, but a configured device has been missing for longer than --max-lost (default 60 s):
-  ``lost`` (it was connected, then went away) or ``waiting`` (never connected since the kiosk
-  started), named with how long on stderr. A file from an older kiosk, without the durations,
-  never gives 3;
+- 3: a configured device has been missing for longer than --max-lost (default 60 s): ``lost``
+  (it was connected, then went away) or ``waiting`` (never connected since the kiosk started),
+  named with how long. A file from an older kiosk, without the durations, never gives 3;
+- 5: the kiosk's state folder is full, read-only or not writable (STATE FOLDER FULL, ...): the
+  kiosk says so, or a write there failed with ENOSPC, EROFS or EACCES; or its health file is
+  old but its process runs and the folder is full or read-only as seen from here;
+- 6: WARN: the kiosk names problems: scenes skipped (a scene that fails to prepare or draw), an
+  attract timeline left out, frames failing;
 - with --prometheus FILE: 0 once the metrics file is written, whatever it says (the metrics are
   the product, and alerts come from them), 4 if it could not be written; 2 when FILE cannot be
   a metrics file at all: an empty or folder-like name ("", ".", "/"), or a folder, FIFO, device
   (/dev/null, /dev/full) or symlink in its place, which is never replaced.
 
-Without --file it looks at $EXHIBIT_STATE_DIR (else the XDG state folder) and then at the
-service's /var/lib/exhibit, so it works from a staff shell on the kiosk without sudo. Text from
-the file is printed without control characters or escape sequences, so a tampered file cannot
-drive the staff terminal.
+Without --file it reads the first that exists of $EXHIBIT_STATE_DIR's file, else the service's
+/var/lib/exhibit and then the user's own state folder (exhibit.operations.health.candidate_paths),
+so it works from a staff shell or root's on the kiosk without sudo and never prefers a file left
+in root's home. Text from the file is printed without control characters or escape sequences,
+so a tampered file cannot drive the staff terminal.
+
+Why one module of this size: the summary is one screen for staff, and each of its lines
+(quality, passes, narration, storage, release) reads a part of the file that an older or damaged
+kiosk may have left odd, so each has its own careful formatter beside the others.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import pwd
 import re
 import sys
 import time
@@ -35,6 +48,13 @@ from pathlib import Path
 
 from exhibit.commands import _arg_types as _args
 from exhibit.errors import ExhibitError
+from exhibit.operations.assessment import (
+    EXIT_METRICS_UNWRITTEN,
+    EXIT_STALE,
+    Assessment,
+    assess,
+    folder_issue,
+)
 from exhibit.operations.health import (
     MISSING_STATES,
     DeviceHealth,
@@ -42,23 +62,20 @@ from exhibit.operations.health import (
     HealthError,
     candidate_paths,
     format_duration,
-    freshness,
-    missing_devices,
     read_health,
 )
+from exhibit.operations.storage import format_bytes
 from exhibit.schema.files import UnsafePath, check_target, split_target
 
 HELP = (
-    "health summary of the running kiosk (exit 0 fresh, 1 stale, missing or broken, 3 a "
-    "device missing for longer than --max-lost; --prometheus FILE: 0 once written)"
+    "health summary of the running kiosk (exit 0 OK, 1 stale, missing, broken or not drawing, "
+    "3 a device missing for longer than --max-lost, 5 its state folder full or unwritable, "
+    "6 scenes skipped or other problems; --prometheus FILE: 0 once written)"
 )
 DEFAULT_MAX_AGE = 10.0
 #: Seconds a configured device may be missing before status exits 3: a replug or a board's
 #: reset takes a few seconds; a minute is a device someone has to look at.
 DEFAULT_MAX_LOST = 60.0
-EXIT_STALE = 1
-EXIT_DEVICE_MISSING = 3
-EXIT_METRICS_UNWRITTEN = 4
 #: Terminal escape sequences, removed whole (parameters included): CSI (ESC [ or 8-bit 0x9B),
 #: strings (OSC, DCS, SOS, PM, APC: ESC ] P X ^ _ up to BEL or ST) and two-byte ESC sequences.
 _ESCAPES = re.compile(
@@ -127,69 +144,99 @@ def run(args: argparse.Namespace) -> int:
             raise ExhibitError(f"--prometheus: {printable(exc)}") from None
     paths = [args.file] if args.file else candidate_paths()
     path = next((p for p in paths if p.exists()), paths[0])
+    others = [p for p in paths if p != path and p.exists()]
     now = time.time()
     quiet = args.prometheus is not None  # a timer every 15 s: the file speaks, not the journal
     try:
         data = read_health(path)
     except HealthError as exc:
-        why = str(exc)
-        if exc.missing and len(paths) > 1:
-            why = (
-                f"no health file at {' or '.join(str(p) for p in paths)}: the kiosk is not "
-                "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file"
-            )
-        if args.json:
-            _print_json({"path": str(path), "fresh": False, "reason": why})
-        if args.prometheus is not None:
-            return _write_metrics(args.prometheus, None, "missing" if exc.missing else "broken")
-        print(
-            f"exhibit status: {'MISSING' if exc.missing else 'BROKEN'}: {printable(why)}",
-            file=sys.stderr,
-        )
-        return EXIT_STALE
-    fresh, age, reason = freshness(data, args.max_age, now=now)
-    missing = missing_devices(data, args.max_lost, age) if fresh else []
+        return _unread(args, exc, path, paths, now)
+    verdict = assess(data, path, args.max_age, args.max_lost, now)
+    file = file_info(path, now)
     if args.json:
         _print_json(
             {
                 **data.as_dict(),
                 "path": str(path),
-                "age_s": round(age, 3),
-                "fresh": fresh,
-                "reason": reason,
-                "devices_missing": missing,
+                **file,
+                "age_s": round(verdict.age, 3),
+                "fresh": verdict.fresh,
+                "up": verdict.up,
+                "health": verdict.status,
+                "reason": verdict.reason,
+                "issues": [
+                    {"exit": i.code, "head": i.head, "text": i.text} for i in verdict.issues
+                ],
+                "exit": verdict.exit_code,
+                "devices_missing": verdict.missing,
             }
         )
     elif not quiet:
-        print(summary(data, path, age, fresh, missing))
+        print(summary(data, path, verdict, file, others))
     if args.prometheus is not None:
-        return _write_metrics(args.prometheus, data, "ok" if fresh else "stale", age)
-    if not fresh:
-        print(f"exhibit status: STALE: {printable(reason)}", file=sys.stderr)
-        return EXIT_STALE
-    if missing:
-        print(
-            "exhibit status: DEVICE MISSING: "
-            + "; ".join(printable(_missing_text(m, args.max_lost)) for m in missing),
-            file=sys.stderr,
+        return _write_metrics(args.prometheus, data, verdict)
+    for issue in verdict.issues:
+        print(f"exhibit status: {issue.head}: {printable(issue.text)}", file=sys.stderr)
+    return verdict.exit_code
+
+
+def _unread(
+    args: argparse.Namespace, exc: HealthError, path: Path, paths: list[Path], now: float
+) -> int:
+    """No health file, or one that cannot be read: exit 1, naming the file (its owner and age
+    when there is one) and, when it is full or read-only, the folder."""
+    why = str(exc)
+    if exc.missing and len(paths) > 1:
+        why = (
+            f"no health file at {' or '.join(str(p) for p in paths)}: the kiosk is not "
+            "running (systemctl status exhibit), or set EXHIBIT_STATE_DIR / --file"
         )
-        return EXIT_DEVICE_MISSING
-    return 0
+    elif not exc.missing:
+        file = file_info(path, now)
+        if file.get("owner") is not None:
+            why += f" (owner {file['owner']}, modified {format_duration(file['file_age_s'])} ago)"
+    seen, trouble = folder_issue(path.parent)
+    if trouble is not None:
+        why += f"; {trouble}"
+    status = "missing" if exc.missing else "broken"
+    if args.json:
+        _print_json(
+            {
+                "path": str(path),
+                "fresh": False,
+                "up": False,
+                "health": status,
+                "reason": why,
+                "exit": EXIT_STALE,
+            }
+        )
+    if args.prometheus is not None:
+        return _write_metrics(args.prometheus, None, Assessment(status, 0.0, folder=seen))
+    print(f"exhibit status: {status.upper()}: {printable(why)}", file=sys.stderr)
+    return EXIT_STALE
 
 
-def _missing_text(m: dict, max_lost: float) -> str:
-    how = "waiting (never connected since the start)" if m["state"] == "waiting" else m["state"]
-    return (
-        f"{m['device']} ({m['url']}) {how} for {format_duration(m['missing_s'])} "
-        f"(more than {max_lost:g} s)"
-    )
+def file_info(path: Path, now: float) -> dict:
+    """{"owner", "file_age_s"} of the file read: its owner's name (else uid), and the seconds
+    since it was last modified; both None when it cannot be looked at."""
+    try:
+        info = path.stat()
+    except OSError:
+        return {"owner": None, "file_age_s": None}
+    try:
+        owner = pwd.getpwuid(info.st_uid).pw_name
+    except KeyError:
+        owner = str(info.st_uid)
+    return {"owner": owner, "file_age_s": round(max(0.0, now - info.st_mtime), 3)}
 
 
-def _write_metrics(target: Path, data: Health | None, status: str, age: float | None = None) -> int:
+def _write_metrics(target: Path, data: Health | None, verdict: Assessment) -> int:
     from exhibit.operations.prometheus import write_metrics
 
     try:
-        write_metrics(target, data, status, age)
+        write_metrics(
+            target, data, verdict.status, None if data is None else verdict.age, verdict.folder
+        )
     except UnsafePath as exc:  # swapped in since run() checked it
         print(f"exhibit status: cannot write the metrics file: {printable(exc)}", file=sys.stderr)
         return EXIT_METRICS_UNWRITTEN
@@ -210,7 +257,11 @@ def _write_metrics(target: Path, data: Health | None, status: str, age: float | 
 
 
 def summary(
-    data: Health, path: Path, age: float, fresh: bool, missing: list[dict] | None = None
+    data: Health,
+    path: Path,
+    verdict: Assessment,
+    file: dict | None = None,
+    others: list[Path] | None = None,
 ) -> str:
     """The staff-facing text: one header line, then one aligned line per topic."""
 
@@ -218,9 +269,9 @@ def summary(
         value = getattr(data, key)
         return "?" if value is None else printable(fmt.format(value))
 
-    head = "STALE" if not fresh else "DEVICE MISSING" if missing else "OK"
+    age = verdict.age
     updated = format_duration(max(age, 0.0))
-    lines = [f"exhibit kiosk: {head} (updated {updated} ago, pid {get('pid')})"]
+    lines = [f"exhibit kiosk: {verdict.head} (updated {updated} ago, pid {get('pid')})"]
     uptime = data.uptime_s
     rows = [
         ("mode", get("mode")),
@@ -230,6 +281,7 @@ def summary(
             f"{get('fps', '{:.1f}')} (95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)",
         ),
         ("uptime", "?" if uptime is None else format_duration(float(uptime))),
+        *release_rows(data),
     ]
     if data.quality is not None:
         rows.append(("quality", quality_line(data)))
@@ -263,7 +315,11 @@ def summary(
                 + printable(", ".join(str(f.get("scene")) for f in failed)),
             )
         )
-    rows.append(("frames", f"{get('frames')} drawn, {get('frame_errors')} failed"))
+    last = data.last_frame
+    drawn = f"{get('frames')} drawn, {get('frame_errors')} failed"
+    if isinstance(last, (int, float)) and data.has("last_frame"):
+        drawn += f", the last {format_duration(max(0.0, data.time - last) + max(age, 0.0))} ago"
+    rows.append(("frames", drawn))
     rss = data.rss_kb
     rows.append(
         (
@@ -273,9 +329,59 @@ def summary(
             f"{get('fds')} open files",
         )
     )
-    rows.append(("file", printable(path)))
+    if isinstance(data.storage, dict):
+        rows.append(("storage", storage_line(data.storage, verdict)))
+    rows.append(("file", file_line(path, file)))
+    for other in others or []:
+        rows.append(("", f"also {printable(other)} (read it with --file)"))
     lines += [f"  {name:<8}  {value}" for name, value in rows]
     return "\n".join(lines)
+
+
+def release_rows(data: Health) -> list[tuple[str, str]]:
+    """The "version" row: the running version and release (exhibit.operations.storage).
+
+    The place for an interrupted update: a row from
+    exhibit.commands._update_journal.owed_steps(prefix) (the steps an update still owes, not
+    written yet) goes here, and its exit code into run() beside the others."""
+    if data.version is None and data.release is None:
+        return []
+    return [("version", f"{get_text(data.version)} (release {get_text(data.release)})")]
+
+
+def get_text(value: object) -> str:
+    return "?" if value is None else printable(value)[:200]
+
+
+def storage_line(info: dict, verdict: Assessment) -> str:
+    """ "/var/lib/exhibit: 12.3 GiB free" or "... FULL (0 B free); failed writes: sessions
+    (ENOSPC)" from the health file's storage."""
+    free = info.get("free_bytes")
+    room = (
+        f"{format_bytes(free)} free"
+        if isinstance(free, int) and not isinstance(free, bool)
+        else "free space ?"
+    )
+    text = f"{get_text(info.get('folder'))}: {room}"
+    if verdict.folder_problem is not None:
+        text += f", {verdict.folder_problem.upper()}"
+    errors = info.get("errors")
+    if isinstance(errors, dict) and errors:
+        text += "; failed writes: " + ", ".join(
+            f"{printable(k)[:40]} ({printable(v)[:40]})" for k, v in list(errors.items())[:8]
+        )
+    return text
+
+
+def file_line(path: Path, file: dict | None) -> str:
+    """ "/var/lib/exhibit/health.json (owner exhibit, modified 0.6 s ago)"."""
+    text = printable(path)
+    if file and file.get("owner") is not None:
+        text += (
+            f" (owner {printable(file['owner'])}, modified "
+            f"{format_duration(file['file_age_s'])} ago)"
+        )
+    return text
 
 
 def _how_long(device: DeviceHealth, age: float) -> str:

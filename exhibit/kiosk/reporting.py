@@ -1,6 +1,9 @@
 """What the running kiosk tells the world about once a second: the systemd STATUS line
 (`systemctl status exhibit`) and the health file (exhibit.operations.health's schema), which
-`exhibit status`, the Prometheus textfile and the watchdog's humans read."""
+`exhibit status`, the Prometheus textfile and the watchdog's humans read: besides the frames,
+devices and problems, when the last frame was drawn, which version and release run, and the
+state folder (full, read-only, not writable) with the errno of each write there that failed
+(exhibit.operations.storage), named among the problems too."""
 
 from __future__ import annotations
 
@@ -14,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
+from exhibit.operations import journal, storage
 from exhibit.operations.notify import Notifier
 
 if TYPE_CHECKING:
@@ -53,6 +57,11 @@ class Reporter:
         self.health_path = health_path
         self.started = started
         self._since = started
+        #: Resolved now, at the start: an update switches /opt/exhibit before the restart.
+        self.build = storage.build_info()
+        #: Frames counted at the last report, and when (unix seconds) a report last saw more.
+        self._frames_seen = 0
+        self.last_frame: float | None = None
 
     def report(
         self,
@@ -94,7 +103,11 @@ class Reporter:
         mode = scene = None
         if state is not None:
             mode, scene = state.mode, state.frame.scene
+        wall = time.time()
+        if frames > self._frames_seen:
+            self._frames_seen, self.last_frame = frames, wall
         problems = list(problems)
+        disk = self._storage(sessions)  # its own key, not a line in "problems"
         if errors.failing_since is not None:
             problems.append(
                 f"frames failing for {now - errors.failing_since:.0f} s (see the journal)"
@@ -118,8 +131,11 @@ class Reporter:
                 self.health_path,
                 report(
                     **{
-                        "time": time.time(),
+                        "time": wall,
                         "pid": os.getpid(),
+                        "last_frame": self.last_frame,
+                        **self.build,
+                        "storage": disk,
                         "fps": round(fps, 1),
                         "frame_ms_p95": round(p95, 2),
                         "mode": mode,
@@ -143,3 +159,20 @@ class Reporter:
             )
         except (OSError, TypeError) as exc:
             log.warning("cannot write the health file %s: %s", self.health_path, exc)
+
+    def _storage(self, sessions: SessionLog | None) -> dict | None:
+        """The state folder (the health file's) now, with the errno of each other writer's
+        last failed write: the session log's and the journal's."""
+        if self.health_path is None:
+            return None
+        out = storage.check_folder(self.health_path.parent)
+        failed = {}
+        if sessions is not None:
+            state = sessions.health().get("sessions")
+            if isinstance(state, dict) and state.get("errno"):
+                failed["sessions"] = str(state["errno"])
+        sent = journal.last_errno()
+        if sent is not None:
+            failed["journal"] = sent
+        out["errors"] = failed
+        return out

@@ -11,13 +11,21 @@ of exhibit.devices.base.State's values ("waiting": never connected since the sta
 connected once, then gone), "state_s" the seconds it has been in that state and "missing_s" the
 seconds since it was last connected (or since the start, if never), null while connected; all
 as of "time". Files from kiosks older than these three device keys have only "url" and "state",
-and are read as before (durations unknown). Writes are atomic (exhibit.schema.files.write_atomic:
-a temporary file in the same folder, then a rename; never over a device, FIFO, folder or
-symlink), so a reader never sees half a file, and the file is world-readable (0644) so staff can
-read it without sudo: nothing in it is secret.
+and are read as before (durations unknown). "last_frame" is when the kiosk last drew a frame
+(unix seconds; readers call a kiosk up by it, not by the file's freshness alone), "version" and
+"release" say which code runs (exhibit.operations.storage.build_info), and "storage" is the
+state folder as the kiosk sees it: free space, a problem ("full", "read-only", "not writable")
+and the errno of each of its writes that failed ("sessions", "journal").
 
-Where: $EXHIBIT_STATE_DIR/health.json, else $XDG_STATE_HOME/exhibit/health.json, else
-~/.local/state/exhibit/health.json. The systemd unit sets EXHIBIT_STATE_DIR=/var/lib/exhibit.
+Writes go into the file in place (exhibit.operations.health_file: blocks allocated once, a
+checksum that a reader checks, reading again when it caught a write half done), so the file
+stays current on a full disk; the file is made (and remade, when it must grow) by an atomic
+replace (exhibit.schema.files.write_atomic: never over a device, FIFO, folder or symlink), and
+is world-readable (0644) so staff can read it without sudo: nothing in it is secret.
+
+Where the kiosk writes it: $EXHIBIT_STATE_DIR/health.json, else
+$XDG_STATE_HOME/exhibit/health.json, else ~/.local/state/exhibit/health.json. The systemd unit
+sets EXHIBIT_STATE_DIR=/var/lib/exhibit. Where readers look: candidate_paths().
 
 Why one module of this size: the health file's schema, its writer, its reader and the problems
 `exhibit status` reports from it."""
@@ -43,6 +51,7 @@ from pydantic import (
 from pydantic_core import PydanticCustomError
 
 from exhibit.errors import ExhibitError
+from exhibit.operations import health_file, storage
 from exhibit.schema import files
 
 __all__ = [
@@ -59,6 +68,9 @@ __all__ = [
     "write_health",
     "read_health",
     "freshness",
+    "drawing",
+    "pid_alive",
+    "storage_problem",
     "missing_devices",
     "device_label",
     "format_duration",
@@ -209,6 +221,16 @@ class Health(BaseModel):
     #: One frame measured pass by pass (exhibit.kiosk.frame_passes): its level, its age, the
     #: frame's total and each pass's milliseconds.
     frame_passes: Annotated[dict[str, Any] | None, Unchecked] = None
+    #: When the kiosk last drew a frame (unix seconds); null before the first.
+    last_frame: Number = None
+    #: Which code runs (exhibit.operations.storage.build_info): exhibit.__version__, and the
+    #: release folder (PREFIX-releases/NAME) or the checkout's path.
+    version: Text = None
+    release: Text = None
+    #: The state folder (exhibit.operations.storage.check_folder): "folder", "free_bytes",
+    #: "free_inodes", "problem" (full, read-only, not writable, or null) and "errors": the
+    #: errno name of the last failed write of each writer ({"sessions": "ENOSPC"}).
+    storage: Annotated[dict[str, Any] | None, Unchecked] = None
 
     def as_dict(self) -> dict[str, Any]:
         """The keys the file had (or the writer set), unknown ones included, as JSON values."""
@@ -261,6 +283,10 @@ class HealthError(ExhibitError):
         self.missing = missing
 
 
+class _Unparsed(HealthError):
+    """Not JSON (or not UTF-8): what a read caught in the middle of a write looks like too."""
+
+
 def state_dir(environ: Mapping[str, str] | None = None) -> Path:
     """$EXHIBIT_STATE_DIR, else $XDG_STATE_HOME/exhibit, else ~/.local/state/exhibit."""
     env = os.environ if environ is None else environ
@@ -278,15 +304,18 @@ def default_path(environ: Mapping[str, str] | None = None) -> Path:
 
 
 def candidate_paths(environ: Mapping[str, str] | None = None) -> list[Path]:
-    """Where a reader looks, in order: default_path(), then, unless $EXHIBIT_STATE_DIR names a
-    folder, the service's /var/lib/exhibit/health.json, so staff can run `exhibit status` from
-    their own shell on the kiosk machine without knowing where the service keeps its state."""
+    """Where a reader looks, in order; it reads the first that exists. $EXHIBIT_STATE_DIR
+    names the one place. Without it, the service's /var/lib/exhibit/health.json comes first:
+    on a kiosk machine the service is the kiosk staff ask about, whoever asks (root's own
+    ~/.local/state holds at most a file from a kiosk someone once ran by hand, and must not
+    hide the service's), then this user's own default_path(), for a kiosk run by hand where
+    no service runs."""
     env = os.environ if environ is None else environ
-    paths = [default_path(env)]
-    service = SERVICE_STATE_DIR / HEALTH_FILE
-    if not env.get("EXHIBIT_STATE_DIR") and service not in paths:
-        paths.append(service)
-    return paths
+    if env.get("EXHIBIT_STATE_DIR"):
+        return [default_path(env)]
+    paths = [SERVICE_STATE_DIR / HEALTH_FILE]
+    own = default_path(env)
+    return paths if own in paths else [*paths, own]
 
 
 def report(**fields: Any) -> Health:
@@ -307,8 +336,20 @@ def write_health(path: str | os.PathLike, data: Health | Mapping) -> None:
     a power cut is harmless, while syncing 86,400 times a day wears the kiosk's flash for nothing.
     """
     health = data if isinstance(data, Health) else report(**dict(data))
-    text = json.dumps(_finite(health.as_dict()), allow_nan=False, separators=(",", ":")) + "\n"
-    files.write_atomic(path, text, sync=False, make_folder=True)
+    fields = _finite(health.as_dict())
+    fields.pop(health_file.CHECK_KEY, None)  # the writer's own: a read file written back
+
+    def shorter() -> bytes:  # what still fits on a full disk: the numbers, not the lists
+        return health_file.encode(
+            {k: v for k, v in fields.items() if k not in _BULKY}
+            | {"problems": [str(p)[:200] for p in fields.get("problems") or []][:5]}
+        )
+
+    health_file.write(path, health_file.encode(fields), shorter)
+
+
+#: What a health file written on a full disk that has outgrown its file leaves out.
+_BULKY = ("scenes_failed", "quality_detail", "narration", "frame_passes", "devices", "problems")
 
 
 def read_health(path: str | os.PathLike) -> Health:
@@ -321,8 +362,31 @@ def read_health(path: str | os.PathLike) -> Health:
     float (1e400) are refused too, as JSON has none and they would make --json output invalid.
     """
     path = Path(path)
+    for attempt in range(READ_TRIES):
+        raw = _read_raw(path)
+        try:
+            health_file.verify(raw)
+            return _parse(path, raw)
+        except (health_file.Torn, _Unparsed) as exc:
+            # A write in place caught half done reads as a bad checksum or broken JSON: the
+            # kiosk writes once a second, so a read a moment later gets a whole one.
+            if attempt == READ_TRIES - 1:
+                if isinstance(exc, health_file.Torn):
+                    raise HealthError(
+                        f"{path}: {exc} (read {READ_TRIES} times): the file is damaged"
+                    ) from None
+                raise
+            time.sleep(0.005 * (attempt + 1))
+    raise AssertionError("unreachable")
+
+
+#: Reads of a health file before one that does not parse, or fails its checksum, is broken.
+READ_TRIES = 5
+
+
+def _read_raw(path: Path) -> bytes:
     try:
-        raw = files.read_regular(path, MAX_HEALTH_BYTES)
+        return files.read_regular(path, MAX_HEALTH_BYTES)
     except files.NotAFile as exc:
         if exc.kind == "a folder":
             raise HealthError(f"{path} is a folder, not a health file") from None
@@ -341,22 +405,26 @@ def read_health(path: str | os.PathLike) -> Health:
         raise HealthError(f"{path} is a folder, not a health file") from None
     except (OSError, ValueError) as exc:
         raise HealthError(f"cannot read {path}: {getattr(exc, 'strerror', None) or exc}") from None
+
+
+def _parse(path: Path, raw: bytes) -> Health:
     try:
         data = json.loads(
             raw.decode("utf-8"), parse_constant=_no_constant, parse_float=_finite_float
         )
     except UnicodeDecodeError:
-        raise HealthError(f"{path}: not UTF-8 text") from None
+        raise _Unparsed(f"{path}: not UTF-8 text") from None
     except json.JSONDecodeError as exc:
-        raise HealthError(
+        raise _Unparsed(
             f"{path}: not valid JSON (line {exc.lineno} column {exc.colno}: {exc.msg})"
         ) from None
     except ValueError as exc:  # NaN, 1e400, a 5000-digit int
-        raise HealthError(f"{path}: not valid JSON ({str(exc)[:80]})") from None
+        raise _Unparsed(f"{path}: not valid JSON ({str(exc)[:80]})") from None
     except RecursionError:
-        raise HealthError(f"{path}: not valid JSON (nested too deep)") from None
+        raise _Unparsed(f"{path}: not valid JSON (nested too deep)") from None
     if not isinstance(data, dict):
         raise HealthError(f"{path}: expected a JSON object, got {type(data).__name__}")
+    data.pop(health_file.CHECK_KEY, None)
     try:
         return Health.model_validate(data)
     except ValidationError as exc:
@@ -402,6 +470,34 @@ def freshness(
             (f"the kiosk process {pid} is not running (last update {format_duration(age)} ago)"),
         )
     return True, age, None
+
+
+def drawing(
+    data: Health | Mapping, max_age: float, now: float | None = None
+) -> tuple[bool | None, str | None]:
+    """(whether the kiosk draws, reason when not) by its "last_frame": False when it drew no
+    frame for more than ``max_age`` seconds by ``now`` (every frame failing), or none since it
+    started; None when the file does not say (a kiosk older than "last_frame")."""
+    data = as_health(data)
+    if not data.has("last_frame"):
+        return None, None
+    if data.last_frame is None:
+        return False, "no frame drawn since the kiosk started (see the journal)"
+    now = time.time() if now is None else now
+    since = now - float(data.last_frame)
+    if since > max_age:
+        return False, (
+            f"no frame drawn for {format_duration(since)} (more than {max_age:g} s): "
+            "frames are failing (see the journal)"
+        )
+    return True, None
+
+
+def storage_problem(data: Health | Mapping) -> tuple[str, str] | None:
+    """(problem, reason) when the kiosk's state folder is full, read-only or not writable, by
+    its "storage" (exhibit.operations.storage.problem_in); None when it has none."""
+    info = as_health(data).storage
+    return storage.problem_in(info) if isinstance(info, dict) else None
 
 
 def device_label(device: DeviceHealth) -> str:
@@ -457,6 +553,11 @@ def _finite(value):
     if isinstance(value, (list, tuple)):
         return [_finite(v) for v in value]
     return value
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` exists (on this machine, in this process's view)."""
+    return _pid_alive(pid)
 
 
 def _pid_alive(pid: int) -> bool:

@@ -44,6 +44,7 @@ __all__ = [
     "encode",
     "stderr_is_journal",
     "install",
+    "last_errno",
 ]
 
 JOURNAL_SOCKET = "/run/systemd/journal/socket"
@@ -108,6 +109,9 @@ class JournalHandler(logging.Handler):
         self.identifier = identifier
         self.fallback = fallback if fallback is not None else logging.StreamHandler(sys.stderr)
         self.failures = 0
+        #: The errno name of the last send that failed, None once one succeeds (the health
+        #: file's storage errors: exhibit.operations.storage).
+        self.errno: str | None = None
         self._sock = socket.socket(socket.AF_UNIX, socket.SOCK_DGRAM | socket.SOCK_CLOEXEC)
         self._sock.setblocking(False)  # a full journal queue must not stall the frame loop
 
@@ -131,8 +135,11 @@ class JournalHandler(logging.Handler):
     def emit(self, record: logging.LogRecord) -> None:
         try:
             self.send(encode(self.fields(record)))
-        except Exception:  # noqa: BLE001 - the log line must still reach someone
+            self.errno = None
+        except Exception as exc:  # noqa: BLE001 - the log line must still reach someone
             self.failures += 1
+            code = getattr(exc, "errno", None)
+            self.errno = errno.errorcode.get(code, str(code)) if isinstance(code, int) else None
             if self.formatter is not None:
                 self.fallback.setFormatter(self.formatter)
             self.fallback.handle(record)
@@ -211,3 +218,11 @@ def install(
         logger.removeHandler(h)
     logger.addHandler(handler)
     return handler
+
+
+def last_errno(logger: logging.Logger | None = None) -> str | None:
+    """The errno name of the last record the installed JournalHandler of ``logger`` (the root
+    logger's) could not send, None when it sent the last one or none is installed."""
+    logger = logging.getLogger() if logger is None else logger
+    handler = next((h for h in logger.handlers if isinstance(h, JournalHandler)), None)
+    return None if handler is None else handler.errno

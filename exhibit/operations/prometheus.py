@@ -7,11 +7,16 @@ runs node_exporter on its machines watches every kiosk with the Prometheus it ha
 server, no open port on the kiosk. Run every 15 s by exhibit-metrics.timer.
 
 The file is written whatever the health file says, because an alert needs a value to fire on:
-with no health file, a stale one or a broken one, ``exhibit_up`` is 0 and ``exhibit_health``
-says which (``{status="missing"} 1``), with no free-text reason (a label whose value changes
-with every message would make a new time series each time). The kiosk's own numbers (frame
-rate, mode, devices...) are only written from a fresh file: a dead kiosk's last frame rate is
-not a current one.
+``exhibit_up`` is 1 only while the kiosk draws frames (a fresh file whose "last_frame" is
+recent: exhibit.operations.assessment), and ``exhibit_health`` says which status holds
+(``{status="missing"} 1``; "not_drawing": fresh but no frame drawn; "unwritable": the file is
+old but its process runs and its state folder is full or read-only), with no free-text reason
+(a label whose value changes with every message would make a new time series each time). The
+kiosk's own numbers (frame rate, mode, devices...) are only written from a fresh file: a dead
+kiosk's last frame rate is not a current one. ``exhibit_build_info{version,release}`` names the
+code the kiosk runs (while its process does), and ``exhibit_state_folder_problem{problem}`` and
+``exhibit_state_folder_free_bytes`` its state folder (from the kiosk's file, else as
+`exhibit status` sees the folder).
 
 Label values come from the health file (device names and URLs from the config, scene names) and
 are made safe: control and invisible characters are removed and the value is cut to
@@ -31,12 +36,18 @@ from prometheus_client.core import CounterMetricFamily, GaugeMetricFamily
 
 from exhibit.devices.base import State
 from exhibit.operations.health import MODES, Health, as_health, device_label
+from exhibit.operations.storage import PROBLEMS
 from exhibit.schema.files import check_target, write_atomic
 
 __all__ = ["HEALTH_STATUSES", "FAMILIES", "registry", "render", "write_metrics", "escape_label"]
 
-#: exhibit_health's status label: fresh, too old (or its process gone), no file, unreadable.
-HEALTH_STATUSES = ("ok", "stale", "missing", "broken")
+#: exhibit_health's status label: fresh and drawing, too old (or its process gone), no file,
+#: unreadable, fresh but no frame drawn, old while its process runs on a full or read-only disk.
+HEALTH_STATUSES = ("ok", "stale", "missing", "broken", "not_drawing", "unwritable")
+#: exhibit_state_folder_problem's label.
+FOLDER_PROBLEMS = tuple(dict.fromkeys(PROBLEMS.values()))
+#: The statuses in which the kiosk's process is known to run.
+ALIVE = ("ok", "not_drawing", "unwritable")
 #: exhibit_mode's label: the two modes, and "notice" when no scene could be prepared.
 MODE_LABELS = (*MODES, "notice")
 MAX_LABEL_CHARS = 200
@@ -49,11 +60,25 @@ MAX_PASSES = 16
 FAMILIES = {
     "exhibit_up": (
         "gauge",
-        "1 when the kiosk's health file is fresh (the kiosk is running), else 0",
+        "1 while the kiosk draws frames (a fresh health file with a recent last frame), else 0",
     ),
     "exhibit_health": (
         "gauge",
-        "The health file's status: 1 for the one that holds (ok, stale, missing, broken)",
+        "The health file's status: 1 for the one that holds (ok, stale, missing, broken, "
+        "not_drawing, unwritable)",
+    ),
+    "exhibit_build_info": ("gauge", "The version and release the kiosk runs, as labels"),
+    "exhibit_state_folder_problem": (
+        "gauge",
+        "1 for the kiosk state folder's problem that holds (full, read-only, not writable)",
+    ),
+    "exhibit_state_folder_free_bytes": (
+        "gauge",
+        "Free space in the kiosk's state folder for its user",
+    ),
+    "exhibit_last_frame_timestamp_seconds": (
+        "gauge",
+        "When the kiosk last drew a frame (unix time)",
     ),
     "exhibit_health_age_seconds": ("gauge", "Seconds since the kiosk last wrote its health file"),
     "exhibit_last_update_timestamp_seconds": (
@@ -100,11 +125,14 @@ FAMILIES = {
 
 
 def registry(
-    data: Health | Mapping | None, status: str, age: float | None = None
+    data: Health | Mapping | None,
+    status: str,
+    age: float | None = None,
+    folder: Mapping | None = None,
 ) -> CollectorRegistry:
     """A registry of its own holding the metrics for health ``data`` (read with read_health;
-    None when there is none), its ``status`` (one of HEALTH_STATUSES) and ``age`` in seconds
-    (None if unknown)."""
+    None when there is none), its ``status`` (one of HEALTH_STATUSES), ``age`` in seconds
+    (None if unknown) and the state ``folder``'s {"problem", "free_bytes"} (None: not known)."""
     if status not in HEALTH_STATUSES:
         raise ValueError(f"status must be one of {HEALTH_STATUSES}, got {status!r}")
     health = None if data is None else as_health(data)
@@ -121,7 +149,21 @@ def registry(
         if age is not None:
             add("exhibit_health_age_seconds", round(max(age, 0.0), 3))
         add("exhibit_last_update_timestamp_seconds", health.time)
-    if health is not None and status == "ok":
+    if health is not None and status in ALIVE:
+        if health.version is not None or health.release is not None:
+            add(
+                "exhibit_build_info",
+                1,
+                version=str(health.version or ""),
+                release=str(health.release or ""),
+            )
+        add("exhibit_last_frame_timestamp_seconds", health.last_frame)
+    if folder is not None:
+        problem = folder.get("problem")
+        for p in FOLDER_PROBLEMS:
+            add("exhibit_state_folder_problem", int(p == problem), problem=p)
+        add("exhibit_state_folder_free_bytes", folder.get("free_bytes"))
+    if health is not None and status in ("ok", "not_drawing"):
         _kiosk(health, add)
     out = CollectorRegistry(auto_describe=False)
     out.register(_Samples(samples))
@@ -149,9 +191,14 @@ class _Samples:
             yield family
 
 
-def render(data: Health | Mapping | None, status: str, age: float | None = None) -> str:
+def render(
+    data: Health | Mapping | None,
+    status: str,
+    age: float | None = None,
+    folder: Mapping | None = None,
+) -> str:
     """The metrics text (registry(), as prometheus_client writes it)."""
-    return generate_latest(registry(data, status, age)).decode("utf-8")
+    return generate_latest(registry(data, status, age, folder)).decode("utf-8")
 
 
 def _kiosk(data: Health, add) -> None:
@@ -212,7 +259,11 @@ def _kiosk(data: Health, add) -> None:
 
 
 def write_metrics(
-    path: str | os.PathLike, data: Health | Mapping | None, status: str, age: float | None = None
+    path: str | os.PathLike,
+    data: Health | Mapping | None,
+    status: str,
+    age: float | None = None,
+    folder: Mapping | None = None,
 ) -> None:
     """Replace the metrics file at ``path`` atomically with the metrics of registry(), as
     prometheus_client writes them, world-readable (node_exporter runs as another user), through
@@ -223,7 +274,7 @@ def write_metrics(
     collector is not installed. A folder, FIFO or device at ``path`` is refused (UnsafePath); a
     symlink there is replaced, not followed. Raises OSError."""
     check_target(path)
-    text = generate_latest(registry(data, status, age))
+    text = generate_latest(registry(data, status, age, folder))
     write_atomic(path, text, mode=0o644, sync=False)  # rewritten every 15 s: spare the flash
 
 

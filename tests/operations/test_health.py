@@ -63,10 +63,12 @@ def test_default_path(env, expected):
     assert str(health.default_path(env)) == expected
 
 
-def test_readers_fall_back_to_the_service_state_dir_unless_told_where():
+def test_readers_look_at_the_service_state_dir_first_unless_told_where():
+    """Root's own ~/.local/state/exhibit (a kiosk once run by hand) must not hide the
+    service's file: the service's folder comes first, the user's own second."""
     assert [str(p) for p in health.candidate_paths({"HOME": "/h"})] == [
-        "/h/.local/state/exhibit/health.json",
         "/var/lib/exhibit/health.json",
+        "/h/.local/state/exhibit/health.json",
     ]
     assert [str(p) for p in health.candidate_paths({"EXHIBIT_STATE_DIR": "/s"})] == [
         "/s/health.json"
@@ -552,6 +554,21 @@ def test_status_survives_extreme_but_valid_numbers(cli, tmp_path):
     assert json.loads(status(cli, path, "--json").stdout)["extra"] == 10**4000
 
 
+def test_status_is_not_ok_while_scenes_are_skipped(tmp_path, capsys):
+    """Issue 40: a kiosk skipping scenes was "OK", exit 0. Now WARN, exit 6, the reason on
+    stderr; the exit code is documented in README and docs/DEPLOYMENT.md."""
+    path = tmp_path / "health.json"
+    write_health(path, sample(scenes_failed=[{"scene": "hopf", "reason": "boom"}], problems=[]))
+    assert main(["status", "--file", str(path)]) == 6
+    out, err = capsys.readouterr()
+    assert out.startswith("exhibit kiosk: WARN (updated ")
+    assert err == "exhibit status: WARN: 1 scene(s) skipped: hopf\n"
+    assert main(["status", "--file", str(path), "--json"]) == 6
+    data = json.loads(capsys.readouterr().out)
+    assert data["exit"] == 6 and data["up"] is True and data["health"] == "ok"
+    assert data["issues"] == [{"exit": 6, "head": "WARN", "text": "1 scene(s) skipped: hopf"}]
+
+
 def test_status_shows_skipped_scenes_and_problems_safely(tmp_path, capsys):
     path = tmp_path / "health.json"
     write_health(
@@ -563,9 +580,10 @@ def test_status_shows_skipped_scenes_and_problems_safely(tmp_path, capsys):
             frame_errors=3,
         ),
     )
-    assert main(["status", "--file", str(path)]) == 0
-    out = capsys.readouterr().out
-    assert "scene hopf skipped: boom" in out and "\x1b" not in out
+    assert main(["status", "--file", str(path)]) == 6  # WARN: scenes skipped
+    out, err = capsys.readouterr()
+    assert "scene hopf skipped: boom" in out and "\x1b" not in out + err
+    assert err == "exhibit status: WARN: scene hopf skipped: boom\n"
     assert "120 drawn, 3 failed" in out
 
 

@@ -74,6 +74,16 @@ def sample(**changes) -> dict:
         "frame_errors": 2,
         "problems": ["scene veronese skipped: boom"],
         "scenes_failed": [{"scene": "veronese", "reason": "boom"}],
+        "last_frame": time.time(),
+        "version": "0.1.0",
+        "release": "0.1.0-20250601T120000Z",
+        "storage": {
+            "folder": "/var/lib/exhibit",
+            "free_bytes": 5 << 30,
+            "free_inodes": 1000,
+            "problem": None,
+            "errors": {},
+        },
         "frame_passes": {
             "level": "direct",
             "age_s": 3.0,
@@ -154,7 +164,7 @@ def at(got: dict, name: str, **labels) -> float:
 
 
 def test_a_fresh_file_gives_every_family():
-    text = metrics.render(sample(), "ok", 0.4)
+    text = metrics.render(sample(), "ok", 0.4, {"problem": None, "free_bytes": 5 << 30})
     promtool(text)
     got = parse(text)
     assert {name for name, _ in got} == set(metrics.FAMILIES)
@@ -189,6 +199,17 @@ def test_a_fresh_file_gives_every_family():
     assert at(got, "exhibit_resident_memory_bytes") == 187_392 * 1024
     assert at(got, "exhibit_open_fds") == 23
     assert at(got, "exhibit_health_age_seconds") == 0.4
+    build = {"version": "0.1.0", "release": "0.1.0-20250601T120000Z"}
+    assert at(got, "exhibit_build_info", **build) == 1
+    assert [
+        at(got, "exhibit_state_folder_problem", problem=p) for p in metrics.FOLDER_PROBLEMS
+    ] == [
+        0,
+        0,
+        0,
+    ]
+    assert at(got, "exhibit_state_folder_free_bytes") == 5 << 30
+    assert at(got, "exhibit_last_frame_timestamp_seconds") > 1e9
     assert text.endswith("\n") and "\r" not in text
     families = client_parse(text)
     assert families["exhibit_frames"][0].name == "exhibit_frames_total"  # a real counter

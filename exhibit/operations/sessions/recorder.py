@@ -58,6 +58,8 @@ class SessionLog:
         state: dict[str, int | str] = {**counts, "recording": reason is None}
         if reason is not None:
             state["reason"] = reason
+        if w is not None and w.errno is not None:
+            state["errno"] = w.errno  # the health file's storage errors
         return {"sessions": state, "language": self.language}
 
     # -- the steps

@@ -12,6 +12,7 @@ import time
 from collections.abc import Callable
 
 from exhibit.operations.sessions.session import Session
+from exhibit.operations.storage import errno_name, sqlite_errno
 from exhibit.operations.sessions.store import SessionStore, is_corrupt
 
 log = logging.getLogger("exhibit.operations.sessions")
@@ -51,6 +52,9 @@ class SessionWriter:
         self.usable = False
         #: Why sessions are not recorded (None while they are): for the health file.
         self.reason: str | None = None
+        #: The errno name ("ENOSPC", "EROFS", "EACCES") of the last open or write that failed,
+        #: None once one succeeds: the health file's storage errors (exhibit.operations.storage).
+        self.errno: str | None = None
         self._thread = threading.Thread(target=self._run, name="exhibit-sessions", daemon=True)
         self._thread.start()
 
@@ -82,6 +86,7 @@ class SessionWriter:
             self.usable = True
         except (OSError, sqlite3.Error) as exc:
             self.reason = f"cannot open {self.store.path} ({getattr(exc, 'strerror', None) or exc})"
+            self.errno = errno_name(sqlite_errno(exc))
             log.warning(
                 "sessions: cannot open %s (%s): visitor sessions are not recorded",
                 self.store.path,
@@ -117,9 +122,12 @@ class SessionWriter:
         """Add one session; a file found broken now is moved aside and the write retried once."""
         for attempt in (1, 2):
             try:
-                return self.store.add(session)
+                row = self.store.add(session)
+                self.errno = None
+                return row
             except sqlite3.Error as exc:
                 error: Exception = exc
+                self.errno = errno_name(sqlite_errno(exc))
                 if attempt == 1 and is_corrupt(exc):
                     try:
                         self.store.close()
