@@ -330,6 +330,14 @@ update_kiosk() {
   install_system_packages "${apt_run[@]}" "${apt_kiosk[@]}"
   [ -n "$bundle" ] && check_bundle
   say "new release $release${bundle:+ from the bundle $bundle}"
+  mkdir -p "$prefix-releases"
+  mkdir "$release" || die "cannot make $release (see above)"
+  # Held (flock) while the release is made, by this shell and pip under it: an update's pruning
+  # leaves a release whose file is held alone, and removes one whose file nobody holds (what a
+  # killed bootstrap left half-made). Removed once the release is made.
+  local building="$release/.exhibit-building" lock_fd
+  exec {lock_fd}>"$building"
+  flock -n "$lock_fd" || die "cannot lock $building"
   copy_source "$release"
   chmod -R u+rwX,go+rX,go-w "$release"   # the service's user reads it
   if ! ( cd "$release" && EXHIBIT_BUNDLE="$bundle" PYTHON="${PYTHON:-/usr/bin/python3}" \
@@ -338,6 +346,8 @@ update_kiosk() {
     die "setting up $release failed (see above); nothing was changed"
   fi
   "$release/.venv/bin/python" -m compileall -q "$release/exhibit" >/dev/null   # no __pycache__ writes later
+  rm -f "$building"
+  exec {lock_fd}>&-
   say "$release is set up; its exhibit update now checks the site config and builds the mesh cache with it, then switches $prefix to it, installs and restarts"
   exec "$release/.venv/bin/exhibit" update "$release" --prefix "$prefix" "${args[@]}"
 }

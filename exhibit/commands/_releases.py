@@ -6,7 +6,11 @@ Releases live side by side in PREFIX-releases/, each with its own .venv; PREFIX 
 link to the current one and PREFIX-releases/previous to the one before. Every check comes before
 the switch, every external step has a time limit (:data:`TIMEOUTS`, run by
 exhibit/commands/_bounded.py), one update or rollback runs at a time (:data:`LOCK`), and a kill
--9 at any moment leaves PREFIX a working release.
+-9 at any moment leaves PREFIX a working release. What the switch and each step after it still
+owe is written first to the journal (exhibit/commands/_update_journal.py), which the next update
+or rollback finishes before anything else. A release is switched to only when it runs, and
+pruning counts only releases that run (exhibit/commands/_release_checks.py); the plain checkout
+of a first deployment becomes a release in exhibit/commands/_checkout.py.
 
 Why one module of this size: the update is one transaction, and its checks, its switch and its
 undo must see the same state (the lock, the links, what was switched); split, each part would
@@ -15,10 +19,8 @@ have to trust the others' assumptions about a prefix that a power cut may have l
 
 from __future__ import annotations
 
-import errno
 import os
-import re
-import shutil
+import shlex
 import stat
 import subprocess
 import time
@@ -26,6 +28,9 @@ from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
+from exhibit.commands import _checkout as checkout
+from exhibit.commands import _release_checks as checks
+from exhibit.commands import _update_journal as jr
 from exhibit.commands import install as inst
 from exhibit.commands._bounded import decode, run_bounded
 from exhibit.errors import ExhibitError
@@ -36,15 +41,13 @@ PREVIOUS = "previous"
 KEEP = 3
 RESTART = ["systemctl", "try-restart", "exhibit.service"]
 #: The lock file in PREFIX-releases/ that keeps two updates or rollbacks apart.
-LOCK = ".exhibit-lock"
+LOCK = jr.LOCK
 #: Seconds each external step may take before it is stopped (its whole process group) and the
 #: update fails: a hung `exhibit prepare` or restart never makes an update wait forever.
 #: `exhibit install` builds the mesh cache too; a restart waits for the unit's
 #: TimeoutStartSec=300 and TimeoutStopSec=10.
-TIMEOUTS = {"check-config": 300, "prepare": 3600, "install": 3600, "restart": 420}
-#: What a release being removed is renamed to first, so a half-removed one is never taken for
-#: a release.
-_REMOVING = re.compile(r"\..+\.exhibit-removing")
+#: `exhibit --version`, the check that a release runs at all, before it is switched to.
+TIMEOUTS = {"check-config": 300, "prepare": 3600, "install": 3600, "restart": 420, "version": 120}
 
 
 def _user_exists(name: str) -> bool:
@@ -169,24 +172,33 @@ class Kiosk:
         if not self.host(release).is_dir():
             raise ExhibitError(f"{release}: no such folder")
         with self._locked(f"exhibit update {release}"):
+            done = self._finish()
+            if done and done.what == "update" and done.release == name:
+                self._prune(keep, name)
+                self.out(f"updated: {self.prefix} is {name} (the update that stopped is done)")
+                return 0
             self._check_release(name)
             current = self._checked_current()
             if current == name:
                 raise ExhibitError(f"{release} is the current release already")
             old_previous = self._previous_link()
             if current == "":
-                self._check_checkout()
+                checkout.check(self.host(self.prefix), self.host(self.releases), self.prefix)
             self.out(f"updating {self.prefix} to {name}")
             self._ready(name)
             moved = current == ""
             if moved:
-                current = self._move_checkout()
+                current = checkout.move(
+                    self.host(self.prefix), self.host(self.releases), self.prefix, self.out
+                )
+            journal = self._plan("update", name, current, old_previous, self.exe(name))
             self._switch(name, current, old_previous, moved)
             try:
-                self._install_and_restart()
+                self._install_and_restart(journal)
             except StepFailed as failed:
-                self._undo(name, current, old_previous, failed)
-            self._prune(keep)
+                self._undo(journal, failed)
+            self._journal(None)
+            self._prune(keep, name)
         back = self.exe(name)
         self.out(
             f"updated: {self.prefix} is {name}"
@@ -201,6 +213,13 @@ class Kiosk:
                 "(./bootstrap.sh update makes releases; docs/DEPLOYMENT.md, 8)"
             )
         with self._locked("exhibit rollback"):
+            done = self._finish()
+            if done and done.what == "rollback":
+                self.out(
+                    f"rolled back: {self.prefix} is {done.release} (the rollback that stopped is "
+                    f"done); to undo: {shlex.join(done.finish)}"
+                )
+                return 0
             current = self._checked_current()
             if not current:
                 raise ExhibitError(
@@ -227,11 +246,13 @@ class Kiosk:
             self._check_release(previous)
             self.out(f"rolling {self.prefix} back from {current} to {previous}")
             self._ready(previous)
+            journal = self._plan("rollback", previous, current, link, self.exe(current))
             self._switch(previous, current, link)
             try:
-                self._install_and_restart()
+                self._install_and_restart(journal)
             except StepFailed as failed:
-                self._undo(previous, current, link, failed)
+                self._undo(journal, failed)
+            self._journal(None)
         self.out(
             f"rolled back: {self.prefix} is {previous}; to undo (back to {current}): "
             f"{self.exe(current)} rollback"
@@ -261,21 +282,10 @@ class Kiosk:
             for link in (self.host(self.prefix), self.host(f"{self.releases}/{PREVIOUS}")):
                 for line in links.clean_switch_leftovers(link):
                     self.out(f"note: {line}")
-            self._clean_checkout_links()
+            checkout.clean_links(self.host(self.releases))
             yield
         finally:
             os.close(fd)
-
-    def _clean_checkout_links(self) -> None:
-        """Remove the link a killed :meth:`_move_checkout` left in PREFIX-releases/ (NAME ->
-        PREFIX-releases/NAME: only ever meant to be seen from PREFIX's folder)."""
-        folder, base = self.host(self.releases), os.path.basename(self.releases)
-        try:
-            for entry in os.scandir(folder):
-                if entry.is_symlink() and os.readlink(entry.path) == f"{base}/{entry.name}":
-                    os.unlink(entry.path)
-        except OSError:
-            pass
 
     def _check_release(self, name: str) -> None:
         path = self.host(f"{self.releases}/{name}")
@@ -289,16 +299,6 @@ class Kiosk:
             raise ExhibitError(
                 f"{exe} does not exist: {self.releases}/{name} has no venv "
                 "(./bootstrap.sh update makes one)"
-            )
-
-    def _check_checkout(self) -> None:
-        """The plain checkout at PREFIX can move into the releases in one rename."""
-        here, there = self.host(self.prefix), self.host(self.releases)
-        if os.path.ismount(here) or os.stat(here).st_dev != os.stat(there).st_dev:
-            raise ExhibitError(
-                f"cannot move the checkout {self.prefix} into {self.releases}/: it is a mount "
-                f"point or on another file system; nothing was changed (move it there by hand, "
-                f"then ln -s {os.path.basename(self.releases)}/NAME {self.prefix})"
             )
 
     def _environment(self, name: str) -> list[str]:
@@ -322,6 +322,9 @@ class Kiosk:
         """Check the site config with the release, and build its mesh cache, as the service's
         user with the service's environment, before anything is switched."""
         env, exe = self._environment(name), self.exe(name)
+        why = self._runs(name)
+        if why:
+            raise ExhibitError(f"{self.releases}/{name} does not run: {why}; nothing was switched")
         if not self.user_exists(inst.USER):
             self._step(
                 ["env", "-i", *env, exe, "check-config"], "the site configuration", "check-config"
@@ -338,6 +341,22 @@ class Kiosk:
             return
         for command in inst.prepare_steps(exe, env):
             self._step(command, "building the mesh cache", "prepare")
+
+    def _runs(self, name: str) -> str:
+        """Why the release ``name`` does not run, or "": its `exhibit --version` must print
+        ``exhibit VERSION``, VERSION its own exhibit/__init__.py's (not only exit 0)."""
+        exe = self.exe(name)
+        version = checks.expected_version(self.host(f"{self.releases}/{name}"))
+        if version is None:
+            return f"no __version__ in {self.releases}/{name}/exhibit/__init__.py"
+        result, why = self._call([exe, "--version"], "version")
+        said = result.stdout.strip()
+        if why:
+            return why if why.startswith(exe) else f"{exe} --version: {why}"
+        if said != f"exhibit {version}":
+            shown = repr(said[:60]) if said else "nothing"
+            return f"{exe} --version printed {shown}, not 'exhibit {version}'"
+        return ""
 
     def _has_prepare(self, name: str) -> bool:
         release = self.host(f"{self.releases}/{name}")
@@ -373,45 +392,6 @@ class Kiosk:
             raise ExhibitError(f"{what} failed ({why}); nothing was switched")
         return result
 
-    def _move_checkout(self) -> str:
-        """Move the plain folder at PREFIX (a checkout from before releases) into the releases,
-        as a release; its .venv keeps working, since everything in it names PREFIX."""
-        version = "old"
-        try:
-            text = files.read_regular(
-                self.host(f"{self.prefix}/exhibit/__init__.py"), files.MAX_CONFIG_BYTES
-            ).decode("utf-8", "replace")
-        except (OSError, ValueError):
-            text = ""
-        match = re.search(r'^__version__ = "([^"/]+)"', text, re.M)
-        if match and _release_name(match.group(1)):
-            version = match.group(1)
-        name = f"{version}-checkout-{time.strftime('%Y%m%dT%H%M%SZ', time.gmtime())}"
-        target = self.host(f"{self.releases}/{name}")
-        self.out(f"moving the checkout {self.prefix} to {self.releases}/{name}")
-        try:
-            # a link at the checkout's new place, pointing there as seen from PREFIX's folder,
-            # exchanged with the checkout in one step: PREFIX is never missing
-            os.symlink(f"{os.path.basename(self.releases)}/{name}", target)
-            try:
-                links.exchange(self.host(self.prefix), target)
-            except OSError as exc:
-                if exc.errno not in (errno.EINVAL, errno.ENOSYS):
-                    target.unlink()
-                    raise
-                target.unlink()  # no exchange on this file system: two renames
-                os.rename(self.host(self.prefix), target)
-                links.replace_link(
-                    self.host(self.prefix), f"{os.path.basename(self.releases)}/{name}"
-                )
-        except OSError as exc:
-            raise ExhibitError(
-                f"cannot move {self.prefix} to {self.releases}/{name}: "
-                f"{exc.strerror or exc}; nothing was switched (a mount point? move it by hand, "
-                f"then ln -s {os.path.basename(self.releases)}/{name} {self.prefix})"
-            ) from None
-        return name
-
     def _switch(
         self, name: str, current: str | None, old_previous: str | None, moved: bool = False
     ) -> None:
@@ -441,29 +421,129 @@ class Kiosk:
             ) from None
         self.out(f"switched {self.prefix} -> {self.releases}/{name}")
 
-    def _install_and_restart(self) -> None:
-        """The current release's `exhibit install` and the restart; StepFailed says which
+    def _install_and_restart(self, journal: jr.Journal) -> None:
+        """The current release's `exhibit install` and the restart, those of them that
+        ``journal`` owes, each written to it as owed before it runs; StepFailed says which
         failed."""
         exe = f"{self.prefix}/.venv/bin/exhibit"
-        for command, what, timeout in (
+        for step, command, what in (
             (
+                "install",
                 ["env", f"{inst.FOR_UPDATE_ENV}=1", exe, "install", "--prefix", self.prefix],
                 "exhibit install",
-                "install",
             ),
-            (RESTART, "the restart", "restart"),
+            ("restart", RESTART, "the restart"),
         ):
+            if step not in journal.owed:
+                continue
+            journal.owed = [s for s in jr.STEPS[jr.STEPS.index(step) :] if s in journal.owed]
+            self._journal(journal, before_switch=False)
             self.out("$ " + _short(command))
-            result, why = self._call(command, timeout)
+            result, why = self._call(command, step)
             for line in result.stdout.strip().splitlines():
                 self.out("  " + line)
             if why:
                 raise StepFailed(what, why)
 
-    def _undo(self, name: str, back: str | None, previous: str | None, failed: StepFailed) -> None:
-        """After ``failed`` (a step after switching to ``name``): the links back as they were
-        (PREFIX -> ``back``, previous -> the link text ``previous``), the old release's install
-        and restart again; always raises, saying what happened."""
+    def _plan(
+        self, what: str, name: str, current: str | None, previous: str | None, exe: str
+    ) -> jr.Journal:
+        """The journal of switching from ``current`` (previous -> the text ``previous``) to
+        ``name``, written before the switch: it owes every step."""
+        journal = jr.Journal(
+            what=what,
+            prefix=self.prefix,
+            release=name,
+            previous=current or None,
+            owed=list(jr.STEPS),
+            finish=jr.finish_command(what, self.prefix, exe, f"{self.releases}/{name}"),
+            before=(current, previous),
+        )
+        self._journal(journal)
+        return journal
+
+    def _journal(self, journal: jr.Journal | None, before_switch: bool = True) -> None:
+        """Write ``journal`` (None: remove it: nothing is owed). Before a switch a failure stops
+        the update; after it the steps matter more than their record: a note, and on."""
+        folder, shown = self.host(self.releases), f"{self.releases}/{jr.JOURNAL}"
+        try:
+            if journal is None:
+                jr.clear(folder)
+            else:
+                jr.write(folder, journal)
+        except OSError as exc:
+            why = f"cannot write {shown}: {exc.strerror or exc}"
+            if journal is not None and before_switch and "switch" in journal.owed:
+                raise ExhibitError(f"{why}; nothing was switched") from None
+            self.out(f"note: {why}")
+
+    def _finish(self) -> jr.Journal | None:
+        """Finish what an update or rollback that stopped half-way (a kill, SIGHUP, Ctrl-C, a
+        power cut) owes, as its journal says; the finished journal, or None when nothing was
+        owed. Its own failure is switched back as an update's is."""
+        journal = jr.check(self.host(self.releases), self.prefix)
+        if journal is None:
+            return None
+        owed = jr.still_owed(journal, jr.state(self.host(self.prefix)))
+        shown = f"{self.releases}/{jr.JOURNAL}"
+        if not owed:
+            self.out(f"note: {shown}: the {journal.what} it records owes nothing now: removed")
+            self._journal(None)
+            return None
+        self.out(
+            f"finishing the {journal.what} of {self.prefix} that stopped half-way"
+            f"{' while switching back' if journal.failed else ''}: it owes " + ", ".join(owed)
+        )
+        journal.owed = owed
+        if "switch" in owed:
+            found = self.host(f"{self.releases}/{journal.release}")
+            if found.is_symlink() or not found.is_dir():
+                raise ExhibitError(
+                    f"{shown}: it owes a switch to {journal.release}, which is no release in "
+                    f"{self.releases}/ now: nothing was changed; point {self.prefix} at a "
+                    f"release by hand, then remove {shown}"
+                )
+            self._switch_links(journal.release, journal.previous, f"{shown} still owes it")
+            journal.owed = owed[1:]
+        try:
+            self._install_and_restart(journal)
+        except StepFailed as failed:
+            if journal.failed or journal.before is None or not journal.before[0]:
+                raise ExhibitError(
+                    f"{self.prefix} is {journal.release}, but {failed}: fix that and run "
+                    f"{shlex.join(journal.finish)}"
+                ) from None
+            self._undo(journal, failed)
+        self._journal(None)
+        if journal.failed:
+            raise ExhibitError(
+                f"the {journal.what} that stopped had failed ({journal.failed}); now switched "
+                f"back: {self.prefix} is {journal.release}"
+            )
+        return journal
+
+    def _switch_links(self, name: str, previous: str | None, owed: str) -> None:
+        """PREFIX -> ``name`` and previous -> the text ``previous`` (None: no link), each in one
+        rename; an ExhibitError ending in ``owed`` when one fails."""
+        link = self.host(f"{self.releases}/{PREVIOUS}")
+        try:
+            links.replace_link(self.host(self.prefix), f"{os.path.basename(self.releases)}/{name}")
+            if previous is None:
+                link.unlink(missing_ok=True)
+            else:
+                links.replace_link(link, previous)
+        except OSError as exc:
+            raise ExhibitError(
+                f"cannot switch {self.prefix} to {name}: {exc.strerror or exc}; {owed}"
+            ) from None
+        self.out(f"switched {self.prefix} -> {self.releases}/{name}")
+
+    def _undo(self, journal: jr.Journal, failed: StepFailed) -> None:
+        """After ``failed`` (a step after ``journal``'s switch): the links back as they were
+        (``journal.before``), the old release's install and restart again, each written to the
+        journal first; always raises, saying what happened."""
+        name = journal.release
+        back, previous = journal.before or (None, None)
         if not back:
             raise ExhibitError(
                 f"{self.prefix} is now {name}, but {failed}; there is no release to go back to: "
@@ -471,96 +551,30 @@ class Kiosk:
                 f"{self.prefix} again"
             )
         self.out(f"{failed}: switching {self.prefix} back to {back}")
+        journal.release, journal.previous, journal.before = back, previous, None
+        journal.owed, journal.failed = list(jr.STEPS), f"{name}: {failed}"
+        self._journal(journal, before_switch=False)
+        self._switch_links(
+            back,
+            previous,
+            f"{self.releases}/{jr.JOURNAL} still owes it: {shlex.join(journal.finish)} finishes it",
+        )
+        journal.owed = journal.owed[1:]
         try:
-            links.replace_link(self.host(self.prefix), f"{os.path.basename(self.releases)}/{back}")
-            link = self.host(f"{self.releases}/{PREVIOUS}")
-            if previous is None:
-                link.unlink(missing_ok=True)
-            else:
-                links.replace_link(link, previous)
-        except OSError as exc:
-            raise ExhibitError(
-                f"{self.prefix} is now {name}, but {failed}, and switching back failed too "
-                f"({exc.strerror or exc}); go back by hand: {self.exe(back)} rollback"
-            ) from None
-        try:
-            self._install_and_restart()
+            self._install_and_restart(journal)
         except StepFailed as again:
             raise ExhibitError(
                 f"{name}: {failed}; {self.prefix} is {back} again, but its {again}: fix that "
                 f"and run {self.prefix}/.venv/bin/exhibit install --prefix {self.prefix}"
             ) from None
+        self._journal(None)
         raise ExhibitError(f"{name}: {failed}; rolled back: {self.prefix} is {back} again")
 
-    def _prune(self, keep: int) -> None:
-        """Remove the oldest releases beyond ``keep``; never fails the update: a release that
-        cannot be removed is kept, with a line saying why."""
-        try:
-            folder = self.host(self.releases)
-            held = {self.current(), self.previous()}
-            names, removing = [], []
-            for p in folder.iterdir():
-                if not p.is_dir() or p.is_symlink():
-                    continue
-                if _REMOVING.fullmatch(p.name):
-                    removing.append(p)
-                elif not p.name.startswith(".") and p.name != PREVIOUS:
-                    names.append(p)
-            old = sorted(
-                (p for p in names if p.name not in held),
-                key=lambda p: p.stat().st_mtime,
-                reverse=True,
-            )
-            doomed = old[max(0, keep - len(held & {p.name for p in names})) :]
-        except OSError as exc:
-            self.out(f"note: old releases not pruned: {exc.strerror or exc}")
-            return
-        for path in removing:  # left by a prune that was killed
-            self._remove(path, f"{self.releases}/{path.name}")
-        for path in doomed:
-            shown = f"{self.releases}/{path.name}"
-            why = _mounted(path)
-            if why:
-                self.out(f"note: kept the old release {shown}: {why}")
-                continue
-            self.out(f"removing the old release {shown}")
-            gone = path.with_name(f".{path.name}.exhibit-removing")
-            try:
-                os.rename(path, gone)
-            except OSError as exc:
-                self.out(f"note: kept the old release {shown}: {exc.strerror or exc}")
-                continue
-            self._remove(gone, shown)
-
-    def _remove(self, path: Path, shown: str) -> None:
-        why = _mounted(path)
-        if not why:
-            try:
-                shutil.rmtree(path)
-                return
-            except OSError as exc:
-                why = exc.strerror or str(exc)
-        self.out(f"note: could not remove all of {shown} (now {path.name}): {why}; left there")
-
-
-def _mounted(path: Path) -> str:
-    """Why ``path`` must not be removed: it or a folder in it is a mount point (rmtree would
-    empty the mounted file system), or ""."""
-    if os.path.ismount(path):
-        return "it is a mount point"
-    try:
-        device = os.lstat(path).st_dev
-    except OSError as exc:
-        return exc.strerror or str(exc)
-    for folder, subfolders, _ in os.walk(path):
-        for sub in subfolders:
-            inner = os.path.join(folder, sub)
-            try:
-                if os.lstat(inner).st_dev != device or os.path.ismount(inner):
-                    return f"{inner} in it is a mount point"
-            except OSError:
-                continue
-    return ""
+    def _prune(self, keep: int, installing: str) -> None:
+        """Remove the oldest releases beyond ``keep`` that run; never the current, the previous
+        or ``installing`` (exhibit/commands/_release_checks.py)."""
+        held = {self.current() or "", self.previous() or "", installing}
+        checks.prune(self.host(self.releases), self.releases, held, keep, self._runs, self.out)
 
 
 def _short(command: list[str]) -> str:

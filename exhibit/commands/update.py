@@ -10,7 +10,12 @@ An update is a transaction, one at a time (a lock, PREFIX-releases/.exhibit-lock
 says who holds it and stops). Every check comes before the switch, and every external step has a
 time limit (:data:`TIMEOUTS`). In order, stopping at the first failure:
 
-1. checks what is there: the release (a folder in PREFIX-releases/ with its venv), PREFIX (a
+0. finishes what an update or rollback that stopped half-way (kill -9, SIGHUP, Ctrl-C, a
+   power cut) still owes, as its journal (PREFIX-releases/.exhibit-journal.json, written before
+   each of steps 4 and 5) says: the switch, install, restart, or the switch back; when that was
+   this same update, the update is done;
+1. checks what is there: the release (a folder in PREFIX-releases/ with its venv, whose
+   `exhibit --version` prints its own version), PREFIX (a
    link to a release, or the plain checkout of the first deployment), PREFIX-releases/previous
    (a link, or nothing); anything else is refused by name, and what a killed switch left behind
    (its temporary links) is removed;
@@ -24,8 +29,10 @@ time limit (:data:`TIMEOUTS`). In order, stopping at the first failure:
 5. runs the new release's `exhibit install` (units, udev, systemd reload) and restarts
    exhibit.service if it runs; when either fails, the links are switched back, the old
    release's install and restart run again, and the update fails saying so;
-6. removes the oldest releases beyond --keep, never the current or the previous one; a release
-   that cannot be removed (a mount point, a busy file) is kept and said so: the update is done.
+6. removes the oldest releases beyond --keep, counting only releases that run, never the
+   current or the previous one nor one ./bootstrap.sh update is making (one a killed bootstrap
+   left half-made goes); a release that cannot be removed (a mount point, a busy file) is kept
+   and said so: the update is done.
 
 A kill -9 at any moment leaves PREFIX a working release (the old one or the new one), and the
 lock goes with the process. `exhibit rollback` (exhibit/commands/rollback.py) switches back the

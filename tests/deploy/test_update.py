@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import subprocess
 import time
 
@@ -14,7 +15,8 @@ import pytest
 
 from exhibit.cli import main
 from exhibit.commands import install as inst
-from exhibit.commands import _bounded, _releases, rollback, update
+from exhibit.commands import _bounded, _release_checks, rollback, update
+from exhibit.commands import _update_journal as journal
 from exhibit.commands.update import LOCK, Kiosk
 from exhibit.errors import ExhibitError
 from exhibit.schema import links
@@ -26,13 +28,20 @@ SITE = "[display]\nmonitor = 1\n"
 
 
 class Runner:
-    """Records each command; ``fail`` maps a word in the command to (exit code, stderr)."""
+    """Records each command; ``fail`` maps a word in the command to (exit code, stderr). A
+    release's `exhibit --version` (the check that it runs) runs its script under ``root``
+    (set by :func:`kiosk`), recorded apart, in ``versions``."""
 
     def __init__(self, fail: dict[str, tuple[int, str]] | None = None):
         self.commands: list[list[str]] = []
+        self.versions: list[str] = []
         self.fail = fail or {}
+        self.root = None
 
     def __call__(self, command, timeout=None):
+        if command[1:] == ["--version"] and self.root is not None:
+            self.versions.append(command[0])
+            return _bounded.run_bounded([str(self.root / command[0].lstrip("/")), "--version"], 60)
         self.commands.append(command)
         for word, (code, err) in self.fail.items():
             if word in command:
@@ -56,7 +65,7 @@ def make_release(root, name, version="0.2.0", prepare=True, folder=None):
     )
     exe = release / ".venv/bin/exhibit"
     exe.parent.mkdir(parents=True)
-    exe.write_text("#!/bin/sh\n")
+    exe.write_text(f'#!/bin/sh\n[ "$1" = --version ] && echo "exhibit {version}"\nexit 0\n')
     exe.chmod(0o755)
     return release
 
@@ -76,6 +85,8 @@ def root(tmp_path):
 
 
 def kiosk(root, runner, lines=None, user=True):
+    if isinstance(runner, Runner):
+        runner.root = root
     return Kiosk(
         PREFIX,
         root=root,
@@ -138,7 +149,11 @@ def test_config_and_cache_come_first_as_the_service_user_then_switch_install_res
             "EXHIBIT_DEVICES_CONFIG": "/etc/exhibit/devices.toml",
         }
         assert seen[step].endswith("/opt/exhibit")  # not switched yet
-    assert runner.commands[cache - 1][:2] == ["install", "-d"]  # the cache folder, for the user
+    # the cache folder, and what is in it, for the user
+    assert [c[:2] for c in runner.commands[cache - 2 : cache]] == [
+        ["install", "-d"],
+        ["chown", "-R"],
+    ]
     # the install the update runs builds no second cache and prints no first start's hint
     assert runner.commands[install][:3] == [
         "env",
@@ -367,12 +382,13 @@ def test_cli_needs_root(capsys, monkeypatch):
 
 def real_runner(root):
     """update's own runner (time limits, decoding) on the commands as the kiosk would run them,
-    less what needs root: runuser's user switch and the cache folder's `install -d`."""
+    less what needs root: runuser's user switch and the cache folder's `install -d` and
+    `chown -R`."""
 
     def run(command, timeout=None):
         if command[:4] == ["runuser", "-u", "exhibit", "--"]:
             command = command[4:]
-        if command[:2] == ["install", "-d"]:
+        if command[:2] in (["install", "-d"], ["chown", "-R"]):
             return subprocess.CompletedProcess(command, 0, "", "")
         command = [str(root / c.lstrip("/")) if c.startswith(RELEASES) else c for c in command]
         return _bounded.run_bounded(command, timeout)
@@ -382,7 +398,9 @@ def real_runner(root):
 
 def script_release(root, name, script):
     release = make_release(root, name)
-    (release / ".venv/bin/exhibit").write_bytes(b"#!/bin/sh\n" + script)
+    (release / ".venv/bin/exhibit").write_bytes(
+        b'#!/bin/sh\n[ "$1" = --version ] && { echo "exhibit 0.2.0"; exit 0; }\n' + script
+    )
     return release
 
 
@@ -541,14 +559,14 @@ def test_a_release_that_cannot_be_pruned_is_kept_and_the_update_is_done(root, mo
     make_release(root, "r4")
     r1 = root / "opt/exhibit-releases/r1"
     if how == "busy":
-        real = _releases.shutil.rmtree
+        real = _release_checks.shutil.rmtree
 
         def rmtree(path, *args, **kwargs):
             if path.name.startswith(".r1."):
                 raise OSError(errno.EBUSY, "Device or resource busy")
             real(path, *args, **kwargs)
 
-        monkeypatch.setattr(_releases.shutil, "rmtree", rmtree)
+        monkeypatch.setattr(_release_checks.shutil, "rmtree", rmtree)
     else:
         real_ismount = os.path.ismount
         monkeypatch.setattr(
@@ -733,3 +751,341 @@ def test_the_time_limits_in_deployment_md_are_the_codes():
     assert limits["restart"] == 420
     assert "(check-config 5 min, prepare and install 1 h, the restart 7 min:" in text
     assert f"which one holds `/opt/exhibit-releases/{LOCK}`" in text
+
+
+# ---------------------------------------------------------------------- the journal (issue 40)
+
+
+class DiesAt(Runner):
+    """Dies at ``word``'s command, before it runs: ``how`` "kill" (os._exit, as kill -9 or
+    SIGHUP: no cleanup) or "ctrl-c" (KeyboardInterrupt, as Ctrl-C gives Python)."""
+
+    def __init__(self, word: str, how: str = "kill"):
+        super().__init__()
+        self.word, self.how = word, how
+
+    def __call__(self, command, timeout=None):
+        if self.word in command:
+            if self.how == "kill":
+                os._exit(137)
+            raise KeyboardInterrupt
+        return super().__call__(command, timeout)
+
+
+def interrupted(root, action, word: str, how: str = "kill") -> None:
+    """``action(kiosk)`` stopped at ``word``'s command: a kill in a forked child (nothing of
+    pytest runs there), Ctrl-C here."""
+    if how == "ctrl-c":
+        with pytest.raises(KeyboardInterrupt):
+            action(kiosk(root, DiesAt(word, how)))
+        return
+    pid = os.fork()
+    if pid == 0:  # the child
+        try:
+            action(kiosk(root, DiesAt(word)))
+        finally:
+            os._exit(1)  # it finished: the test below fails
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 137
+
+
+def owed(root):
+    return journal.owed_steps(root / "opt/exhibit")
+
+
+@pytest.mark.parametrize("how", ["kill", "ctrl-c"])
+@pytest.mark.parametrize("word", ["--prefix", "try-restart"])
+def test_an_update_stopped_after_the_switch_is_finished_by_the_next_one(root, word, how):
+    """Before: the same update again said `is the current release already` (exit 2), with
+    install or restart never run and nothing saying so."""
+    rolled_forward(root)
+    make_release(root, "c")
+    interrupted(root, lambda k: k.update(f"{RELEASES}/c"), word, how)
+    assert (kiosk(root, Runner()).current(), kiosk(root, Runner()).previous()) == ("c", "b")
+    install = (
+        "owed: c's `exhibit install` (units, udev rules) has not run since the switch; by "
+        "hand: env EXHIBIT_INSTALL_FOR_UPDATE=1 /opt/exhibit/.venv/bin/exhibit install "
+        "--prefix /opt/exhibit"
+    )
+    restart = (
+        "owed: exhibit.service has not been restarted into c; by hand: systemctl try-restart "
+        "exhibit.service"
+    )
+    if how == "kill":
+        first, *steps = owed(root)
+        assert re.fullmatch(
+            r"an update of /opt/exhibit to c stopped half-way \(pid \d+, since \S+\); finish it "
+            r"with: /opt/exhibit-releases/c/\.venv/bin/exhibit update /opt/exhibit-releases/c",
+            first,
+        )
+        assert steps == ([install] if word == "--prefix" else []) + [restart]
+    runner, lines = Runner(), []
+    assert kiosk(root, runner, lines).update(f"{RELEASES}/c") == 0
+    assert lines[0] == "finishing the update of /opt/exhibit that stopped half-way: it owes " + (
+        "install, restart" if word == "--prefix" else "restart"
+    )
+    assert lines[-1] == "updated: /opt/exhibit is c (the update that stopped is done)"
+    done = [c for c in runner.commands if "install" in c or "try-restart" in c]
+    assert done == (
+        [
+            ["env", "EXHIBIT_INSTALL_FOR_UPDATE=1", "/opt/exhibit/.venv/bin/exhibit", "install"]
+            + ["--prefix", PREFIX]
+        ]
+        if word == "--prefix"
+        else []
+    ) + [update.RESTART]
+    assert not any("check-config" in c for c in runner.commands)  # checked before the switch
+    assert owed(root) == []
+    assert not os.path.lexists(root / "opt/exhibit-releases" / journal.JOURNAL)
+    with pytest.raises(ExhibitError, match="is the current release already"):
+        kiosk(root, Runner()).update(f"{RELEASES}/c")  # now it is done
+
+
+def test_another_update_finishes_the_stopped_one_first(root):
+    rolled_forward(root)
+    make_release(root, "c")
+    make_release(root, "d")
+    interrupted(root, lambda k: k.update(f"{RELEASES}/c"), "try-restart")
+    runner = Runner()
+    kiosk(root, runner).update(f"{RELEASES}/d")
+    assert runner.commands[0] == update.RESTART  # c's owed restart, then d's update
+    assert (kiosk(root, Runner()).current(), kiosk(root, Runner()).previous()) == ("d", "c")
+
+
+@pytest.mark.parametrize("word", ["--prefix", "try-restart"])
+def test_a_rollback_stopped_half_way_and_run_again_ends_where_one_rollback_does(root, word):
+    """Before: the second rollback went back to where the first had started (b)."""
+    rolled_forward(root)
+    interrupted(root, lambda k: k.rollback(), word)
+    assert owed(root)[0].endswith(
+        "finish it with: /opt/exhibit-releases/b/.venv/bin/exhibit rollback"
+    )
+    runner, lines = Runner(), []
+    assert kiosk(root, runner, lines).rollback() == 0
+    k = kiosk(root, Runner())
+    assert (k.current(), k.previous()) == ("a", "b")  # where one rollback ends
+    assert runner.commands[-1] == update.RESTART
+    assert lines[-1] == (
+        "rolled back: /opt/exhibit is a (the rollback that stopped is done); to undo: "
+        "/opt/exhibit-releases/b/.venv/bin/exhibit rollback"
+    )
+    assert owed(root) == []
+    kiosk(root, Runner()).rollback()  # a third one is a rollback again: it undoes the first
+    assert (k.current(), k.previous()) == ("b", "a")
+
+
+def test_a_switch_back_that_was_stopped_is_finished_and_the_failure_said(root):
+    rolled_forward(root)
+    make_release(root, "c")
+
+    class FailsThenDies(FailsOn):
+        def __call__(self, command, timeout=None):
+            now = os.path.basename(os.path.realpath(self.root / "opt/exhibit"))
+            if "--prefix" in command and now == "b":
+                os._exit(137)  # killed while installing b again
+            return super().__call__(command, timeout)
+
+    pid = os.fork()
+    if pid == 0:
+        try:
+            kiosk(root, FailsThenDies(root, "try-restart", "c")).update(f"{RELEASES}/c")
+        finally:
+            os._exit(1)
+    assert os.waitstatus_to_exitcode(os.waitpid(pid, 0)[1]) == 137
+    first = owed(root)[0]
+    assert first.startswith(
+        "an update of /opt/exhibit failed (c: the restart failed: udevadm failed) and was "
+        "switching back to b when it stopped"
+    )
+    assert first.endswith(
+        "finish switching back with: /opt/exhibit-releases/c/.venv/bin/"
+        "exhibit update /opt/exhibit-releases/c"
+    )
+    runner = Runner()
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/c")
+    assert str(info.value) == (
+        "the update that stopped had failed (c: the restart failed: udevadm failed); now "
+        "switched back: /opt/exhibit is b"
+    )
+    assert runner.commands[-1] == update.RESTART and not any(
+        "prepare" in c for c in runner.commands
+    )
+    assert (kiosk(root, Runner()).current(), kiosk(root, Runner()).previous()) == ("b", "a")
+    assert owed(root) == []
+
+
+def test_a_journal_of_a_switch_that_never_happened_owes_nothing(root):
+    """Killed after the journal was written, before the switch: the kiosk runs what it ran."""
+    rolled_forward(root)
+    make_release(root, "c")
+    releases = root / "opt/exhibit-releases"
+    plan = journal.Journal(
+        what="update",
+        prefix=PREFIX,
+        release="c",
+        previous="b",
+        owed=list(journal.STEPS),
+        finish=["x"],
+        before=("b", "a"),
+    )
+    journal.write(releases, plan)
+    assert owed(root) == []
+    runner, lines = Runner(), []
+    kiosk(root, runner, lines).update(f"{RELEASES}/c")
+    assert lines[0] == (
+        f"note: {RELEASES}/{journal.JOURNAL}: the update it records owes nothing now: removed"
+    )
+    assert any("check-config" in c for c in runner.commands)  # the whole update, checks first
+    # a switch half done (previous switched, PREFIX not yet) owes the rest of it
+    journal.write(
+        releases,
+        journal.Journal(**{**plan.__dict__, "release": "b", "previous": "a", "before": ("c", "b")}),
+    )
+    (releases / "previous").unlink()
+    (releases / "previous").symlink_to("c")
+    assert [line.split(";")[0] for line in owed(root)[1:]] == [
+        f"owed: {PREFIX} -> {RELEASES}/b and {RELEASES}/previous -> a, which x switches",
+        "owed: b's `exhibit install` (units, udev rules) has not run since the switch",
+        "owed: exhibit.service has not been restarted into b",
+    ]
+
+
+@pytest.mark.parametrize(
+    "text, why",
+    [
+        ("{not json", "not valid JSON (JSONDecodeError)"),
+        ('{"what": "upgrade"}', "what: neither update nor rollback"),
+        ("[]", "not a JSON object"),
+    ],
+)
+def test_a_journal_that_is_not_one_is_named_in_one_line(root, capsys, monkeypatch, text, why):
+    rolled_forward(root)
+    path = root / "opt/exhibit-releases" / journal.JOURNAL
+    path.write_text(text)
+    make_release(root, "c")
+    runner = Runner()
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/c")
+    shown = f"{RELEASES}/{journal.JOURNAL}"
+    assert str(info.value) == (
+        f"{shown}: {why}: an earlier update or rollback stopped and its journal cannot be "
+        f"read; nothing was changed: check the links by hand (ls -l {PREFIX} {RELEASES}), then "
+        f"remove it (rm {shown})"
+    )
+    assert runner.commands == []
+    assert owed(root) == [
+        f"{path}: {why}: an update or rollback stopped and its journal cannot be read; check "
+        f"the links by hand (ls -l {root / 'opt/exhibit'} {root / 'opt/exhibit-releases'}), "
+        f"then: rm {path}"
+    ]
+    monkeypatch.setattr(os, "geteuid", lambda: 0)
+    monkeypatch.setattr(rollback, "Kiosk", lambda prefix: kiosk(root, Runner()))
+    assert main(["rollback"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"exhibit rollback: error: {shown}: {why}")
+
+
+@pytest.mark.parametrize(
+    "script, why",
+    [
+        (None, "/opt/exhibit-releases/new/.venv/bin/exhibit: Exec format error"),
+        (b"#!/bin/sh\necho garbage\n", "printed 'garbage', not 'exhibit 0.2.0'"),
+        (b"#!/bin/sh\necho 'exhibit 0.1.9'\n", "printed 'exhibit 0.1.9', not 'exhibit 0.2.0'"),
+        (b"#!/bin/sh\nexit 0\n", "printed nothing, not 'exhibit 0.2.0'"),
+        (
+            b"#!/bin/sh\necho \"ModuleNotFoundError: No module named 'pydantic'\" >&2; exit 1\n",
+            "--version: ModuleNotFoundError: No module named 'pydantic'",
+        ),
+    ],
+)
+def test_a_release_that_does_not_print_its_version_is_not_switched_to(root, script, why):
+    """Before: a 0-byte `exhibit`, or one that printed anything and exited 0, was switched in."""
+    release = make_release(root, "new")
+    (release / ".venv/bin/exhibit").write_bytes(script or b"")
+    runner = Runner()
+    with pytest.raises(ExhibitError) as info:
+        kiosk(root, runner).update(f"{RELEASES}/new")
+    message = str(info.value)
+    assert message.startswith(f"{RELEASES}/new does not run: ") and message.endswith(
+        "; nothing was switched"
+    )
+    assert why in message
+    assert runner.commands == []  # not even check-config
+    nothing_changed(root)
+
+
+def test_pruning_counts_only_releases_that_run_and_leaves_one_being_made(root):
+    """Before: a half-made release (pip killed filling its venv) was kept as one of --keep 3,
+    and two working releases were deleted."""
+    import fcntl
+
+    k = kiosk(root, Runner())
+    for i, name in enumerate(["r1", "r2", "r3"]):
+        make_release(root, name)
+        os.utime(root / "opt/exhibit-releases" / name, (2e9 + i, 2e9 + i))
+        k.update(f"{RELEASES}/{name}")
+    half = {}
+    for i, name in enumerate(["old-bootstrap", "killed", "building"]):
+        half[name] = make_release(root, name)
+        (half[name] / ".venv/bin/exhibit").unlink()  # pip was filling the venv
+        if name != "old-bootstrap":
+            (half[name] / _release_checks.BUILDING).write_text("")
+        os.utime(half[name], (2e9 + 10 + i, 2e9 + 10 + i))  # newer than every release
+    make_release(root, "r4")
+    os.utime(root / "opt/exhibit-releases/r4", (2e9 + 20, 2e9 + 20))
+    held = os.open(half["building"] / _release_checks.BUILDING, os.O_RDONLY)
+    try:
+        fcntl.flock(held, fcntl.LOCK_EX)  # ./bootstrap.sh update is making it now
+        lines = []
+        kiosk(root, Runner(), lines).update(f"{RELEASES}/r4", keep=3)
+    finally:
+        os.close(held)
+    # r4 and r3 (current, previous), r2 the newest other one that runs; r1 beyond --keep
+    assert listing(root) == ["building", "old-bootstrap", "previous", "r2", "r3", "r4"]
+    assert (
+        f"removing {RELEASES}/killed, which a killed ./bootstrap.sh update left half-made" in lines
+    )
+    assert (
+        f"note: {RELEASES}/old-bootstrap does not run ({RELEASES}/old-bootstrap/.venv/bin/exhibit: "
+        "No such file or directory): not counted as a release; left there"
+    ) in lines
+    assert f"removing the old release {RELEASES}/r1" in lines
+    assert not any("building" in line for line in lines)
+
+
+def test_the_first_update_makes_the_moved_checkouts_venv_its_own(root):
+    """Before: the checkout's scripts and editable install named /opt/exhibit, so once that was
+    another release, the checkout's `exhibit` (previous/.venv/bin/exhibit, the way back from a
+    dead release) ran that release's Python and code, and its ModuleNotFoundError."""
+    venv = root / "opt/exhibit/.venv"
+    (venv / "bin/pip").write_text("#!/opt/exhibit/.venv/bin/python\nimport pip\n")
+    (venv / "bin/pip").chmod(0o755)
+    (venv / "bin/activate").write_text('VIRTUAL_ENV="/opt/exhibit/.venv"\n')
+    site = venv / "lib/python3.11/site-packages"
+    site.mkdir(parents=True)
+    finder = site / "__editable___exhibit_0_1_0_finder.py"
+    finder.write_text(
+        "MAPPING: dict[str, str] = {'exhibit': '/opt/exhibit/exhibit'}\n"
+        "OTHER = '/opt/exhibit-releases/x'\n"
+    )
+    (site / "__editable__.exhibit-0.1.0.pth").write_text("/opt/exhibit\n")
+    make_release(root, "new")
+    kiosk(root, Runner()).update(f"{RELEASES}/new")
+    moved = f"{RELEASES}/{kiosk(root, Runner()).previous()}"
+    venv = root / moved.lstrip("/") / ".venv"
+    site = venv / "lib/python3.11/site-packages"
+    assert (venv / "bin/pip").read_text() == f"#!{moved}/.venv/bin/python\nimport pip\n"
+    assert os.access(venv / "bin/pip", os.X_OK)  # its mode kept
+    assert (venv / "bin/activate").read_text() == 'VIRTUAL_ENV="/opt/exhibit/.venv"\n'
+    assert (site / finder.name).read_text() == (
+        f"MAPPING: dict[str, str] = {{'exhibit': '{moved}/exhibit'}}\n"
+        "OTHER = '/opt/exhibit-releases/x'\n"
+    )
+    assert (site / "__editable__.exhibit-0.1.0.pth").read_text() == f"{moved}\n"
+
+
+def test_bootstrap_holds_the_building_file_while_it_makes_a_release():
+    text = (inst.SOURCE_DIR.parent / "bootstrap.sh").read_text()
+    body = text[text.index("update_kiosk() {") : text.index("\n}\n", text.index("update_kiosk"))]
+    assert f'"$release/{_release_checks.BUILDING}"' in body and "flock -n" in body
