@@ -398,9 +398,13 @@ class Kiosk:
         """PREFIX-releases/previous -> ``current``, then PREFIX -> the release, each replaced in
         one rename (a running kiosk sees the old or the new link, never none). When a rename
         fails, what was done is undone (previous -> ``old_previous``, the ``moved`` checkout
-        back at PREFIX) and nothing is switched."""
+        back at PREFIX) and nothing is switched. ``current``'s venv is made its own first (a
+        checkout moved by an older update still names PREFIX), so `previous` runs by itself."""
         base = os.path.basename(self.releases)
         previous = self.host(f"{self.releases}/{PREVIOUS}")
+        if current:
+            where = f"{self.releases}/{current}"
+            checkout.own_venv(self.host(where), self.prefix, where, self.out)
         try:
             if current:
                 links.replace_link(previous, current)

@@ -1085,7 +1085,32 @@ def test_the_first_update_makes_the_moved_checkouts_venv_its_own(root):
     assert (site / "__editable__.exhibit-0.1.0.pth").read_text() == f"{moved}\n"
 
 
+def test_a_checkout_moved_by_an_older_update_gets_its_own_venv_at_the_next_switch(root):
+    """A kiosk whose first update ran an older version: its moved checkout still names PREFIX.
+    The next switch away from it (to a release here) fixes it before it becomes previous."""
+    make_release(root, "a")
+    old = root / "opt/exhibit-releases/0.1.0-checkout-old"
+    os.rename(root / "opt/exhibit", old)
+    (root / "opt/exhibit").symlink_to("exhibit-releases/0.1.0-checkout-old")
+    (old / ".venv/bin/exhibit").write_text(
+        '#!/opt/exhibit/.venv/bin/python\nprint("exhibit 0.1.0")\n'
+    )
+    kiosk(root, Runner()).update(f"{RELEASES}/a")
+    assert (
+        (old / ".venv/bin/exhibit")
+        .read_text()
+        .startswith(f"#!{RELEASES}/0.1.0-checkout-old/.venv/bin/python\n")
+    )
+
+
 def test_bootstrap_holds_the_building_file_while_it_makes_a_release():
     text = (inst.SOURCE_DIR.parent / "bootstrap.sh").read_text()
     body = text[text.index("update_kiosk() {") : text.index("\n}\n", text.index("update_kiosk"))]
     assert f'"$release/{_release_checks.BUILDING}"' in body and "flock -n" in body
+
+
+def test_deployment_md_names_the_journal_and_the_way_back_from_a_dead_release():
+    text = " ".join((inst.SOURCE_DIR.parent / "docs/DEPLOYMENT.md").read_text().split())
+    assert f"`/opt/exhibit-releases/{journal.JOURNAL}`" in text
+    assert "/opt/exhibit-releases/previous/.venv/bin/exhibit rollback" in text
+    assert f"`{_release_checks.BUILDING}`" in text
