@@ -47,11 +47,15 @@ import time
 from pathlib import Path
 
 from exhibit.commands import _arg_types as _args
+from exhibit.commands._update_journal import owed_steps
+from exhibit.commands.install import DEFAULT_PREFIX
 from exhibit.errors import ExhibitError
 from exhibit.operations.assessment import (
     EXIT_METRICS_UNWRITTEN,
     EXIT_STALE,
+    EXIT_WARN,
     Assessment,
+    Issue,
     assess,
     folder_issue,
 )
@@ -70,9 +74,13 @@ from exhibit.schema.files import UnsafePath, check_target, split_target
 HELP = (
     "health summary of the running kiosk (exit 0 OK, 1 stale, missing, broken or not drawing, "
     "3 a device missing for longer than --max-lost, 5 its state folder full or unwritable, "
-    "6 scenes skipped or other problems; --prometheus FILE: 0 once written)"
+    "6 scenes skipped, an update left unfinished or other problems; --prometheus FILE: 0 once "
+    "written)"
 )
 DEFAULT_MAX_AGE = 10.0
+#: The head of the line for an update or rollback that stopped half-way (exit 6, as a warning:
+#: the kiosk may draw well, but it runs a release that was not installed or restarted into).
+UNFINISHED = "UPDATE UNFINISHED"
 #: Seconds a configured device may be missing before status exits 3: a replug or a board's
 #: reset takes a few seconds; a minute is a device someone has to look at.
 DEFAULT_MAX_LOST = 60.0
@@ -115,6 +123,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="read this health file instead of looking in the usual places",
     )
     parser.add_argument(
+        "--prefix",
+        type=Path,
+        default=Path(DEFAULT_PREFIX),
+        metavar="DIR",
+        help=f"the install prefix whose interrupted update or rollback to report "
+        f"(default {DEFAULT_PREFIX})",
+    )
+    parser.add_argument(
         "--prometheus",
         type=_metrics_file,
         metavar="FILE",
@@ -147,11 +163,14 @@ def run(args: argparse.Namespace) -> int:
     others = [p for p in paths if p != path and p.exists()]
     now = time.time()
     quiet = args.prometheus is not None  # a timer every 15 s: the file speaks, not the journal
+    owed = [] if quiet else owed_steps(args.prefix)
     try:
         data = read_health(path)
     except HealthError as exc:
-        return _unread(args, exc, path, paths, now)
+        return _unread(args, exc, path, paths, now, owed)
     verdict = assess(data, path, args.max_age, args.max_lost, now)
+    if owed:  # after the kiosk's own issues: they say more about what a visitor sees
+        verdict.issues.append(Issue(EXIT_WARN, UNFINISHED, "; ".join(owed)))
     file = file_info(path, now)
     if args.json:
         _print_json(
@@ -169,6 +188,7 @@ def run(args: argparse.Namespace) -> int:
                 ],
                 "exit": verdict.exit_code,
                 "devices_missing": verdict.missing,
+                "update_owed": owed,
             }
         )
     elif not quiet:
@@ -181,7 +201,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _unread(
-    args: argparse.Namespace, exc: HealthError, path: Path, paths: list[Path], now: float
+    args: argparse.Namespace,
+    exc: HealthError,
+    path: Path,
+    paths: list[Path],
+    now: float,
+    owed: list[str],
 ) -> int:
     """No health file, or one that cannot be read: exit 1, naming the file (its owner and age
     when there is one) and, when it is full or read-only, the folder."""
@@ -208,11 +233,14 @@ def _unread(
                 "health": status,
                 "reason": why,
                 "exit": EXIT_STALE,
+                "update_owed": owed,
             }
         )
     if args.prometheus is not None:
         return _write_metrics(args.prometheus, None, Assessment(status, 0.0, folder=seen))
     print(f"exhibit status: {status.upper()}: {printable(why)}", file=sys.stderr)
+    if owed:  # a kiosk that is not running may be what the stopped update left
+        print(f"exhibit status: {UNFINISHED}: {printable('; '.join(owed))}", file=sys.stderr)
     return EXIT_STALE
 
 
@@ -339,11 +367,8 @@ def summary(
 
 
 def release_rows(data: Health) -> list[tuple[str, str]]:
-    """The "version" row: the running version and release (exhibit.operations.storage).
-
-    The place for an interrupted update: a row from
-    exhibit.commands._update_journal.owed_steps(prefix) (the steps an update still owes, not
-    written yet) goes here, and its exit code into run() beside the others."""
+    """The "version" row: the running version and release (exhibit.operations.storage). An
+    update that stopped half-way is an issue of its own (UNFINISHED, in run())."""
     if data.version is None and data.release is None:
         return []
     return [("version", f"{get_text(data.version)} (release {get_text(data.release)})")]

@@ -6,6 +6,7 @@ restart, and one command back. No real systemctl or runuser: the commands are re
 from __future__ import annotations
 
 import errno
+import json
 import os
 import re
 import subprocess
@@ -1114,3 +1115,30 @@ def test_deployment_md_names_the_journal_and_the_way_back_from_a_dead_release():
     assert f"`/opt/exhibit-releases/{journal.JOURNAL}`" in text
     assert "/opt/exhibit-releases/previous/.venv/bin/exhibit rollback" in text
     assert f"`{_release_checks.BUILDING}`" in text
+
+
+def test_status_reports_what_a_stopped_update_owes(root, tmp_path, capsys):
+    """`exhibit status` names the owed steps with their commands: a warning (exit 6) beside a
+    kiosk that draws, and a second line beside one that does not run (no health file)."""
+    from exhibit.cli import main
+    from exhibit.operations.health import write_health
+
+    health = tmp_path / "health.json"
+    prefix = str(root / "opt/exhibit")
+    write_health(health, {"time": time.time(), "pid": os.getpid(), "fps": 30.0, "frames": 9})
+    capsys.readouterr()
+    assert main(["status", "--file", str(health), "--prefix", prefix]) == 0
+    rolled_forward(root)
+    make_release(root, "c")
+    interrupted(root, lambda k: k.update(f"{RELEASES}/c"), "try-restart")
+    capsys.readouterr()
+    assert main(["status", "--file", str(health), "--prefix", prefix]) == 6
+    err = capsys.readouterr().err
+    assert "exhibit status: UPDATE UNFINISHED: an update of /opt/exhibit to c stopped" in err
+    assert "by hand: systemctl try-restart exhibit.service" in err
+    assert main(["status", "--file", str(tmp_path / "none.json"), "--prefix", prefix]) == 1
+    err = capsys.readouterr().err.splitlines()
+    assert err[0].startswith("exhibit status: MISSING:")
+    assert err[1].startswith("exhibit status: UPDATE UNFINISHED: an update of /opt/exhibit")
+    assert main(["status", "--file", str(health), "--prefix", prefix, "--json"]) == 6
+    assert json.loads(capsys.readouterr().out)["update_owed"][0].startswith("an update of")
