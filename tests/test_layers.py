@@ -25,6 +25,7 @@ LAYERS = {
     "__init__": 0,
     "errors": 0,
     "resources": 0,
+    "tools": 0,
     "schema": 1,
     "geometry": 2,
     "surfaces": 3,

@@ -1,0 +1,36 @@
+"""Processes seen from a test: whether one is still alive (a zombie waiting for its reaper counts
+as gone), the pids fake tools write to a file, and waiting, boundedly, for one to go."""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+
+def alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    return state not in ("Z", "X")
+
+
+def pids(path: Path, want: int = 1, within: float = 20.0) -> list[int]:
+    """The pids the fake tools wrote to ``path``, once there are ``want`` of them."""
+    end = time.monotonic() + within
+    while time.monotonic() < end:
+        if path.exists():
+            found = [int(w) for w in path.read_text().split()]
+            if len(found) >= want:
+                return found
+        time.sleep(0.02)
+    raise AssertionError(f"no fake tool wrote its pid to {path} within {within} s")
+
+
+def gone(pid: int, within: float = 10.0) -> bool:
+    end = time.monotonic() + within
+    while time.monotonic() < end:
+        if not alive(pid):
+            return True
+        time.sleep(0.02)
+    return False
