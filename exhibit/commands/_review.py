@@ -271,6 +271,7 @@ def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
                 if take.start < length
             ]
             failed = narrator.status()["failed"]
+            report = narrator.failures()  # a hung engine's skipped segments counted, not listed
             sound = tape.mixdown(length)
         wav = folder / "narration.wav"
         write_wav(wav, sound)
@@ -282,7 +283,7 @@ def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
     finally:
         if kind != "folder":
             shutil.rmtree(folder, ignore_errors=True)
-    for problem in failed:
+    for problem in report:
         print(f"narration: {problem}")
     print(out)
     return 0

@@ -87,25 +87,27 @@ def _caption_problems(attract_dir) -> list[str]:
 
 def _narration(config) -> tuple[list[str], list[str]]:
     """Every narration segment made as the kiosk will speak it (exhibit.kiosk.narrator):
-    problems for those that cannot be (a recording refused, no speech engine), and a note for
-    each that runs past the time its caption is shown (the kiosk then holds the caption while
-    narration is on: a visitor listening waits, one reading sees it longer)."""
-    from exhibit.kiosk.narrator import prepare_all
+    problems for those that cannot be (a recording refused, no speech engine, one that hung:
+    the segments after it are skipped, counted on its line), and a note for each that runs
+    past the time its caption is shown (the kiosk then holds the caption while narration is
+    on: a visitor listening waits, one reading sees it longer)."""
+    from exhibit.kiosk.narrator import prepare_all, report_lines
 
     if config.attract_dir is None:
         return [], []
     timelines = [load_timeline(path) for path in timeline_paths(config.attract_dir)]
-    problems, notes = [], []
+    notes: list[str] = []
+    failures = []
     for p in prepare_all(config, timelines):
         where = f"{p.timeline}: keyframe[{p.segment.keyframe}]: narration ({p.segment.language})"
         if p.error is not None:
-            problems.append(f"{where}: {p.error}")
+            failures.append((where, p.error, p.skipped))
         elif p.overrun > 0:
             notes.append(
                 f"{where} takes {p.seconds:.1f} s, its caption is shown {p.segment.window:.1f} s: "
                 f"held {p.overrun:.1f} s longer while narration is on"
             )
-    return problems, notes
+    return report_lines(failures), notes
 
 
 def _colour_problems(config) -> list[str]:

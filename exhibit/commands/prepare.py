@@ -14,7 +14,7 @@ from typing import Any
 from exhibit.kiosk.attract import load_playlist
 from exhibit.kiosk.config import KioskConfig, load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
-from exhibit.kiosk.narrator import prepare_all
+from exhibit.kiosk.narrator import prepare_all, report_lines
 from exhibit.kiosk.jobs import run_job, scene_jobs
 from exhibit.scenes.cache import cache_dir, entry_path, entry_problem
 from exhibit.surfaces import progress
@@ -85,12 +85,18 @@ def run(args: argparse.Namespace) -> int:
         "segments": len(spoken),
         "seconds": round(time.perf_counter() - speech_start, 2),
         "spoken_s": round(sum(p.seconds or 0.0 for p in spoken), 1),
-        "failed": [
-            f"{p.timeline}: keyframe[{p.segment.keyframe}] ({p.segment.language}): {p.error}"
+        "failed": report_lines(  # those skipped after a hang: counted on its line
+            (
+                f"{p.timeline}: keyframe[{p.segment.keyframe}] ({p.segment.language})",
+                p.error,
+                p.skipped,
+            )
             for p in spoken
             if p.error
-        ],
+        ),
+        "skipped": sum(p.skipped for p in spoken),
     }
+    unmade = sum(1 for p in spoken if p.error)
     if args.json:
         print(
             json.dumps({"cache": str(cache_dir()), "scenes": report, "narration": speech}, indent=2)
@@ -108,10 +114,10 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {name:<20} resolutions {', '.join(map(str, r['resolutions']))}: {what}")
         print(f"{len(report) - len(failed)} of {len(report)} scenes ready")
         print(
-            f"narration: {speech['segments'] - len(speech['failed'])} of {speech['segments']} "
+            f"narration: {speech['segments'] - unmade} of {speech['segments']} "
             f"segments ready ({speech['spoken_s']:.0f} s of speech, made in "
             f"{speech['seconds']:.1f} s)"
         )
         for line in speech["failed"]:
             print(f"  {line}")
-    return 1 if failed or speech["failed"] else 0
+    return 1 if failed or unmade else 0

@@ -13,19 +13,23 @@ Never in the frame loop: the sounds are made (synthesised, cached on disk, recor
 by a worker thread from the first press on (from start-up when attract mode speaks), and
 `exhibit prepare` fills the cache before; the player
 (exhibit.narration.player) plays from its own thread. A sound not ready yet is spoken when it
-is; one that cannot be made is skipped and named in the health file, never a crash."""
+is; one that cannot be made is skipped and named in the health file, never a crash. The engine
+has a time limit a call (exhibit.tools.ESPEAK_CALL_S; a review and `exhibit prepare` also one in
+all): once it has hung, the segments after it are skipped at once, not waited for one by one,
+and its process never outlives the kiosk (exhibit.tools)."""
 
 from __future__ import annotations
 
 import logging
 import threading
 from collections import deque
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
 from exhibit.narration.script import Segment, segment_at, segments
+from exhibit.narration.speech import SpeechBudget, SpeechSkipped
 
 if TYPE_CHECKING:
     from exhibit.kiosk.attract import Timeline
@@ -67,7 +71,9 @@ class Narrator:
     """``timelines``: the kiosk's (exhibit.kiosk.attract.Timeline); ``translate(text, code)``:
     its words (exhibit.kiosk.language); ``player``: an exhibit.narration.player.Player (or one
     with its interface); ``make(segment) -> Sound``: how a segment's sound is made (default:
-    its recording, else synthesised speech from the cache)."""
+    its recording, else synthesised speech from the cache, within ``budget``: the time the
+    speech engine may take, exhibit.narration.speech.SpeechBudget, by default a limit a call
+    and none in all, as the kiosk runs for weeks)."""
 
     def __init__(
         self,
@@ -78,18 +84,22 @@ class Narrator:
         attract: bool = False,
         make: Callable[[Segment], object] | None = None,
         background: bool = True,
+        budget: SpeechBudget | None = None,
     ) -> None:
+        self.budget = budget if budget is not None else SpeechBudget()
         #: Any: a review reads its tape back through it (exhibit.narration.tape.TapePlayer).
         self.player: Any = player
         self.attract = attract
         self.pressed_on = False
         self._translate = translate
-        self._make = make or make_sound
+        self._make = make or (lambda segment: make_sound(segment, self.budget))
         self._scripts: dict[tuple[str, str], list[Segment]] = {
             (t.path, code): segments(t, code, translate) for t in timelines for code in languages
         }
         self._sounds: dict[tuple[str, int, str], object] = {}
         self._failed: dict[tuple[str, int, str], str] = {}
+        #: Those skipped because the engine hung before: key -> that first reason.
+        self._skipped: dict[tuple[str, int, str], str] = {}
         self._speaking: Spoken | None = None
         #: What was spoken lately: (when it started, what, its segment), for reviews (bounded:
         #: a kiosk runs for weeks).
@@ -127,6 +137,9 @@ class Narrator:
         except Exception as exc:  # noqa: BLE001 - a sound that cannot be made is skipped
             with self._lock:
                 self._failed[key] = str(exc)
+                if isinstance(exc, SpeechSkipped):
+                    self._skipped[key] = exc.reason
+                    return None  # logged once, when it hung
             log.warning("narration of %s, segment %d (%s): %s", key[0], key[1], key[2], exc)
             return None
         with self._lock:
@@ -250,6 +263,16 @@ class Narrator:
             "player": self.player.status(),
         }
 
+    def failures(self) -> list[str]:
+        """The segments that could not be made, one line each ("PATH #N (en): why"), those
+        skipped after the engine hung counted on the line of the one it hung on."""
+        with self._lock:
+            failed, skipped = dict(self._failed), dict(self._skipped)
+        return report_lines(
+            (f"{k[0]} #{k[1]} ({k[2]})", skipped.get(k, why), k in skipped)
+            for k, why in sorted(failed.items())
+        )
+
     def close(self) -> None:
         self.player.stop()
         self.player.close()
@@ -281,18 +304,21 @@ def for_kiosk(
         player,
         attract=settings.attract,
         background=background,
+        # a review is a command: its speech has a time in all, the kiosk's only one a call
+        budget=SpeechBudget() if background else SpeechBudget.for_command(),
     )
 
 
-def make_sound(segment: Segment) -> Sound:
+def make_sound(segment: Segment, budget: SpeechBudget | None = None) -> Sound:
     """A segment's sound: the curator's recording (checked: exhibit.narration.recordings) when
-    it has one, else its words synthesised (cached: exhibit.narration.cache)."""
+    it has one, else its words synthesised (cached: exhibit.narration.cache) within
+    ``budget``."""
     from exhibit.narration.cache import spoken
     from exhibit.narration.recordings import load_recording
 
     if segment.recording is not None:
         return load_recording(Path(segment.recording), Path(segment.root or "."))
-    return spoken(segment.text, segment.language)
+    return spoken(segment.text, segment.language, budget=budget)
 
 
 @dataclass(frozen=True)
@@ -304,6 +330,8 @@ class Prepared:
     segment: Segment
     seconds: float | None
     error: str | None = None
+    #: Not made because the engine hung (or the run's time ran out) before: ``error`` says why.
+    skipped: bool = False
 
     @property
     def overrun(self) -> float:
@@ -315,11 +343,15 @@ def prepare_all(
     config: KioskConfig,
     timelines: Sequence,
     progress: Callable[[str], object] | None = None,
+    budget: SpeechBudget | None = None,
 ) -> list[Prepared]:
     """Every segment of every timeline in every language shown, its sound made (synthesised
     into the cache, recordings checked) as the kiosk will want it; ``progress(text)`` is told
-    each one."""
+    each one. The speech engine's time is ``budget`` (default: a command's,
+    SpeechBudget.for_command): once it has hung, the segments after it are skipped at once."""
     from exhibit.kiosk.language import translator_for
+
+    budget = budget if budget is not None else SpeechBudget.for_command()
 
     translate = translator_for(config, [])
     out = []
@@ -329,9 +361,37 @@ def prepare_all(
                 if progress is not None:
                     progress(f"narration: {Path(timeline.path).name} keyframe {segment.keyframe}")
                 try:
-                    sound = make_sound(segment)
+                    sound = make_sound(segment, budget)
+                except SpeechSkipped as exc:
+                    out.append(Prepared(timeline.path, segment, None, exc.reason, skipped=True))
+                    continue
                 except Exception as exc:  # noqa: BLE001 - reported per segment, by name
                     out.append(Prepared(timeline.path, segment, None, str(exc)))
                     continue
                 out.append(Prepared(timeline.path, segment, float(sound.duration)))
     return out
+
+
+def report_lines(failures: Iterable[tuple[str, str, bool]]) -> list[str]:
+    """``failures`` as (where, why, skipped) in order, as lines "where: why" for a report;
+    those skipped after the engine hung are not listed one by one: the line of the segment it
+    hung on says how many ("...: espeak-ng did not answer within 20 s (speaking '...'); speech
+    skipped for 59 more segments")."""
+    failures = list(failures)
+    skipped = [why for _, why, was_skipped in failures if was_skipped]
+    lines = []
+    for where, why, was_skipped in failures:
+        if was_skipped:
+            continue
+        if skipped and why == skipped[0]:
+            n = len(skipped)
+            why = f"{why}; speech skipped for {n} more segment{'s' if n != 1 else ''}"
+            skipped = []
+        lines.append(f"{where}: {why}")
+    if skipped:  # it hung before this run's first segment (a shared budget)
+        where = next(where for where, _, was_skipped in failures if was_skipped)
+        n = len(skipped)
+        lines.append(
+            f"{where}: {skipped[0]}; speech skipped for {n} segment{'s' if n != 1 else ''}"
+        )
+    return lines

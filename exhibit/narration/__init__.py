@@ -22,7 +22,15 @@ from exhibit.narration.sound import (
     silence,
     write_wav,
 )
-from exhibit.narration.speech import ENGINE, VOICES, available, engine_version, synthesise
+from exhibit.narration.speech import (
+    ENGINE,
+    VOICES,
+    SpeechBudget,
+    SpeechSkipped,
+    available,
+    engine_version,
+    synthesise,
+)
 
 __all__ = [
     "ENGINE",
@@ -30,6 +38,8 @@ __all__ = [
     "Player",
     "RATE",
     "Sound",
+    "SpeechBudget",
+    "SpeechSkipped",
     "VOICES",
     "available",
     "concatenate",

@@ -25,6 +25,7 @@ from exhibit.narration.sound import RATE, Sound, wav_bytes
 from exhibit.narration.speech import (
     ENGINE,
     MAX_OUTPUT_BYTES,
+    SpeechBudget,
     engine_version,
     synthesise,
     voice_for,
@@ -45,12 +46,15 @@ def speech_cache_dir() -> Path:
     return Path(base) / "exhibit" / "speech"
 
 
-def speech_key(text: str, language: str, rate_wpm: int = DEFAULT_RATE_WPM) -> str:
-    """The sha256 naming the speech of ``text`` (raises NarrationError without espeak-ng)."""
+def speech_key(
+    text: str, language: str, rate_wpm: int = DEFAULT_RATE_WPM, budget: SpeechBudget | None = None
+) -> str:
+    """The sha256 naming the speech of ``text`` (raises NarrationError without espeak-ng, or
+    when it does not tell its version within ``budget``)."""
     description = json.dumps(
         {
             "engine": ENGINE,
-            "version": engine_version(),
+            "version": engine_version(budget),
             "voice": voice_for(language),
             "rate": int(rate_wpm),
             "text": text,
@@ -93,14 +97,20 @@ def _read_entry(data: bytes, key: str) -> Sound:
 
 
 def spoken(
-    text: str, language: str, cache: Path | None = None, *, rate_wpm: int = DEFAULT_RATE_WPM
+    text: str,
+    language: str,
+    cache: Path | None = None,
+    *,
+    rate_wpm: int = DEFAULT_RATE_WPM,
+    budget: SpeechBudget | None = None,
 ) -> Sound:
     """``text`` spoken in ``language``: from the cache folder (``cache``, else
-    :func:`speech_cache_dir`) when a valid entry is there, else synthesised and stored. A bad
-    entry is replaced; a cache that cannot be written only costs the synthesis next time.
-    NarrationError as :func:`~exhibit.narration.speech.synthesise` raises it."""
+    :func:`speech_cache_dir`) when a valid entry is there, else synthesised within ``budget``
+    (the run's: exhibit.narration.speech.SpeechBudget) and stored. A bad entry is replaced; a
+    cache that cannot be written only costs the synthesis next time. NarrationError as
+    :func:`~exhibit.narration.speech.synthesise` raises it."""
     folder = Path(cache) if cache is not None else speech_cache_dir()
-    key = speech_key(text, language, rate_wpm)  # an unknown language is refused here
+    key = speech_key(text, language, rate_wpm, budget)  # an unknown language is refused here
     path = folder / f"{language}-{key[:32]}.wav"
     try:
         data = files.read_regular(path, MAX_OUTPUT_BYTES + 8192, follow=False)
@@ -109,7 +119,7 @@ def spoken(
         pass
     except (OSError, ValueError) as exc:
         log.warning("speech cache %s is unusable (%s); speaking it again", path, exc)
-    sound = synthesise(text, language, rate_wpm)
+    sound = synthesise(text, language, rate_wpm, budget)
     try:
         folder.mkdir(parents=True, exist_ok=True)
         files.write_atomic(path, _entry(sound, key), heal=True)

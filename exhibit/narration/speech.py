@@ -8,19 +8,21 @@ wherever it exists. Neural engines (Piper) need voice models from outside the pa
 registries, and the better MBROLA voices are not in Debian main.
 
 The engine runs as a subprocess, never through a shell: the text goes in on stdin (so one that
-begins with "-" is not an option), the WAV comes back on stdout, with a timeout and a cap on its
-size.
+begins with "-" is not an option), the WAV comes back on stdout, with a cap on its size, in a
+process group of its own that is killed when the call ends or the exhibit does
+(exhibit.tools). Its time is a :class:`SpeechBudget`: each call at most
+exhibit.tools.ESPEAK_CALL_S, a command's calls together at most SPEECH_TOTAL_S, and once the
+engine has hung every later call of the same run fails at once with the same reason.
 """
 
 from __future__ import annotations
 
-import functools
 import os
-import selectors
 import shutil
-import subprocess
+import threading
 import time
 
+from exhibit import tools
 from exhibit.narration.errors import NarrationError
 from exhibit.narration.sound import Sound, read_wav_bytes
 
@@ -31,8 +33,8 @@ ENGINE = "espeak-ng"
 VOICES = {"en": "en-gb", "de": "de"}
 #: A description or caption longer than this is a mistake, not a text to read for minutes.
 MAX_TEXT_CHARS = 2000
-#: The most a synthesis may take and return (10 minutes of 16-bit audio at 22.05 kHz).
-TIMEOUT_S = 60.0
+#: The most a synthesis may return (10 minutes of 16-bit audio at 22.05 kHz); its time limits
+#: are exhibit.tools.ESPEAK_CALL_S and SPEECH_TOTAL_S, with the other tools' limits.
 MAX_OUTPUT_BYTES = 600 * 22050 * 2
 INSTALL_HINT = "apt-get install espeak-ng (./bootstrap.sh installs it)"
 
@@ -46,25 +48,104 @@ def available() -> bool:
     return _binary() is not None
 
 
-@functools.lru_cache(maxsize=1)
-def _version(binary: str) -> str:
-    try:
-        out = subprocess.run(
-            [binary, "--version"], capture_output=True, timeout=10, check=False, env=_env()
-        ).stdout.decode("utf-8", "replace")
-    except (OSError, subprocess.SubprocessError) as exc:
-        raise NarrationError(f"{ENGINE} --version failed: {exc}") from None
-    # "eSpeak NG text-to-speech: 1.51  Data at: ..."
-    words = out.split("text-to-speech:", 1)[-1].split()
-    return words[0] if words else out.strip() or "unknown"
+class SpeechSkipped(NarrationError):
+    """Not spoken, without asking the engine: it hung, or the run's time for speech ran out,
+    earlier in the same run; ``reason`` is that first failure's message."""
+
+    def __init__(self, reason: str) -> None:
+        super().__init__(f"skipped: {reason}")
+        self.reason = reason
 
 
-def engine_version() -> str:
-    """espeak-ng's version ("1.51"); part of the speech cache's key."""
+class SpeechBudget:
+    """The time espeak-ng may take in one run, shared by its threads: each call at most
+    ``call_s`` seconds (default exhibit.tools.ESPEAK_CALL_S), all calls together at most
+    ``total_s`` (None: no total, as in the kiosk, which runs for weeks; a command uses
+    :meth:`for_command`). The first call that runs out of time sets :attr:`reason`
+    ("espeak-ng did not answer within 20 s (speaking '...')"); every later call raises
+    SpeechSkipped with it at once and is counted in :attr:`skipped`, so a hung engine costs
+    ``call_s`` once, not once a segment. A kiosk tries the engine again at its next start."""
+
+    def __init__(self, call_s: float | None = None, total_s: float | None = None) -> None:
+        self.call_s = tools.ESPEAK_CALL_S if call_s is None else float(call_s)
+        self.total_s = total_s
+        self.spent_s = 0.0
+        self.reason: str | None = None
+        self.skipped = 0
+        self._lock = threading.Lock()
+
+    @classmethod
+    def for_command(cls) -> SpeechBudget:
+        """A command's budget: exhibit.tools.ESPEAK_CALL_S a call, SPEECH_TOTAL_S in all."""
+        return cls(total_s=tools.SPEECH_TOTAL_S)
+
+    def _stop(self, reason: str) -> NarrationError:
+        with self._lock:
+            if self.reason is None:
+                self.reason = reason
+        return NarrationError(reason)
+
+    def run(self, command: list[str], stdin: bytes, doing: str) -> tools.Finished:
+        """``command`` run within what is left (``doing``: "speaking 'Hello'", for the
+        message); NarrationError when it runs out of time or cannot be run."""
+        with self._lock:
+            if self.reason is not None:
+                self.skipped += 1
+                raise SpeechSkipped(self.reason)
+            limit, whole = self.call_s, False
+            if self.total_s is not None and self.total_s - self.spent_s < limit:
+                limit, whole = self.total_s - self.spent_s, True
+        if limit <= 0:
+            raise self._stop(self._over(doing))
+        begun = time.monotonic()
+        try:
+            return tools.run(command, stdin, limit_s=limit, max_out=MAX_OUTPUT_BYTES, env=_env())
+        except tools.ToolHung:
+            raise self._stop(
+                self._over(doing)
+                if whole
+                else f"{ENGINE} did not answer within {limit:g} s ({doing})"
+            ) from None
+        except tools.ToolOutputTooLarge as exc:
+            raise NarrationError(f"{ENGINE} wrote over {exc.limit} bytes {doing}") from None
+        except OSError as exc:
+            raise NarrationError(f"cannot run {ENGINE}: {exc.strerror or exc}") from None
+        finally:
+            with self._lock:
+                self.spent_s += time.monotonic() - begun
+
+    def _over(self, doing: str) -> str:
+        return (
+            f"{ENGINE} took over {self.total_s:g} s in all, the most a run's speech may take "
+            f"(a slow or overloaded machine; stopped {doing})"
+        )
+
+
+#: espeak-ng's version by binary, once it has answered.
+_versions: dict[str, str] = {}
+
+
+def _version(binary: str, budget: SpeechBudget | None = None) -> str:
+    if binary not in _versions:
+        budget = budget or SpeechBudget()
+        done = budget.run([binary, "--version"], b"", "asked its version")
+        out = tools.text(done.out)
+        if done.code != 0:
+            why = " ".join(tools.text(done.err).split())[:200] or f"exit status {done.code}"
+            raise NarrationError(f"{ENGINE} --version failed: {why}")
+        # "eSpeak NG text-to-speech: 1.51  Data at: ..."
+        words = out.split("text-to-speech:", 1)[-1].split()
+        _versions[binary] = words[0] if words else out.strip() or "unknown"
+    return _versions[binary]
+
+
+def engine_version(budget: SpeechBudget | None = None) -> str:
+    """espeak-ng's version ("1.51"); part of the speech cache's key. ``budget``: the run's
+    (default: one call's limit)."""
     binary = _binary()
     if binary is None:
         raise NarrationError(f"{ENGINE} is not installed: {INSTALL_HINT}")
-    return _version(binary)
+    return _version(binary, budget)
 
 
 def _env() -> dict[str, str]:
@@ -86,10 +167,13 @@ def voice_for(language: str) -> str:
     return voice
 
 
-def synthesise(text: str, language: str, rate_wpm: int = 150) -> Sound:
-    """``text`` spoken in ``language`` (a key of VOICES) at ``rate_wpm`` words a minute.
-    NarrationError, on one line, when espeak-ng is missing, the language has no voice, the text
-    is blank or too long, or espeak-ng fails."""
+def synthesise(
+    text: str, language: str, rate_wpm: int = 150, budget: SpeechBudget | None = None
+) -> Sound:
+    """``text`` spoken in ``language`` (a key of VOICES) at ``rate_wpm`` words a minute, within
+    ``budget`` (the run's; default: one call's limit). NarrationError, on one line, when
+    espeak-ng is missing, the language has no voice, the text is blank or too long, or
+    espeak-ng fails or runs out of time (SpeechSkipped when it did so earlier in the run)."""
     voice = voice_for(language)
     if not isinstance(text, str) or not text.strip():
         raise NarrationError("cannot speak a blank text")
@@ -105,60 +189,9 @@ def synthesise(text: str, language: str, rate_wpm: int = 150) -> Sound:
     if binary is None:
         raise NarrationError(f"{ENGINE} is not installed: {INSTALL_HINT}")
     command = [binary, "--stdout", "-b", "1", "-v", voice, "-s", str(int(rate_wpm))]
-    data = _run(command, text.encode("utf-8"), _shown(text))
-    return read_wav_bytes(data, f"{ENGINE} output for {_shown(text)}")
-
-
-def _run(command: list[str], stdin: bytes, shown: str) -> bytes:
-    """Run ``command`` with ``stdin``; its stdout, read to MAX_OUTPUT_BYTES within TIMEOUT_S."""
-    try:
-        proc = subprocess.Popen(
-            command,
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            env=_env(),
-            start_new_session=True,
-        )
-    except OSError as exc:
-        raise NarrationError(f"cannot run {ENGINE}: {exc.strerror or exc}") from None
-    out, err = bytearray(), bytearray()
-    try:
-        assert proc.stdin and proc.stdout and proc.stderr
-        try:
-            proc.stdin.write(stdin)  # MAX_TEXT_CHARS fits the pipe's buffer: no deadlock
-            proc.stdin.close()
-        except BrokenPipeError:
-            pass
-        deadline = time.monotonic() + TIMEOUT_S
-        with selectors.DefaultSelector() as sel:
-            sel.register(proc.stdout, selectors.EVENT_READ, out)
-            sel.register(proc.stderr, selectors.EVENT_READ, err)
-            while sel.get_map():
-                left = deadline - time.monotonic()
-                if left <= 0:
-                    raise NarrationError(f"{ENGINE} took over {TIMEOUT_S:g} s to speak {shown}")
-                for key, _ in sel.select(left):
-                    chunk = os.read(key.fd, 1 << 16)
-                    if not chunk:
-                        sel.unregister(key.fileobj)
-                        continue
-                    key.data.extend(chunk)
-                    if len(out) > MAX_OUTPUT_BYTES or len(err) > 1 << 16:
-                        raise NarrationError(
-                            f"{ENGINE} wrote over {MAX_OUTPUT_BYTES} bytes for {shown}"
-                        )
-        code = proc.wait(timeout=max(0.1, deadline - time.monotonic()))
-    except subprocess.TimeoutExpired:
-        raise NarrationError(f"{ENGINE} took over {TIMEOUT_S:g} s to speak {shown}") from None
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-        for stream in (proc.stdout, proc.stderr):
-            if stream:
-                stream.close()
-    if code != 0 or not out:
-        why = " ".join(err.decode("utf-8", "replace").split())[:200] or f"exit status {code}"
+    shown = _shown(text)
+    done = (budget or SpeechBudget()).run(command, text.encode("utf-8"), f"speaking {shown}")
+    if done.code != 0 or not done.out:
+        why = " ".join(tools.text(done.err).split())[:200] or f"exit status {done.code}"
         raise NarrationError(f"{ENGINE} failed to speak {shown}: {why}")
-    return bytes(out)
+    return read_wav_bytes(done.out, f"{ENGINE} output for {shown}")

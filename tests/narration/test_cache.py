@@ -19,13 +19,13 @@ def engine(monkeypatch):
     """A fake espeak-ng: each text's samples derive from it; ``calls`` counts syntheses."""
     calls: list[tuple[str, str, int]] = []
 
-    def synthesise(text, language, rate_wpm=150):
+    def synthesise(text, language, rate_wpm=150, budget=None):
         calls.append((text, language, rate_wpm))
         rng = np.random.default_rng(abs(hash((text, language))) % (1 << 32))
         return Sound(rng.integers(-20000, 20000, 2205 + len(text), dtype=np.int16))
 
     monkeypatch.setattr(cache, "synthesise", synthesise)
-    monkeypatch.setattr(cache, "engine_version", lambda: "9.99")
+    monkeypatch.setattr(cache, "engine_version", lambda budget=None: "9.99")
     return calls
 
 
@@ -46,7 +46,7 @@ def test_a_miss_then_a_hit(tmp_path, engine):
 
 def test_a_new_engine_version_misses(tmp_path, engine, monkeypatch):
     spoken("Hello", "en", tmp_path)
-    monkeypatch.setattr(cache, "engine_version", lambda: "10.0")
+    monkeypatch.setattr(cache, "engine_version", lambda budget=None: "10.0")
     spoken("Hello", "en", tmp_path)
     assert len(engine) == 2
 
