@@ -1,19 +1,22 @@
 """What `exhibit render`'s outputs share: sizes, the checks on --out and the writes to it (all
 through exhibit.schema.files: never through a link, FIFO, device or folder), and MP4s through
-ffmpeg."""
+ffmpeg (run by exhibit.tools: its own process group, killed with the command, its time
+bounded by exhibit.tools.FFMPEG_STALL_S without progress and FFMPEG_BASE_S and
+FFMPEG_S_PER_MPIX in all)."""
 
 from __future__ import annotations
 
 import os
 import re
 import shutil
-import subprocess
+import struct
 import tempfile
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from exhibit import tools
 from exhibit.errors import ExhibitError
 from exhibit.schema.files import UnsafePath, check_output, output_folder, write_atomic
 
@@ -194,28 +197,70 @@ def encode_mp4(folder: Path, out: Path, fps: float = 25, audio: Path | None = No
         shutil.rmtree(private, ignore_errors=True)
 
 
+def _frames(folder: Path) -> tuple[int, int]:
+    """How many frames ``folder`` holds, and the pixels of each (the first PNG's IHDR; 0 when
+    it cannot be read)."""
+    names = sorted(folder.glob("frame_*.png"))
+    try:
+        with open(names[0], "rb") as first:
+            head = first.read(24)
+        width, height = struct.unpack(">II", head[16:24])
+    except (IndexError, OSError, struct.error):
+        return len(names), 0
+    return len(names), width * height
+
+
+def ffmpeg_limit_s(frames: int, pixels: int) -> float:
+    """The most encoding ``frames`` frames of ``pixels`` pixels may take in all."""
+    return tools.FFMPEG_BASE_S + tools.FFMPEG_S_PER_MPIX * frames * pixels / 1e6
+
+
 def _ffmpeg(folder: Path, out: Path, fps: float, audio: Path | None = None) -> None:
+    """ffmpeg, bounded (module docstring): its progress on stdout (-progress) shows it alive;
+    a failure is its last message, on one line, whatever bytes it wrote."""
+    frames, pixels = _frames(folder)
     sound = ["-i", str(audio), "-c:a", "aac", "-b:a", "96k"] if audio is not None else []
-    result = subprocess.run(
-        [
-            "ffmpeg",
-            "-y",
-            "-loglevel",
-            "error",
-            "-framerate",
-            f"{fps:g}",
-            "-i",
-            str(folder / "frame_%04d.png"),
-            *sound,
-            "-pix_fmt",
-            "yuv420p",
-            "-vf",
-            "pad=ceil(iw/2)*2:ceil(ih/2)*2",
-            str(out),
-        ],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    if result.returncode != 0:
-        raise ExhibitError(f"ffmpeg failed: {result.stderr.strip().splitlines()[-1:]}")
+    command = [
+        "ffmpeg",
+        "-nostdin",
+        "-y",
+        "-loglevel",
+        "error",
+        "-nostats",
+        "-progress",
+        "pipe:1",
+        "-framerate",
+        f"{fps:g}",
+        "-i",
+        str(folder / "frame_%04d.png"),
+        *sound,
+        "-pix_fmt",
+        "yuv420p",
+        "-vf",
+        "pad=ceil(iw/2)*2:ceil(ih/2)*2",
+        str(out),
+    ]
+    try:
+        done = tools.run(
+            command,
+            limit_s=ffmpeg_limit_s(frames, pixels),
+            stall_s=tools.FFMPEG_STALL_S,
+            max_out=4096,
+            max_err=1 << 16,
+            tail=True,
+        )
+    except tools.ToolHung as exc:
+        at = re.findall(rb"^frame=\s*(\d+)", exc.out, re.MULTILINE)
+        where = (
+            f"at frame {int(at[-1])} of {frames}" if at else f"before the first of {frames} frames"
+        )
+        if exc.stalled:
+            why = f"ffmpeg did not answer within {exc.seconds:g} s ({where})"
+        else:
+            why = f"ffmpeg took over {exc.seconds:g} s, the most {frames} frames may take ({where})"
+        raise ExhibitError(f"{why}; no MP4 was written") from None
+    except OSError as exc:
+        raise ExhibitError(f"cannot run ffmpeg: {exc.strerror or exc}") from None
+    if done.code != 0:
+        why = tools.last_line(done.err) or "no message"
+        raise ExhibitError(f"ffmpeg failed (exit status {done.code}): {why}")
