@@ -24,9 +24,14 @@ def main() -> None:
 
     window = open_window(config, windowed=True)
     kiosk = Kiosk(config, window, clock=clock)
-    kiosk.run(max_frames=frames // 5)
+    # Warm-up: the first half. Memory grows in two steps of about 1 MB in the first ~1000 s of
+    # kiosk time (near frames 600 and 1200 at 0.75 s a frame) and is flat from there to frame
+    # 5000 (+40 kB): caches that fill up to their bound (SQLite's page cache for the session
+    # log is 2 MB by default), not a leak. Measured from frame 1000 the second step fell in the
+    # measurement, and beside other work the soak failed at 2080 kB (2048 allowed).
+    kiosk.run(max_frames=frames // 2)
     warm = {"rss_kb": _rss_kb(), "fds": _fd_count()}
-    kiosk.run(max_frames=frames - frames // 5)
+    kiosk.run(max_frames=frames - frames // 2)
     end = {"rss_kb": _rss_kb(), "fds": _fd_count()}
     print(
         json.dumps(
