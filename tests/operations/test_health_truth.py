@@ -288,6 +288,10 @@ def test_a_really_full_tmpfs(tmp_path):
     assert out["stderr"].startswith(f"exhibit status: STATE FOLDER FULL: the state folder {state}")
     assert "sessions (ENOSPC)" in out["stderr"]
     assert out["frames"] == 2 and out["up"] is True
+    # Nothing lost: the session the full disk refused waited, and was written once it emptied
+    # (before: counted as failed and gone).
+    assert out["waiting"] >= 1 and out["failed"] == 0, out
+    assert out["left"] == 0 and out["written"] == out["submitted"], out
 
 
 FULL_DISK_SCRIPT = """
@@ -322,19 +326,29 @@ for i in range(50):  # until SQLite needs a page it cannot have
     writer.submit(Session(start=now, end=now, duration_s=1.0, active_s=1.0, utc_offset_s=0,
                           scenes=["hopf"] * 50, inputs=["knob"] * 50))
     for _ in range(600):
-        if writer.written + writer.failed > i:
+        if writer.written + writer.failed + len(writer.backlog) > i:
             break
         time.sleep(0.05)
-    if writer.failed:
+    if writer.backlog:
         break
+submitted = i + 1
 report(2)
 status = subprocess.run([sys.executable, "-m", "exhibit", "status", "--file",
                          str(state / "health.json"), "--json"], capture_output=True, text=True)
 data = json.loads(status.stdout)
 status_text = subprocess.run([sys.executable, "-m", "exhibit", "status", "--file",
                               str(state / "health.json")], capture_output=True, text=True)
+waiting = len(writer.backlog)
+os.close(fd)
+os.unlink(state / "filler")  # the disk empties: the waiting sessions are written
+for _ in range(600):
+    if not writer.backlog:
+        break
+    time.sleep(0.05)
 print(json.dumps({"exit": status.returncode, "stderr": status_text.stderr,
-                  "frames": data["frames"], "up": data["up"], "failed": writer.failed}))
+                  "frames": data["frames"], "up": data["up"], "failed": writer.failed,
+                  "waiting": waiting, "submitted": submitted, "written": writer.written,
+                  "left": len(writer.backlog)}))
 """
 
 

@@ -812,3 +812,49 @@ def test_the_health_file_says_sessions_are_not_recorded_when_the_database_cannot
     state = recorder.health()["sessions"]
     assert state["recording"] is True and "reason" not in state
     recorder.close(0.0, 1.0)
+
+
+def test_sessions_the_disk_refuses_wait_and_are_written_in_order(tmp_path, monkeypatch):
+    """A full state disk refuses writes for a while: the sessions that came meanwhile wait in
+    the writer's backlog and are written, oldest first, once it takes writes again (before:
+    counted as failed and lost)."""
+    monkeypatch.setattr(sessions_writer, "RETRY_S", 0.05)
+    writer = SessionWriter(tmp_path / "sessions.db")
+    assert writer.ready.wait(30) and writer.usable
+    real_add, full = writer.store.add, threading.Event()
+    full.set()
+
+    def add(session):
+        if full.is_set():
+            error = sqlite3.OperationalError("database or disk is full")
+            error.sqlite_errorcode = sqlite3.SQLITE_FULL  # as SQLite sets it
+            raise error
+        return real_add(session)
+
+    monkeypatch.setattr(writer.store, "add", add)
+    now = time.time()
+    for n in range(3):
+        writer.submit(
+            Session(
+                start=now + n,
+                end=now + n + 1,
+                duration_s=1.0,
+                active_s=1.0,
+                utc_offset_s=0,
+                scenes=["hopf"],
+                inputs=["knob"],
+            )
+        )
+    deadline = time.monotonic() + 30
+    while len(writer.backlog) < 3 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert (len(writer.backlog), writer.failed, writer.written) == (3, 0, 0)
+    assert writer.errno == "ENOSPC"
+    full.clear()  # the disk empties; no new session needs to come for the backlog to go
+    while writer.backlog and time.monotonic() < deadline:
+        time.sleep(0.01)
+    writer.close()
+    assert (len(writer.backlog), writer.failed, writer.written) == (0, 0, 3)
+    with sqlite3.connect(tmp_path / "sessions.db") as con:
+        starts = [row[0] for row in con.execute("select start from sessions order by id")]
+    assert starts == [now, now + 1, now + 2]

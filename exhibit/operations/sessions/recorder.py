@@ -43,7 +43,16 @@ class SessionLog:
         """For the health file: what the writer has done (sessions written, dropped because it
         was behind, refused by the database) and the language on screen."""
         w = self.writer
-        counts = {"written": w.written, "dropped": w.dropped, "failed": w.failed} if w else {}
+        counts = (
+            {
+                "written": w.written,
+                "dropped": w.dropped,
+                "failed": w.failed,
+                "waiting": len(w.backlog),
+            }
+            if w
+            else {}
+        )
         # What the writer really does: recording only once the database is open and while it
         # stays usable; otherwise false, with the reason the log gave.
         reason = None

@@ -1,5 +1,8 @@
 """The thread that owns the database, so a slow disk never stalls a frame: finished sessions
-come through a bounded queue, and a full queue drops one rather than wait."""
+come through a bounded queue, and a full queue drops one rather than wait. A session the
+database refuses (a full or read-only state disk) waits in a bounded backlog and is written,
+in order, once the disk takes writes again: a visitor who came while the disk was full is
+still counted."""
 
 from __future__ import annotations
 
@@ -9,6 +12,7 @@ import queue
 import sqlite3
 import threading
 import time
+from collections import deque
 from collections.abc import Callable
 
 from exhibit.operations.sessions.session import Session
@@ -23,6 +27,10 @@ QUEUE_SIZE = 256
 #: Rotation runs at open, then after this many sessions or this many seconds, whichever first.
 ROTATE_EVERY = 200
 ROTATE_S = 3600.0
+#: Sessions kept while the database refuses writes (a few hundred bytes each: a busy day's
+#: worth, about 2 MB), and how often they are tried again when no new session comes.
+BACKLOG = 5000
+RETRY_S = 5.0
 
 _STOP = object()
 
@@ -46,8 +54,11 @@ class SessionWriter:
         self.queue: queue.Queue = queue.Queue(maxsize=queue_size)
         self.on_commit = on_commit
         self.dropped = 0  # the queue was full
-        self.failed = 0  # the database refused the write
+        self.failed = 0  # the database refused the write, and the session is lost
         self.written = 0
+        #: Sessions the database refused, oldest first, to be written when it takes them.
+        self.backlog: deque[Session] = deque()
+        self._refused = 0
         self.ready = threading.Event()  # set once the database is open (or given up)
         self.usable = False
         #: Why sessions are not recorded (None while they are): for the health file.
@@ -97,18 +108,19 @@ class SessionWriter:
         last_rotate, since_rotate = time.monotonic(), 0
         try:
             while True:
-                item = self.queue.get()
+                try:
+                    item = self.queue.get(timeout=RETRY_S if self.backlog else None)
+                except queue.Empty:
+                    since_rotate += self._flush()
+                    continue
                 if item is _STOP:
+                    self._flush()
                     break
                 if not self.usable:
                     self.failed += 1
                     continue
-                row = self._write(item)
-                if row is not None:
-                    self.written += 1
-                    since_rotate += 1
-                    if self.on_commit is not None:
-                        self.on_commit(item, row)
+                self._keep(item)
+                since_rotate += self._flush()
                 if since_rotate >= ROTATE_EVERY or time.monotonic() - last_rotate >= ROTATE_S:
                     last_rotate, since_rotate = time.monotonic(), 0
                     try:
@@ -116,7 +128,37 @@ class SessionWriter:
                     except sqlite3.Error as exc:
                         log.warning("sessions: rotation failed: %s", exc)
         finally:
+            if self.backlog:
+                self.failed += len(self.backlog)
+                log.warning(
+                    "sessions: %d session(s) not written at exit (%s)",
+                    len(self.backlog),
+                    self.errno or "the database refused them",
+                )
             self.store.close()
+
+    def _keep(self, session: Session) -> None:
+        """Queue ``session`` behind those still waiting; the oldest goes when BACKLOG are."""
+        if len(self.backlog) >= BACKLOG:
+            self.backlog.popleft()
+            self.failed += 1
+        self.backlog.append(session)
+
+    def _flush(self) -> int:
+        """Write the waiting sessions in order, up to the first the database refuses; how many
+        were written."""
+        done = 0
+        while self.backlog and self.usable:
+            session = self.backlog[0]
+            row = self._write(session)
+            if row is None:
+                break
+            self.backlog.popleft()
+            self.written += 1
+            done += 1
+            if self.on_commit is not None:
+                self.on_commit(session, row)
+        return done
 
     def _write(self, session: Session) -> int | None:
         """Add one session; a file found broken now is moved aside and the write retried once."""
@@ -138,10 +180,13 @@ class SessionWriter:
                         error = again
                         self.usable = False
                         self.reason = f"cannot reopen {self.store.path} ({again})"
-                self.failed += 1
-                if self.failed & (self.failed - 1) == 0:
+                self._refused += 1
+                if self._refused & (self._refused - 1) == 0:
                     log.warning(
-                        "sessions: a session was not written (%s; %d so far)", error, self.failed
+                        "sessions: a session was not written (%s; %d refusals so far), "
+                        "kept to try again",
+                        error,
+                        self._refused,
                     )
                 return None
         return None
