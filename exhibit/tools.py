@@ -210,15 +210,20 @@ def start(command: Sequence[str], *, stdin: bool = False, env: dict | None = Non
         raise FileNotFoundError(errno.ENOENT, os.strerror(errno.ENOENT), command[0])
     _warden.ready()
     gate, opener = os.pipe()
+    # without bash (not Debian) the tool runs ungated: a kill in the moment before it is
+    # watched may leave it running
+    gated = (
+        [_SHELL, "-p", "-c", _GATE.format(fd=gate), "gate"] if os.access(_SHELL, os.X_OK) else []
+    )
     try:
         process = subprocess.Popen(
-            [_SHELL, "-p", "-c", _GATE.format(fd=gate), "gate", *command],
+            [*gated, *command],
             stdin=subprocess.PIPE if stdin else subprocess.DEVNULL,
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             env=env,
             start_new_session=True,
-            pass_fds=(gate,),
+            pass_fds=(gate,) if gated else (),
         )
     except BaseException:
         os.close(opener)
@@ -227,7 +232,8 @@ def start(command: Sequence[str], *, stdin: bool = False, env: dict | None = Non
         os.close(gate)
     try:
         _warden.watch(process.pid)
-        os.write(opener, b"go\n")
+        if gated:
+            os.write(opener, b"go\n")
     except BaseException:
         stop(process)
         raise

@@ -171,3 +171,16 @@ def test_no_espeak_outlives_the_kiosk_or_the_command(site, sig, who):
         if process.poll() is None:
             process.kill()
             process.wait()
+
+
+def test_a_review_has_a_total_and_the_kiosk_none(site):
+    """A narrated review (a command) gets a total for its speech; the kiosk, which runs for
+    weeks, only the limit a call."""
+    from exhibit.kiosk.config import load_kiosk_config
+    from exhibit.kiosk.narrator import Narrator, for_kiosk
+
+    review = for_kiosk(load_kiosk_config(site), [], lambda text, code: text, player=Player())
+    assert review.budget.total_s == tools.SPEECH_TOTAL_S
+    assert review.budget.call_s == tools.ESPEAK_CALL_S == 0.5
+    kiosk = Narrator([], ["en"], lambda text, code: text, Player(), background=True)
+    assert kiosk.budget.total_s is None and kiosk.budget.call_s == 0.5
