@@ -7,13 +7,19 @@ import faulthandler
 import logging
 import math
 import os
+import signal
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from exhibit.errors import ExhibitError
 from exhibit.operations import journal
 from exhibit.kiosk.config import load_kiosk_config
 
+if TYPE_CHECKING:
+    from exhibit.kiosk.app import Kiosk
+
 HELP = "run the exhibit (fullscreen kiosk with devices and attract mode)"
+log = logging.getLogger("exhibit.kiosk")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -70,6 +76,27 @@ def run(args: argparse.Namespace) -> int:
             sessions=open_session_log(config.sessions),
             preparer=ProcessPreparer,
         )
-        return kiosk.run(duration=duration, screenshot=screenshot)
+        asked = _stop_on_sigterm(kiosk)
+        code = kiosk.run(duration=duration, screenshot=screenshot)
+        if asked:
+            log.info("stopped on %s: the visitor's session, narration and devices closed", asked[0])
+        return code
     finally:
         window.close()
+
+
+def _stop_on_sigterm(kiosk: Kiosk) -> list[str]:
+    """systemd stops (and restarts, for an update) the kiosk with SIGTERM: end the frame loop
+    as the maintenance keys do, so a visitor's session is written, narration and devices are
+    closed and STOPPING=1 is sent, instead of dying at once with them (Python's default). The
+    handler only sets the loop's flag (nothing that takes a lock); the list it returns names
+    the signal once one came."""
+    asked: list[str] = []
+
+    def stop(signum: int, _frame: object) -> None:
+        asked.append(signal.Signals(signum).name)
+        kiosk.input.quit = True
+
+    signal.signal(signal.SIGTERM, stop)
+    signal.signal(signal.SIGHUP, stop)
+    return asked
