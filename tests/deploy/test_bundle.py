@@ -25,6 +25,8 @@ import pytest
 from packaging.requirements import Requirement
 from packaging.utils import canonicalize_name
 
+from tests.deploy.bundles import debian_12_with_python_311, make_bundle
+
 REPO = Path(__file__).resolve().parents[2]
 PYPROJECT = tomllib.loads((REPO / "pyproject.toml").read_text())
 LOCKS = REPO / "requirements"
@@ -202,37 +204,10 @@ def _offline_prefix() -> list[str]:
     return prefix
 
 
-def _debian_12_with_python_311() -> str:
-    release = Path("/etc/os-release")
-    if not release.exists() or 'VERSION_ID="12"' not in release.read_text():
-        pytest.skip("bundles are made on and for Debian 12")
-    python = "/usr/bin/python3"
-    check = subprocess.run(
-        [python, "-c", "import sys; print(sys.version_info[:2] == (3, 11))"],
-        capture_output=True,
-        text=True,
-    )
-    if check.stdout.strip() != "True":
-        pytest.skip("the bundle is for Debian 12's Python 3.11 (/usr/bin/python3)")
-    return python
-
-
 @pytest.fixture(scope="module")
 def bundle(tmp_path_factory):
     """A bundle of this checkout: $EXHIBIT_TEST_BUNDLE if set (made earlier), else made now."""
-    _debian_12_with_python_311()
-    if os.environ.get("EXHIBIT_TEST_BUNDLE"):
-        return Path(os.environ["EXHIBIT_TEST_BUNDLE"])
-    folder = tmp_path_factory.mktemp("bundle") / "exhibit-bundle"
-    result = subprocess.run(
-        [str(REPO / "bootstrap.sh"), "bundle", str(folder)],
-        capture_output=True,
-        text=True,
-        timeout=900,
-        env={k: v for k, v in os.environ.items() if k != "EXHIBIT_BUNDLE"},
-    )
-    assert result.returncode == 0, result.stderr[-3000:]
-    return folder
+    return make_bundle(tmp_path_factory.mktemp("bundle") / "exhibit-bundle")
 
 
 @pytest.mark.slow
@@ -269,7 +244,7 @@ def test_the_bundle_holds_every_wheel_of_the_lock_and_its_debs(bundle):
 def test_offline_the_run_command_installs_from_the_bundle_alone(bundle, tmp_path):
     """README's run command, run from a copy of the bundle with no network: a fresh .venv from
     the bundle's wheels, then the exhibit from another folder."""
-    python = _debian_12_with_python_311()
+    python = debian_12_with_python_311()
     offline = _offline_prefix()
     usb = tmp_path / "usb"
     shutil.copytree(bundle, usb, symlinks=True, ignore=shutil.ignore_patterns(".venv"))
