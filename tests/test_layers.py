@@ -30,7 +30,8 @@ LAYERS = {
     "geometry": 2,
     "surfaces": 3,
     "devices": 3,
-    "narration": 3,
+    "timelines": 3,
+    "narration": 4,
     "scenes": 4,
     "operations": 4,
     "render": 5,
@@ -229,6 +230,40 @@ def test_a_planted_cycle_is_found_through_relative_and_lazy_imports(tree):
     )
     assert cycles(edges) == [["exhibit.devices.fake", "exhibit.devices.hid", "exhibit.devices.url"]]
     assert upward_imports(edges) == []
+
+
+def test_a_timeline_that_looks_up_its_scene_itself_is_refused(tree):
+    """The timeline model sits below the narration that speaks it (which imports the real
+    classes) and below the scenes: the scene a file names is looked up by the caller."""
+    edges = tree(
+        {
+            "__init__.py": "",
+            "timelines/__init__.py": "",
+            "timelines/file.py": "def load(path):\n    from exhibit import scenes\n",
+            "timelines/model.py": "",
+            "narration/__init__.py": "",
+            "narration/script.py": "from exhibit.timelines.model import Timeline\n",
+            "scenes/__init__.py": "",
+        }
+    )
+    assert upward_imports(edges) == [
+        "exhibit.timelines.file (layer 3) imports exhibit.scenes (layer 4)"
+    ]
+
+
+def test_narration_is_not_imported_by_the_timelines_it_speaks(tree):
+    edges = tree(
+        {
+            "__init__.py": "",
+            "timelines/__init__.py": "",
+            "timelines/model.py": TYPE_ONLY.format("from exhibit.narration.script import Segment"),
+            "narration/__init__.py": "",
+            "narration/script.py": "from exhibit.timelines.model import Timeline\n",
+        }
+    )
+    assert upward_imports(edges) == [
+        "exhibit.timelines.model (layer 3) imports exhibit.narration.script (layer 4)"
+    ]
 
 
 TYPE_ONLY = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    {}\n"

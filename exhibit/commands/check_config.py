@@ -2,7 +2,7 @@
 defaults) and everything it names (device config, attract timelines, scene files); list every
 problem as file: key: reason, or with --show the effective settings and where each came from.
 
-It also plays every attract timeline (exhibit.kiosk.captions): a caption shown while the view
+It also plays every attract timeline (exhibit.timelines.captions): a caption shown while the view
 contradicts its ``while`` condition, or too briefly to be read, is a problem here, though the
 kiosk still plays such a timeline (a wrong caption is no reason to show nothing). Likewise a
 text without a translation in a language shown, or with characters the font lacks
@@ -15,11 +15,12 @@ import argparse
 import json
 from collections.abc import Mapping
 
-from exhibit.kiosk.attract import load_timeline, timeline_paths
-from exhibit.kiosk.captions import caption_problems
+from exhibit import scenes
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
 from exhibit.kiosk.language import Catalogue, coverage_problems
 from exhibit.render.layout import PINCH_KEY
+from exhibit.timelines.captions import caption_problems
+from exhibit.timelines.file import load_timeline, timeline_paths
 
 HELP = "check the kiosk configuration and all the files it names; exit 2 on any problem"
 
@@ -81,7 +82,9 @@ def _caption_problems(attract_dir) -> list[str]:
     if attract_dir is None:
         return []
     return [
-        p for path in timeline_paths(attract_dir) for p in caption_problems(load_timeline(path))
+        p
+        for path in timeline_paths(attract_dir)
+        for p in caption_problems(load_timeline(path, scenes.get))
     ]
 
 
@@ -95,7 +98,7 @@ def _narration(config) -> tuple[list[str], list[str]]:
 
     if config.attract_dir is None:
         return [], []
-    timelines = [load_timeline(path) for path in timeline_paths(config.attract_dir)]
+    timelines = [load_timeline(path, scenes.get) for path in timeline_paths(config.attract_dir)]
     notes: list[str] = []
     failures = []
     for p in prepare_all(config, timelines):
@@ -113,12 +116,13 @@ def _narration(config) -> tuple[list[str], list[str]]:
 def _colour_problems(config) -> list[str]:
     """The colours of every curator's scene the kiosk shows, held to the rule the shipped
     scenes keep (exhibit.scenes.colours; those are held to it by the tests)."""
-    from exhibit import scenes
     from exhibit.scenes.colours import colour_problems
 
     names = list(config.scenes)
     if config.attract_dir is not None:
-        names += [load_timeline(path).scene for path in timeline_paths(config.attract_dir)]
+        names += [
+            load_timeline(path, scenes.get).scene for path in timeline_paths(config.attract_dir)
+        ]
     out: list[str] = []
     for name in dict.fromkeys(names):
         try:
@@ -135,11 +139,13 @@ def _layout_problems(config) -> list[str]:
     out on the smallest kiosk screen (exhibit.render.layout.CHECK_SIZE): a panel it would make
     too tall or too wide, or a word wider than its panel, is a problem here (the kiosk breaks
     and shortens such text rather than draw it off the screen)."""
-    from exhibit.kiosk.attract import load_playlist
+    from exhibit.timelines.file import load_playlist
     from exhibit.kiosk.language import SOURCE, load_catalogues, shown_texts
     from exhibit.render.layout import TextSizes, text_problems
 
-    timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
+    timelines = (
+        load_playlist(config.attract_dir, scenes.get) if config.attract_dir is not None else []
+    )
     texts = shown_texts(config.scenes, timelines)
     t = config.text
     sizes = TextSizes(t.caption_cap, t.title_cap, t.infinity_beyond)

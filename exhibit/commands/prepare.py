@@ -11,7 +11,8 @@ import json
 import time
 from typing import Any
 
-from exhibit.kiosk.attract import load_playlist
+from exhibit import scenes
+from exhibit.timelines.file import load_playlist
 from exhibit.kiosk.config import KioskConfig, load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
 from exhibit.kiosk.narrator import prepare_all, report_lines
@@ -47,8 +48,6 @@ def mesh_levels_for(config: KioskConfig) -> list[int]:
 def _not_cached(job, resolutions: list[int]) -> str | None:
     """Why a scene built without an error left no mesh in the cache (the cache only warns when
     it cannot store one: a warm start is what prepare promises), or None."""
-    from exhibit import scenes
-
     scene = scenes.get(job.scene)
     for resolution in resolutions:
         problem = entry_problem(entry_path(scene, dict(job.params), resolution))
@@ -59,7 +58,9 @@ def _not_cached(job, resolutions: list[int]) -> str | None:
 
 def run(args: argparse.Namespace) -> int:
     config = load_kiosk_config(args.config)
-    timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
+    timelines = (
+        load_playlist(config.attract_dir, scenes.get) if config.attract_dir is not None else []
+    )
     jobs = scene_jobs(config, timelines, mesh_levels_for(config))
     report: list[dict[str, Any]] = []  # one JSON object a scene
     with progress.on_terminal():

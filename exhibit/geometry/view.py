@@ -152,7 +152,7 @@ class ViewState:
 
     def replace(self, **changes: Any) -> ViewState:
         """A copy with ``changes`` to its fields, checked by __post_init__. Any: callers build
-        the changes as dicts of several fields' values (kiosk/attract.py, commands/render.py),
+        the changes as dicts of several fields' values (timelines/model.py, commands/render.py),
         which a TypedDict of the fields would refuse."""
         return dataclasses.replace(self, **changes)
 

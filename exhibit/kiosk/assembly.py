@@ -15,8 +15,11 @@ from pathlib import Path
 from exhibit.devices.config import load_config
 from exhibit.devices.hub import DeviceSet
 from exhibit.devices.mapping import ActivityDetector, Mapper
+from exhibit import scenes
 from exhibit.errors import ExhibitError
-from exhibit.kiosk.attract import Playlist, Timeline, load_playlist
+from exhibit.timelines.file import load_playlist
+from exhibit.timelines.model import Timeline
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content, prepare_first
 from exhibit.kiosk.follow import Aims
@@ -88,7 +91,7 @@ def _timelines(config: KioskConfig, problems: list[str]) -> list[Timeline]:
     try:
         if config.attract_dir is None:  # load_config always sets it
             raise ExhibitError("no attract folder is set")
-        return load_playlist(config.attract_dir)
+        return load_playlist(config.attract_dir, scenes.get)
     except Exception as exc:  # noqa: BLE001 - attract mode can do without timelines
         log.error("no attract timelines: %s", exc)
         problems.append(f"no attract timelines: {exc}")

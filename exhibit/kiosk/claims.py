@@ -1,14 +1,14 @@
 """Captions proved on the picture: a timeline's ``while`` conditions measured on the frames the
 real kiosk draws (`exhibit render --timeline FILE --verify`).
 
-check-config holds a caption to what the timeline file says of the view (exhibit.kiosk.captions).
-That is not enough: a caption "Now the 4D viewpoint moves closer" was true of the sensor while
-the framing zoomed out, so the doughnuts shrank on screen. Here the kiosk plays the timeline
-(exhibit.kiosk.review.KioskPlayer: its framing, language, reduced motion) and every sample of a
-caption's time on screen is measured as drawn: the view the frame used (its sensor distance and
-pose, for the conditions check-config knows) and the object-id pass's pixels per named object
-(exhibit.render.passes.ids: never by colour) for the claims about the picture (visible, grows,
-shrinks, outgrows, fills; exhibit.kiosk.attract.PictureClaims).
+check-config holds a caption to what the timeline file says of the view
+(exhibit.timelines.captions). That is not enough: a caption "Now the 4D viewpoint moves closer" was
+true of the sensor while the framing zoomed out, so the doughnuts shrank on screen. Here the kiosk
+plays the timeline (exhibit.kiosk.review.KioskPlayer: its framing, language, reduced motion) and
+every sample of a caption's time on screen is measured as drawn: the view the frame used (its
+sensor distance and pose, for the conditions check-config knows) and the object-id pass's pixels
+per named object (exhibit.render.passes.ids: never by colour) for the claims about the picture
+(visible, grows, shrinks, outgrows, fills; exhibit.timelines.model.PictureClaims).
 
 A problem is one line ``file: keyframe N: claim: what was measured``.
 """
@@ -23,17 +23,17 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Condition, PictureClaims, Timeline
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.captions import (
+from exhibit.kiosk.review import KioskPlayer, caption_spans, read_timeline
+from exhibit.render.passes.ids import ObjectCoverage, object_names
+from exhibit.timelines.captions import (
     distance_problems,
     motion_problems,
     caption_runs,
     time_spans,
     turn_problems,
 )
-from exhibit.kiosk.review import KioskPlayer, caption_spans, read_timeline
-from exhibit.render.passes.ids import ObjectCoverage, object_names
+from exhibit.timelines.model import Condition, PictureClaims, Timeline
 
 if TYPE_CHECKING:
     from exhibit.render import Headless

@@ -513,7 +513,7 @@ def load_kiosk_config(
             except ExhibitError as exc:
                 problems.append(str(exc))
         if values["attract_dir"] is not None:
-            from exhibit.kiosk.attract import timeline_paths, load_timeline
+            from exhibit.timelines.file import load_timeline, timeline_paths
 
             timelines = timeline_paths(values["attract_dir"])
             if not timelines:
@@ -523,7 +523,7 @@ def load_kiosk_config(
                 )
             for timeline_path in timelines:
                 try:
-                    load_timeline(timeline_path)
+                    load_timeline(timeline_path, scenes.get)
                 except ConfigError as exc:
                     problems.extend(exc.problems)
                 except ExhibitError as exc:

@@ -11,7 +11,7 @@ import time
 from collections.abc import Callable
 from typing import Any
 
-from exhibit.kiosk.attract import Timeline
+from exhibit.timelines.model import Timeline
 from exhibit.kiosk.jobs import Framers, Job, Prepared, run_job
 from exhibit.kiosk.preparing import InlinePreparer, Preparer
 from exhibit.kiosk.scene_meshes import Key, SceneMeshes

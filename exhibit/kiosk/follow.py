@@ -47,7 +47,7 @@ from exhibit.geometry.framing import (
     to_pixels,
 )
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Params
+from exhibit.timelines.model import Params
 from exhibit.kiosk.timeline_framing import FILL_LIMIT
 from exhibit.render.framer import Framer
 from exhibit.surfaces.mesh import Mesh4D

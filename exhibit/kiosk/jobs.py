@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
 from exhibit import scenes
-from exhibit.kiosk.attract import Params, Timeline
+from exhibit.timelines.model import Params, Timeline
 from exhibit.kiosk.governor import level_resolution
 from exhibit.kiosk.timeline_framing import frame_timeline
 from exhibit.render.framer import Framer

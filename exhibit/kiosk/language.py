@@ -30,7 +30,7 @@ from collections.abc import Callable, Iterable, Sequence
 from pydantic import Field, field_validator
 
 from exhibit.errors import ConfigError
-from exhibit.kiosk.attract import Timeline
+from exhibit.timelines.model import Timeline
 from exhibit.render.layout import PINCH_KEY
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Caption, Name, Number, Text
@@ -270,11 +270,14 @@ def coverage_problems(config: LanguageSettings) -> list[str]:
     """For `exhibit check-config`: every text the kiosk shows, in every language it shows, has
     a translation, in characters the HUD's fonts can draw (the catalogues load: checked with the
     config)."""
-    from exhibit.kiosk.attract import load_playlist
+    from exhibit import scenes
+    from exhibit.timelines.file import load_playlist
 
     if config.catalogues_dir is None:
         return []
-    timelines = load_playlist(config.attract_dir) if config.attract_dir is not None else []
+    timelines = (
+        load_playlist(config.attract_dir, scenes.get) if config.attract_dir is not None else []
+    )
     texts = shown_texts(config.scenes, timelines)
     problems = []
     for catalogue in load_catalogues(config.catalogues_dir, config.languages).values():

@@ -32,7 +32,7 @@ from exhibit.narration.script import Segment, segment_at, segments
 from exhibit.narration.speech import SpeechBudget, SpeechSkipped
 
 if TYPE_CHECKING:
-    from exhibit.kiosk.attract import Timeline
+    from exhibit.timelines.model import Timeline
     from exhibit.kiosk.config import KioskConfig
     from exhibit.kiosk.language import Translator
     from exhibit.narration.sound import Sound
@@ -68,7 +68,7 @@ class SoundPlayer(Protocol):
 
 
 class Narrator:
-    """``timelines``: the kiosk's (exhibit.kiosk.attract.Timeline); ``translate(text, code)``:
+    """``timelines``: the kiosk's (exhibit.timelines.model.Timeline); ``translate(text, code)``:
     its words (exhibit.kiosk.language); ``player``: an exhibit.narration.player.Player (or one
     with its interface); ``make(segment) -> Sound``: how a segment's sound is made (default:
     its recording, else synthesised speech from the cache, within ``budget``: the time the

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from typing import Protocol
 
-from exhibit.kiosk.attract import Params
+from exhibit.timelines.model import Params
 from exhibit.kiosk.jobs import Framers, Job, Prepared, run_job
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 
-from exhibit.kiosk.attract import Params
+from exhibit.timelines.model import Params
 from exhibit.kiosk.jobs import Framers, Job, Prepared
 from exhibit.kiosk.worker import serve
 from exhibit.kiosk.worker_watch import ENDED, Watch, read_results

@@ -30,8 +30,10 @@ from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
+from exhibit import scenes
 from exhibit.errors import ConfigError, ExhibitError
-from exhibit.kiosk.attract import Timeline, load_timeline, timeline_paths
+from exhibit.timelines.file import load_timeline, timeline_paths
+from exhibit.timelines.model import Timeline
 from exhibit.kiosk.config import KioskConfig, NarrationConfig, QualityConfig, load_kiosk_config
 from exhibit.kiosk.language import SOURCE, load_catalogues
 from exhibit.resources import shipped
@@ -156,7 +158,7 @@ def read_timeline(path: str | Path) -> Timeline:
             else f"--timeline: {path} does not exist"
         )
     try:
-        return load_timeline(path)
+        return load_timeline(path, scenes.get)
     except ConfigError as exc:
         first = exc.problems[0] if exc.problems else str(exc)
         more = f" (and {len(exc.problems) - 1} more)" if len(exc.problems) > 1 else ""

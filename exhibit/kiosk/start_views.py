@@ -9,7 +9,7 @@ from collections import OrderedDict
 from exhibit import scenes
 from exhibit.geometry.framing import Sample, mesh_sample
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Params
+from exhibit.timelines.model import Params
 from exhibit.kiosk.follow import MeshLookup
 from exhibit.kiosk.timeline_framing import FILL_LIMIT
 from exhibit.render.framer import Framer

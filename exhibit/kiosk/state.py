@@ -32,7 +32,8 @@ from exhibit import scenes
 from exhibit.devices.base import Event, Kind
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Params, Playlist
+from exhibit.timelines.model import Params
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.follow import Aimer, Follow
 
 ATTRACT, VISITOR = "attract", "visitor"

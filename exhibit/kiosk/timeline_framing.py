@@ -18,8 +18,8 @@ exhibit.geometry.framing's fit), done once at start-up for the whole playlist.
   spread evenly; then an even grid), and a timeline of more than MAX_FOLLOWED_KEYFRAMES
   keyframes gets the one framing for all (left as written if a sampled pose fills the world).
 
-Here in the kiosk's layer because a timeline is the kiosk's (exhibit.kiosk.attract); the
-framing itself is pure math below it.
+Here in the kiosk's layer because the framing is the screen's (exhibit.render.framer); the
+timeline (exhibit.timelines) and the framing's math lie below it.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ from exhibit.geometry.framing import (
     zoom_about,
 )
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Keyframe, Timeline
+from exhibit.timelines.model import Keyframe, Timeline
 from exhibit.render.framer import Framer
 from exhibit.render.layout import hud_layout
 from exhibit.scenes.base import Scene

@@ -10,22 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import PurePath
-from typing import Protocol
 
-
-class _Keyframe(Protocol):
-    t: float
-    caption: str
-    description: str
-    recordings: tuple[tuple[str, str], ...]
-
-
-class _Timeline(Protocol):
-    path: str
-    keyframes: Sequence[_Keyframe]
-
-    @property
-    def duration(self) -> float: ...
+from exhibit.timelines.model import Timeline
 
 
 @dataclass(frozen=True)
@@ -48,7 +34,7 @@ class Segment:
         return self.end - self.start
 
 
-def speaks(timeline: _Timeline, i: int) -> bool:
+def speaks(timeline: Timeline, i: int) -> bool:
     """Whether keyframe ``i`` starts a segment: it states a description or a recording, or shows
     a caption other than the one before it."""
     k = timeline.keyframes[i]
@@ -57,7 +43,7 @@ def speaks(timeline: _Timeline, i: int) -> bool:
 
 
 def segments(
-    timeline: _Timeline, language: str, translate: Callable[[str, str], str]
+    timeline: Timeline, language: str, translate: Callable[[str, str], str]
 ) -> list[Segment]:
     """The timeline's segments in ``language``; ``translate(english, language)`` gives a text
     in that language (exhibit.kiosk.language's catalogues: English where there is none)."""

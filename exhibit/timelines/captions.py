@@ -3,7 +3,7 @@ contradicts what it says, or too briefly to be read.
 
 A caption such as "At distance 2 the viewpoint touches the 4D ball" is true only while the sensor
 is there; once the timeline moves on, the words must change with it. A keyframe states what its
-caption claims in ``while`` (see :mod:`exhibit.kiosk.attract`): the sensor's distance or motion,
+caption claims in ``while`` (see :mod:`exhibit.timelines.file`): the sensor's distance or motion,
 or a pose the view must stay near ("in the plane ..." is true only while the view is the plane
 view); this module samples the timeline every ``STEP_S`` seconds and holds each caption to it.
 
@@ -21,7 +21,7 @@ import math
 from collections.abc import Callable, Sequence
 
 from exhibit.geometry.view import ViewState
-from exhibit.kiosk.attract import Condition, Keyframe, Timeline
+from exhibit.timelines.model import Condition, Keyframe, Timeline
 
 #: Sampling step (s): a tenth of the shortest stretch anyone would write between keyframes.
 STEP_S = 0.05

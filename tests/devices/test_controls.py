@@ -341,7 +341,9 @@ def test_monitor_text_line_names_the_buttons():
 def test_in_the_kiosk_only_the_next_scene_button_changes_scene(tmp_path):
     """With the shipped controller mapping: button 2 moves on, buttons 3 and 4 move the sensor
     and leave the scene, button 1 goes home."""
-    from exhibit.kiosk.attract import Playlist, load_timeline
+    from exhibit import scenes
+    from exhibit.timelines.file import load_timeline
+    from exhibit.timelines.playlist import Playlist
     from exhibit.kiosk.state import VISITOR, KioskState
 
     path = tmp_path / "t.toml"
@@ -349,7 +351,7 @@ def test_in_the_kiosk_only_the_next_scene_button_changes_scene(tmp_path):
         'scene = "hopf"\n[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\nangles = [90, 0, 0, 0, 0, 0]\n'
     )
     state = KioskState(
-        Playlist([load_timeline(path)]),
+        Playlist([load_timeline(path, scenes.get)]),
         Mapper(only("controller")),
         ("hopf", "collision"),
         idle_timeout_s=30.0,

@@ -10,7 +10,9 @@ from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
 from exhibit.errors import ConfigError
-from exhibit.kiosk.attract import Playlist, load_playlist, load_timeline
+from exhibit import scenes
+from exhibit.timelines.file import load_playlist, load_timeline
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.state import ATTRACT, VISITOR, KioskState
 from tests.kiosk.support import DEVICES, TIMELINE
 
@@ -21,7 +23,7 @@ ATTRACT_DIR = Path(__file__).resolve().parents[2] / "configs" / "attract"
 def timeline(tmp_path):
     path = tmp_path / "t.toml"
     path.write_text(TIMELINE)
-    return load_timeline(path)
+    return load_timeline(path, scenes.get)
 
 
 def test_keyframes_are_hit_and_easing_is_smooth(timeline):
@@ -41,7 +43,7 @@ def test_keyframes_are_hit_and_easing_is_smooth(timeline):
 
 
 def test_shipped_playlist_covers_the_papers_scenes():
-    timelines = load_playlist(ATTRACT_DIR)
+    timelines = load_playlist(ATTRACT_DIR, scenes.get)
     shown = {t.scene for t in timelines}
     assert {"hopf", "offset-parabola", "offset-cusp", "collision"} <= shown
     hopf = next(t for t in timelines if t.scene == "hopf")
@@ -199,7 +201,7 @@ def test_cuts_mark_every_discontinuity_and_nothing_else(tmp_path, timeline):
     other.write_text(TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"'))
     config = parse_config(tomllib.loads(DEVICES), "<test>")
     state = KioskState(
-        Playlist([timeline, load_timeline(other)]),
+        Playlist([timeline, load_timeline(other, scenes.get)]),
         Mapper(config.mapping),
         ("hopf", "collision"),
         idle_timeout_s=30.0,
@@ -243,7 +245,7 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
         text = text.replace('caption = "near"', 'caption = "near"\nhalf_height = 3.0')
     path = tmp_path / "t.toml"
     path.write_text(text)
-    timeline = load_timeline(path)
+    timeline = load_timeline(path, scenes.get)
     scene = scenes.get("offset-cusp")
     mesh = scene.build({}, 12)
     size = (1280, 720)
@@ -285,7 +287,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
 
     framer = Framer(size, drift=12.0)
     unframed, following, filling = [], [], []
-    for timeline in load_playlist(ATTRACT_DIR):
+    for timeline in load_playlist(ATTRACT_DIR, scenes.get):
         scene = scenes.get(timeline.scene)
         mesh = scene.build(timeline.params, 12)
         result = frame_timeline(framer, timeline, scene, mesh)
@@ -338,7 +340,7 @@ slice = "off"
 def test_timelines_move_the_slice_along_the_scenes_time(tmp_path):
     path = tmp_path / "sliced.toml"
     path.write_text(SLICED)
-    timeline = load_timeline(path)
+    timeline = load_timeline(path, scenes.get)
     assert timeline.slice_axis == 3  # the collision's t, the scene's own slice axis
     assert timeline.at(2.0)[0].slice_axis is None  # no slice before the first
     view = timeline.at(6.0)[0]
@@ -372,7 +374,7 @@ def test_a_bad_slice_is_named_by_file_and_key(tmp_path, old, new, message):
     assert old in SLICED
     path.write_text(SLICED.replace(old, new))
     with pytest.raises(ConfigError) as info:
-        load_timeline(path)
+        load_timeline(path, scenes.get)
     assert message in str(info.value) and str(path) in str(info.value)
 
 
@@ -381,7 +383,7 @@ def test_a_scene_without_a_time_axis_can_name_one(tmp_path):
     path.write_text(
         'scene = "hopf"\nslice_axis = "w"\n[[keyframe]]\nt = 0\nslice = 0.3\n[[keyframe]]\nt = 2\n'
     )
-    view = load_timeline(path).at(1.0)[0]
+    view = load_timeline(path, scenes.get).at(1.0)[0]
     assert view.slice_axis == 3 and view.slice_at == 0.3
 
 
@@ -421,7 +423,7 @@ def test_stepped_timelines_hold_the_pose_and_keep_the_slice_moving(tmp_path):
             "sensor_distance = 2\neye = [40, 20]\nhalf_height = 3\n",
         )
     )
-    timeline = load_timeline(path)
+    timeline = load_timeline(path, scenes.get)
     start = timeline.at(4.0, stepped=True)[0]
     for t in (4.5, 5.0, 6.0, 7.9):
         view = timeline.at(t, stepped=True)[0]

@@ -9,8 +9,9 @@ import pytest
 
 from exhibit.cli import main
 from exhibit.errors import ConfigError
-from exhibit.kiosk.attract import load_playlist, load_timeline
-from exhibit.kiosk.captions import caption_problems, reading_time
+from exhibit import scenes
+from exhibit.timelines.file import load_playlist, load_timeline
+from exhibit.timelines.captions import caption_problems, reading_time
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 
@@ -58,7 +59,7 @@ def write(tmp_path, text, name="t.toml"):
 
 
 def test_the_old_hypersphere_timeline_is_caught_where_the_caption_lies(tmp_path):
-    problems = caption_problems(load_timeline(write(tmp_path, OLD_HYPERSPHERE)))
+    problems = caption_problems(load_timeline(write(tmp_path, OLD_HYPERSPHERE), scenes.get))
     path = tmp_path / "t.toml"
     assert problems == [
         # the last caption is shown for an instant only
@@ -89,9 +90,12 @@ while = { sensor_motion = "%s" }
 [[keyframe]]
 t = 10
 """
-    assert caption_problems(load_timeline(write(tmp_path, text % ("closer", "still")))) == []
+    assert (
+        caption_problems(load_timeline(write(tmp_path, text % ("closer", "still")), scenes.get))
+        == []
+    )
     path = write(tmp_path, text % ("farther", "closer"))
-    assert caption_problems(load_timeline(path)) == [
+    assert caption_problems(load_timeline(path, scenes.get)) == [
         f"{path}: keyframe[0].while.sensor_motion: the caption says 'farther', but the sensor "
         "moves closer at t = 0.0..5.0 s",
         f"{path}: keyframe[1].while.sensor_motion: the caption says the sensor moves closer, but "
@@ -100,7 +104,7 @@ t = 10
     path = write(
         tmp_path, text.replace("t = 10", "t = 10\nsensor_distance = 2") % ("closer", "still")
     )
-    assert caption_problems(load_timeline(path)) == [
+    assert caption_problems(load_timeline(path, scenes.get)) == [
         f"{path}: keyframe[1].while.sensor_motion: the caption says 'still', but the sensor "
         "moves at t = 5.0..10.0 s"
     ]
@@ -129,7 +133,7 @@ while = { sensor_distance = [1, 1.5] }
 t = 20
 """
     path = write(tmp_path, text)
-    timeline = load_timeline(path)
+    timeline = load_timeline(path, scenes.get)
     assert [k.caption_from for k in timeline.keyframes] == [0, 0, 2, 3, 3]
     problems = caption_problems(timeline)
     # keyframe[0]'s condition holds over 0..5 and, carried, over 5..10, where the sensor moves
@@ -184,7 +188,7 @@ def test_bad_conditions_name_file_key_and_reason(tmp_path, condition, key, reaso
         tmp_path, f'scene = "hopf"\n[[keyframe]]\nt = 0\nwhile = {condition}\n[[keyframe]]\nt = 5\n'
     )
     with pytest.raises(ConfigError) as info:
-        load_timeline(path)
+        load_timeline(path, scenes.get)
     assert any(p.startswith(f"{path}: {key}: ") and reason in p for p in info.value.problems), (
         info.value.problems
     )
@@ -193,7 +197,7 @@ def test_bad_conditions_name_file_key_and_reason(tmp_path, condition, key, reaso
 def test_unknown_keyframe_keys_list_while_as_written(tmp_path):
     path = write(tmp_path, 'scene = "hopf"\n[[keyframe]]\nt = 0\nwhen = 1\n[[keyframe]]\nt = 5\n')
     with pytest.raises(ConfigError) as info:
-        load_timeline(path)
+        load_timeline(path, scenes.get)
     assert "while" in info.value.problems[0] and "while_" not in info.value.problems[0]
 
 
@@ -223,7 +227,7 @@ t = 20
 
 def test_a_caption_about_one_pose_is_refused_once_the_view_turns_away(tmp_path):
     path = write(tmp_path, PLANE_CAPTION)
-    assert caption_problems(load_timeline(path)) == [
+    assert caption_problems(load_timeline(path, scenes.get)) == [
         f"{path}: keyframe[0].while.angles_within: the caption is shown at t = 1.8..10.0 s with "
         "the view turned up to 60.0° (θ1) from keyframe[0]'s pose, more than 5°"
     ]
@@ -240,7 +244,7 @@ caption = "In 4D the red curve is the smooth outline of a tube – no corners, n
 t = 16
 angles""",
     )
-    timeline = load_timeline(write(tmp_path, held, "held.toml"))
+    timeline = load_timeline(write(tmp_path, held, "held.toml"), scenes.get)
     assert [k.t for k in timeline.keyframes] == [0, 10, 16, 20]
     assert caption_problems(timeline) == []
 
@@ -266,7 +270,7 @@ while = { angles_within = 3 }
 t = 15
 """
     path = write(tmp_path, text)
-    problems = caption_problems(load_timeline(path))
+    problems = caption_problems(load_timeline(path, scenes.get))
     # 0..10: the eye swings 10° from keyframe[0]'s; 10..15 holds still at keyframe[2]'s pose
     assert problems == [
         f"{path}: keyframe[0].while.angles_within: the caption is shown at t = 1.9..10.0 s with "
@@ -281,7 +285,7 @@ def test_reading_time():
 
 
 def test_shipped_timelines_keep_their_captions_true():
-    timelines = load_playlist(CONFIGS / "attract")
+    timelines = load_playlist(CONFIGS / "attract", scenes.get)
     assert [p for t in timelines for p in caption_problems(t)] == []
     hopf = next(t for t in timelines if t.scene == "hopf")
     # the captions that state a distance or a motion say so
@@ -326,7 +330,7 @@ def test_a_caption_held_for_a_day_is_checked_quickly(tmp_path):
         'while = { sensor_distance = "inf" }\n[[keyframe]]\nt = 86400\n'
         "sensor_distance = 2\n",
     )
-    problems = caption_problems(load_timeline(path))
+    problems = caption_problems(load_timeline(path, scenes.get))
     assert len(problems) == 1 and problems[0].startswith(
         f"{path}: keyframe[0].while.sensor_distance: the caption is shown at t = "
     )
@@ -353,7 +357,7 @@ def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monke
     """A timeline of a thousand captions, each with its ``while``, costs check-config a fixed
     number of samples (MAX_SAMPLES for the whole timeline), each looked up without a scan of
     every keyframe: the old check played 100,000 poses, each scanning 1,000 keyframes."""
-    from exhibit.kiosk import attract
+    from exhibit.timelines import model
 
     body = "".join(
         f'[[keyframe]]\nt = {5 * i}\ncaption = "Caption {i} stays still."\n'
@@ -361,9 +365,9 @@ def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monke
         for i in range(1000)
     )
     body += "[[keyframe]]\nt = 5000\n"
-    timeline = load_timeline(write(tmp_path, 'scene = "hopf"\n' + body))
+    timeline = load_timeline(write(tmp_path, 'scene = "hopf"\n' + body), scenes.get)
     scanned = []
-    real = attract.Timeline.at
+    real = model.Timeline.at
 
     def at(self, t, stepped=False):
         scanned.append(len(self.keyframes))
@@ -371,6 +375,6 @@ def test_thousands_of_captions_are_checked_within_a_fixed_budget(tmp_path, monke
             raise AssertionError("the caption check scans the timeline over and over")
         return real(self, t, stepped)
 
-    monkeypatch.setattr(attract.Timeline, "at", at)
+    monkeypatch.setattr(model.Timeline, "at", at)
     assert caption_problems(timeline) == []
     assert len(scanned) <= 20_000 + 2 * 1000

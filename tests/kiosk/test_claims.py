@@ -8,7 +8,8 @@ from pathlib import Path
 
 import pytest
 
-from exhibit.kiosk.attract import load_timeline
+from exhibit import scenes
+from exhibit.timelines.file import load_timeline
 from exhibit.kiosk.claims import claim_runs, count_claims, verify
 from exhibit.kiosk.review import base_config
 from exhibit.resources import shipped
@@ -128,7 +129,7 @@ def test_every_shipped_caption_about_the_picture_states_its_claims():
     ("grows", "closer", "fills", "visible", a colour) carries a condition."""
     words = ("grow", "closer", "farther", "fills", "red", "green", "white", "blue", "yellow")
     for path in SHIPPED:
-        timeline = load_timeline(path)
+        timeline = load_timeline(path, scenes.get)
         assert sum(count_claims(r.condition) for r in claim_runs(timeline)) > 0, path
         for k in timeline.keyframes:
             if any(w in k.caption.lower() for w in words):

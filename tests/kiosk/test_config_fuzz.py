@@ -29,7 +29,9 @@ from exhibit.devices.mapping import ActivityDetector, Mapper
 from exhibit.devices.replay import read_recording
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.pipeline import clip_transform
-from exhibit.kiosk.attract import Playlist, load_playlist, load_timeline
+from exhibit import scenes
+from exhibit.timelines.file import load_playlist, load_timeline
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.state import KioskState
 from exhibit.scenes.toml_scene import load_scene_file
@@ -240,7 +242,7 @@ def run_kiosk_logic(config) -> None:
     device_config = load_config(config.devices_config)
     mapper = Mapper(device_config.mapping, ActivityDetector(device_config.activity_threshold))
     state = KioskState(
-        Playlist(load_playlist(config.attract_dir)),
+        Playlist(load_playlist(config.attract_dir, scenes.get)),
         mapper,
         config.scenes,
         config.idle_timeout_s,
@@ -390,7 +392,7 @@ LOADERS = {
     "kiosk": load_kiosk_config,
     "devices": load_config,
     "layout": load_layout,
-    "timeline": load_timeline,
+    "timeline": lambda path: load_timeline(path, scenes.get),
     "scene": load_scene_file,
     "recording": read_recording,
 }

@@ -1,5 +1,5 @@
 """The shipped attract timelines' spoken descriptions (a keyframe's ``describe``, spoken before
-its caption: exhibit/kiosk/attract.py): every caption has one, short, complementing it, and
+its caption: exhibit/timelines/file.py): every caption has one, short, complementing it, and
 translated. How long they take against the time their captions are shown is measured on the real
 speech in tests/kiosk/test_narrated_review.py (the kiosk holds a caption until spoken)."""
 
@@ -10,7 +10,8 @@ from pathlib import Path
 
 import pytest
 
-from exhibit.kiosk.attract import load_playlist
+from exhibit import scenes
+from exhibit.timelines.file import load_playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.language import load_catalogues
 
@@ -22,7 +23,7 @@ def caption_windows():
     sets a caption in the shipped playlist."""
     config = load_kiosk_config()
     out = []
-    for timeline in load_playlist(config.attract_dir):
+    for timeline in load_playlist(config.attract_dir, scenes.get):
         raw = tomllib.loads(Path(timeline.path).read_text(encoding="utf-8"))["keyframe"]
         setting = [i for i, k in enumerate(raw) if "caption" in k]
         ends = [timeline.keyframes[i].t for i in setting[1:]] + [timeline.duration]

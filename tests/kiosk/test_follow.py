@@ -18,7 +18,8 @@ from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.framing import mesh_sample, sample_bounds, to_pixels
 from exhibit.kiosk import follow
-from exhibit.kiosk.attract import Playlist, load_timeline
+from exhibit.timelines.file import load_timeline
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.follow import Aims
 from exhibit.kiosk.start_views import StartViews
 from exhibit.kiosk.timeline_framing import frame_timeline
@@ -60,7 +61,7 @@ def world():
     scene = scenes.get(SCENE)
     mesh = scene.build(scene.resolve(), 24)
     framer = Framer(SIZE)
-    timeline = load_timeline(ROOT / "configs" / "attract" / "02-offset-parabola.toml")
+    timeline = load_timeline(ROOT / "configs" / "attract" / "02-offset-parabola.toml", scenes.get)
     timeline = frame_timeline(framer, timeline, scene, mesh)  # as the kiosk shows it
     return framer, Content(mesh), mesh_sample(mesh), timeline
 

@@ -5,7 +5,7 @@ import pytest
 
 from exhibit import scenes
 from exhibit.kiosk import timeline_framing as framing
-from exhibit.kiosk.attract import load_timeline
+from exhibit.timelines.file import load_timeline
 from exhibit.render.framer import Framer
 
 HEAD = 'name = "hostile"\nscene = "collision"\npreset = "figure-15"\n'
@@ -42,7 +42,7 @@ def day_long(tmp_path):
         HEAD + '\n[[keyframe]]\nt = 0\nslice = -2\ncaption = "start"\n'
         "\n[[keyframe]]\nt = 86400\nslice = 2\nangles = [40, 0, 0, 0, 0, 0]\n"
     )
-    return load_timeline(path)
+    return load_timeline(path, scenes.get)
 
 
 def many_keyframes(tmp_path, n=2000, captions=True):
@@ -53,7 +53,7 @@ def many_keyframes(tmp_path, n=2000, captions=True):
     )
     path = tmp_path / "many.toml"
     path.write_text(HEAD + body)
-    return load_timeline(path)
+    return load_timeline(path, scenes.get)
 
 
 @pytest.mark.parametrize(
@@ -84,7 +84,7 @@ def test_short_timelines_sample_every_half_second_and_every_keyframe(tmp_path):
 
     path = tmp_path / "t.toml"
     path.write_text(TIMELINE)
-    timeline = load_timeline(path)
+    timeline = load_timeline(path, scenes.get)
     times = framing.sample_times(timeline)
     assert times == sorted(
         {

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from exhibit import scenes
-from exhibit.kiosk.attract import load_timeline, timeline_paths
+from exhibit.timelines.file import load_timeline, timeline_paths
 from exhibit.kiosk.narrator import Narrator
 from exhibit.narration.script import segment_at, segments
 from exhibit.resources import shipped
@@ -73,7 +73,7 @@ def timeline(tmp_path):
     scenes.load()
     path = tmp_path / "t.toml"
     path.write_text(TIMELINE)
-    return load_timeline(path)
+    return load_timeline(path, scenes.get)
 
 
 def words(seconds_per_word: float = 0.4):
@@ -155,7 +155,7 @@ def test_a_sound_that_cannot_be_made_is_skipped_and_reported(timeline):
 def test_every_shipped_timeline_has_a_script_in_every_language():
     scenes.load()
     for path in timeline_paths(shipped("configs", "attract")):
-        timeline = load_timeline(path)
+        timeline = load_timeline(path, scenes.get)
         for code in ("en", "de"):
             parts = segments(timeline, code, translate)
             assert parts, path

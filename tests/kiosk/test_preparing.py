@@ -22,7 +22,8 @@ from hypothesis import strategies as st
 from exhibit import scenes
 from exhibit.kiosk import app, process_preparer, worker_watch
 from exhibit.kiosk import jobs as jobs_module
-from exhibit.kiosk.attract import Playlist, load_playlist
+from exhibit.timelines.file import load_playlist
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.governor import mesh_levels
 from exhibit.kiosk.language import PREPARING
@@ -309,7 +310,7 @@ def test_the_worker_process_prepares_and_frames_and_names_what_fails(tmp_path, m
     pipe; a scene that does not exist comes back as an error; a worker that dies is named."""
     monkeypatch.setenv("EXHIBIT_CACHE_DIR", str(tmp_path / "cache"))
     config = _config(tmp_path)
-    timelines = load_playlist(config.attract_dir)
+    timelines = load_playlist(config.attract_dir, scenes.get)
     jobs = scene_jobs(config, timelines, [2])
     framer = Framer((640, 360))
     worker = ProcessPreparer(jobs_module.Framers(framer, framer))

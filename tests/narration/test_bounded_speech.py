@@ -104,10 +104,11 @@ def test_prepare_reports_the_hang_once(site, capsys, monkeypatch):
 
 def test_the_kiosk_skips_the_rest_after_a_hang(site):
     """The kiosk's narrator (no total: it runs for weeks) waits once, then fails fast."""
-    from exhibit.kiosk.attract import load_timeline
+    from exhibit import scenes
+    from exhibit.timelines.file import load_timeline
     from exhibit.kiosk.narrator import Narrator
 
-    timeline = load_timeline(site.parent / "attract" / "01-torus.toml")
+    timeline = load_timeline(site.parent / "attract" / "01-torus.toml", scenes.get)
     narrator = Narrator([timeline], ["en"], lambda text, code: text, Player(), background=False)
     begun = time.monotonic()
     for t in (0, 20, 40):
@@ -133,7 +134,8 @@ class Player:
 
 KIOSK = """
 import sys, time
-from exhibit.kiosk.attract import load_timeline
+from exhibit import scenes
+from exhibit.timelines.file import load_timeline
 from exhibit.kiosk.narrator import Narrator
 
 class Player:
@@ -143,7 +145,7 @@ class Player:
     def status(self): return {}
     def close(self): pass
 
-timeline = load_timeline(sys.argv[1])
+timeline = load_timeline(sys.argv[1], scenes.get)
 # attract = True: the worker thread makes every segment's sound from the start
 Narrator([timeline], ["en"], lambda text, code: text, Player(), attract=True)
 time.sleep(1000)

@@ -25,7 +25,7 @@ from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
 from exhibit.operations import sessions as sessions_module
 from exhibit.operations.sessions import store as sessions_store, writer as sessions_writer
-from exhibit.kiosk.attract import Playlist
+from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
 from exhibit.operations.sessions import (
     Session,
@@ -77,11 +77,12 @@ def session(
 def state(tmp_path):
     path = tmp_path / "t.toml"
     path.write_text(TIMELINE)
-    from exhibit.kiosk.attract import load_timeline
+    from exhibit import scenes
+    from exhibit.timelines.file import load_timeline
 
     config = parse_config(tomllib.loads(DEVICES), "<test>")
     return KioskState(
-        Playlist([load_timeline(path)]),
+        Playlist([load_timeline(path, scenes.get)]),
         Mapper(config.mapping),
         ("hopf", "collision"),
         idle_timeout_s=30.0,

@@ -150,7 +150,8 @@ def test_a_timeline_of_a_collision_with_nothing_moving_is_refused_by_file_and_ke
     by the speed): the timeline is refused at load, so check-config names it and the kiosk
     never builds it."""
     from exhibit.errors import ConfigError
-    from exhibit.kiosk.attract import load_timeline
+    from exhibit import scenes
+    from exhibit.timelines.file import load_timeline
 
     attract = tmp_path / "attract"
     attract.mkdir()
@@ -160,7 +161,7 @@ def test_a_timeline_of_a_collision_with_nothing_moving_is_refused_by_file_and_ke
         "[[keyframe]]\nt = 0\n[[keyframe]]\nt = 10\n"
     )
     with pytest.raises(ConfigError) as caught:
-        load_timeline(path)
+        load_timeline(path, scenes.get)
     assert caught.value.problems == [
         f"{path}: params: collision: vc and vs cannot both be 0: with no motion the cylinder "
         "and sphere never move, so there is no collision surface"
