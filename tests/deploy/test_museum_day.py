@@ -187,6 +187,19 @@ class Units:
             os.chown(path, uid, gid)
             path.chmod(mode)
 
+    def spawn(self, argv: list[str], env: dict[str, str], log_name: str) -> subprocess.Popen:
+        """``argv`` started in the machine in a process group of its own, its output appended
+        to the day's log ``log_name``."""
+        log = open(self.logs / log_name, "a")  # noqa: SIM115 - closed in stop_all()
+        self.files.append(log)
+        return subprocess.Popen(
+            self.m.argv(argv, env),
+            stdout=log,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            start_new_session=True,
+        )
+
     def start_cage(self) -> None:
         uid, gid = self.ids()
         self.directories(uid, gid)
@@ -196,15 +209,7 @@ class Units:
         env["XDG_RUNTIME_DIR"] = "/run/exhibit-display"
         argv = ["setpriv", f"--reuid={uid}", f"--regid={gid}", "--init-groups", "--"]
         argv += self.seccomp(service, "kiosk") + words
-        log = open(self.logs / "cage.log", "a")  # noqa: SIM115 - closed in stop_all()
-        self.files.append(log)
-        self.cage = subprocess.Popen(
-            self.m.argv(argv, env),
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            start_new_session=True,
-        )
+        self.cage = self.spawn(argv, env, "cage.log")
         socket_path = self.m.path("/run/exhibit-display/wayland-0")
         deadline = time.monotonic() + 30
         while not socket_path.exists():
@@ -231,15 +236,7 @@ class Units:
         if yes(service, "PrivateUsers"):
             argv += ["unshare", "--user", "--map-current-user", "--"]
         argv += self.seccomp(service, "app") + shlex.split(service["ExecStart"][0])
-        log = open(self.logs / "app.log", "a")  # noqa: SIM115 - closed in stop_all()
-        self.files.append(log)
-        self.app = subprocess.Popen(
-            self.m.argv(argv, env),
-            stdout=log,
-            stderr=subprocess.STDOUT,
-            stdin=subprocess.DEVNULL,
-            start_new_session=True,
-        )
+        self.app = self.spawn(argv, env, "app.log")
         self.starts += 1
 
     def stop_app(self) -> int | None:

@@ -51,6 +51,19 @@ def make_config(tmp: Path, script: str) -> Path:
     return kiosk
 
 
+def windowed_env(tmp: Path, display: str) -> dict[str, str]:
+    """The environment of a kiosk in a window on ``display``, with its own cache and state
+    folders in ``tmp`` and no systemd to notify."""
+    env = dict(
+        os.environ,
+        DISPLAY=display,
+        EXHIBIT_CACHE_DIR=str(tmp / "cache"),
+        EXHIBIT_STATE_DIR=str(tmp / "state"),
+    )
+    env.pop("NOTIFY_SOCKET", None)
+    return env
+
+
 def run_windowed(kiosk: Path, tmp: Path, *args: str) -> tuple[subprocess.CompletedProcess, dict]:
     """`exhibit run --config KIOSK --windowed ARGS...` in a window under Xvfb, with its own
     cache and state folders in ``tmp``: the finished process and its environment (the test is
@@ -58,13 +71,7 @@ def run_windowed(kiosk: Path, tmp: Path, *args: str) -> tuple[subprocess.Complet
     from tests.xvfb import unavailable, xvfb
 
     with xvfb("640x480x24") as display:
-        env = dict(
-            os.environ,
-            DISPLAY=display,
-            EXHIBIT_CACHE_DIR=str(tmp / "cache"),
-            EXHIBIT_STATE_DIR=str(tmp / "state"),
-        )
-        env.pop("NOTIFY_SOCKET", None)
+        env = windowed_env(tmp, display)
         result = subprocess.run(
             [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--windowed", *args],
             env=env,

@@ -5,7 +5,6 @@ is in the session log. Before: Python's default, death at once, the session lost
 from __future__ import annotations
 
 import json
-import os
 import signal
 import sqlite3
 import subprocess
@@ -14,7 +13,7 @@ import time
 
 import pytest
 
-from tests.kiosk.support import ROOT, make_config
+from tests.kiosk.support import ROOT, make_config, windowed_env
 from tests.xvfb import unavailable, xvfb
 
 #: A visitor who takes over after 1 s and keeps turning (never idle) until the kiosk stops.
@@ -33,13 +32,7 @@ def test_a_stop_signal_ends_the_kiosk_cleanly_and_keeps_the_visitors_session(tmp
     kiosk = make_config(tmp_path, VISITOR)
     state = tmp_path / "state"
     with xvfb("640x480x24") as display:
-        env = dict(
-            os.environ,
-            DISPLAY=display,
-            EXHIBIT_CACHE_DIR=str(tmp_path / "cache"),
-            EXHIBIT_STATE_DIR=str(state),
-        )
-        env.pop("NOTIFY_SOCKET", None)
+        env = windowed_env(tmp_path, display)
         process = subprocess.Popen(
             [sys.executable, "-m", "exhibit", "run", "--config", str(kiosk), "--windowed"],
             env=env,
