@@ -36,9 +36,10 @@ LAYERS = {
     "operations": 4,
     "render": 5,
     "kiosk": 6,
-    "commands": 7,
-    "cli": 8,
-    "__main__": 9,
+    "review": 7,
+    "commands": 8,
+    "cli": 9,
+    "__main__": 10,
 }
 
 
@@ -263,6 +264,37 @@ def test_narration_is_not_imported_by_the_timelines_it_speaks(tree):
     )
     assert upward_imports(edges) == [
         "exhibit.timelines.model (layer 3) imports exhibit.narration.script (layer 4)"
+    ]
+
+
+def test_the_kiosk_never_imports_the_review_that_plays_it(tree):
+    """The review plays the real kiosk from above it; the kiosk (its frame loop, a lazy import
+    included) reaching up for the player or the claims is refused, and so is the review
+    reaching up to the commands built on it."""
+    edges = tree(
+        {
+            "__init__.py": "",
+            "kiosk/__init__.py": "",
+            "kiosk/app.py": "def verify():\n    from exhibit.review.claims import verify\n",
+            "review/__init__.py": "",
+            "review/player.py": "from exhibit.kiosk import app\n",
+            "review/claims.py": "from exhibit.review.player import KioskPlayer\n"
+            "from exhibit.commands import _review\n",
+            "commands/__init__.py": "",
+            "commands/_review.py": "from exhibit.review.claims import verify\n",
+        }
+    )
+    assert upward_imports(edges) == [
+        "exhibit.kiosk.app (layer 6) imports exhibit.review.claims (layer 7)",
+        "exhibit.review.claims (layer 7) imports exhibit.commands._review (layer 8)",
+    ]
+    assert cycles(edges) == [
+        [
+            "exhibit.commands._review",
+            "exhibit.kiosk.app",
+            "exhibit.review.claims",
+            "exhibit.review.player",
+        ]
     ]
 
 

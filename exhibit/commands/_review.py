@@ -1,5 +1,5 @@
 """`exhibit render --timeline FILE` and `exhibit render --takeover SCENE`: the running kiosk
-(exhibit.kiosk.review.KioskPlayer) played headlessly for a curator's review.
+(exhibit.review.player.KioskPlayer) played headlessly for a curator's review.
 
 --timeline: every frame at --fps into a folder (numbered PNGs and index.json, each frame's time
 and caption), an MP4 (ffmpeg, as `exhibit render --frames` writes one), or a contact sheet PNG:
@@ -99,7 +99,7 @@ def _conflicts(args) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from exhibit.kiosk.review import base_config, check_language
+    from exhibit.review.setup import base_config, check_language
 
     _conflicts(args)
     size = parse_size(args.size)
@@ -122,8 +122,8 @@ def _verify(args, size, config) -> int:
     stderr, exit 2 when a claim fails."""
     import sys
 
-    from exhibit.kiosk.claims import verify
-    from exhibit.kiosk.review import read_timeline
+    from exhibit.review.claims import verify
+    from exhibit.review.setup import read_timeline
 
     read_timeline(args.timeline)  # one line if it is not a timeline
     languages = (args.language,) if args.language else tuple(config.languages)
@@ -144,7 +144,8 @@ def _verify(args, size, config) -> int:
 
 
 def _timeline(args, size, config, language) -> int:
-    from exhibit.kiosk.review import KioskPlayer, read_timeline
+    from exhibit.review.player import KioskPlayer
+    from exhibit.review.setup import read_timeline
 
     kind = output_kind(args.out)
     timeline = read_timeline(args.timeline)  # one line if it is not a timeline
@@ -152,7 +153,7 @@ def _timeline(args, size, config, language) -> int:
     if kind == "mp4":
         need_ffmpeg("a folder (DIR/) or a .png contact sheet")
     out = check_out(args.out, kind)
-    from exhibit.kiosk.review import caption_spans, play_schedule
+    from exhibit.review.player import caption_spans, play_schedule
 
     if getattr(args, "narration", False):
         if kind == "sheet":
@@ -217,16 +218,13 @@ def write_index(folder: Path, timeline, language, fps, size, frames, **extra) ->
     write_out(folder / "index.json", json.dumps(data, ensure_ascii=False, indent=1) + "\n")
 
 
-#: A narrated review draws at most this many times the timeline's own length (the holds).
-NARRATED_STRETCH = 3.0
-
-
 def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
     """The timeline as the kiosk plays it after a listen press: its frames, held where the
     narration runs on, and the narration itself, as DIR/narration.wav with each spoken
     segment's start and end in index.json, or as the MP4's sound."""
-    from exhibit.kiosk.review import KioskPlayer
     from exhibit.narration.sound import write_wav
+    from exhibit.review.narrated import NARRATED_STRETCH, narration_track, play_narrated
+    from exhibit.review.player import KioskPlayer
 
     estimate = math.ceil(NARRATED_STRETCH * timeline.duration * fps) + 1
     check_job(estimate, size, "a lower --fps, a smaller --size or a shorter timeline")
@@ -240,9 +238,7 @@ def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
         ):
             index = []
             with Progress(estimate) as progress:
-                frames = player.play_through(
-                    fps, progress=progress, limit_s=NARRATED_STRETCH * timeline.duration
-                )
+                frames = play_narrated(player, fps, progress)
                 for i, (frame, into) in enumerate(frames):
                     name = f"frame_{i:04d}.png"
                     save_frame(frame.image, folder / name, sync=False)
@@ -255,42 +251,26 @@ def _narrated(args, size, config, language, timeline, kind, out, fps) -> int:
                             "mode": frame.mode,
                         }
                     )
-            length = len(index) / fps
-            narrator = player.kiosk.narrator
-            tape = narrator.player
-            spoken = [
-                {
-                    "start": round(take.start, 4),
-                    "end": round(min(take.end, length), 4),
-                    "keyframe": segment.keyframe,
-                    "language": segment.language,
-                    "text": segment.text,
-                    **({"recording": segment.recording} if segment.recording else {}),
-                }
-                for (_, _, segment), take in zip(narrator.history, tape.takes)
-                if take.start < length
-            ]
-            failed = narrator.status()["failed"]
-            report = narrator.failures()  # a hung engine's skipped segments counted, not listed
-            sound = tape.mixdown(length)
+            track = narration_track(player, len(index) / fps)
         wav = folder / "narration.wav"
-        write_wav(wav, sound)
+        write_wav(wav, track.sound)
         if kind == "folder":
-            narration = {"file": wav.name, "segments": spoken, "failed": failed}
+            narration = {"file": wav.name, "segments": track.segments, "failed": track.failed}
             write_index(folder, timeline, language, fps, size, index, narration=narration)
         else:
             encode_mp4(folder, out, fps, audio=wav)
     finally:
         if kind != "folder":
             shutil.rmtree(folder, ignore_errors=True)
-    for problem in report:
+    for problem in track.problems:
         print(f"narration: {problem}")
     print(out)
     return 0
 
 
 def _takeover(args, size, config, language) -> int:
-    from exhibit.kiosk.review import KioskPlayer, shipped_timeline, takeover_frames
+    from exhibit.review.player import KioskPlayer, takeover_frames
+    from exhibit.review.setup import shipped_timeline
 
     scenes.get(args.takeover)  # "no scene named ..." before any GL work
     out = Path(args.out)

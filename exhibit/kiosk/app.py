@@ -309,7 +309,7 @@ class Kiosk:
     @property
     def shown(self) -> tuple[GpuMesh, ViewState] | None:
         """The mesh and view of the picture drawn last, None before one (a review measures
-        what it shows: exhibit.kiosk.claims)."""
+        what it shows: exhibit.review.claims)."""
         return None if self._shown is None else (self._shown[0], self._shown[1])
 
     def release(self) -> None:

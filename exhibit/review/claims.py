@@ -4,7 +4,7 @@ real kiosk draws (`exhibit render --timeline FILE --verify`).
 check-config holds a caption to what the timeline file says of the view
 (exhibit.timelines.captions). That is not enough: a caption "Now the 4D viewpoint moves closer" was
 true of the sensor while the framing zoomed out, so the doughnuts shrank on screen. Here the kiosk
-plays the timeline (exhibit.kiosk.review.KioskPlayer: its framing, language, reduced motion) and
+plays the timeline (exhibit.review.player.KioskPlayer: its framing, language, reduced motion) and
 every sample of a caption's time on screen is measured as drawn: the view the frame used (its
 sensor distance and pose, for the conditions check-config knows) and the object-id pass's pixels
 per named object (exhibit.render.passes.ids: never by colour) for the claims about the picture
@@ -24,7 +24,8 @@ from typing import TYPE_CHECKING
 
 from exhibit.geometry.view import ViewState
 from exhibit.kiosk.config import KioskConfig
-from exhibit.kiosk.review import KioskPlayer, caption_spans, read_timeline
+from exhibit.review.player import KioskPlayer, caption_spans
+from exhibit.review.setup import read_timeline
 from exhibit.render.passes.ids import ObjectCoverage, object_names
 from exhibit.timelines.captions import (
     distance_problems,

@@ -35,7 +35,7 @@ class Condition:
     angles_within: float | None = None
     pose: tuple[float, ...] | None = None
     #: What the caption says the picture shows, measured on the rendered frames by
-    #: `exhibit render --timeline --verify` (exhibit.kiosk.claims), never by colour.
+    #: `exhibit render --timeline --verify` (exhibit.review.claims), never by colour.
     picture: PictureClaims | None = None
 
 

@@ -17,7 +17,7 @@ import numpy as np
 
 from exhibit.kiosk import app
 from exhibit.kiosk.config import load_kiosk_config
-from exhibit.kiosk.review import keyboard_only
+from exhibit.review.setup import keyboard_only
 from exhibit.render.layout import HudLayout
 from exhibit.render.target import HeadlessTarget
 

@@ -19,7 +19,8 @@ import dataclasses
 
 import pytest
 
-from exhibit.kiosk.review import KioskPlayer, base_config
+from exhibit.review.player import KioskPlayer
+from exhibit.review.setup import base_config
 from exhibit.render import inset as inset_look
 from exhibit.resources import shipped
 from tests.golden import contrast

@@ -168,7 +168,8 @@ def torus_pairs(ct, scale, radius: float) -> Pairs:
 
 
 def test_the_clifford_torus_takeover_crossings_are_one_piece(headless, mesh_cache):
-    from exhibit.kiosk.review import KioskPlayer, base_config, shipped_timeline
+    from exhibit.review.player import KioskPlayer
+    from exhibit.review.setup import base_config, shipped_timeline
 
     config = base_config()
     player = KioskPlayer(

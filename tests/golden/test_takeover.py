@@ -1,5 +1,5 @@
 """What a visitor sees right after taking over: for every scene of the shipped content list, the
-real kiosk (exhibit.kiosk.review.KioskPlayer) plays attract mode for 3 s on a shipped timeline
+real kiosk (exhibit.review.player.KioskPlayer) plays attract mode for 3 s on a shipped timeline
 of that scene (else the scene alone), a visitor turns θ1 with the keyboard's q for 0.25 s, and
 2 s later (the framing has glided by then) the frame must show the surfaces clear of every text
 panel, every marker label on the screen and off the panels (tests/golden/visitor_checks.py), and
@@ -18,7 +18,8 @@ from __future__ import annotations
 
 import pytest
 
-from exhibit.kiosk.review import KioskPlayer, base_config, shipped_timeline
+from exhibit.review.player import KioskPlayer
+from exhibit.review.setup import base_config, shipped_timeline
 from tests.golden.visitor_checks import capture, visitor_problems
 
 CONFIG = base_config()

@@ -1,4 +1,4 @@
-"""Captions proved on the picture (exhibit.kiosk.claims, `exhibit render --timeline --verify`):
+"""Captions proved on the picture (exhibit.review.claims, `exhibit render --timeline --verify`):
 claims measured on the frames the kiosk draws, through the object-id pass, never by colour."""
 
 from __future__ import annotations
@@ -10,8 +10,8 @@ import pytest
 
 from exhibit import scenes
 from exhibit.timelines.file import load_timeline
-from exhibit.kiosk.claims import claim_runs, count_claims, verify
-from exhibit.kiosk.review import base_config
+from exhibit.review.claims import claim_runs, count_claims, verify
+from exhibit.review.setup import base_config
 from exhibit.resources import shipped
 
 #: The id frames of any screen from 640x360 up (claims.ID_HEIGHT): curves as wide as there.
@@ -160,7 +160,7 @@ def test_the_shipped_timelines_hold_their_claims_everywhere(path, language, redu
 def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
     """01-hypersphere's first caption names three doughnuts: in German their tags say so in
     German, and the key under the numbers too; the next caption tags only green and red."""
-    from exhibit.kiosk.review import KioskPlayer
+    from exhibit.review.player import KioskPlayer
 
     path = shipped("configs", "attract", "01-hypersphere.toml")
     with KioskPlayer(SIZE, timeline=path, language="de", headless=headless) as player:
@@ -177,7 +177,7 @@ def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
 def test_tags_keep_off_the_panels_when_the_picture_fills_the_world(headless):
     """Figure 8's moment in the hypersphere timeline: no room beside the picture, so the green
     doughnut's tag goes on it, still off every panel."""
-    from exhibit.kiosk.review import KioskPlayer
+    from exhibit.review.player import KioskPlayer
 
     path = shipped("configs", "attract", "01-hypersphere.toml")
     with KioskPlayer((1280, 720), timeline=path, headless=headless) as player:

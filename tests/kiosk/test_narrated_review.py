@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 
 from exhibit.timelines.file import timeline_paths
-from exhibit.kiosk.review import KioskPlayer
+from exhibit.review.player import KioskPlayer
 from exhibit.narration import speech
 from exhibit.narration.script import segments
 from exhibit.resources import shipped

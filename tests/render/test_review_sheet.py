@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from exhibit.commands._media import MAX_JOB_FRAMES, Progress
-from exhibit.kiosk.review import KioskPlayer, base_config, lead_s, play_schedule
+from exhibit.review.player import KioskPlayer, lead_s, play_schedule
+from exhibit.review.setup import base_config
 
 #: A day-long timeline with one caption: the issue's case, which never finished.
 DAY = """

@@ -132,7 +132,7 @@ def one_run(variant: str, busy: int, size: tuple[int, int], headless: Headless) 
     from exhibit.kiosk.app import Kiosk
     from exhibit.kiosk.config import load_kiosk_config
     from exhibit.kiosk.process_preparer import ProcessPreparer
-    from exhibit.kiosk.review import keyboard_only
+    from exhibit.review.setup import keyboard_only
     from exhibit.render.target import HeadlessTarget
 
     spinners = [subprocess.Popen([sys.executable, "-c", "while 1: pass"]) for _ in range(busy)]
