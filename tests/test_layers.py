@@ -267,6 +267,30 @@ def test_narration_is_not_imported_by_the_timelines_it_speaks(tree):
     ]
 
 
+def test_a_claim_kind_that_measures_through_the_id_pass_itself_is_refused(tree):
+    """A claim kind (timelines/claims/, layer 3) measures the samples it is handed; drawing
+    the id frames is the review's (layer 7), above the renderer (layer 5)."""
+    edges = tree(
+        {
+            "__init__.py": "",
+            "timelines/__init__.py": "",
+            "timelines/claims/__init__.py": "from .visible import Visible\n",
+            "timelines/claims/base.py": "",
+            "timelines/claims/visible.py": "from exhibit.timelines.claims.base import Claim\n"
+            "from exhibit.render.passes.ids import ObjectCoverage\n",
+            "render/__init__.py": "",
+            "render/passes/__init__.py": "",
+            "render/passes/ids.py": "",
+            "review/__init__.py": "",
+            "review/claims.py": "from exhibit.render.passes.ids import object_names\n"
+            "from exhibit.timelines.claims import KINDS\n",
+        }
+    )
+    assert upward_imports(edges) == [
+        "exhibit.timelines.claims.visible (layer 3) imports exhibit.render.passes.ids (layer 5)"
+    ]
+
+
 def test_the_kiosk_never_imports_the_review_that_plays_it(tree):
     """The review plays the real kiosk from above it; the kiosk (its frame loop, a lazy import
     included) reaching up for the player or the claims is refused, and so is the review

@@ -5,7 +5,8 @@ A caption such as "At distance 2 the viewpoint touches the 4D ball" is true only
 is there; once the timeline moves on, the words must change with it. A keyframe states what its
 caption claims in ``while`` (see :mod:`exhibit.timelines.file`): the sensor's distance or motion,
 or a pose the view must stay near ("in the plane ..." is true only while the view is the plane
-view); this module samples the timeline every ``STEP_S`` seconds and holds each caption to it.
+view); this module samples the timeline every ``STEP_S`` seconds and holds each caption to the
+claims of those kinds (exhibit.timelines.claims: ``on_file``), each kind's own check.
 
 `exhibit check-config` runs it over the attract timelines and reports ``file: key: reason``. The
 kiosk itself does not refuse a timeline for it: a wrong caption is the curator's to fix, not a
@@ -17,11 +18,11 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import math
-
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 
 from exhibit.geometry.view import ViewState
-from exhibit.timelines.model import Condition, Keyframe, Timeline
+from exhibit.timelines.claims.base import Sample, Seen
+from exhibit.timelines.model import Keyframe, Timeline
 
 #: Sampling step (s): a tenth of the shortest stretch anyone would write between keyframes.
 STEP_S = 0.05
@@ -33,8 +34,6 @@ MAX_SAMPLES = 20_000
 #: also watches the picture), and never under 3 s. A caption shown for less is lost.
 SECONDS_PER_WORD = 0.4
 MIN_READ_S = 3.0
-#: Slack on r = 1/d when comparing: rounding, not content.
-EPS_R = 1e-9
 
 
 def caption_problems(timeline: Timeline) -> list[str]:
@@ -113,103 +112,9 @@ def _condition_problems(timeline: Timeline) -> list[str]:
     for first, t0, t1 in runs:
         condition = timeline.keyframes[first].condition
         assert condition is not None  # runs keeps the keyframes with one
-        times = _samples(t0, t1, step)
-        views = [pose(t) for t in times]
-        r = [view.sensor_r for view in views]
-        where = f"{timeline.path}: keyframe[{first}].while"
-        if condition.sensor_r is not None:
-            out += distance_problems(where, condition, times, r)
-        if condition.motion is not None:
-            out += motion_problems(where, condition.motion, times, r)
-        if condition.angles_within is not None:
-            out += turn_problems(where, condition, times, views, first)
+        samples = [Sample(t, pose(t)) for t in _samples(t0, t1, step)]
+        seen = Seen(samples, first, f"{timeline.path}: keyframe[{first}].while")
+        for claim in condition.claims:
+            if claim.on_file:  # the view conditions: the picture is --verify's to measure
+                out += claim.problems(seen)
     return out
-
-
-#: The pose's eight angles, as check-config names them.
-POSE_NAMES = ("θ1", "θ2", "θ3", "θ4", "θ5", "θ6", "eye azimuth", "eye incidence")
-
-
-def turn_problems(
-    where: str, condition: Condition, times: list[float], views: Sequence[ViewState], first: int
-) -> list[str]:
-    """The pose turned more than ``angles_within`` degrees from the stating keyframe's."""
-    limit, stated = condition.angles_within, condition.pose
-    assert limit is not None and stated is not None  # set together (WhileSpec.condition)
-    turns = []  # per sample: (largest turn in degrees, which angle)
-    for view in views:
-        pose = view.angles + (view.eye_azimuth, view.eye_incidence)
-        diffs = [abs(math.degrees(a - b)) for a, b in zip(pose, stated)]
-        k = max(range(len(diffs)), key=diffs.__getitem__)
-        turns.append((diffs[k], k))
-    bad = [j for j, (turn, _) in enumerate(turns) if turn > limit + 1e-6]
-    if not bad:
-        return []
-    worst, k = max(turns[j] for j in bad)
-    return [
-        f"{where}.angles_within: the caption is shown at t = {time_spans(times, bad)} with the "
-        f"view turned up to {worst:.1f}° ({POSE_NAMES[k]}) from keyframe[{first}]'s pose, "
-        f"more than {limit:g}°"
-    ]
-
-
-def _distance(r: float) -> str:
-    return "inf" if r <= 0 else f"{1 / r:.3g}"
-
-
-def distance_problems(
-    where: str, condition: Condition, times: list[float], r: list[float]
-) -> list[str]:
-    assert condition.sensor_r is not None and condition.sensor_distance is not None  # together
-    low, high = condition.sensor_r
-    bad = [j for j, x in enumerate(r) if not low - EPS_R <= x <= high + EPS_R]
-    if not bad:
-        return []
-    d = condition.sensor_distance
-    want = (
-        "inf" if d[0] == math.inf else f"[{d[0]:g}, {'inf' if d[1] == math.inf else f'{d[1]:g}'}]"
-    )
-    near, far = _distance(max(r[j] for j in bad)), _distance(min(r[j] for j in bad))
-    seen = near if near == far else f"{near}..{far}"
-    return [
-        f"{where}.sensor_distance: the caption is shown at t = {time_spans(times, bad)} with the "
-        f"sensor at {seen}, outside {want}"
-    ]
-
-
-def motion_problems(where: str, motion: str, times: list[float], r: list[float]) -> list[str]:
-    steps = [b - a for a, b in zip(r, r[1:])]
-    sign = {"closer": 1.0, "farther": -1.0, "still": 0.0}[motion]
-    if sign == 0.0:
-        bad = [j for j, s in enumerate(steps) if abs(s) > EPS_R]
-        what = "the sensor moves"
-    else:
-        bad = [j for j, s in enumerate(steps) if s * sign < -EPS_R]
-        what = "the sensor moves " + ("farther" if sign > 0 else "closer")
-        if not bad and not any(s * sign > EPS_R for s in steps):
-            return [
-                f"{where}.sensor_motion: the caption says the sensor moves {motion}, but it "
-                f"stays at {_distance(r[0])} all the while (t = {times[0]:g}..{times[-1]:g} s)"
-            ]
-    if not bad:
-        return []
-    return [
-        f"{where}.sensor_motion: the caption says {motion!r}, but {what} at t = "
-        f"{time_spans(times, bad, steps=True)}"
-    ]
-
-
-def time_spans(times: list[float], indices: list[int], steps: bool = False, most: int = 3) -> str:
-    """Sample indices (with ``steps``: the steps from sample j to j + 1) as time ranges:
-    "28.0..36.0 s" or "1.0..2.0 s, 5.0 s"."""
-    spans: list[list[int]] = []
-    for j in indices:
-        if spans and j == spans[-1][1] + 1:
-            spans[-1][1] = j
-        else:
-            spans.append([j, j])
-    parts = []
-    for a, b in spans[:most]:
-        start, end = times[a], times[b + 1] if steps else times[b]
-        parts.append(f"{start:.1f} s" if end == start else f"{start:.1f}..{end:.1f} s")
-    return ", ".join(parts) + (f" and {len(spans) - most} more" if len(spans) > most else "")

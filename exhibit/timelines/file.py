@@ -59,9 +59,9 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from pathlib import Path
-from typing import Annotated, Any, Literal, Protocol
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Protocol
 
-from pydantic import Field, model_validator
+from pydantic import Field, create_model, model_validator
 
 from exhibit.errors import ConfigError, ExhibitError
 from exhibit.geometry.view import ViewState
@@ -71,7 +71,6 @@ from exhibit.schema.types import (
     Caption,
     Description,
     Distance,
-    DistanceRange,
     HalfHeight,
     Name,
     Number,
@@ -79,70 +78,44 @@ from exhibit.schema.types import (
     Seconds,
     distance_to_r,
 )
-from exhibit.timelines.model import Condition, Ease, Keyframe, Motion, PictureClaims, Timeline
+from exhibit.timelines.claims import KINDS
+from exhibit.timelines.claims.base import MAX_CLAIMED
+from exhibit.timelines.model import Condition, Ease, Keyframe, Timeline
 
-#: Objects one picture claim may name.
-MAX_CLAIMED = 16
 
-
-class WhileSpec(Model):
-    """``while = { ... }``: the state of the view a caption describes."""
-
-    sensor_distance: DistanceRange | None = None
-    sensor_motion: Motion | None = None
-    #: degrees the pose (six angles and the eye) may turn from the stating keyframe's
-    angles_within: Annotated[float, Number(0, 180)] | None = None
-    #: What the picture shows (PictureClaims): objects by name.
-    visible: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
-    absent: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
-    grows: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
-    shrinks: Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)] | None = None
-    outgrows: Annotated[list[Name], Field(min_length=2, max_length=2)] | None = None
-    fills: (
-        Annotated[
-            dict[Name, Annotated[float, Number(0.001, 1.0)]],
-            Field(min_length=1, max_length=MAX_CLAIMED),
-        ]
-        | None
-    ) = None
+class _While(Model):
+    """``while = { ... }``: what a caption says of the view and the picture, a key per claim
+    kind (exhibit.timelines.claims.KINDS, whose fragments are its fields: WhileSpec below)."""
 
     @model_validator(mode="after")
     def _not_empty(self):
-        if all(getattr(self, name) is None for name in type(self).model_fields):
-            raise ValueError(
-                "states no condition: give sensor_distance, sensor_motion, angles_within, "
-                "visible, absent, grows, shrinks, outgrows or fills"
-            )
+        keys = [kind.key for kind in KINDS]
+        if all(getattr(self, key) is None for key in keys):
+            raise ValueError(f"states no condition: give {', '.join(keys[:-1])} or {keys[-1]}")
         return self
 
-    def picture(self) -> PictureClaims | None:
-        """The claims about the picture, None when it makes none."""
-        if not any(
-            (self.visible, self.absent, self.grows, self.shrinks, self.outgrows, self.fills)
-        ):
-            return None
-        return PictureClaims(
-            tuple(self.visible or ()),
-            tuple(self.absent or ()),
-            tuple(self.grows or ()),
-            tuple(self.shrinks or ()),
-            None if self.outgrows is None else (self.outgrows[0], self.outgrows[1]),
-            tuple((self.fills or {}).items()),
+    def condition(self, pose: tuple[float, ...]) -> Condition:
+        """The condition, its claims in KINDS' order; ``pose``: the stating keyframe's angles
+        and eye (radians)."""
+        return Condition(
+            tuple(
+                kind.parse(getattr(self, kind.key), pose)
+                for kind in KINDS
+                if getattr(self, kind.key) is not None
+            )
         )
 
-    def condition(self, pose: tuple[float, ...]) -> Condition:
-        """The condition, with ``pose`` (the stating keyframe's angles and eye, radians)."""
-        d = self.sensor_distance
-        r = None if d is None else (distance_to_r(d[1]), distance_to_r(d[0]))
-        within = None if self.angles_within is None else float(self.angles_within)
-        return Condition(
-            r,
-            d,
-            self.sensor_motion,
-            within,
-            None if within is None else tuple(pose),
-            self.picture(),
-        )
+
+if TYPE_CHECKING:
+    WhileSpec = _While
+else:
+    WhileSpec = create_model(
+        "WhileSpec",
+        __base__=_While,
+        __doc__=_While.__doc__,
+        __module__=__name__,
+        **{kind.key: (kind.fragment, None) for kind in KINDS},
+    )
 
 
 class KeyframeSpec(Model):

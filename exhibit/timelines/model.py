@@ -1,6 +1,7 @@
-"""The attract timeline as the kiosk plays it: keyframes, what each caption says of the view
-(``while``: Condition, PictureClaims) and the view at any moment (Timeline.at), read from a
-timeline file by exhibit.timelines.file. Pure: no file, no scene registry, no GL."""
+"""The attract timeline as the kiosk plays it: keyframes, what each caption says of the view and
+the picture (``while``: a Condition, its claims one kind a module in exhibit.timelines.claims)
+and the view at any moment (Timeline.at), read from a timeline file by exhibit.timelines.file.
+Pure: no file, no scene registry, no GL."""
 
 from __future__ import annotations
 
@@ -9,59 +10,27 @@ from dataclasses import dataclass
 from typing import Literal, get_args
 
 from exhibit.geometry.view import ViewState
+from exhibit.timelines.claims.base import Claim
 
 Ease = Literal["smooth", "linear", "hold"]
 EASES: tuple[Ease, ...] = get_args(Ease)
-Motion = Literal["closer", "farther", "still"]
-MOTIONS: tuple[Motion, ...] = get_args(Motion)
 #: Reduced motion: a stretch between keyframes plays as held poses about this long, each
 #: crossfaded into the next (a 1 s crossfade, then 3 s still).
 STEP_S = 4.0
-#: Objects one picture claim may name.
 
 
 @dataclass(frozen=True)
 class Condition:
-    """What a caption says about the view, for `exhibit check-config` to hold it to.
+    """What a caption says in ``while``: one claim per kind it states (exhibit.timelines.claims),
+    in the order of its KINDS. The view conditions (sensor distance, motion, pose) are held to
+    the timeline file by `exhibit check-config`; every claim, those about the picture too, to
+    the frames the kiosk draws by `exhibit render --timeline --verify`, never by colour."""
 
-    ``sensor_r``: the range of r = 1/d the sensor must stay in (None: any); ``motion``: the
-    sensor must move closer (r grows), farther (r shrinks) or stay still; ``angles_within``: the
-    six angles and the eye (azimuth, incidence) stay within that many degrees of ``pose``, the
-    pose at the keyframe that states the condition (radians: θ1..θ6, azimuth, incidence)."""
+    claims: tuple[Claim, ...] = ()
 
-    sensor_r: tuple[float, float] | None = None
-    sensor_distance: tuple[float, float] | None = None  # as written, for messages
-    motion: str | None = None
-    angles_within: float | None = None
-    pose: tuple[float, ...] | None = None
-    #: What the caption says the picture shows, measured on the rendered frames by
-    #: `exhibit render --timeline --verify` (exhibit.review.claims), never by colour.
-    picture: PictureClaims | None = None
-
-
-@dataclass(frozen=True)
-class PictureClaims:
-    """Claims about the named objects on screen while a caption is shown (each name: a
-    surface, curve or marker of the scene, or the start of such names: "offset curve" is every
-    piece of it; or a live mark: "outline", "pinch points", "slice"). ``visible``: each shows
-    at every moment; ``absent``: none of it shows at any moment; ``grows`` / ``shrinks``: its area
-    on screen at the caption's end against its start; ``outgrows`` (a, b): a grows far more
-    than b; ``fills``: (name, share) pairs, the object covers at least that share of the
-    screen at every moment."""
-
-    visible: tuple[str, ...] = ()
-    absent: tuple[str, ...] = ()
-    grows: tuple[str, ...] = ()
-    shrinks: tuple[str, ...] = ()
-    outgrows: tuple[str, str] | None = None
-    fills: tuple[tuple[str, float], ...] = ()
-
-    def names(self) -> tuple[str, ...]:
-        """Every object the claims name, once each, in order."""
-        named = [*self.visible, *self.absent, *self.grows, *self.shrinks]
-        named += list(self.outgrows or ())
-        named += [name for name, _ in self.fills]
-        return tuple(dict.fromkeys(named))
+    def claim(self, key: str) -> Claim | None:
+        """The claim of the kind with that ``while`` key, if the caption makes one."""
+        return next((c for c in self.claims if c.key == key), None)
 
 
 #: A scene's parameters as a hashable key: (name, value) pairs, sorted by name.

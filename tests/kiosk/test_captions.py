@@ -291,14 +291,16 @@ def test_shipped_timelines_keep_their_captions_true():
     # the captions that state a distance or a motion say so
     stated = {k.caption: k.condition for k in hopf.keyframes if k.condition}
     assert len(stated) >= 5
-    assert all(c.sensor_r or c.motion or c.picture for c in stated.values())
+    assert all(c.claims for c in stated.values())
     for caption, condition in stated.items():
         if "distance 2" in caption:
-            assert condition.sensor_distance == (1.9, 2.1)
+            assert condition.claim("sensor_distance").written == (1.9, 2.1)
     # a caption about the plane view states that it holds only near that pose
     parabola = next(t for t in timelines if t.scene == "offset-parabola")
     plane = [k for k in parabola.keyframes if "in the plane" in k.caption.lower()]
-    assert plane and all(k.condition and k.condition.angles_within <= 5 for k in plane)
+    assert plane and all(
+        k.condition and k.condition.claim("angles_within").degrees <= 5 for k in plane
+    )
     assert all(a == 0 for a in plane[0].angles)
 
 

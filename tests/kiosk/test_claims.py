@@ -3,7 +3,9 @@ claims measured on the frames the kiosk draws, through the object-id pass, never
 
 from __future__ import annotations
 
+import ast
 import dataclasses
+import tomllib
 from pathlib import Path
 
 import pytest
@@ -13,6 +15,9 @@ from exhibit.timelines.file import load_timeline
 from exhibit.review.claims import claim_runs, count_claims, verify
 from exhibit.review.setup import base_config
 from exhibit.resources import shipped
+from exhibit.schema import validate
+from exhibit.timelines import claims as claim_kinds
+from exhibit.timelines.file import WhileSpec
 
 #: The id frames of any screen from 640x360 up (claims.ID_HEIGHT): curves as wide as there.
 SIZE = (640, 360)
@@ -208,3 +213,63 @@ def test_the_id_pass_counts_the_live_marks(headless):
     assert plain.pixels["outline"] > 0 and plain.pixels["slice"] == 0
     before, early, middle = (c.pixels["slice"] for c in sliced)
     assert before == 0 < early < middle
+
+
+# ------------------------------------------------------------------ the claim kinds as units
+
+CLAIMS_DIR = Path(claim_kinds.__file__).parent
+
+
+def test_kiosk_md_writes_every_claim_kind_as_its_unit_does():
+    """docs/KIOSK.md's list of what a caption may claim in ``while`` is held to the units
+    (exhibit.timelines.claims.KINDS): each kind's example is in the section that explains
+    ``while``, reads as a ``while`` table and makes a claim of that kind."""
+    kiosk_md = Path(__file__).resolve().parents[2] / "docs" / "KIOSK.md"
+    text = " ".join(kiosk_md.read_text(encoding="utf-8").split())
+    start = text.index("## Writing an attract timeline")
+    section = text[start : text.index("## ", start + 3)]
+    for kind in claim_kinds.KINDS:
+        assert f"`{kind.example}`" in section or f"{{ {kind.example} }}`" in section, kind.key
+        spec = validate(WhileSpec, tomllib.loads(kind.example), "docs/KIOSK.md")
+        (claim,) = spec.condition((0.0,) * 8).claims
+        assert type(claim) is kind and claim.key == kind.key
+
+
+def unregistered(folder: Path, kinds) -> list[str]:
+    """Claim kinds (classes deriving from Claim) defined in the modules of ``folder`` that
+    ``kinds`` does not list, and modules that define none or more than one."""
+    registered = {k.__name__ for k in kinds}
+    problems = []
+    for path in sorted(folder.glob("*.py")):
+        if path.stem in ("__init__", "base"):
+            continue
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        defined = [
+            node.name
+            for node in tree.body
+            if isinstance(node, ast.ClassDef)
+            and any(isinstance(b, ast.Name) and b.id == "Claim" for b in node.bases)
+        ]
+        if len(defined) != 1:
+            problems.append(f"{path.name}: {len(defined)} claim kinds, not one")
+        problems += [
+            f"{path.name}: {name} is not in KINDS" for name in defined if name not in registered
+        ]
+    return problems
+
+
+def test_each_claim_kind_is_one_module_and_one_registry_line():
+    assert unregistered(CLAIMS_DIR, claim_kinds.KINDS) == []
+    assert len({k.key for k in claim_kinds.KINDS}) == len(claim_kinds.KINDS)
+    assert [k.key for k in claim_kinds.KINDS] == list(WhileSpec.model_fields)
+
+
+def test_a_planted_unregistered_claim_kind_is_found(tmp_path):
+    (tmp_path / "base.py").write_text("class Claim: ...\n")
+    (tmp_path / "visible.py").write_text("class Visible(Claim): ...\n")
+    (tmp_path / "brightens.py").write_text("class Brightens(Claim): ...\n")
+    (tmp_path / "helpers.py").write_text("def helper(): ...\n")
+    assert unregistered(tmp_path, claim_kinds.KINDS) == [
+        "brightens.py: Brightens is not in KINDS",
+        "helpers.py: 0 claim kinds, not one",
+    ]

@@ -1,0 +1,164 @@
+"""What every claim kind is (:class:`Claim`), what it is measured on (:class:`Sample`, gathered
+into :class:`Seen` for one caption) and the helpers the kinds share.
+
+A kind is one module of this package: its ``while`` key and the schema fragment that reads it,
+what it makes of the value (a frozen dataclass, the claim), how many claims it counts for, and
+its check with its message. exhibit.timelines.claims lists the kinds in the order their keys are
+read; check-config (exhibit.timelines.captions) holds a caption to the kinds it can check on the
+timeline file's poses, `--verify` (exhibit.review.claims) to all of them on the frames drawn.
+Pure: no GL, no files."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Annotated, Any, ClassVar
+
+from pydantic import Field
+
+from exhibit.geometry.view import ViewState
+from exhibit.schema.types import Name
+
+#: Objects one picture claim may name.
+MAX_CLAIMED = 16
+#: A picture claim's objects: names (or the start of names) of the scene's objects.
+Names = Annotated[list[Name], Field(min_length=1, max_length=MAX_CLAIMED)]
+
+#: When a kind is judged, in this order, the kinds of one stage in the registry's order: the
+#: view conditions (check-config's too), then what shows at every moment, then what changes
+#: from the caption's start to its end. The scene's objects a caption names are looked up
+#: between the first two (an unknown name is reported once, before the picture's checks).
+VIEW, EVERY_MOMENT, START_TO_END = 0, 1, 2
+STAGES = (VIEW, EVERY_MOMENT, START_TO_END)
+
+#: Slack on r = 1/d when comparing: rounding, not content.
+EPS_R = 1e-9
+#: "grows" / "shrinks" / "outgrows": the area at the caption's end against its start, at least
+#: x GROWTH (at most / GROWTH).
+GROWTH = 1.25
+
+
+@dataclass(frozen=True)
+class Sample:
+    """One moment of a caption: the view (as the timeline file has it, or as a frame was drawn
+    with it) and, for a frame, its objects' pixels in the object-id pass
+    (exhibit.render.passes.ids: never by colour)."""
+
+    t: float
+    view: ViewState
+    #: per object name, the pixels where it is in front
+    pixels: Mapping[str, int] = field(default_factory=dict)
+    #: the id frame's size (width, height)
+    size: tuple[int, int] = (0, 0)
+    #: the scene's objects in id order (names a claim may match)
+    objects: tuple[str, ...] = ()
+    #: pixels of the objects a claim asks footprints of with nothing in front of them
+    footprint: Mapping[str, int] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Seen:
+    """A caption's samples, how a problem names it, and the objects each claimed name stands
+    for (check-config's samples have no objects)."""
+
+    samples: Sequence[Sample]
+    #: the keyframe that states the condition
+    first: int
+    #: the view conditions' lines start with it ("file: keyframe[3].while" for check-config,
+    #: "file: keyframe 3: while" for --verify)
+    where: str
+    #: the picture claims' lines start with it ("file: keyframe 3")
+    head: str = ""
+    matched: Mapping[str, Sequence[str]] = field(default_factory=dict)
+
+    @property
+    def times(self) -> list[float]:
+        return [s.t for s in self.samples]
+
+    @property
+    def r(self) -> list[float]:
+        """The sensor's r = 1/d at each sample."""
+        return [s.view.sensor_r for s in self.samples]
+
+    def area(self, name: str, sample: Sample) -> int:
+        """Pixels of the objects ``name`` stands for in ``sample``."""
+        return sum(sample.pixels.get(n, 0) for n in self.matched[name])
+
+    def share(self, name: str, sample: Sample) -> float:
+        """The share of the screen they cover."""
+        size = self.samples[0].size
+        return self.area(name, sample) / (size[0] * size[1])
+
+    def growth(self, name: str) -> float:
+        """Their area at the caption's end against its start (inf from nothing, 1 for none)."""
+        a, b = self.area(name, self.samples[0]), self.area(name, self.samples[-1])
+        return (b / a) if a else (math.inf if b else 1.0)
+
+    @property
+    def span(self) -> str:
+        return f"t = {self.samples[0].t:.1f}..{self.samples[-1].t:.1f} s"
+
+
+class Claim:
+    """A kind of claim a caption makes in ``while``: a subclass, a frozen dataclass, in a module
+    of its own, listed in exhibit.timelines.claims.KINDS."""
+
+    #: its key in ``while``
+    key: ClassVar[str]
+    #: the schema fragment its value is read with (pydantic; None when not given)
+    fragment: ClassVar[Any]
+    #: when it is judged (VIEW, EVERY_MOMENT, START_TO_END)
+    stage: ClassVar[int]
+    #: check-config holds a caption to it on the timeline file's poses (a view condition);
+    #: otherwise only --verify can, on the frames
+    on_file: ClassVar[bool] = False
+    #: how docs/KIOSK.md writes it (a test holds the document to the kinds)
+    example: ClassVar[str]
+
+    @classmethod
+    def parse(cls, value: Any, pose: tuple[float, ...]) -> Claim:
+        """The claim from its validated value; ``pose``: the stating keyframe's angles and eye
+        (radians)."""
+        raise NotImplementedError
+
+    def count(self) -> int:
+        """How many claims it makes, for reports (each named object counts once)."""
+        return 1
+
+    def names(self) -> tuple[str, ...]:
+        """The objects it names, in order."""
+        return ()
+
+    def footprints(self) -> tuple[str, ...]:
+        """The objects whose footprint (drawn with nothing in front) it needs measured."""
+        return ()
+
+    def problems(self, seen: Seen) -> list[str]:
+        """One line per way ``seen`` contradicts it."""
+        raise NotImplementedError
+
+
+def matching(name: str, objects: Sequence[str]) -> list[str]:
+    """The objects a claim's ``name`` stands for: that name, or every name it begins."""
+    return [o for o in dict.fromkeys(objects) if o == name or o.startswith(name)]
+
+
+def distance(r: float) -> str:
+    return "inf" if r <= 0 else f"{1 / r:.3g}"
+
+
+def time_spans(times: list[float], indices: list[int], steps: bool = False, most: int = 3) -> str:
+    """Sample indices (with ``steps``: the steps from sample j to j + 1) as time ranges:
+    "28.0..36.0 s" or "1.0..2.0 s, 5.0 s"."""
+    spans: list[list[int]] = []
+    for j in indices:
+        if spans and j == spans[-1][1] + 1:
+            spans[-1][1] = j
+        else:
+            spans.append([j, j])
+    parts = []
+    for a, b in spans[:most]:
+        start, end = times[a], times[b + 1] if steps else times[b]
+        parts.append(f"{start:.1f} s" if end == start else f"{start:.1f}..{end:.1f} s")
+    return ", ".join(parts) + (f" and {len(spans) - most} more" if len(spans) > most else "")
