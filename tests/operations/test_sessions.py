@@ -859,3 +859,20 @@ def test_sessions_the_disk_refuses_wait_and_are_written_in_order(tmp_path, monke
     with sqlite3.connect(tmp_path / "sessions.db") as con:
         starts = [row[0] for row in con.execute("select start from sessions order by id")]
     assert starts == [now, now + 1, now + 2]
+
+
+def test_stats_reads_the_services_log_before_this_users_own(tmp_path, monkeypatch):
+    """As `exhibit status` does for the health file: on a kiosk machine, root's own old log
+    (a kiosk once run by hand) must not hide the service's."""
+    from exhibit.operations.sessions import config as sessions_config
+
+    service, own = tmp_path / "var-lib-exhibit", tmp_path / "xdg"
+    monkeypatch.setattr(sessions_config, "SERVICE_STATE_DIR", service)
+    monkeypatch.delenv("EXHIBIT_STATE_DIR", raising=False)
+    monkeypatch.setenv("XDG_STATE_HOME", str(own))
+    assert sessions_config.candidate_paths() == [
+        service / "sessions.db",
+        own / "exhibit" / "sessions.db",
+    ]
+    monkeypatch.setenv("EXHIBIT_STATE_DIR", str(tmp_path / "set"))
+    assert sessions_config.candidate_paths() == [tmp_path / "set" / "sessions.db"]

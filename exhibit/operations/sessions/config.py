@@ -64,11 +64,12 @@ def default_db_path() -> Path:
 
 
 def candidate_paths() -> list[Path]:
-    """Where a reader looks without --db: the state folder, then the service's (so staff can
-    run `exhibit stats` from their own shell), as exhibit.operations.health does for the health
-    file."""
-    paths = [default_db_path()]
+    """Where a reader looks without --db, in the order exhibit.operations.health looks for the
+    health file: $EXHIBIT_STATE_DIR alone when set; else the service's /var/lib/exhibit first
+    (on a kiosk machine that is the log staff ask about, whoever asks: root's own state folder
+    holds at most a log of a kiosk someone once ran by hand), then this user's own."""
+    if os.environ.get("EXHIBIT_STATE_DIR"):
+        return [default_db_path()]
     service = SERVICE_STATE_DIR / DB_FILE
-    if not os.environ.get("EXHIBIT_STATE_DIR") and service not in paths:
-        paths.append(service)
-    return paths
+    own = default_db_path()
+    return [service] if own == service else [service, own]
