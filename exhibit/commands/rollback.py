@@ -13,7 +13,7 @@ from __future__ import annotations
 import argparse
 
 from exhibit.commands import install as inst
-from exhibit.commands.update import Kiosk, add_prefix, need_root
+from exhibit.commands.update import Releases, add_prefix, need_root
 
 HELP = "switch a deployed kiosk back to its previous release (made by ./bootstrap.sh update)"
 
@@ -25,4 +25,4 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args: argparse.Namespace) -> int:
     prefix = inst.check_prefix(args.prefix)
     need_root("rollback", prefix)
-    return Kiosk(prefix).rollback()
+    return Releases(prefix).rollback()

@@ -48,10 +48,10 @@ import argparse
 import os
 
 from exhibit.commands import install as inst
-from exhibit.commands._releases import KEEP, LOCK, PREVIOUS, RESTART, TIMEOUTS, Kiosk, StepFailed
+from exhibit.commands._releases import KEEP, LOCK, PREVIOUS, RESTART, TIMEOUTS, Releases, StepFailed
 from exhibit.errors import ExhibitError
 
-#: Kiosk and the constants are here too, where `exhibit rollback` and the tests import them.
+#: Releases and the constants are here too, where `exhibit rollback` and the tests import them.
 __all__ = [
     "HELP",
     "KEEP",
@@ -59,7 +59,7 @@ __all__ = [
     "PREVIOUS",
     "RESTART",
     "TIMEOUTS",
-    "Kiosk",
+    "Releases",
     "StepFailed",
     "add_arguments",
     "add_prefix",
@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
         )
     need_root("update", prefix)
     release = os.path.normpath(os.path.abspath(args.release))
-    return Kiosk(prefix).update(release, keep=args.keep)
+    return Releases(prefix).update(release, keep=args.keep)
 
 
 def need_root(what: str, prefix: str) -> None:

@@ -176,7 +176,7 @@ def test_the_update_and_rollback_shown_are_what_the_code_does():
 
     updating = section("8. Updating")
     assert "/opt/exhibit/.venv/bin/exhibit rollback" in updating
-    assert f"/opt/exhibit{update.Kiosk().releases[len('/opt/exhibit') :]}/" in updating
+    assert f"/opt/exhibit{update.Releases().releases[len('/opt/exhibit') :]}/" in updating
     assert f"`{update.PREVIOUS}`" in updating
     assert f"`{' '.join(update.RESTART)}`" in updating
     assert "beyond three" in updating and update.KEEP == 3

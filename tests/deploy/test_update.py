@@ -18,7 +18,7 @@ from exhibit.cli import main
 from exhibit.commands import install as inst
 from exhibit.commands import _bounded, _release_checks, rollback, update
 from exhibit.commands import _update_journal as journal
-from exhibit.commands.update import LOCK, Kiosk
+from exhibit.commands.update import LOCK, Releases
 from exhibit.errors import ExhibitError
 from exhibit.schema import links
 from tests.deploy.unitfile import environment, units
@@ -88,7 +88,7 @@ def root(tmp_path):
 def kiosk(root, runner, lines=None, user=True):
     if isinstance(runner, Runner):
         runner.root = root
-    return Kiosk(
+    return Releases(
         PREFIX,
         root=root,
         runner=runner,
@@ -652,7 +652,7 @@ def test_rollback_cli_refusal_is_one_line_exit_2(root, monkeypatch, capsys):
     monkeypatch.setattr(os, "geteuid", lambda: 0)
     monkeypatch.setattr(
         rollback,
-        "Kiosk",
+        "Releases",
         lambda prefix: kiosk(root, Runner()),  # the same, under the root
     )
     assert main(["rollback"]) == 2
@@ -981,7 +981,7 @@ def test_a_journal_that_is_not_one_is_named_in_one_line(root, capsys, monkeypatc
         f"then: rm {path}"
     ]
     monkeypatch.setattr(os, "geteuid", lambda: 0)
-    monkeypatch.setattr(rollback, "Kiosk", lambda prefix: kiosk(root, Runner()))
+    monkeypatch.setattr(rollback, "Releases", lambda prefix: kiosk(root, Runner()))
     assert main(["rollback"]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and err.startswith(f"exhibit rollback: error: {shown}: {why}")
