@@ -5,6 +5,10 @@
     name = "Deutsch"
     [text]
     "When a ball meets a pipe" = "Wenn eine Kugel auf ein Rohr trifft"
+    [voice]
+    name = "de"      # espeak-ng's voice for the narration (espeak-ng --voices=de lists them)
+
+A language is data: its words and voice. A site's catalogue adds to the shipped one line by line.
 
 Why TOML keyed by the English words, not gettext .po files: curators already write scenes and
 timelines in TOML through the same checked reader (exhibit.schema: `file: key: reason`), the
@@ -30,6 +34,8 @@ from collections.abc import Callable, Iterable, Sequence
 from pydantic import Field, field_validator
 
 from exhibit.errors import ConfigError
+from exhibit.narration.speech import DEFAULT_RATE_WPM, Voice, set_voice
+from exhibit.resources import shipped
 from exhibit.timelines.model import Timeline
 from exhibit.render.layout import PINCH_KEY
 from exhibit.schema import Model, read_toml, validate
@@ -75,10 +81,23 @@ class LanguagesSection(Model):
 Translation = Annotated[str, Text(2000, multiline=True)]
 
 
+#: An espeak-ng voice's name, as ``espeak-ng --voices`` lists it ("de", "fr-fr", "en-gb-x-rp").
+VoiceName = Annotated[str, Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_+-]{0,39}$")]
+
+
+class VoiceSpec(Model):
+    """``[voice]`` of a catalogue: how espeak-ng speaks the language (both keys optional: the
+    voice named by the language's code, at exhibit.narration.speech.DEFAULT_RATE_WPM)."""
+
+    name: VoiceName | None = None
+    rate_wpm: Annotated[int, Field(ge=80, le=450)] | None = None
+
+
 class CatalogueFile(Model):
     language: LanguageCode
     name: Name
     text: dict[Caption, Translation] = {}
+    voice: VoiceSpec = VoiceSpec()
 
 
 @dataclass(frozen=True)
@@ -87,6 +106,15 @@ class Catalogue:
     name: str
     text: dict = field(default_factory=dict)
     path: Path | None = None
+    #: the [voice] keys this catalogue's file sets (None: not set, the shipped file's or default)
+    voice_name: str | None = None
+    rate_wpm: int | None = None
+
+    @property
+    def voice(self) -> Voice:
+        """The narration's voice: the [voice] table's, else espeak-ng's voice named like the
+        language, at exhibit.narration.speech.DEFAULT_RATE_WPM."""
+        return Voice(self.voice_name or self.language, self.rate_wpm or DEFAULT_RATE_WPM)
 
 
 def load_catalogue(path: Path) -> Catalogue:
@@ -113,23 +141,62 @@ def load_catalogue(path: Path) -> Catalogue:
         raise ConfigError(
             [f"{path}: language: {spec.language!r} does not match the file name ({path.stem}.toml)"]
         )
-    return Catalogue(spec.language, spec.name, dict(spec.text), path)
+    return Catalogue(
+        spec.language, spec.name, dict(spec.text), path, spec.voice.name, spec.voice.rate_wpm
+    )
 
 
-def load_catalogues(folder: Path | None, languages: Iterable[str]) -> dict[str, Catalogue]:
-    """The catalogue of every language shown but English; ConfigError names each problem."""
+def shipped_catalogues() -> Path:
+    """The shipped catalogues' folder (configs/languages)."""
+    return shipped("configs", "languages")
+
+
+def layered(shipped_one: Catalogue, site: Catalogue) -> Catalogue:
+    """``site`` over ``shipped_one``, line by line: every shipped line stays unless the site
+    gives the same English key; the site's name and [voice] keys win where it sets them. Its
+    path is the site file's (where a curator adds what check-config says is missing)."""
+    return Catalogue(
+        site.language,
+        site.name,
+        {**shipped_one.text, **site.text},
+        site.path,
+        site.voice_name or shipped_one.voice_name,
+        site.rate_wpm or shipped_one.rate_wpm,
+    )
+
+
+def load_catalogues(
+    folder: Path | None, languages: Iterable[str], base: Path | None = None
+) -> dict[str, Catalogue]:
+    """The catalogue of every language shown but English: ``folder``'s ``<code>.toml`` over
+    the shipped one (``base``, default configs/languages), line by line (:func:`layered`); a
+    language needs one of the two. Each language's voice is registered for the narration
+    (exhibit.narration.speech.set_voice). ConfigError names each problem."""
     out: dict[str, Catalogue] = {SOURCE: Catalogue(SOURCE, "English")}
     problems: list[str] = []
+    folder = folder or Path(".")
+    base = base or shipped_catalogues()
+    same = folder.resolve() == base.resolve()
     for code in languages:
         if code == SOURCE:
             continue
-        path = (folder or Path(".")) / f"{code}.toml"
+        own, under = folder / f"{code}.toml", base / f"{code}.toml"
         try:
-            out[code] = load_catalogue(path)
+            if same or not under.is_file():
+                catalogue = load_catalogue(own)
+            elif not own.exists() and not own.is_symlink():
+                catalogue = load_catalogue(under)
+            else:
+                catalogue = layered(load_catalogue(under), load_catalogue(own))
         except ConfigError as exc:
             problems.extend(exc.problems)
+            continue
+        out[code] = catalogue
     if problems:
         raise ConfigError(problems)
+    for code, catalogue in out.items():
+        if code != SOURCE:
+            set_voice(code, catalogue.voice)
     return out
 
 

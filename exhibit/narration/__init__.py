@@ -24,12 +24,13 @@ from exhibit.narration.sound import (
 )
 from exhibit.narration.speech import (
     ENGINE,
-    VOICES,
     SpeechBudget,
     SpeechSkipped,
+    Voice,
     available,
     engine_version,
     synthesise,
+    voice_for,
 )
 
 __all__ = [
@@ -40,7 +41,7 @@ __all__ = [
     "Sound",
     "SpeechBudget",
     "SpeechSkipped",
-    "VOICES",
+    "Voice",
     "available",
     "concatenate",
     "engine_version",
@@ -50,5 +51,6 @@ __all__ = [
     "silence",
     "spoken",
     "synthesise",
+    "voice_for",
     "write_wav",
 ]

@@ -34,8 +34,6 @@ from exhibit.narration.wav import read_header
 from exhibit.schema import files
 
 log = logging.getLogger(__name__)
-#: Words a minute the exhibit speaks at unless told otherwise.
-DEFAULT_RATE_WPM = 150
 _CHUNK = b"xnar"
 
 
@@ -47,16 +45,18 @@ def speech_cache_dir() -> Path:
 
 
 def speech_key(
-    text: str, language: str, rate_wpm: int = DEFAULT_RATE_WPM, budget: SpeechBudget | None = None
+    text: str, language: str, rate_wpm: int | None = None, budget: SpeechBudget | None = None
 ) -> str:
-    """The sha256 naming the speech of ``text`` (raises NarrationError without espeak-ng, or
-    when it does not tell its version within ``budget``)."""
+    """The sha256 naming the speech of ``text`` in ``language``'s voice at ``rate_wpm`` (default:
+    the voice's rate); raises NarrationError without espeak-ng, for a language with no voice, or
+    when espeak-ng does not tell its version within ``budget``."""
+    voice = voice_for(language)
     description = json.dumps(
         {
             "engine": ENGINE,
             "version": engine_version(budget),
-            "voice": voice_for(language),
-            "rate": int(rate_wpm),
+            "voice": voice.name,
+            "rate": int(voice.rate_wpm if rate_wpm is None else rate_wpm),
             "text": text,
         },
         sort_keys=True,
@@ -101,7 +101,7 @@ def spoken(
     language: str,
     cache: Path | None = None,
     *,
-    rate_wpm: int = DEFAULT_RATE_WPM,
+    rate_wpm: int | None = None,
     budget: SpeechBudget | None = None,
 ) -> Sound:
     """``text`` spoken in ``language``: from the cache folder (``cache``, else

@@ -1,11 +1,12 @@
 """Offline speech with espeak-ng, for the texts a curator has not recorded.
 
 Why espeak-ng: it is in Debian main (so bootstrap.sh installs it, and an offline bundle carries
-it as .debs), needs no network or model download, speaks English and German (and a hundred more
-languages the catalogues may add), and is fast enough to speak every shipped text while scenes
-are prepared. It sounds synthetic; a museum that wants warmth records its narration, which wins
-wherever it exists. Neural engines (Piper) need voice models from outside the package
-registries, and the better MBROLA voices are not in Debian main.
+it as .debs), needs no network or model download, speaks English, German and French (and a
+hundred more languages a catalogue may add, naming its voice: exhibit.kiosk.language), and is
+fast enough to speak every shipped text while scenes are prepared. It sounds synthetic; a museum
+that wants warmth records its narration, which wins wherever it exists. Neural engines (Piper)
+need voice models from outside the package registries, and the better MBROLA voices are not in
+Debian main.
 
 The engine runs as a subprocess, never through a shell: the text goes in on stdin (so one that
 begins with "-" is not an option), the WAV comes back on stdout, with a cap on its size, in a
@@ -21,16 +22,47 @@ import os
 import shutil
 import threading
 import time
+from dataclasses import dataclass
 
 from exhibit import tools
 from exhibit.narration.errors import NarrationError
 from exhibit.narration.sound import Sound, read_wav_bytes
 
 ENGINE = "espeak-ng"
-#: Language -> espeak-ng voice. en-gb is espeak-ng's own English: its rules and dictionary are
-#: written for it (the American and regional voices are variants on top), and it is what "en"
-#: resolves to; "de" is its only German voice without MBROLA.
-VOICES = {"en": "en-gb", "de": "de"}
+#: Words a minute, when a language's voice does not say.
+DEFAULT_RATE_WPM = 150
+
+
+@dataclass(frozen=True)
+class Voice:
+    """How espeak-ng speaks one language: its voice (``espeak-ng --voices=fr`` lists a
+    language's) and the rate in words a minute. A language's voice is data: the ``[voice]``
+    table of its catalogue (exhibit.kiosk.language), registered here as the catalogue loads."""
+
+    name: str
+    rate_wpm: int = DEFAULT_RATE_WPM
+
+
+#: English, the source language, has no catalogue: its voice is en-gb, espeak-ng's own English
+#: (its rules and dictionary are written for it; the American and regional voices are variants
+#: on top), and what "en" resolves to. Every other language's voice comes from its catalogue.
+SOURCE_VOICES = {"en": Voice("en-gb")}
+_voices: dict[str, Voice] = dict(SOURCE_VOICES)
+_voices_lock = threading.Lock()
+
+
+def set_voice(language: str, voice: Voice) -> None:
+    """``language`` is spoken with ``voice`` from now on (a catalogue that loads says so)."""
+    with _voices_lock:
+        _voices[language] = voice
+
+
+def voices() -> dict[str, Voice]:
+    """Every language with a voice: English and each catalogue loaded so far."""
+    with _voices_lock:
+        return dict(_voices)
+
+
 #: A description or caption longer than this is a mistake, not a text to read for minutes.
 MAX_TEXT_CHARS = 2000
 #: The most a synthesis may return (10 minutes of 16-bit audio at 22.05 kHz); its time limits
@@ -158,23 +190,56 @@ def _shown(text: str) -> str:
     return repr(words if len(words) <= 40 else words[:37] + "...")
 
 
-def voice_for(language: str) -> str:
-    """The espeak-ng voice of ``language``; NarrationError when it has none."""
-    voice = VOICES.get(language) if isinstance(language, str) else None
+def _shipped_voice(language: str) -> Voice | None:
+    """The [voice] of the shipped catalogue of ``language`` (configs/languages/<code>.toml),
+    for a language whose catalogue has not been loaded (a command speaking a text alone)."""
+    import re
+    import tomllib
+
+    from exhibit.resources import shipped
+
+    if not re.fullmatch(r"[a-z]{2,3}(-[A-Z]{2})?", language):
+        return None
+    try:
+        doc = tomllib.loads(shipped("configs", "languages", f"{language}.toml").read_text("utf-8"))
+    except (OSError, UnicodeError, tomllib.TOMLDecodeError):
+        return None
+    table = doc.get("voice", {})
+    name = table.get("name", language) if isinstance(table, dict) else language
+    rate = table.get("rate_wpm", DEFAULT_RATE_WPM) if isinstance(table, dict) else 0
+    if not isinstance(name, str) or not isinstance(rate, int):
+        return None
+    return Voice(name, rate)
+
+
+def voice_for(language: str) -> Voice:
+    """The voice of ``language``: its catalogue's (registered as it loaded, else the shipped
+    catalogue's); NarrationError when it has none."""
+    voice = voices().get(language) if isinstance(language, str) else None
+    if voice is None and isinstance(language, str):
+        voice = _shipped_voice(language)
+        if voice is not None:
+            set_voice(language, voice)
     if voice is None:
-        have = ", ".join(sorted(VOICES))
-        raise NarrationError(f"no {ENGINE} voice for language {language!r} (have: {have})")
+        have = ", ".join(sorted(voices()))
+        raise NarrationError(
+            f"no {ENGINE} voice for language {language!r} (have: {have}; a language's voice "
+            "is the [voice] of its catalogue, configs/languages/<code>.toml)"
+        )
     return voice
 
 
 def synthesise(
-    text: str, language: str, rate_wpm: int = 150, budget: SpeechBudget | None = None
+    text: str, language: str, rate_wpm: int | None = None, budget: SpeechBudget | None = None
 ) -> Sound:
-    """``text`` spoken in ``language`` (a key of VOICES) at ``rate_wpm`` words a minute, within
+    """``text`` spoken in ``language`` (with :func:`voice_for`'s voice) at ``rate_wpm`` words a
+    minute (default: the voice's rate), within
     ``budget`` (the run's; default: one call's limit). NarrationError, on one line, when
     espeak-ng is missing, the language has no voice, the text is blank or too long, or
     espeak-ng fails or runs out of time (SpeechSkipped when it did so earlier in the run)."""
     voice = voice_for(language)
+    if rate_wpm is None:
+        rate_wpm = voice.rate_wpm
     if not isinstance(text, str) or not text.strip():
         raise NarrationError("cannot speak a blank text")
     if len(text) > MAX_TEXT_CHARS:
@@ -188,7 +253,7 @@ def synthesise(
     binary = _binary()
     if binary is None:
         raise NarrationError(f"{ENGINE} is not installed: {INSTALL_HINT}")
-    command = [binary, "--stdout", "-b", "1", "-v", voice, "-s", str(int(rate_wpm))]
+    command = [binary, "--stdout", "-b", "1", "-v", voice.name, "-s", str(int(rate_wpm))]
     shown = _shown(text)
     done = (budget or SpeechBudget()).run(command, text.encode("utf-8"), f"speaking {shown}")
     if done.code != 0 or not done.out:

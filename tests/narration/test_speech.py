@@ -13,7 +13,6 @@ import pytest
 from exhibit import tools
 from exhibit.narration import (
     RATE,
-    VOICES,
     NarrationError,
     SpeechBudget,
     SpeechSkipped,
@@ -61,8 +60,13 @@ def test_engine_version():
     assert engine_version()[0].isdigit()
 
 
-def test_the_voices():
-    assert set(VOICES) == {"en", "de"}
+def test_a_voice_is_data():
+    """English's voice is the source's; every other language's comes from its catalogue."""
+    from exhibit.kiosk.language import load_catalogues
+
+    assert speech.voice_for("en") == speech.Voice("en-gb", 150)
+    load_catalogues(None, ["de"])
+    assert speech.voice_for("de") == speech.Voice("de", 150)
 
 
 @pytest.mark.parametrize(
@@ -71,7 +75,7 @@ def test_the_voices():
         ("   \n", "en", "blank"),
         ("", "de", "blank"),
         ("x" * (speech.MAX_TEXT_CHARS + 1), "en", "over the 2000"),
-        ("Bonjour", "fr", "no espeak-ng voice for language 'fr'"),
+        ("Dzień dobry", "pl", "no espeak-ng voice for language 'pl'"),
         ("nul\0byte", "en", "NUL"),
     ],
 )
