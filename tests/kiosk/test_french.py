@@ -3,6 +3,7 @@ holds its words and its voice, and check-config holds it to every text the kiosk
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -55,3 +56,20 @@ def test_check_config_passes_with_french_shown(tmp_path, capsys):
 
 def test_the_shipped_default_languages_stay_english_and_german():
     assert load_kiosk_config().languages == ("en", "de")
+
+
+#: The word for the doughnut (torus) in each shipped language, and words that must not name it.
+DOUGHNUT = {"de": ("Donut", ("Tori", "Torus")), "fr": ("tore", ("beignet", "donut"))}
+
+
+@pytest.mark.parametrize("code", sorted(DOUGHNUT))
+def test_each_language_names_the_doughnut_one_way(code):
+    """Every text whose English names a doughnut or torus names it with the one word, in
+    titles, captions, descriptions and labels alike (the German title once said "Hopf-Tori"
+    where every caption and tag said "Donut")."""
+    word, never = DOUGHNUT[code]
+    catalogue = load_catalogues(None, [code])[code]
+    for english, text in catalogue.text.items():
+        if re.search(r"doughnut|tor(i|us)\b", english, re.I):
+            assert word.lower() in text.lower(), (english, text)
+        assert not any(w.lower() in text.lower() for w in never), (english, text)
