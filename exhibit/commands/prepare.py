@@ -16,7 +16,7 @@ from exhibit.timelines.file import load_playlist
 from exhibit.kiosk.config import KioskConfig, load_kiosk_config
 from exhibit.kiosk.governor import kiosk_levels
 from exhibit.kiosk.narrator import prepare_all, report_lines
-from exhibit.kiosk.jobs import run_job, scene_jobs
+from exhibit.preparing.jobs import run_job, scene_jobs
 from exhibit.scenes.cache import cache_dir, entry_path, entry_problem
 from exhibit.surfaces import progress
 

@@ -63,7 +63,7 @@ def run(args: argparse.Namespace) -> int:
     from exhibit.kiosk.app import Kiosk, open_window
     from exhibit.operations.health import default_path
     from exhibit.operations.notify import Notifier
-    from exhibit.kiosk.process_preparer import ProcessPreparer
+    from exhibit.preparing.process_preparer import ProcessPreparer
     from exhibit.operations.sessions import open_session_log
 
     window = open_window(config, args.windowed)

@@ -52,11 +52,11 @@ from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content, nearest_level
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
 from exhibit.kiosk.frame_loop import run_frames
-from exhibit.kiosk.jobs import Framers
+from exhibit.preparing.jobs import Framers
 from exhibit.kiosk.language import PREPARING, Translator
 from exhibit.kiosk.narrator import Narrator
-from exhibit.kiosk.panel_drift import PanelDrift
-from exhibit.kiosk.preparing import Preparer
+from exhibit.framing.panel_drift import PanelDrift
+from exhibit.preparing.preparing import Preparer
 from exhibit.kiosk.screen_log import ScreenLog
 from exhibit.kiosk.state import Frame, KioskState
 from exhibit.kiosk.warm_up import Chores, WarmUp
@@ -87,7 +87,7 @@ class Kiosk:
     """The running exhibit. ``window`` is a render target (exhibit.render.target: the GLFW
     Window on a museum's screen, HeadlessTarget in tests and benchmarks). ``parts``: built whole
     by the caller (exhibit.kiosk.assembly), else assembled here from the other arguments;
-    ``preparer(framers)`` makes the preparer (exhibit.kiosk.preparing) of every scene but the
+    ``preparer(framers)`` makes the preparer (exhibit.preparing.preparing) of every scene but the
     first, while the kiosk runs; None: all of them before the first frame (reviews, tests).
     ``sessions``: the visitor-session recorder (exhibit.operations.sessions), or None."""
 

@@ -22,19 +22,19 @@ from exhibit.timelines.model import Timeline
 from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content, prepare_first
-from exhibit.kiosk.follow import Aims
+from exhibit.framing.follow import Aims
 from exhibit.kiosk.governor import Governor, for_kiosk, mesh_levels
 from exhibit.kiosk.hud_words import HudWords
 from exhibit.kiosk.language import LanguageChoice, Translator, in_every_language, translator_for
 from exhibit.kiosk.narration_cues import NarrationCues
 from exhibit.kiosk.narrator import Narrator, SoundPlayer, for_kiosk as narrator_for
-from exhibit.kiosk.jobs import Framers, scene_jobs
-from exhibit.kiosk.preparing import Preparer
+from exhibit.preparing.jobs import Framers, scene_jobs
+from exhibit.preparing.preparing import Preparer
 from exhibit.kiosk.frame_passes import PassSampler
 from exhibit.kiosk.reporting import Reporter
-from exhibit.kiosk.scene_meshes import SceneMeshes
+from exhibit.preparing.scene_meshes import SceneMeshes
 from exhibit.kiosk.slice_inset import SliceInset
-from exhibit.kiosk.start_views import StartViews
+from exhibit.framing.start_views import StartViews
 from exhibit.kiosk.state import KioskState
 from exhibit.kiosk.visits import Visits
 from exhibit.render.framer import Framer
@@ -108,7 +108,7 @@ def assemble(
     narration_player: SoundPlayer | None = None,
 ) -> KioskParts:
     """The parts, the first scene prepared (the first frame needs it); ``preparer(framers)``
-    makes the preparer of the rest (exhibit.kiosk.preparing), None: all of them now.
+    makes the preparer of the rest (exhibit.preparing.preparing), None: all of them now.
     ``narration_player``: the narrator's player instead of the site's sound device (a review's
     tape, exhibit.narration.tape), its sounds then made when wanted, not on a worker."""
     problems: list[str] = []

@@ -1,6 +1,6 @@
 """The scenes the kiosk can show as they come: the first one prepared at once for the first
 frame (prepare_first), the rest taken in as the preparer delivers them
-(exhibit.kiosk.preparing), each arrival or failure told to the attract/visitor state."""
+(exhibit.preparing.preparing), each arrival or failure told to the attract/visitor state."""
 
 from __future__ import annotations
 
@@ -12,9 +12,9 @@ from collections.abc import Callable
 from typing import Any
 
 from exhibit.timelines.model import Timeline
-from exhibit.kiosk.jobs import Framers, Job, Prepared, run_job
-from exhibit.kiosk.preparing import InlinePreparer, Preparer
-from exhibit.kiosk.scene_meshes import Key, SceneMeshes
+from exhibit.preparing.jobs import Framers, Job, Prepared, run_job
+from exhibit.preparing.preparing import InlinePreparer, Preparer
+from exhibit.preparing.scene_meshes import Key, SceneMeshes
 from exhibit.kiosk.state import VISITOR, KioskState
 from exhibit.operations.notify import Notifier
 from exhibit.surfaces import progress
@@ -133,7 +133,7 @@ class Content:
             log.info("every scene is prepared (%.1f s after start)", now - started)
 
     #: How the preparer's own line in ``problems`` begins (ProcessPreparer.status:
-    #: exhibit.kiosk.process_preparer).
+    #: exhibit.preparing.process_preparer).
     STATUS = "preparing process "
 
     def _status(self, line: str | None) -> None:

@@ -39,11 +39,10 @@ from typing import TYPE_CHECKING
 
 from exhibit.render.quality import LADDER, Quality, ladder, software_renderer
 
-if TYPE_CHECKING:  # types only: a worker process imports this module, not the kiosk's config
+if TYPE_CHECKING:  # types only
     from exhibit.geometry.view import ViewState
     from exhibit.kiosk.config import KioskConfig, QualityConfig
     from exhibit.render.target import RenderTarget
-    from exhibit.scenes.base import Scene
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -348,11 +347,3 @@ def for_kiosk(config: KioskConfig, window: RenderTarget, now: float) -> Governor
 def mesh_levels(governor: Governor) -> list[int]:
     """The mesh levels the kiosk must load at start-up: those of every level it may use."""
     return sorted({q.mesh for q in governor.levels})
-
-
-def level_resolution(scene: Scene, configured: int | None, level: int) -> int:
-    """A scene's mesh resolution at a mesh level: content.resolution (else the scene's own)
-    times the level's factor."""
-    from exhibit.render.quality import mesh_resolution
-
-    return mesh_resolution(int(configured or scene.default_resolution), level)

@@ -7,7 +7,7 @@ by events and a clock, so it is tested without a window or devices.
 * A "next-scene" button, or one bound to nothing, moves to the next scene of the content list
   (Mapper.switches_scene).
 * While a visitor turns, the zoom and lens shift follow the picture so it stays in the free
-  area with a fair share of it (exhibit.kiosk.follow), when the kiosk hands a ``follow``.
+  area with a fair share of it (exhibit.framing.follow), when the kiosk hands a ``follow``.
 * After ``idle_timeout_s`` without real input, attract mode returns, gliding from the visitor's
   view into the timeline over ``blend_s`` when the scene is the same.
 * Reduced motion (``[accessibility] reduced_motion``): the camera never glides by itself. Attract
@@ -34,7 +34,7 @@ from exhibit.devices.mapping import Mapper
 from exhibit.geometry.view import ViewState
 from exhibit.timelines.model import Params
 from exhibit.timelines.playlist import Playlist
-from exhibit.kiosk.follow import Aimer, Follow
+from exhibit.framing.follow import Aimer, Follow
 
 ATTRACT, VISITOR = "attract", "visitor"
 #: Seconds per turn of θ1 in attract mode when there is no timeline to play.
@@ -108,7 +108,7 @@ class KioskState:
     ):
         """``framer(scene name, params, view) -> view`` frames a scene's start view for the
         screen (zoom and lens shift only). ``follow(scene name, params, view, reference
-        sensor) -> Aim | None`` (exhibit.kiosk.follow.Aims) says where the framing of a
+        sensor) -> Aim | None`` (exhibit.framing.follow.Aims) says where the framing of a
         visitor's pose should go; None: the framing stays as the takeover left it.
         ``reduced_motion``: no glides of the camera but a visitor's own (the module
         docstring)."""

@@ -1,6 +1,6 @@
 """Framing for one screen: the HUD layout's free area (exhibit.render.layout) and the fit of the
 projected mesh into it (exhibit.geometry.framing), for scene start views, figure presets and
-"home" (attract timelines: exhibit.kiosk.timeline_framing, on this). No GL: the kiosk frames
+"home" (attract timelines: exhibit.framing.timeline_framing, on this). No GL: the kiosk frames
 at start-up, `exhibit render` before it draws, and the tests check the result on the CPU.
 
 A scene's start view and each of its presets are framed unless the scene or preset says

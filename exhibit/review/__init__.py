@@ -1,4 +1,4 @@
-"""Reviewing attract mode off the exhibit (layer 7, above the kiosk it plays): the player that
+"""Reviewing attract mode off the exhibit (layer 9, above the kiosk it plays): the player that
 runs the real kiosk headlessly on a clock it sets (:mod:`.player`), what it plays checked first
 (:mod:`.setup`), `exhibit render --timeline --verify`'s claims measured on the frames
 (:mod:`.claims`) and the narrated review (:mod:`.narrated`). Never imported by the running kiosk:

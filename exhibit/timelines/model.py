@@ -51,7 +51,7 @@ class Keyframe:
     caption_from: int = 0
     #: where the slice cuts (ViewState.slice_at), None: no slice
     slice_at: float | None = None
-    #: keeps the framing of the keyframe before (exhibit.kiosk.timeline_framing): the camera
+    #: keeps the framing of the keyframe before (exhibit.framing.timeline_framing): the camera
     #: holds, so what grows on the way here grows on screen
     hold_framing: bool = False
     #: objects the caption names, tagged on screen with words (exhibit.render.object_tags):

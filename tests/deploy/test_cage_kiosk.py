@@ -762,7 +762,7 @@ def test_narration_sounds_under_the_units_sandbox(kiosk_on_cage):
 
 
 def test_the_worker_prepared_the_other_scenes_under_the_sandbox(kiosk_on_cage):
-    """The scenes after the first came from the worker process (exhibit.kiosk.preparing),
+    """The scenes after the first came from the worker process (exhibit.preparing.preparing),
     spawned by the app as the unprivileged user under the unit's system call filter."""
     log = kiosk_on_cage["log"]
     assert "scene clifford-torus prepared" in log, log[-3000:]

@@ -15,7 +15,8 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from exhibit.kiosk import app, jobs
+from exhibit.kiosk import app
+from exhibit.preparing import jobs
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.operations.sessions import Session
 from exhibit.render.target import HeadlessTarget

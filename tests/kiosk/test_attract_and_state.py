@@ -231,7 +231,7 @@ def test_timelines_are_framed_unless_they_say_fit_false(tmp_path, fit, zoomed, f
     pose in the free area; only fit = false leaves a timeline as written."""
     from exhibit import scenes
     from exhibit.geometry.framing import mesh_sample, pixel_bounds
-    from exhibit.kiosk.timeline_framing import frame_timeline
+    from exhibit.framing.timeline_framing import frame_timeline
     from exhibit.render.framer import Framer
 
     text = TIMELINE.replace('scene = "hopf"', 'scene = "offset-cusp"').replace(
@@ -282,7 +282,7 @@ def test_shipped_timelines_stay_in_the_free_area(size):
     import numpy as np
     from exhibit import scenes
     from exhibit.geometry.framing import mesh_sample, pixel_bounds
-    from exhibit.kiosk.timeline_framing import frame_timeline
+    from exhibit.framing.timeline_framing import frame_timeline
     from exhibit.render.framer import Framer
 
     framer = Framer(size, drift=12.0)

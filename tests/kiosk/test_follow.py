@@ -1,4 +1,4 @@
-"""The framing follows a visitor's picture (exhibit.kiosk.follow): the offset parabola turned
+"""The framing follows a visitor's picture (exhibit.framing.follow): the offset parabola turned
 with the knobs stays in the free area with a fair share of it, the zoom and lens shift glide
 without jumps, the visitor's angles and sensor are exactly what they turned, the sensor driven
 in keeps its zoom, and with reduced motion the framing moves only in rare cuts. The state
@@ -17,12 +17,12 @@ from exhibit.devices.base import Event, Kind
 from exhibit.devices.config import parse_config
 from exhibit.devices.mapping import Mapper
 from exhibit.geometry.framing import mesh_sample, sample_bounds, to_pixels
-from exhibit.kiosk import follow
+from exhibit.framing import follow
 from exhibit.timelines.file import load_timeline
 from exhibit.timelines.playlist import Playlist
-from exhibit.kiosk.follow import Aims
-from exhibit.kiosk.start_views import StartViews
-from exhibit.kiosk.timeline_framing import frame_timeline
+from exhibit.framing.follow import Aims
+from exhibit.framing.start_views import StartViews
+from exhibit.framing.timeline_framing import frame_timeline
 from exhibit.kiosk.state import REFRAME_S, VISITOR, KioskState
 from exhibit.render.framer import Framer
 

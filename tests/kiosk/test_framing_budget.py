@@ -4,7 +4,7 @@ thousands of keyframes must not keep the kiosk from its first frame."""
 import pytest
 
 from exhibit import scenes
-from exhibit.kiosk import timeline_framing as framing
+from exhibit.framing import timeline_framing as framing
 from exhibit.timelines.file import load_timeline
 from exhibit.render.framer import Framer
 

@@ -1,4 +1,4 @@
-"""The first picture needs the first scene only (exhibit.kiosk.preparing): the rest arrive while
+"""The first picture needs the first scene only (exhibit.preparing.preparing): the rest arrive while
 it plays, in the playlist's order, a visitor's choice first; the worker process does real work,
 and what it cannot do comes back as a named failure."""
 
@@ -20,16 +20,17 @@ from hypothesis import example, given
 from hypothesis import strategies as st
 
 from exhibit import scenes
-from exhibit.kiosk import app, process_preparer, worker_watch
-from exhibit.kiosk import jobs as jobs_module
+from exhibit.kiosk import app
+from exhibit.preparing import jobs as jobs_module
+from exhibit.preparing import process_preparer, worker_watch
 from exhibit.timelines.file import load_playlist
 from exhibit.timelines.playlist import Playlist
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.governor import mesh_levels
 from exhibit.kiosk.language import PREPARING
-from exhibit.kiosk.jobs import Job, run_job, scene_jobs
-from exhibit.kiosk.preparing import InlinePreparer
-from exhibit.kiosk.process_preparer import ProcessPreparer
+from exhibit.preparing.jobs import Job, run_job, scene_jobs
+from exhibit.preparing.preparing import InlinePreparer
+from exhibit.preparing.process_preparer import ProcessPreparer
 from exhibit.render.framer import Framer
 from exhibit.surfaces.mesh import Mesh4D
 from tests.kiosk.support import ROOT, FakeWindow, Notifier, make_config
@@ -47,9 +48,9 @@ class Window(FakeWindow):
         super().notice(lines, drift)
         self.notice_lines.append(lines)
 
-    def draw(self, gpu, view, options, hud, fade=0.0, inset=None):
-        super().draw(gpu, view, options, hud, fade, inset)
-        self.huds.append(hud)
+    def draw(self, request):
+        super().draw(request)
+        self.huds.append(request.hud)
 
 
 def _config(tmp_path):

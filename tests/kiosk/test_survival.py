@@ -13,7 +13,8 @@ import sys
 import numpy as np
 from PIL import Image
 
-from exhibit.kiosk import app, frame_loop, jobs
+from exhibit.kiosk import app, frame_loop
+from exhibit.preparing import jobs
 from exhibit.render.window import GlfwErrors
 from tests.kiosk.support import ROOT, FakeWindow, kiosk, make_config
 from tests.xvfb import unavailable, xvfb
@@ -108,7 +109,7 @@ def test_glfw_errors_are_logged_once_then_counted(caplog):
 
 NOTICE_RUN = r"""
 import sys
-from exhibit.kiosk import jobs
+from exhibit.preparing import jobs
 def build(scene, params, resolution):
     raise RuntimeError("no mesh today")
 jobs.build_cached = build

@@ -101,7 +101,8 @@ def run(args: argparse.Namespace) -> int:
     from exhibit import scenes
     from exhibit.commands.render import parse_size
     from exhibit.kiosk.config import load_kiosk_config
-    from exhibit.kiosk.governor import kiosk_levels, level_resolution, pick, target_ms
+    from exhibit.kiosk.governor import kiosk_levels, pick, target_ms
+    from exhibit.preparing.jobs import level_resolution
     from exhibit.render import Headless, HudInfo, RenderOptions, describe
     from exhibit.commands.bench.render import cpu_model
     from exhibit.render.quality import LADDER, MESH_FACTORS

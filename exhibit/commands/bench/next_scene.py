@@ -1,8 +1,8 @@
 """`exhibit bench next-scene [--busy 0 2] [--repeat N] [--json]`: from a visitor pressing "next
 scene" to the first frame of that scene, when it is not prepared yet. The real kiosk
 (exhibit.kiosk.app.Kiosk) with the shipped config on the headless renderer (EGL; llvmpipe where
-there is no GPU), its real worker process (exhibit.kiosk.process_preparer.ProcessPreparer) and the
-wall clock; the frame loop runs flat out as under vsync (the headless target has no vsync to
+there is no GPU), its real worker process (exhibit.preparing.process_preparer.ProcessPreparer)
+and the wall clock; the frame loop runs flat out as under vsync (the headless target has no vsync to
 wait for), with the governor choosing the quality. The keyboard's n goes down after the first
 frames, while the worker is still preparing the first scene's other mesh levels from an empty
 mesh cache, so the scene asked for (the next of content.scenes) is still to be built.
@@ -131,7 +131,7 @@ def one_run(variant: str, busy: int, size: tuple[int, int], headless: Headless) 
     """One kiosk from an empty mesh cache, ``busy`` spinning processes beside it."""
     from exhibit.kiosk.app import Kiosk
     from exhibit.kiosk.config import load_kiosk_config
-    from exhibit.kiosk.process_preparer import ProcessPreparer
+    from exhibit.preparing.process_preparer import ProcessPreparer
     from exhibit.review.setup import keyboard_only
     from exhibit.render.target import HeadlessTarget
 

@@ -1,6 +1,6 @@
 """`exhibit bench startup`: process start to the kiosk's first frame, timed by the kiosk's own
 READY=1 (sent after the first frame) on a private NOTIFY_SOCKET, and to its log line saying every
-scene is prepared (exhibit.kiosk.preparing: the rest arrive while the first plays). One cold run
+scene is prepared (exhibit.preparing.preparing: the rest arrive while the first plays). One cold run
 fills a fresh mesh cache; the warm runs are what a restart by the watchdog costs. Baselines in
 the same run: a bare interpreter, and the interpreter importing the kiosk's modules; the goals
 (docs/PERFORMANCE.md) are ratios to them."""

@@ -48,7 +48,7 @@ from exhibit.geometry.framing import (
 )
 from exhibit.geometry.view import ViewState
 from exhibit.timelines.model import Params
-from exhibit.kiosk.timeline_framing import FILL_LIMIT
+from exhibit.framing.timeline_framing import FILL_LIMIT
 from exhibit.render.framer import Framer
 from exhibit.surfaces.mesh import Mesh4D
 
@@ -91,7 +91,7 @@ class Aim:
 
 
 class MeshLookup(Protocol):
-    """Where the framing finds a scene's mesh (exhibit.kiosk.scene_meshes.SceneMeshes)."""
+    """Where the framing finds a scene's mesh (exhibit.preparing.scene_meshes.SceneMeshes)."""
 
     def mesh(self, name: str, params: Iterable) -> Mesh4D | None: ...
 

@@ -1,27 +1,34 @@
 """A job: one scene with one set of parameters, its meshes at every mesh level and the attract
 timelines that show it, framed clear of the text; and the work that makes its result
-(run_job), the same wherever it runs (here, or a worker process: exhibit.kiosk.preparing)."""
+(run_job), the same wherever it runs (here, or a worker process: exhibit.preparing.preparing)."""
 
 from __future__ import annotations
 
 import logging
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import Any, Protocol
 
 from exhibit import scenes
 from exhibit.timelines.model import Params, Timeline
-from exhibit.kiosk.governor import level_resolution
-from exhibit.kiosk.timeline_framing import frame_timeline
+from exhibit.framing.timeline_framing import frame_timeline
 from exhibit.render.framer import Framer
 from exhibit.scenes.cache import build_cached
 from exhibit.scenes.base import Scene
 from exhibit.surfaces.mesh import Mesh4D
 
-if TYPE_CHECKING:  # the worker process does not load the kiosk's config
-    from exhibit.kiosk.config import KioskConfig
-
 log = logging.getLogger("exhibit.kiosk")
+
+
+class ContentList(Protocol):
+    """What scene_jobs reads of the kiosk's config (exhibit.kiosk.config.KioskConfig, above
+    this package; the worker process does not load it): content.scenes and content.resolution."""
+
+    @property
+    def scenes(self) -> Sequence[str]: ...
+
+    @property
+    def resolution(self) -> Mapping[str, Any]: ...
 
 
 def params_of(timeline: Timeline) -> Params:
@@ -64,7 +71,7 @@ class Framers:
 
 
 def scene_jobs(
-    config: KioskConfig, timelines: Sequence[Timeline], levels: Iterable[int]
+    config: ContentList, timelines: Sequence[Timeline], levels: Iterable[int]
 ) -> list[Job]:
     """Every (scene, parameters) the kiosk shows, in the order it needs them: the playlist's
     (the first timeline first), then the content list's; each at every mesh level in
@@ -93,6 +100,14 @@ def scene_jobs(
             name, params, resolutions, (old.timelines if old else ()) + tuple(shown)
         )
     return list(jobs.values())
+
+
+def level_resolution(scene: Scene, configured: int | None, level: int) -> int:
+    """A scene's mesh resolution at a mesh level: content.resolution (else the scene's own)
+    times the level's factor."""
+    from exhibit.render.quality import mesh_resolution
+
+    return mesh_resolution(int(configured or scene.default_resolution), level)
 
 
 def run_job(job: Job, framers: Framers = Framers()) -> Prepared:
@@ -146,7 +161,7 @@ def slices(scene: Scene, timeline: Timeline) -> bool:
 
 
 def frame(timeline: Timeline, scene: Scene, mesh: Mesh4D, framers: Framers) -> Timeline:
-    """The timeline framed clear of the text (exhibit.kiosk.timeline_framing); unchanged without a
+    """The timeline framed clear of the text (exhibit.framing.timeline_framing); unchanged without a
     framer or when framing fails (never fatal: an unframed timeline still plays)."""
     framer = framers.inset if slices(scene, timeline) else framers.main
     if framer is None:

@@ -5,14 +5,26 @@ changes do that work."""
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
-from exhibit.kiosk.config import KioskConfig
+
+class DriftConfig(Protocol):
+    """What the drift reads of the kiosk's config (exhibit.kiosk.config.KioskConfig)."""
+
+    @property
+    def reduced_motion(self) -> bool: ...
+
+    @property
+    def drift_period_s(self) -> float: ...
+
+    @property
+    def drift_px(self) -> float: ...
 
 
 class PanelDrift:
     """``drift(now)`` -> the panels' offset in pixels, ``started`` being the path's origin."""
 
-    def __init__(self, config: KioskConfig, started: float) -> None:
+    def __init__(self, config: DriftConfig, started: float) -> None:
         self.config = config
         self.started = started
 

@@ -1,6 +1,6 @@
 """The kiosk's side of a worker process: its results read whole on a thread of their own (off the
 frame loop), and its job under way watched for progress, so a stopped or stuck worker is found
-and replaced (exhibit.kiosk.process_preparer.ProcessPreparer)."""
+and replaced (exhibit.preparing.process_preparer.ProcessPreparer)."""
 
 from __future__ import annotations
 

@@ -8,15 +8,16 @@ thread would hold the interpreter lock against the frame loop), InlinePreparer i
 (tests, reviews, `exhibit prepare`). Either way a job's result comes back as plain data (Mesh4D,
 Timeline); uploading it to the GPU is the kiosk's, on its own thread.
 
-The jobs and their work are exhibit.kiosk.jobs; ProcessPreparer is exhibit.kiosk.process_preparer
-(what runs in its worker: exhibit.kiosk.worker; its watch on it: exhibit.kiosk.worker_watch)."""
+The jobs and their work are exhibit.preparing.jobs; ProcessPreparer is
+exhibit.preparing.process_preparer (what runs in its worker: exhibit.preparing.worker; its watch
+on it: exhibit.preparing.worker_watch)."""
 
 from __future__ import annotations
 
 from typing import Protocol
 
 from exhibit.timelines.model import Params
-from exhibit.kiosk.jobs import Framers, Job, Prepared, run_job
+from exhibit.preparing.jobs import Framers, Job, Prepared, run_job
 
 
 class Preparer(Protocol):

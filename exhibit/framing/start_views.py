@@ -10,8 +10,8 @@ from exhibit import scenes
 from exhibit.geometry.framing import Sample, mesh_sample
 from exhibit.geometry.view import ViewState
 from exhibit.timelines.model import Params
-from exhibit.kiosk.follow import MeshLookup
-from exhibit.kiosk.timeline_framing import FILL_LIMIT
+from exhibit.framing.follow import MeshLookup
+from exhibit.framing.timeline_framing import FILL_LIMIT
 from exhibit.render.framer import Framer
 
 log = logging.getLogger("exhibit.kiosk")

@@ -8,7 +8,7 @@ import os
 from multiprocessing.connection import Connection
 
 from exhibit import scenes
-from exhibit.kiosk.jobs import Framers, Prepared, run_job
+from exhibit.preparing.jobs import Framers, Prepared, run_job
 from exhibit.surfaces.mesh import Mesh4D
 
 

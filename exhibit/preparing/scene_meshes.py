@@ -11,7 +11,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from exhibit.kiosk.jobs import Job, Prepared
+from exhibit.preparing.jobs import Job, Prepared
 from exhibit.surfaces.mesh import Mesh4D
 
 log = logging.getLogger("exhibit.kiosk")

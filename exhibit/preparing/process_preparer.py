@@ -1,4 +1,4 @@
-"""Jobs run in worker processes (exhibit.kiosk.worker) at a lower priority than the frame loop,
+"""Jobs run in worker processes (exhibit.preparing.worker) at a lower priority than the frame loop,
 one at a time so the kiosk can reorder what waits, with an urgent worker for the scene a visitor
 waits for; workers that die or stall are replaced at a bounded rate and their jobs tried again
 later, for a kiosk that runs for months."""
@@ -18,9 +18,9 @@ from multiprocessing.connection import Connection
 from multiprocessing.process import BaseProcess
 
 from exhibit.timelines.model import Params
-from exhibit.kiosk.jobs import Framers, Job, Prepared
-from exhibit.kiosk.worker import serve
-from exhibit.kiosk.worker_watch import ENDED, Watch, read_results
+from exhibit.preparing.jobs import Framers, Job, Prepared
+from exhibit.preparing.worker import serve
+from exhibit.preparing.worker_watch import ENDED, Watch, read_results
 
 log = logging.getLogger("exhibit.kiosk")
 
@@ -49,7 +49,77 @@ class _Urgent:
     watch: Watch
 
 
-class ProcessPreparer:
+class WorkerLosses:
+    """Workers lost (died or stalled) and the jobs they failed, for :class:`ProcessPreparer`:
+    the rate of restarts, the jobs to try again and the health file's line about them."""
+
+    clock: Callable[[], float]
+    _queue: list[Job]
+
+    def __init__(self) -> None:
+        #: When workers died or stalled, within the last RESTART_WINDOW_S.
+        self._deaths: deque[float] = deque()
+        self._died = self._stalls = 0
+        self._last_loss = ""
+        self._held = False
+        #: Jobs a worker's death or stall failed, by key: (when to try again, the job), and
+        #: how many times each has failed so.
+        self._retries: dict[tuple, tuple[float, Job]] = {}
+        self._attempts: dict[tuple, int] = {}
+
+    def _may_start(self, now: float) -> bool:
+        """Whether a worker may start now: not when WORKER_RESTARTS workers died or stalled
+        within the last RESTART_WINDOW_S (the jobs wait; logged once a hold)."""
+        while self._deaths and now - self._deaths[0] >= RESTART_WINDOW_S:
+            self._deaths.popleft()
+        held = len(self._deaths) > WORKER_RESTARTS
+        if held and not self._held:
+            log.error(
+                "the preparing process was replaced %d times within %.0f s: the next start "
+                "waits %.0f s (%d scenes wait)",
+                len(self._deaths),
+                RESTART_WINDOW_S,
+                self._deaths[0] + RESTART_WINDOW_S - now,
+                len(self._queue),
+            )
+        self._held = held
+        return not held
+
+    def _lost(self, job: Job | None, error: str, now: float) -> list[Prepared]:
+        """A worker died or stalled (counted against the rate of restarts) under ``job``,
+        which fails now and is tried again later."""
+        self._deaths.append(now)
+        if job is None:
+            return []
+        tries = self._attempts[job.key] = self._attempts.get(job.key, 0) + 1
+        delay = min(RETRY_S * 2 ** (tries - 1), RETRY_MAX_S)
+        self._retries[job.key] = (now + delay, job)
+        return [Prepared(job, error=f"{error}; tried again in {delay:.0f} s")]
+
+    def status(self) -> str | None:
+        """One line for the health file about workers replaced and scenes waiting to be tried
+        again, or None while no worker has been lost."""
+        if not (self._died or self._stalls):
+            return None
+        parts = [
+            f"preparing process replaced {self._died + self._stalls} times "
+            f"({self._died} died, {self._stalls} stalled); last: {self._last_loss}"
+        ]
+        if self._held:
+            parts.append(f"restarts held: {WORKER_RESTARTS} within {RESTART_WINDOW_S:.0f} s")
+        if self._retries:
+            now = self.clock()
+            parts.append(
+                "to try again: "
+                + ", ".join(
+                    f"{job.scene} in {max(0.0, at - now):.0f} s"
+                    for at, job in self._retries.values()
+                )
+            )
+        return "; ".join(parts)
+
+
+class ProcessPreparer(WorkerLosses):
     """Runs jobs in a worker process (multiprocessing "spawn": the kiosk has GL and X or
     Wayland connections open, which a forked child must not share). One job at a time, so
     the kiosk can reorder what waits (a visitor who asks for a scene first). results() never
@@ -78,15 +148,7 @@ class ProcessPreparer:
         self.urgent = urgent
         self.clock = clock
         self._watch: Watch | None = None
-        #: When workers died or stalled, within the last RESTART_WINDOW_S.
-        self._deaths: deque[float] = deque()
-        self._died = self._stalls = 0
-        self._last_loss = ""
-        self._held = False
-        #: Jobs a worker's death or stall failed, by key: (when to try again, the job), and
-        #: how many times each has failed so.
-        self._retries: dict[tuple, tuple[float, Job]] = {}
-        self._attempts: dict[tuple, int] = {}
+        super().__init__()
         self._urgent: _Urgent | None = None
         #: Keys an urgent worker delivered first: the niced worker's result for them is dropped.
         self._delivered: set[tuple] = set()
@@ -217,24 +279,6 @@ class ProcessPreparer:
         with contextlib.suppress(OSError):
             self._connection.send(self._in_flight)
 
-    def _may_start(self, now: float) -> bool:
-        """Whether a worker may start now: not when WORKER_RESTARTS workers died or stalled
-        within the last RESTART_WINDOW_S (the jobs wait; logged once a hold)."""
-        while self._deaths and now - self._deaths[0] >= RESTART_WINDOW_S:
-            self._deaths.popleft()
-        held = len(self._deaths) > WORKER_RESTARTS
-        if held and not self._held:
-            log.error(
-                "the preparing process was replaced %d times within %.0f s: the next start "
-                "waits %.0f s (%d scenes wait)",
-                len(self._deaths),
-                RESTART_WINDOW_S,
-                self._deaths[0] + RESTART_WINDOW_S - now,
-                len(self._queue),
-            )
-        self._held = held
-        return not held
-
     def _due(self, now: float) -> None:
         """Jobs to try again whose time has come, back in the queue."""
         for key, (at, job) in list(self._retries.items()):
@@ -264,39 +308,6 @@ class ProcessPreparer:
         self._last_loss = f"pid {process.pid} stalled preparing {job.scene}: {why}"
         log.error("the preparing process (%s): it is replaced", self._last_loss)
         return self._lost(job, f"the preparing process stalled ({why})", now)
-
-    def _lost(self, job: Job | None, error: str, now: float) -> list[Prepared]:
-        """A worker died or stalled (counted against the rate of restarts) under ``job``,
-        which fails now and is tried again later."""
-        self._deaths.append(now)
-        if job is None:
-            return []
-        tries = self._attempts[job.key] = self._attempts.get(job.key, 0) + 1
-        delay = min(RETRY_S * 2 ** (tries - 1), RETRY_MAX_S)
-        self._retries[job.key] = (now + delay, job)
-        return [Prepared(job, error=f"{error}; tried again in {delay:.0f} s")]
-
-    def status(self) -> str | None:
-        """One line for the health file about workers replaced and scenes waiting to be tried
-        again, or None while no worker has been lost."""
-        if not (self._died or self._stalls):
-            return None
-        parts = [
-            f"preparing process replaced {self._died + self._stalls} times "
-            f"({self._died} died, {self._stalls} stalled); last: {self._last_loss}"
-        ]
-        if self._held:
-            parts.append(f"restarts held: {WORKER_RESTARTS} within {RESTART_WINDOW_S:.0f} s")
-        if self._retries:
-            now = self.clock()
-            parts.append(
-                "to try again: "
-                + ", ".join(
-                    f"{job.scene} in {max(0.0, at - now):.0f} s"
-                    for at, job in self._retries.values()
-                )
-            )
-        return "; ".join(parts)
 
     def results(self) -> list[Prepared]:
         out: list[Prepared] = []
