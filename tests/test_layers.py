@@ -24,6 +24,7 @@ ROOT = pathlib.Path(exhibit.__file__).parent
 LAYERS = {
     "__init__": 0,
     "errors": 0,
+    "progress": 0,
     "resources": 0,
     "tools": 0,
     "schema": 1,
@@ -552,3 +553,44 @@ def test_a_module_over_the_hard_limit_is_found(tmp_path):
     assert too_long(tmp_path) == ["long.py: 602 lines"]
     (tmp_path / "k.py").write_text("@dataclass\nclass Kiosk:\n" + "    x = 1\n" * 10 + "y = 2\n")
     assert class_lines(tmp_path / "k.py", "Kiosk") == 12
+
+
+def progress_elsewhere(root: pathlib.Path) -> list[str]:
+    """Modules besides progress.py that show progress their own way: tqdm, or a line redrawn
+    with a carriage return (issue 43: there were three ways; exhibit/progress.py is the one)."""
+    out = []
+    for path in sorted(root.rglob("*.py")):
+        if path.relative_to(root).as_posix() == "progress.py":
+            continue
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            names = (
+                [a.name for a in node.names]
+                if isinstance(node, ast.Import)
+                else [node.module or ""]
+                if isinstance(node, ast.ImportFrom)
+                else []
+            )
+            if any(name.split(".")[0] == "tqdm" for name in names):
+                out.append(f"{path.relative_to(root).as_posix()}:{node.lineno}: tqdm")
+            if (
+                isinstance(node, ast.Constant)
+                and isinstance(node.value, str)
+                and "\r" in node.value
+            ):
+                out.append(f"{path.relative_to(root).as_posix()}:{node.lineno}: a carriage return")
+    return out
+
+
+def test_progress_is_shown_one_way():
+    assert progress_elsewhere(ROOT) == []
+
+
+def test_a_second_way_to_show_progress_is_found(tmp_path):
+    (tmp_path / "progress.py").write_text("from tqdm import tqdm\n")
+    (tmp_path / "ok.py").write_text("from exhibit.progress import Progress, report\n")
+    (tmp_path / "bar.py").write_text("def f():\n    import tqdm.auto\n")
+    (tmp_path / "line.py").write_text("import sys\nsys.stderr.write(f'\\r\\x1b[K{1}')\n")
+    assert progress_elsewhere(tmp_path) == [
+        "bar.py:2: tqdm",
+        "line.py:2: a carriage return",
+    ]

@@ -32,8 +32,6 @@ MAX_PIXELS = 8192
 MAX_JOB_PIXELS = 1 << 34
 #: The most frames a render job may draw, whatever their size (each is a kiosk step and a PNG).
 MAX_JOB_FRAMES = 50_000
-#: A job's progress without a terminal: a line on stderr this often (seconds).
-PROGRESS_EVERY_S = 10.0
 
 
 def whole_number(text: str, name: str, low: int, high: int) -> int:
@@ -129,50 +127,6 @@ def check_job(frames: int, size: tuple[int, int], what: str) -> None:
             f"this job would draw {frames} frames of {size[0]}x{size[1]} ({pixels:.3g} pixels), "
             f"over the limit of {MAX_JOB_FRAMES} frames and {MAX_JOB_PIXELS:.3g} pixels: {what}"
         )
-
-
-class Progress:
-    """Progress of a long job on stderr: a tqdm bar on a terminal, else a line every
-    PROGRESS_EVERY_S seconds ("rendering: 120/900 frames"); nothing for a job that ends sooner.
-    Call it with the frames done since the last call; use as a context manager."""
-
-    def __init__(self, total: int, what: str = "rendering", unit: str = "frames"):
-        import sys
-        import time
-
-        self.total, self.what, self.unit, self.done = total, what, unit, 0
-        self._clock = time.monotonic
-        self._next = self._clock() + PROGRESS_EVERY_S
-        self._stream = sys.stderr
-        self._bar = None
-        if self._stream.isatty():
-            try:
-                from tqdm import tqdm
-            except ImportError:  # an environment from before tqdm was locked: the lines
-                tqdm = None
-            if tqdm is not None:
-                self._bar = tqdm(total=total, desc=what, unit=unit[:-1], leave=False)
-
-    def __call__(self, n: int = 1) -> None:
-        self.done += n
-        if self._bar is not None:
-            self._bar.update(n)
-            return
-        now = self._clock()
-        if now >= self._next:
-            self._next = now + PROGRESS_EVERY_S
-            print(
-                f"{self.what}: {self.done}/{self.total} {self.unit}",
-                file=self._stream,
-                flush=True,
-            )
-
-    def __enter__(self) -> Progress:
-        return self
-
-    def __exit__(self, *exc: object) -> None:
-        if self._bar is not None:
-            self._bar.close()
 
 
 def need_ffmpeg(instead: str) -> None:

@@ -23,7 +23,6 @@ from pathlib import Path
 
 from exhibit import scenes
 from exhibit.commands._media import (
-    Progress,
     check_job,
     encode_mp4,
     gl_errors,
@@ -35,6 +34,7 @@ from exhibit.commands._media import (
     write_out,
 )
 from exhibit.errors import ExhibitError
+from exhibit.progress import Progress, on_terminal, report
 
 #: Contact sheet geometry: tiles at most TILE_W wide, up to COLUMNS a row, GAP between them, a
 #: LABEL_H strip under each tile and a HEADER_H strip above the grid.
@@ -120,8 +120,6 @@ VERIFY_FPS = 5
 def _verify(args, size, config) -> int:
     """Every caption's claims measured on the frames; problems on stdout, progress on
     stderr, exit 2 when a claim fails."""
-    import sys
-
     from exhibit.review.claims import verify
     from exhibit.review.setup import read_timeline
 
@@ -129,10 +127,11 @@ def _verify(args, size, config) -> int:
     languages = (args.language,) if args.language else tuple(config.languages)
     fps = args.fps or VERIFY_FPS
 
-    def progress(what: str) -> None:
-        print(f"verifying {what} ...", file=sys.stderr, flush=True)
+    def verifying(what: str) -> None:
+        report(f"verifying {what} ...")
 
-    verdict = verify(args.timeline, config, size, fps, languages, progress=progress)
+    with on_terminal(lines=True):
+        verdict = verify(args.timeline, config, size, fps, languages, progress=verifying)
     for line in verdict.problems or []:
         print(line)
     played = f"{', '.join(languages)}, with and without reduced motion"

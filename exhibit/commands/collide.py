@@ -13,7 +13,7 @@ from exhibit.errors import ExhibitError
 from exhibit.scenes import collision
 from exhibit.scenes.base import parse_resolution
 from exhibit.scenes.implicit_scene import ImplicitPart
-from exhibit.surfaces import progress
+from exhibit import progress
 from exhibit.surfaces.topology import connected_components, edge_counts
 
 HELP = "first contact of a moving cylinder and sphere (paper, section 4.3)"

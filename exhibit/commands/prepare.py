@@ -18,7 +18,7 @@ from exhibit.kiosk.governor import kiosk_levels
 from exhibit.kiosk.narrator import prepare_all, report_lines
 from exhibit.preparing.jobs import run_job, scene_jobs
 from exhibit.scenes.cache import cache_dir, entry_path, entry_problem
-from exhibit.surfaces import progress
+from exhibit import progress
 
 HELP = "build the mesh cache the kiosk loads at start (run before the service starts)"
 

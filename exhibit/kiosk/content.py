@@ -17,7 +17,7 @@ from exhibit.preparing.preparing import InlinePreparer, Preparer
 from exhibit.preparing.scene_meshes import Key, SceneMeshes
 from exhibit.kiosk.state import VISITOR, KioskState
 from exhibit.operations.notify import Notifier
-from exhibit.surfaces import progress
+from exhibit import progress
 
 log = logging.getLogger("exhibit.kiosk")
 

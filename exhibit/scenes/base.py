@@ -178,7 +178,7 @@ def parse_resolution(text: str | int | None) -> int | None:
 def build_from_arguments(scene: Scene, args: argparse.Namespace) -> Mesh4D:
     """The mesh the shared options (add_scene_arguments: --param, --resolution) ask for, with a
     progress line while it builds when a person watches a terminal."""
-    from exhibit.surfaces import progress
+    from exhibit import progress
 
     overrides = parse_overrides(args.param)
     resolution = parse_resolution(args.resolution)

@@ -35,7 +35,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from exhibit.surfaces import adaptive
-from exhibit.surfaces import progress as progress_line
+from exhibit import progress as progress_line
 from exhibit.surfaces.expressions import ScalarField
 from exhibit.surfaces.mesh import Material, Surface
 from exhibit.surfaces.newton import (  # noqa: F401  (re-exported)

@@ -8,7 +8,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from exhibit.commands._media import MAX_JOB_FRAMES, Progress
+from exhibit.commands._media import MAX_JOB_FRAMES
+from exhibit.progress import Progress
 from exhibit.review.player import KioskPlayer, lead_s, play_schedule
 from exhibit.review.setup import base_config
 
