@@ -19,6 +19,7 @@ from exhibit.devices.keyboard import KeyboardBackend
 from exhibit.devices.mapping import Mapper
 from exhibit.devices.url import parse_url
 from exhibit.geometry.view import ViewState
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.target import Focus, Key
 
 #: The viewer's own keys (the shipped keyboard mapping leaves them free).
@@ -77,7 +78,6 @@ def run(window, gpu, view, hud, config: DeviceConfig, options) -> None:
     window.set_input(on_input)
     while not window.should_close and not controls.quit:
         view = controls.step(view, time.monotonic())
-        window.draw(
-            gpu, view, dataclasses.replace(options, depth_colour=controls.depth_colour), hud
-        )
+        shown = dataclasses.replace(options, depth_colour=controls.depth_colour)
+        window.draw(FrameRequest(gpu, view, shown, hud))
         window.swap()

@@ -63,6 +63,7 @@ from exhibit.kiosk.warm_up import Chores, WarmUp
 from exhibit.kiosk.window_input import WindowInput
 from exhibit.operations.notify import Notifier
 from exhibit.operations.sessions import SessionLog
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.gpu import GpuMesh
 from exhibit.render.options import RenderOptions
 from exhibit.render.target import RenderTarget
@@ -111,7 +112,7 @@ class Kiosk:
         self.stats, self.errors = FrameStats(), FrameErrors()
         self.frames = 0
         #: The crossfade: what was drawn last (to capture when a cut comes) and when it began.
-        self._shown: tuple | None = None
+        self._shown: FrameRequest | None = None
         self._fade_start: float | None = None
         #: While a visitor waits for a scene being prepared: (scene, when the wait began).
         self._waiting: tuple[str, float] | None = None
@@ -262,11 +263,12 @@ class Kiosk:
             self.window.notice([words], self.drift(now))
             self._fade_start = None
             return
-        gpu, view, options, hud = self._shown
-        options = dataclasses.replace(options, hud=True, hud_drift=self.drift(now))
-        hud = dataclasses.replace(hud, note=words)
-        self.window.draw(gpu, view, options, hud, fade=self._fade(now))
-        self._shown = (gpu, view, options, hud)
+        shown = self._shown
+        options = dataclasses.replace(shown.options, hud=True, hud_drift=self.drift(now))
+        hud = None if shown.hud is None else dataclasses.replace(shown.hud, note=words)
+        held = FrameRequest(shown.gpu, shown.view, options, hud, fade=self._fade(now))
+        self.window.draw(held)
+        self._shown = held
 
     def _draw(self, frame: Frame, now: float) -> None:
         hud = self.parts.words(frame.title, frame.caption, frame.scene, tags=frame.tags)
@@ -294,7 +296,7 @@ class Kiosk:
             # Crossfade: the outgoing picture (the held one, with its notice, when a visitor
             # waited), drawn once more offscreen, fades out over the new one (never a black
             # frame, never a hard cut).
-            self.window.capture(*self._shown)
+            self.window.capture(self._shown)
             self._fade_start = now
         fade = self._fade(now)
         inset = (
@@ -302,15 +304,16 @@ class Kiosk:
             if self.config.hud
             else None
         )
-        self.window.draw(gpu, frame.view, options, hud, fade=fade, inset=inset)
-        self._shown = (gpu, frame.view, options, hud)
+        request = FrameRequest(gpu, frame.view, options, hud, fade=fade, inset=inset)
+        self.window.draw(request)
+        self._shown = request
         governor.adapt(self.window.frame_ms, now)
 
     @property
     def shown(self) -> tuple[GpuMesh, ViewState] | None:
         """The mesh and view of the picture drawn last, None before one (a review measures
         what it shows: exhibit.review.claims)."""
-        return None if self._shown is None else (self._shown[0], self._shown[1])
+        return None if self._shown is None else (self._shown.gpu, self._shown.view)
 
     def release(self) -> None:
         """Free the GPU meshes this kiosk uploaded (each level once) and the inset's. The

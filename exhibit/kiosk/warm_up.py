@@ -6,6 +6,7 @@ long frame at the first scene change otherwise)."""
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import logging
 from collections.abc import Callable, Iterable
@@ -13,6 +14,7 @@ from collections.abc import Callable, Iterable
 from exhibit import scenes
 from exhibit.kiosk.assembly import KioskParts
 from exhibit.kiosk.content import nearest_level
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.options import RenderOptions
 from exhibit.render.quality import Quality
 from exhibit.render.renderer import HudInfo
@@ -101,6 +103,7 @@ class Chores:
         options = RenderOptions(hud=self.hud, quality=quality, text=self.text)
         gpu = nearest_level(levels, quality.mesh)
         hud = self.words(frame.title, frame.caption, frame.scene, tags=frame.tags)
-        self.window.capture(gpu, frame.view, options, hud)
-        self.window.draw(gpu, frame.view, options, hud, fade=0.5)
+        request = FrameRequest(gpu, frame.view, options, hud)
+        self.window.capture(request)
+        self.window.draw(dataclasses.replace(request, fade=0.5))
         return True

@@ -14,6 +14,11 @@ full-screen pass costs several milliseconds at 1080p whatever it does, so there 
 one at full size. FrameTimer measures what a frame costs the GPU (timer queries) or, on software
 GL where the "GPU" is the same CPU cores, the wall time of the frame's work up to glFinish.
 
+A frame is one value (exhibit.render.frame_request.FrameRequest), and its way through is a list
+of passes (FramePipeline.plan): the post chain's (exhibit.render.passes.post: clear, resolve,
+composite, inset, fade, hud) around the scene's (Renderer.passes_for), each saying what it reads
+and writes (tests/render/test_passes.py holds every level to reading only what was written).
+
 Why one module of this size: one kiosk frame's passes at a quality level, in the order they run."""
 
 from __future__ import annotations
@@ -25,16 +30,23 @@ from dataclasses import dataclass
 
 import moderngl
 
-from exhibit.geometry.view import ViewState
-from exhibit.render import inset as inset_look
-from exhibit.render.gpu import GpuMesh
-from exhibit.render.hud import TextMark
-from exhibit.render.layout import Rect
-from exhibit.render.options import RenderOptions
+from exhibit.render.frame_request import FrameRequest, Inset
 from exhibit.render.passes.composite import CompositePass
-from exhibit.render.quality import Quality, software_renderer
-from exhibit.render.renderer import HudInfo, Renderer
+from exhibit.render.passes.post import (
+    ClearPass,
+    ClearSheetsPass,
+    FadePass,
+    HudPass,
+    InsetPass,
+    PostPass,
+    ResolvePass,
+)
+from exhibit.render.passes.shared import PostFrame, RenderPass
+from exhibit.render.quality import software_renderer
+from exhibit.render.renderer import Renderer
 from exhibit.render.scene_target import SceneTarget
+
+__all__ = ["FramePipeline", "FramePlan", "FrameRequest", "FrameTimer", "Inset", "MAX_TARGETS"]
 
 #: Targets kept for recently used (size, antialiasing) pairs; a benchmark alternating levels
 #: must not reallocate every frame, and a kiosk needs one or two.
@@ -42,20 +54,49 @@ MAX_TARGETS = 6
 
 
 @dataclass(frozen=True)
-class Inset:
-    """The time-slice inset for one frame: a small scene (exhibit.render.inset), its view, where
-    it goes (x, y, width, height in pixels from the top-left) and its label."""
+class FramePlan:
+    """A frame's passes in the order they run: the post chain's ``before`` the scene (the
+    clear), the scene's passes (exhibit.render.renderer.Renderer.passes_for; on the direct
+    path with the background), the post chain ``after`` it, and what they all draw from."""
 
-    gpu: GpuMesh
-    view: ViewState
-    rect: tuple[float, float, float, float]
-    label: str = ""
+    frame: PostFrame
+    before: tuple[PostPass, ...]
+    scene: tuple[RenderPass, ...]
+    after: tuple[PostPass, ...]
+
+    @property
+    def direct(self) -> bool:
+        """The direct path: the scene drawn straight into the destination."""
+        return self.frame.target is None
+
+    @property
+    def passes(self) -> list[RenderPass | PostPass]:
+        return [*self.before, *self.scene, *self.after]
+
+    def unwritten_reads(self) -> list[str]:
+        """Each read of a buffer that no earlier pass wrote ("pass: buffer"; an optional read
+        only where a later pass writes it): none, or the plan does not hold together. On the
+        direct path the scene passes draw straight into the screen."""
+        passes, written, problems = self.passes, set[str](), []
+        for i, each in enumerate(passes):
+            later = {name for after in passes[i + 1 :] for name in after.writes}
+            problems += [f"{each.name}: {name}" for name in each.reads if name not in written]
+            problems += [
+                f"{each.name}: {name} (written later)"
+                for name in each.optional_reads
+                if name not in written and name in later
+            ]
+            written |= set(each.writes)
+            if self.direct and "scene colour" in written:
+                written.add("screen")
+        return problems
 
 
 class FramePipeline:
-    """Draws whole kiosk frames at any quality level into a destination framebuffer (a
-    window's screen, or an offscreen single-sampled one), and crossfades between two of them
-    (capture() the outgoing frame, then draw() the new ones with ``fade``)."""
+    """Draws whole kiosk frames (exhibit.render.frame_request.FrameRequest, ``quality`` set) at
+    any quality level into a destination framebuffer (a window's screen, or an offscreen
+    single-sampled one), and crossfades between two of them (capture() the outgoing frame,
+    then draw() the new ones with ``fade``). plan() says which passes a frame runs."""
 
     def __init__(self, ctx: moderngl.Context, renderer: Renderer, samples: int = 4):
         self.ctx = ctx
@@ -65,14 +106,20 @@ class FramePipeline:
         #: The composite passes: the scene over the background, FXAA or not, upscaled or not,
         #: and the crossfade's snapshot (exhibit.render.passes.composite).
         self.composite = CompositePass(ctx)
+        #: The rest of the post chain (exhibit.render.passes.post).
+        self.clear, self.clear_sheets = ClearPass(ctx), ClearSheetsPass(ctx)
+        self.resolve = ResolvePass()
+        self.inset = InsetPass(ctx, renderer, self.target)
+        self.fade = FadePass(self.composite)
+        self.hud = HudPass(ctx, renderer)
         self._targets: OrderedDict[tuple, SceneTarget] = OrderedDict()
         #: The outgoing frame of a crossfade: (texture, framebuffer, depth), kept at the screen
         #: size.
         self._snapshot: (
             tuple[moderngl.Texture, moderngl.Framebuffer, moderngl.Renderbuffer] | None
         ) = None
-        #: The outgoing frame's words (gpu, view, options, hud), faded out on their own.
-        self._leaving: tuple | None = None
+        #: The outgoing frame's request, whose words are faded out on their own.
+        self._leaving: FrameRequest | None = None
         #: The latest frame's inset label (exhibit.render.hud.TextMark), for the contrast checks;
         #: the HUD's own are the renderer's ``hud.texts``.
         self.texts: list = []
@@ -96,18 +143,70 @@ class FramePipeline:
     def scene_size(size: tuple[int, int], scale: float) -> tuple[int, int]:
         return (max(1, round(size[0] * scale)), max(1, round(size[1] * scale)))
 
-    def capture(
+    def plan(
         self,
-        gpu: GpuMesh,
-        view: ViewState,
+        request: FrameRequest,
+        destination: moderngl.Framebuffer,
         size: tuple[int, int],
-        options: RenderOptions,
-        hud: HudInfo | None,
-        quality: Quality,
-    ) -> None:
+        picture_only: bool = False,
+    ) -> FramePlan:
+        """The passes ``request`` runs into ``destination`` (drawable ``size``), in order, and
+        what they draw from; ``picture_only``: the picture a crossfade starts from (no inset,
+        no fade, no words)."""
+        quality = request.quality
+        if quality is None:
+            raise ValueError("a kiosk frame needs a quality level: options.quality is None")
+        size = (int(size[0]), int(size[1]))
+        options = request.options.at_quality(quality)
+        aa = quality.antialiasing
+        if aa == "msaa" and not self.samples:
+            aa = "none"
+        scene_size = self.scene_size(size, quality.scale)
+        inked = options.intersections and options.surfaces and bool(request.gpu.surfaces)
+        direct = aa == "none" and scene_size == size and not inked
+        target = smooth = None
+        before: list[PostPass] = []
+        after: list[PostPass] = []
+        if not direct:
+            target = self.target(
+                scene_size, self.samples if aa == "msaa" else 0, "sheets" if inked else "scene"
+            )
+            before.append(self.clear_sheets if inked else self.clear)
+            if target.samples:
+                after.append(self.resolve)
+            if aa == "fxaa" and scene_size != size:
+                smooth = self.target(scene_size, 0, "fxaa")
+            after.append(self.composite)
+        sliced = request.view.slice_axis is not None
+        scene = self.renderer.passes_for(options, inked, sliced, background=direct)
+        snapshot, words, alpha = None, None, 1.0
+        if not picture_only:
+            if request.inset is not None:
+                after.append(self.inset)
+            words = request
+            if request.fade > 0.0 and self._snapshot is not None:
+                snapshot = self._snapshot[0] if self._snapshot[0].size == size else None
+            if snapshot is not None:
+                after.append(self.fade)
+                fade = min(request.fade, 1.0)
+                if fade > 0.5 and self._leaving is not None:
+                    words, alpha = self._leaving, 2.0 * fade - 1.0
+                else:
+                    alpha = max(0.0, 1.0 - 2.0 * fade)
+            if words.has_words:
+                after.append(self.hud)
+            else:
+                words = None
+        frame = PostFrame(
+            request, options, destination, size, scene_size, aa, target, smooth, snapshot, words,
+            alpha,
+        )  # fmt: skip
+        return FramePlan(frame, tuple(before), tuple(scene), tuple(after))
+
+    def capture(self, request: FrameRequest, size: tuple[int, int]) -> None:
         """Draw the picture a crossfade starts from: the last frame of what is leaving the
-        screen (drawn again, so nothing has to be read back), without its words, which
-        draw() fades out on their own (``hud`` is kept for that)."""
+        screen (drawn again, so nothing has to be read back), without its inset and words,
+        which draw() fades out on their own (the request is kept for that)."""
         size = (int(size[0]), int(size[1]))
         if self._snapshot is None or self._snapshot[0].size != size:
             self.release_snapshot()
@@ -116,8 +215,8 @@ class FramePipeline:
             # with depth, as a screen has: the direct level draws the scene straight into it
             depth = self.ctx.depth_renderbuffer(size)
             self._snapshot = (texture, self.ctx.framebuffer([texture], depth), depth)
-        self._draw(gpu, view, self._snapshot[1], size, options, None, quality)
-        self._leaving = (gpu, view, options, hud) if options.hud and hud is not None else None
+        self._run(self.plan(request, self._snapshot[1], size, picture_only=True))
+        self._leaving = request if request.has_words else None
 
     def release_snapshot(self) -> None:
         if self._snapshot is not None:
@@ -127,167 +226,43 @@ class FramePipeline:
         self._leaving = None
 
     def draw(
-        self,
-        gpu: GpuMesh,
-        view: ViewState,
-        destination: moderngl.Framebuffer,
-        size: tuple[int, int],
-        options: RenderOptions,
-        hud: HudInfo | None,
-        quality: Quality,
-        fade: float = 0.0,
-        inset: Inset | None = None,
+        self, request: FrameRequest, destination: moderngl.Framebuffer, size: tuple[int, int]
     ) -> None:
-        """One frame at ``quality`` into ``destination`` (whose drawable size is ``size``);
-        with ``fade`` > 0 the captured picture is laid over it with that opacity; ``inset``
-        (the time-slice inset, exhibit.render.inset) is drawn over the picture in its corner.
+        """One frame into ``destination`` (whose drawable size is ``size``): its plan's passes.
+        With ``request.fade`` > 0 the captured picture is laid over it with that opacity;
+        ``request.inset`` (exhibit.render.inset) is drawn over the picture in its corner.
 
         Words never cross-dissolve (two titles legible on top of each other for a second):
         while ``fade`` runs from 1 to 0 the outgoing words fade out over its first half and
         the new ones fade in over its second, as the pictures crossfade underneath."""
-        size = (int(size[0]), int(size[1]))
         self.texts = []
         timer = self.renderer.timer
         timer.begin_frame()
         try:
-            self._frame(gpu, view, destination, size, options, hud, quality, fade, inset)
+            plan = self.plan(request, destination, size)
+            self.texts = plan.frame.texts
+            self._run(plan)
         finally:
             timer.end_frame()
 
-    def _frame(
-        self,
-        gpu: GpuMesh,
-        view: ViewState,
-        destination: moderngl.Framebuffer,
-        size: tuple[int, int],
-        options: RenderOptions,
-        hud: HudInfo | None,
-        quality: Quality,
-        fade: float,
-        inset: Inset | None,
-    ) -> None:
-        timer = self.renderer.timer
-        self._draw(gpu, view, destination, size, options, None, quality)
-        if inset is not None:
-            with timer.section("inset"):
-                self._inset(inset, destination, size)
-        fading = fade > 0.0 and self._snapshot is not None and self._snapshot[0].size == size
-        if fading:
-            assert self._snapshot is not None  # fading needs it
-            with timer.section("fade"):
-                self.composite.fade(self._snapshot[0], destination, size, fade)
-        words = (gpu, view, options, hud)
-        alpha = 1.0
-        if fading:
-            fade = min(fade, 1.0)
-            if fade > 0.5 and self._leaving is not None:
-                words, alpha = self._leaving, 2.0 * fade - 1.0
-            else:
-                alpha = max(0.0, 1.0 - 2.0 * fade)
-        gpu, view, options, hud = words
-        if options.hud and hud is not None:
-            destination.use()
-            self.ctx.viewport = (0, 0, *size)
-            self.renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text, alpha)
-
-    def _draw(
-        self,
-        gpu: GpuMesh,
-        view: ViewState,
-        destination: moderngl.Framebuffer,
-        size: tuple[int, int],
-        options: RenderOptions,
-        hud: HudInfo | None,
-        quality: Quality,
-    ) -> None:
-        ctx, renderer, timer = self.ctx, self.renderer, self.renderer.timer
-        options = options.at_quality(quality)
-        size = (int(size[0]), int(size[1]))
-        aa = quality.antialiasing
-        if aa == "msaa" and not self.samples:
-            aa = "none"
-        scene_size = self.scene_size(size, quality.scale)
-        inked = options.intersections and options.surfaces and bool(gpu.surfaces)
-        if aa == "none" and scene_size == size and not inked:
-            renderer.render(gpu, view, destination, options, hud, size=size)
-            return
-        target = self.target(
-            scene_size, self.samples if aa == "msaa" else 0, "sheets" if inked else "scene"
-        )
-        with timer.section("clear"):
-            target.framebuffer.use()
-            ctx.viewport = (0, 0, *scene_size)
-            ctx.fbo.depth_mask = True
-            target.clear()
-        renderer.render_scene(gpu, view, scene_size, options, sheets=target if inked else None)
-        if target.samples:
-            with timer.section("resolve"):
-                target.resolve()
-        source = target.texture
-        with timer.section("composite"):
-            if scene_size == size:
-                variant = "fxaa" if aa == "fxaa" else "plain"
-                self.composite.compose(variant, source, destination, size, options)
-            else:
-                if aa == "fxaa":
-                    smooth = self.target(scene_size, 0, "fxaa")
-                    self.composite.compose("fxaa", source, smooth.framebuffer, scene_size, options)
-                    source = smooth.texture
-                self.composite.compose("upscale", source, destination, size, options)
-        if options.hud and hud is not None:
-            renderer.render_hud(gpu, view, hud, size, options.hud_drift, options.text)
-
-    def _inset(self, inset: Inset, destination, size: tuple[int, int]) -> None:
-        """The inset's own small picture (the direct path: its background, no antialiasing,
-        on software GL a few ms), then laid into the frame with a border and its label."""
-        x, y, w, h = (int(round(v)) for v in inset.rect)
-        if w < 16 or h < 16:
-            return
-        ctx, renderer, drawing = self.ctx, self.renderer, self.renderer.drawing
-        target = self.target((w, h), 0, "inset")
-        renderer.render(inset.gpu, inset.view, target.framebuffer, inset_look.OPTIONS)
-        destination.use()
-        ctx.viewport = (0, 0, *size)
-        ctx.disable(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-        ctx.enable(moderngl.BLEND)
-        viewport = (float(size[0]), float(size[1]))
-        # the framebuffer's rows run bottom to top: the texel rectangle is flipped
-        drawing.quads(
-            "image",
-            target.texture,
-            (w, h),
-            [(x, y, w, h, 0, h, w, -h, 1.0, 1.0, 1.0, 1.0)],
-            viewport,
-        )
-        rows: list = []
-        edge = max(1, round(h / 180))
-        for bx, by, bw, bh in (
-            (x, y, w, edge),
-            (x, y + h - edge, w, edge),
-            (x, y, edge, h),
-            (x + w - edge, y, edge, h),
-        ):
-            drawing.panel_row(bx, by, bw, bh, inset_look.BORDER, rows)
-        if inset.label:
-            px = max(10, round(0.085 * h))
-            # on a dark tab in the corner: the inset's picture may be light behind it
-            glyphs: list = []
-            box = drawing.glyph_rows(
-                inset.label, "sans", px, x + 0.5 * px, y + 0.4 * px, inset_look.LABEL, glyphs
+    def _run(self, plan: FramePlan) -> None:
+        """The plan's passes in order: the post chain's each timed under its name, the scene's
+        by the renderer (which times each of them)."""
+        frame, renderer, timer = plan.frame, self.renderer, self.renderer.timer
+        for post in plan.before:
+            with timer.section(post.name):
+                post.draw(frame)
+        request, options = frame.request, frame.options
+        if frame.target is None:
+            renderer.render(
+                request.gpu, request.view, frame.destination, options, None, size=frame.size
             )
-            drawing.panel_row(
-                x + edge,
-                y + edge,
-                box[2] + 0.4 * px - x - edge,
-                box[3] + 0.3 * px - y - edge,
-                inset_look.TAB,
-                rows,
-            )
-            if renderer.hud.ink:
-                rows += glyphs
-            self.texts.append(TextMark("inset label", inset.label, Rect(*box), inset_look.LABEL))
-        drawing.atlas_quads(rows, viewport)
-        ctx.disable(moderngl.BLEND)
+        else:
+            sheets = frame.target if frame.inked else None
+            renderer.render_scene(request.gpu, request.view, frame.scene_size, options, sheets)
+        for post in plan.after:
+            with timer.section(post.name):
+                post.draw(frame)
 
     def release(self) -> None:
         self.release_snapshot()

@@ -7,6 +7,7 @@ Tests, the `exhibit render` command and the benchmark all draw through this; the
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 from typing import TYPE_CHECKING
 
 import moderngl
@@ -14,11 +15,13 @@ import numpy as np
 from PIL import Image
 
 from exhibit.render.context import headless_context
+from exhibit.render.quality import LADDER
 from exhibit.render.renderer import Renderer
 
 if TYPE_CHECKING:
     from exhibit.geometry.view import ViewState
-    from exhibit.render.frame import FramePipeline, Inset
+    from exhibit.render.frame import FramePipeline
+    from exhibit.render.frame_request import FrameRequest, Inset
     from exhibit.render.gpu import GpuMesh
     from exhibit.render.hud_info import HudInfo
     from exhibit.render.options import RenderOptions
@@ -167,21 +170,18 @@ class Headless:
         """A whole kiosk frame at a quality level (default: FXAA at full scale) into a
         single-sampled target, as a window's screen gets it (with the time-slice ``inset``,
         exhibit.render.frame.Inset, when given); read() it for the picture."""
+        from exhibit.render.frame_request import FrameRequest
         from exhibit.render.options import RenderOptions
-        from exhibit.render.quality import LADDER
 
+        options = replace(options or RenderOptions(), quality=quality or LADDER[1])
+        return self.draw_request(FrameRequest(gpu, view, options, hud, inset=inset), size)
+
+    def draw_request(self, request: FrameRequest, size: tuple[int, int]) -> Offscreen:
+        """A whole kiosk frame (``request.quality`` set) into a single-sampled target of
+        ``size``, as a window's screen gets it; read() it for the picture."""
         self.activate()
         target = self.target(size, 0)
-        self.pipeline.draw(
-            gpu,
-            view,
-            target.framebuffer,
-            target.size,
-            options or RenderOptions(),
-            hud,
-            quality or LADDER[1],
-            inset=inset,
-        )
+        self.pipeline.draw(request, target.framebuffer, target.size)
         return target
 
     def frame(
@@ -210,10 +210,7 @@ class Headless:
         """A picture through the kiosk's frame pipeline at full quality (MSAA with ``samples``,
         else no antialiasing), so `exhibit render` shows what the kiosk shows, intersection
         curves included."""
-        from dataclasses import replace
-
         from exhibit.render.frame import FramePipeline
-        from exhibit.render.quality import LADDER
 
         self.activate()
         wanted = samples if samples > 1 else 0

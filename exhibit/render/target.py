@@ -8,7 +8,8 @@ maintenance keys, focus loss, scene switching) runs in-process on a simulated cl
 display. The events are toolkit-neutral: nothing above this layer knows GLFW's key codes.
 
 A target has: ``ctx``, ``renderer``, ``size``, ``refresh_hz`` (None: unknown), ``frame_ms``
-(what the latest kiosk frame cost, or None); ``draw``, ``capture``, ``notice``, ``read``,
+(what the latest kiosk frame cost, or None); ``draw`` and ``capture`` (of a FrameRequest,
+exhibit.render.frame_request: the frame as one value), ``notice``, ``read``,
 ``swap`` (shows the frame, then delivers the input that arrived), ``should_close``, ``close``;
 and ``set_input(handler)``, ``hide_cursor()``, ``close_allowed`` (False: a close request is
 reported to the handler but does not close the target; the kiosk decides).
@@ -25,6 +26,7 @@ import moderngl
 import numpy as np
 
 from exhibit.geometry.view import ViewState
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud_info import HudInfo
 from exhibit.render.layout import TextSizes
@@ -33,7 +35,7 @@ from exhibit.render.pass_timer import PassTimes
 from exhibit.render.renderer import Renderer
 
 if TYPE_CHECKING:
-    from exhibit.render.frame import FramePipeline, FrameTimer, Inset
+    from exhibit.render.frame import FramePipeline, FrameTimer
     from exhibit.render.offscreen import Headless
 
 __all__ = [
@@ -92,19 +94,9 @@ class RenderTarget(Protocol):
     @property
     def should_close(self) -> bool: ...
 
-    def draw(
-        self,
-        gpu: GpuMesh,
-        view: ViewState,
-        options: RenderOptions = RenderOptions(),
-        hud: HudInfo | None = None,
-        fade: float = 0.0,
-        inset: Inset | None = None,
-    ) -> None: ...
+    def draw(self, request: FrameRequest) -> None: ...
 
-    def capture(
-        self, gpu: GpuMesh, view: ViewState, options: RenderOptions, hud: HudInfo | None = None
-    ) -> None: ...
+    def capture(self, request: FrameRequest) -> None: ...
 
     def warm_hud(self, huds: list[HudInfo], text: TextSizes) -> None: ...
 
@@ -129,11 +121,12 @@ class RenderTarget(Protocol):
 
 
 class FrameDrawing:
-    """draw() and capture() as the window and the headless target share them: a plain picture
-    (``options.quality`` None), or a whole kiosk frame at that quality level (FramePipeline),
-    timed into ``frame_ms`` for the frame governor, with the captured frame laid over it at
-    opacity ``fade`` (a crossfade) and ``inset`` over it. A target says where its frames go and
-    gives its pipeline and timer."""
+    """draw() and capture() as the window and the headless target share them: a request
+    (exhibit.render.frame_request.FrameRequest) drawn as a plain picture (``quality`` None), or
+    as a whole kiosk frame at that quality level (FramePipeline), timed into ``frame_ms`` for
+    the frame governor, with the captured frame laid over it at opacity ``fade`` (a crossfade)
+    and ``inset`` over it. A target says where its frames go and gives its pipeline and
+    timer."""
 
     renderer: Renderer
     frame_ms: float | None
@@ -153,25 +146,16 @@ class FrameDrawing:
         raise NotImplementedError
 
     def _draw_into(
-        self,
-        framebuffer: moderngl.Framebuffer,
-        gpu: GpuMesh,
-        view: ViewState,
-        options: RenderOptions,
-        hud: HudInfo | None,
-        fade: float,
-        inset: Inset | None,
-        timed: bool = True,
+        self, framebuffer: moderngl.Framebuffer, request: FrameRequest, timed: bool = True
     ) -> None:
-        if options.quality is None:
-            self.renderer.render(gpu, view, framebuffer, options, hud, size=self.size)
+        if request.quality is None:
+            r = request
+            self.renderer.render(r.gpu, r.view, framebuffer, r.options, r.hud, size=self.size)
             return
         timer = self._frame_timer() if timed else None
         if timer is not None:
             timer.begin()
-        self._pipeline().draw(
-            gpu, view, framebuffer, self.size, options, hud, options.quality, fade, inset
-        )
+        self._pipeline().draw(request, framebuffer, self.size)
         if timer is not None:
             self.frame_ms = timer.end()
 
@@ -195,15 +179,13 @@ class FrameDrawing:
         a test that builds many kiosks on one context frees it)."""
         self._pipeline().release_snapshot()
 
-    def capture(
-        self, gpu: GpuMesh, view: ViewState, options: RenderOptions, hud: HudInfo | None = None
-    ) -> None:
+    def capture(self, request: FrameRequest) -> None:
         """Draw a kiosk frame (``options.quality`` set) offscreen as the start of a crossfade:
         the following draw()s with ``fade`` lay it over the new frames."""
-        if options.quality is None:
+        if request.quality is None:
             raise ValueError("capture() draws a kiosk frame: options.quality must be set")
         self._framebuffer()  # this target's context, current
-        self._pipeline().capture(gpu, view, self.size, options, hud, options.quality)
+        self._pipeline().capture(request, self.size)
 
 
 class HeadlessTarget(FrameDrawing):
@@ -223,9 +205,8 @@ class HeadlessTarget(FrameDrawing):
         self.frame_ms: float | None = None
         self.close_allowed = True
         self.image: np.ndarray | None = None
-        #: (gpu, view, options, hud) of the latest frame drawn.
-        self.drawn: tuple | None = None
-        self._fade_inset: tuple = (0.0, None)
+        #: The latest frame drawn (None before one, or after a notice).
+        self.request: FrameRequest | None = None
         self.cursor_hidden = False
         self._handler: InputHandler | None = None
         self._queue: deque[InputEvent] = deque()
@@ -261,30 +242,25 @@ class HeadlessTarget(FrameDrawing):
             self._timer = FrameTimer(self.ctx)
         return self._timer
 
-    def draw(
-        self,
-        gpu: GpuMesh,
-        view: ViewState,
-        options: RenderOptions = RenderOptions(),
-        hud: HudInfo | None = None,
-        fade: float = 0.0,
-        inset: Inset | None = None,
-    ) -> None:
+    @property
+    def drawn(self) -> tuple[GpuMesh, ViewState, RenderOptions, HudInfo | None] | None:
+        """(gpu, view, options, hud) of the latest frame drawn (``request``'s)."""
+        r = self.request
+        return None if r is None else (r.gpu, r.view, r.options, r.hud)
+
+    def draw(self, request: FrameRequest) -> None:
         target = self._target()
-        self._draw_into(target.framebuffer, gpu, view, options, hud, fade, inset)
+        self._draw_into(target.framebuffer, request)
         self.image = target.read()
-        self.drawn = (gpu, view, options, hud)
-        self._fade_inset = (fade, inset)
+        self.request = request
 
     def redraw(self) -> np.ndarray:
-        """The latest frame drawn again with the same arguments and read back (``image`` is
-        left as it was): a check draws it with something changed, e.g. the HUD's ``ink`` off."""
-        if self.drawn is None:
+        """The latest frame drawn again with the same request and read back (``image`` is left
+        as it was): a check draws it with something changed, e.g. the HUD's ``ink`` off."""
+        if self.request is None:
             raise RuntimeError("nothing has been drawn yet")
-        gpu, view, options, hud = self.drawn
-        fade, inset = self._fade_inset
         target = self._target()
-        self._draw_into(target.framebuffer, gpu, view, options, hud, fade, inset, timed=False)
+        self._draw_into(target.framebuffer, self.request, timed=False)
         return target.read()
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
@@ -292,7 +268,7 @@ class HeadlessTarget(FrameDrawing):
         target.framebuffer.use()
         self.renderer.notice(lines, self._size, drift)
         self.image = target.read()
-        self.drawn = None
+        self.request = None
 
     def read(self) -> np.ndarray:
         if self.image is None:

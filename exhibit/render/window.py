@@ -21,17 +21,15 @@ import moderngl
 import numpy as np
 
 from exhibit.devices.keyboard import key_name
-from exhibit.geometry.view import ViewState
 from exhibit.render.context import REQUIRED_VERSION, RenderUnavailable
-from exhibit.render.gpu import GpuMesh
-from exhibit.render.options import RenderOptions
-from exhibit.render.renderer import HudInfo, Renderer
+from exhibit.render.frame_request import FrameRequest
+from exhibit.render.renderer import Renderer
 from exhibit.render.target import CloseRequest, Focus, FrameDrawing, InputHandler, Key
 
 if TYPE_CHECKING:
     from glfw import _GLFWwindowPointerT
 
-    from exhibit.render.frame import FramePipeline, FrameTimer, Inset
+    from exhibit.render.frame import FramePipeline, FrameTimer
     from exhibit.render.target import RenderTarget
 
 log = logging.getLogger("exhibit.glfw")
@@ -214,17 +212,9 @@ class Window(FrameDrawing):
         assert self._timer is not None  # made with the pipeline
         return self._timer
 
-    def draw(
-        self,
-        gpu: GpuMesh,
-        view: ViewState,
-        options: RenderOptions = RenderOptions(),
-        hud: HudInfo | None = None,
-        fade: float = 0.0,
-        inset: Inset | None = None,
-    ) -> None:
+    def draw(self, request: FrameRequest) -> None:
         """Render one frame into the back buffer (call swap() to show it): FrameDrawing's."""
-        self._draw_into(self._framebuffer(), gpu, view, options, hud, fade, inset)
+        self._draw_into(self._framebuffer(), request)
 
     def notice(self, lines: list[str], drift: tuple[float, float] = (0.0, 0.0)) -> None:
         """The notice screen (Renderer.notice) in the back buffer (call swap() to show it)."""

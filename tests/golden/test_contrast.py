@@ -42,17 +42,17 @@ def _check(measured, where: str) -> None:
 
 def _hostile(window):
     """The latest frame drawn again with the sensor at 2 on white, the inset's picture white."""
-    gpu, view, options, hud = window.drawn
-    fade, inset = window._fade_inset
+    drawn = window.request
     before = inset_look.OPTIONS
     inset_look.OPTIONS = dataclasses.replace(before, background=WHITE)
     try:
         window.draw(
-            gpu,
-            view.with_sensor_distance(2.0),
-            dataclasses.replace(options, background=WHITE),
-            hud,
-            inset=inset,
+            dataclasses.replace(
+                drawn,
+                view=drawn.view.with_sensor_distance(2.0),
+                options=dataclasses.replace(drawn.options, background=WHITE),
+                fade=0.0,
+            )
         )
         return contrast.measure_window(window)
     finally:

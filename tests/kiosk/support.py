@@ -102,15 +102,15 @@ class FakeWindow:
         self.fades, self.captured = [], []
         self.measure_asked, self.pass_times = 0, None
 
-    def draw(self, gpu, view, options, hud, fade=0.0, inset=None):
+    def draw(self, request):
         if self.fail > 0:
             self.fail -= 1
             raise ZeroDivisionError("a bug in the renderer")
-        self.drawn.append(gpu)
-        self.fades.append(fade)
+        self.drawn.append(request.gpu)
+        self.fades.append(request.fade)
 
-    def capture(self, gpu, view, options, hud):
-        self.captured.append(gpu)
+    def capture(self, request):
+        self.captured.append(request.gpu)
 
     def warm_hud(self, huds, text):
         pass

@@ -29,10 +29,10 @@ class RecordingWindow(FakeWindow):
         super().__init__()
         self.views, self.drifts = [], []
 
-    def draw(self, gpu, view, options, hud, fade=0.0, inset=None):
-        super().draw(gpu, view, options, hud, fade, inset)
-        self.views.append(view)
-        self.drifts.append(options.hud_drift)
+    def draw(self, request):
+        super().draw(request)
+        self.views.append(request.view)
+        self.drifts.append(request.options.hud_drift)
 
 
 def play(tmp_path, monkeypatch, reduced_motion: bool, seconds: float = 60.0):

@@ -10,6 +10,7 @@ import pytest
 from exhibit import scenes
 from exhibit.render import HudInfo, RenderOptions
 from exhibit.render.frame import FrameTimer
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.quality import LADDER, Quality, ladder, mesh_resolution
 from exhibit.render.ssim import edge_mask, ssim
 from tests.render.conftest import marker_mesh, square
@@ -197,12 +198,13 @@ def test_crossfade_mixes_the_pictures_and_never_the_words(gl, hopf, level):
         np.abs(new - new_picture).max(axis=2) > 0
     )
     pipeline = gl.pipeline
-    pipeline.capture(gpu, view, SIZE, RenderOptions(), old_hud, quality)
+    options = RenderOptions(quality=quality)
+    pipeline.capture(FrameRequest(gpu, view, options, old_hud), SIZE)
     target = gl.target(SIZE, 0)
 
     def drawn(alpha):
         pipeline.draw(
-            gpu, turned, target.framebuffer, SIZE, RenderOptions(), new_hud, quality, fade=alpha
+            FrameRequest(gpu, turned, options, new_hud, fade=alpha), target.framebuffer, SIZE
         )
         return target.read().astype(float)
 

@@ -12,7 +12,7 @@ from exhibit import scenes
 from exhibit.commands.bench.kiosk import breakdown_line, median_passes
 from exhibit.render import HudInfo, RenderOptions
 from exhibit.render.pass_timer import PassTimer, PassTimes
-from exhibit.render.passes.composite import CompositePass
+from exhibit.render.frame_request import FrameRequest, Inset
 from exhibit.render.quality import LADDER
 from exhibit.render.scene_target import CLEARED
 
@@ -34,20 +34,13 @@ def names(passes) -> list[str]:
     return [p.name for p in passes]
 
 
-def frame_passes(
-    renderer, options: RenderOptions, level: str, sliced: bool = False
-) -> tuple[list, set[str]]:
-    """A kiosk frame's passes at ``level`` (exhibit.render.frame), and what is in its buffers
-    before the first: the direct level draws the background itself; the others clear a scene
-    target (with the sheets on inked frames) and composite it."""
-    quality = LEVELS[level]
-    options = options.at_quality(quality)
-    inked = options.intersections and options.surfaces
-    if quality.antialiasing == "none" and quality.scale == 1.0 and not inked:
-        return renderer.passes_for(options, inked, sliced, background=True), set()
-    cleared = set(CLEARED) - (set() if inked else {"sheets"})
-    passes = renderer.passes_for(options, inked, sliced, background=False)
-    return [*passes, CompositePass], cleared
+def frame_plan(gl, gpu, view, options: RenderOptions, level: str, sliced: bool = False):
+    """A kiosk frame's plan at ``level`` (exhibit.render.frame.FramePipeline.plan): the post
+    chain's passes around the scene's, as the pipeline runs them."""
+    if sliced:
+        view = view.replace(slice_axis=3, slice_at=0.0)
+    request = FrameRequest(gpu, view, replace(options, quality=LEVELS[level]), HudInfo(title="t"))
+    return gl.pipeline.plan(request, gl.target(SIZE, 0).framebuffer, SIZE)
 
 
 @pytest.mark.parametrize(
@@ -63,11 +56,41 @@ def frame_passes(
         ("fxaa", RenderOptions(surfaces=False), False, "outlines curves marks"),
     ],
 )  # fmt: skip
-def test_the_pass_list_per_level_and_option(gl, level, options, sliced, expected):
-    passes, _ = frame_passes(gl.renderer, options, level, sliced)
-    scene = [p for p in passes if p is not CompositePass]
-    assert names(scene) == (expected if isinstance(expected, list) else expected.split())
-    assert (CompositePass in passes) == (level != "direct")
+def test_the_pass_list_per_level_and_option(gl, hopf, level, options, sliced, expected):
+    plan = frame_plan(gl, *hopf, options, level, sliced)
+    assert names(plan.scene) == (expected if isinstance(expected, list) else expected.split())
+    post = names(plan.before) + ["scene"] + names(plan.after)
+    if level == "direct":
+        assert plan.direct and post == ["scene", "hud"]
+    else:
+        assert post == ["clear", "scene", "composite", "hud"]
+        assert (plan.before[0].writes == CLEARED) == ("intersections" in names(plan.scene))
+
+
+@pytest.mark.parametrize(
+    ("level", "fade", "inset", "expected"),
+    [
+        ("msaa", 0.0, False, "clear scene resolve composite hud"),
+        ("scale-50", 0.0, False, "clear scene composite hud"),
+        ("fxaa", 0.7, True, "clear scene composite inset fade hud"),
+        ("direct", 0.3, True, "scene inset fade hud"),
+        ("direct", 0.0, False, "scene hud"),
+    ],
+)  # fmt: skip
+def test_the_post_chain_per_level_crossfade_and_inset(gl, hopf, level, fade, inset, expected):
+    gpu, view = hopf
+    options = RenderOptions(quality=LEVELS[level])
+    pipeline = gl.pipeline
+    pipeline.capture(FrameRequest(gpu, view, options), SIZE)  # the crossfade's snapshot
+    corner = Inset(gpu, view, (0.0, 0.0, 40.0, 30.0)) if inset else None
+    request = FrameRequest(gpu, view, options, HudInfo(title="t"), fade, corner)
+    plan = pipeline.plan(request, gl.target(SIZE, 0).framebuffer, SIZE)
+    assert plan.unwritten_reads() == []
+    assert names(plan.before) + ["scene"] + names(plan.after) == expected.split()
+    bare = pipeline.plan(
+        replace(request, hud=None, fade=0.0, inset=None), plan.frame.destination, SIZE
+    )
+    assert "hud" not in names(bare.after) and bare.frame.words is None
 
 
 @pytest.mark.parametrize("level", ["msaa", "fxaa", "mesh-50", "lean", "direct", "scale-50"])
@@ -80,14 +103,14 @@ def test_the_pass_list_per_level_and_option(gl, level, options, sliced, expected
         RenderOptions(silhouettes=False, curves=False),
     ],
 )
-def test_a_pass_reads_only_what_an_earlier_pass_wrote(gl, level, sliced, options):
-    passes, written = frame_passes(gl.renderer, options, level, sliced)
-    for i, render_pass in enumerate(passes):
-        assert set(render_pass.reads) <= written, (render_pass.name, written)
-        later = {w for p in passes[i + 1 :] for w in p.writes}
-        for name in render_pass.optional_reads:  # never before the pass that writes it
-            assert name in written or name not in later, render_pass.name
-        written |= set(render_pass.writes)
+def test_a_pass_reads_only_what_an_earlier_pass_wrote(gl, hopf, level, sliced, options):
+    """The whole frame, post chain included: nothing is in a buffer before its first pass."""
+    plan = frame_plan(gl, *hopf, options, level, sliced)
+    assert plan.unwritten_reads() == []
+    assert plan.after[-1].name == "hud"  # over the screen, which an earlier pass wrote
+    if not plan.direct:  # the check bites: without the clear, the scene reads nothing
+        assert replace(plan, before=()).unwritten_reads()
+    assert replace(plan, scene=(), before=()).unwritten_reads()
 
 
 def test_every_pass_declares_its_name_reads_writes_and_programs(gl):
@@ -98,6 +121,9 @@ def test_every_pass_declares_its_name_reads_writes_and_programs(gl):
     assert {"background", "surface_depth", "floor", "intersect_gate", "silhouette_slice"} <= set(
         r.programs
     )
+    p = gl.pipeline
+    for post in (p.clear, p.clear_sheets, p.resolve, p.composite, p.inset, p.fade, p.hud):
+        assert post.name and isinstance(post.reads, tuple) and post.writes
 
 
 @pytest.mark.parametrize("level", ["fxaa", "lean", "direct"])
@@ -113,9 +139,7 @@ def test_the_timer_has_one_entry_per_pass_on_this_gl(gl, hopf, level):
     gl.draw_frame(gpu, view, SIZE, options, HudInfo(title="t"), LEVELS[level])
     times = r.timer.flush()
     assert times is not None and times.total_ms > 0
-    scene = names(frame_passes(r, options, level)[0])
-    expected = scene + ["hud"] if level == "direct" else ["clear", *scene[:-1], "composite", "hud"]
-    assert list(times.passes) == expected
+    assert list(times.passes) == names(frame_plan(gl, gpu, view, options, level).passes)
     assert all(ms >= 0 for ms in times.passes.values())
     if times.mode == "wall":
         assert sum(times.passes.values()) <= times.total_ms + 1e-6

@@ -23,6 +23,7 @@ import numpy as np
 from PIL import Image
 from exhibit import scenes
 from exhibit.render import RenderOptions
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.window import Window
 
 out, resolution = sys.argv[1], int(sys.argv[2])
@@ -31,7 +32,7 @@ window = Window((240, 180), samples=0, visible=False, vsync=False)
 gpu = window.renderer.upload(scene.build(preset.params, resolution))
 views = [preset.view, preset.view.replace(angles=(0.5, -0.4, -0.3, 0.0, 0.0, 0.0))]
 for i, view in enumerate(views):
-    window.draw(gpu, view, RenderOptions(hud=False))
+    window.draw(FrameRequest(gpu, view, RenderOptions(hud=False)))
     Image.fromarray(window.read()).save(f"{out}/window-{i}.png")
     window.swap()
 assert window.ctx.error == "GL_NO_ERROR", window.ctx.error

@@ -23,6 +23,7 @@ import moderngl
 
 from exhibit.render import shaders
 from exhibit.render.options import RenderOptions
+from exhibit.render.passes.shared import PostFrame
 
 VARIANTS = ("fxaa", "plain", "upscale")
 
@@ -43,6 +44,21 @@ class CompositePass:
             "fade": p(ctx, "fade.glsl"),
         }
         self._vaos = {key: ctx.vertex_array(prog, []) for key, prog in self.programs.items()}
+
+    def draw(self, frame: PostFrame) -> None:
+        """The frame's scene over the background into its destination: FXAA or plain at full
+        scale; at a smaller render scale upscaled (after FXAA at the scene's size, for FXAA)."""
+        target = frame.scene_target()
+        source = target.texture
+        destination, size, options = frame.destination, frame.size, frame.options
+        if frame.scene_size == size:
+            variant = "fxaa" if frame.antialiasing == "fxaa" else "plain"
+            self.compose(variant, source, destination, size, options)
+            return
+        if frame.smooth is not None:  # FXAA at the scene's size first
+            self.compose("fxaa", source, frame.smooth.framebuffer, frame.scene_size, options)
+            source = frame.smooth.texture
+        self.compose("upscale", source, destination, size, options)
 
     def compose(
         self,

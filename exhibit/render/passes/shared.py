@@ -1,11 +1,12 @@
-"""What every pass of the picture shares, written once: the frame's inputs, the 4x5 clip map
+"""What every pass of the picture shares, written once: the frame's inputs (the scene passes'
+FrameInputs, the post chain's PostFrame), the 4x5 clip map
 computed once a frame and uploaded to any program, the clip planes, the blend modes, and a
 mesh's vertex arrays, which each pass binds to its own programs on first use and keeps on the
 GpuMesh (so they are freed with the mesh, and a new variant touches only its pass's file)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, ClassVar, Protocol
 
 import moderngl
@@ -21,6 +22,7 @@ from exhibit.render.gpu import (
     GpuSurface,
     attribute_format,
 )
+from exhibit.render.frame_request import FrameRequest
 from exhibit.render.options import RenderOptions
 from exhibit.render.scene_target import SceneTarget
 
@@ -52,6 +54,42 @@ class FrameInputs:
     def width_scale(self) -> float:
         """Line widths' factor at this frame's height (RenderOptions.width_scale)."""
         return self.options.width_scale(self.size[1])
+
+
+@dataclass(frozen=True)
+class PostFrame:
+    """What a kiosk frame's post chain (exhibit.render.passes.post) works on, decided before
+    its first pass (exhibit.render.frame.FramePipeline.plan): the request, its options at the
+    quality level, where the frame goes (``destination``, drawable ``size``), the scene's size
+    and antialiasing, the offscreen scene ``target`` (None on the direct path, which draws
+    straight into the destination) and the FXAA texture of a smaller render scale
+    (``smooth``), the crossfade's ``snapshot``, whose words the HUD shows (``words``) at which
+    opacity (``alpha``), and the inset's label marks, which the inset pass appends to
+    (``texts``)."""
+
+    request: FrameRequest
+    options: RenderOptions
+    destination: moderngl.Framebuffer
+    size: tuple[int, int]
+    scene_size: tuple[int, int]
+    antialiasing: str
+    target: SceneTarget | None = None
+    smooth: SceneTarget | None = None
+    snapshot: moderngl.Texture | None = None
+    words: FrameRequest | None = None
+    alpha: float = 1.0
+    texts: list = field(default_factory=list)
+
+    @property
+    def inked(self) -> bool:
+        """Whether the scene target has the sheet buffer (the intersection curves)."""
+        return self.target is not None and self.target.sheet_framebuffer is not None
+
+    def scene_target(self) -> SceneTarget:
+        """The offscreen scene target (the post passes run only on frames that have one)."""
+        if self.target is None:
+            raise RuntimeError("the direct path has no scene target")
+        return self.target
 
 
 class RenderPass(Protocol):
