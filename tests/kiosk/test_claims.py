@@ -17,6 +17,7 @@ from exhibit.review.setup import base_config
 from exhibit.resources import shipped
 from exhibit.schema import validate
 from exhibit.timelines import claims as claim_kinds
+from exhibit.timelines.claims import base as claims_base
 from exhibit.timelines.file import WhileSpec
 
 #: The id frames of any screen from 640x360 up (claims.ID_HEIGHT): curves as wide as there.
@@ -235,6 +236,14 @@ def test_kiosk_md_writes_every_claim_kind_as_its_unit_does():
         assert type(claim) is kind and claim.key == kind.key
 
 
+#: The classes a kind may derive from: Claim, and base.py's shapes of it (ObjectsClaim).
+CLAIM_BASES = {
+    name
+    for name, value in vars(claims_base).items()
+    if isinstance(value, type) and issubclass(value, claims_base.Claim)
+}
+
+
 def unregistered(folder: Path, kinds) -> list[str]:
     """Claim kinds (classes deriving from Claim) defined in the modules of ``folder`` that
     ``kinds`` does not list, and modules that define none or more than one."""
@@ -248,7 +257,7 @@ def unregistered(folder: Path, kinds) -> list[str]:
             node.name
             for node in tree.body
             if isinstance(node, ast.ClassDef)
-            and any(isinstance(b, ast.Name) and b.id == "Claim" for b in node.bases)
+            and any(isinstance(b, ast.Name) and b.id in CLAIM_BASES for b in node.bases)
         ]
         if len(defined) != 1:
             problems.append(f"{path.name}: {len(defined)} claim kinds, not one")

@@ -5,30 +5,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from exhibit.timelines.claims.base import EVERY_MOMENT, Claim, Names, Seen, time_spans
+from exhibit.timelines.claims.base import EVERY_MOMENT, ObjectsClaim, Seen, time_spans
 
 #: At most this share of the screen (a few pixels of a mark at its first instant).
 ABSENT_SHARE = 2e-5
 
 
 @dataclass(frozen=True)
-class Absent(Claim):
+class Absent(ObjectsClaim):
     key = "absent"
-    fragment = Names | None
     stage = EVERY_MOMENT
     example = 'absent = ["slice"]'
-
-    objects: tuple[str, ...]
-
-    @classmethod
-    def parse(cls, value: list[str], pose: tuple[float, ...]) -> Absent:
-        return cls(tuple(value))
-
-    def count(self) -> int:
-        return len(self.objects)
-
-    def names(self) -> tuple[str, ...]:
-        return self.objects
 
     def problems(self, seen: Seen) -> list[str]:
         out = []

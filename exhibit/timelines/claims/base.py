@@ -11,9 +11,9 @@ Pure: no GL, no files."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Annotated, Any, ClassVar
+from typing import Annotated, Any, ClassVar, Self
 
 from pydantic import Field
 
@@ -137,6 +137,47 @@ class Claim:
     def problems(self, seen: Seen) -> list[str]:
         """One line per way ``seen`` contradicts it."""
         raise NotImplementedError
+
+
+@dataclass(frozen=True)
+class ObjectsClaim(Claim):
+    """A claim about a list of named objects, each counted once (visible, absent, grows,
+    shrinks): the list is the claim."""
+
+    fragment: ClassVar[Any] = Names | None
+
+    objects: tuple[str, ...]
+
+    @classmethod
+    def parse(cls, value: list[str], pose: tuple[float, ...]) -> Self:
+        return cls(tuple(value))
+
+    def count(self) -> int:
+        return len(self.objects)
+
+    def names(self) -> tuple[str, ...]:
+        return self.objects
+
+
+def growth_problems(
+    seen: Seen, objects: Sequence[str], key: str, holds: Callable[[float], bool], wanted: str
+) -> list[str]:
+    """For grows and shrinks: one line per object whose area on screen from the caption's first
+    sample to its last does not change as claimed (``holds`` of the ratio; ``wanted`` says the
+    bound, "x1.2 or more")."""
+    out = []
+    first, last = seen.samples[0], seen.samples[-1]
+    for name in objects:
+        if not seen.matched[name] or len(seen.samples) < 2:
+            continue
+        g = seen.growth(name)
+        if not holds(g):
+            a, b = seen.area(name, first), seen.area(name, last)
+            out.append(
+                f"{seen.head}: {key} {name}: its area on screen went from {a} to {b} px "
+                f"(x{g:.2f}, {seen.span}), not {wanted}"
+            )
+    return out
 
 
 def matching(name: str, objects: Sequence[str]) -> list[str]:

@@ -5,39 +5,16 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from exhibit.timelines.claims.base import GROWTH, START_TO_END, Claim, Names, Seen
+from exhibit.timelines.claims.base import GROWTH, ObjectsClaim, START_TO_END, Seen, growth_problems
 
 
 @dataclass(frozen=True)
-class Shrinks(Claim):
+class Shrinks(ObjectsClaim):
     key = "shrinks"
-    fragment = Names | None
     stage = START_TO_END
     example = 'shrinks = ["slice"]'
 
-    objects: tuple[str, ...]
-
-    @classmethod
-    def parse(cls, value: list[str], pose: tuple[float, ...]) -> Shrinks:
-        return cls(tuple(value))
-
-    def count(self) -> int:
-        return len(self.objects)
-
-    def names(self) -> tuple[str, ...]:
-        return self.objects
-
     def problems(self, seen: Seen) -> list[str]:
-        out = []
-        first, last = seen.samples[0], seen.samples[-1]
-        for name in self.objects:
-            if not seen.matched[name] or len(seen.samples) < 2:
-                continue
-            g = seen.growth(name)
-            if not g <= 1 / GROWTH:
-                a, b = seen.area(name, first), seen.area(name, last)
-                out.append(
-                    f"{seen.head}: shrinks {name}: its area on screen went from {a} to {b} px "
-                    f"(x{g:.2f}, {seen.span}), not x{1 / GROWTH:.2f} or less"
-                )
-        return out
+        return growth_problems(
+            seen, self.objects, self.key, lambda g: g <= 1 / GROWTH, f"x{1 / GROWTH:.2f} or less"
+        )

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from exhibit.timelines.claims.base import EVERY_MOMENT, Claim, Names, Sample, Seen, time_spans
+from exhibit.timelines.claims.base import EVERY_MOMENT, ObjectsClaim, Sample, Seen, time_spans
 
 #: At least this share of the screen (a 2 px curve 140 px long at 1280x720).
 VISIBLE_SHARE = 3e-4
@@ -18,23 +18,10 @@ PLAINLY_VISIBLE = 3e-3
 
 
 @dataclass(frozen=True)
-class Visible(Claim):
+class Visible(ObjectsClaim):
     key = "visible"
-    fragment = Names | None
     stage = EVERY_MOMENT
     example = 'visible = ["offset curve"]'
-
-    objects: tuple[str, ...]
-
-    @classmethod
-    def parse(cls, value: list[str], pose: tuple[float, ...]) -> Visible:
-        return cls(tuple(value))
-
-    def count(self) -> int:
-        return len(self.objects)
-
-    def names(self) -> tuple[str, ...]:
-        return self.objects
 
     def footprints(self) -> tuple[str, ...]:
         return self.objects
