@@ -169,7 +169,7 @@ class Kiosk:
         """The state stepped with the frame's events, what follows from it, and the frame
         drawn."""
         mode, scene = state.mode, state.frame.scene
-        events = self.parts.cues.listen(state, events)  # a listen press takes nothing over
+        events = self.parts.cues.listen(state, events, now)  # a listen press takes nothing over
         self.parts.cues.hold(state, now)
         frame = state.update(events, now)
         self.parts.visits.after(state, mode, frame, events, now, self.sessions)

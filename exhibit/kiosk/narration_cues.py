@@ -20,10 +20,16 @@ class NarrationCues:
         #: Where attract mode was at the last frame: (timeline path, time into it, when).
         self._at: tuple[str, float, float] | None = None
 
-    def listen(self, state: KioskState, events: list[Event]) -> list[Event]:
-        """A listen press turns narration on or off; the events less it (no takeover)."""
+    def listen(self, state: KioskState, events: list[Event], now: float) -> list[Event]:
+        """A listen press turns narration on or off; the events less it (no takeover). Both
+        the press and narration the visitor asked for, while it speaks, are presence: the idle
+        return counts from the end of the words, not from the last turn (a visitor who cannot
+        see the screen presses listen, then listens)."""
         if state.mapper.pressed(events, "listen"):
             self.narrator.press()
+            state.present(now)
+        if self.narrator.pressed_on and self.narrator.speaking:
+            state.present(now)
         return state.mapper.without(events, "listen")
 
     def hold(self, state: KioskState, now: float) -> None:

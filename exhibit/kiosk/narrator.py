@@ -171,10 +171,11 @@ class Narrator:
         self.pressed_on = not self.pressed_on
         log.info("narration %s", "on" if self.pressed_on else "off")
         self._start_worker()
-        if not self.pressed_on:
-            self._stop()
-        else:
-            self._speaking = None  # speak the segment on screen from its start
+        self._stop()  # off: silence; on: the segment on screen spoken from its start
+
+    @property
+    def speaking(self) -> bool:  # words playing, or being made to play now
+        return self.player.playing or self._pending_since is not None
 
     def walked_away(self) -> None:
         """The visitor's session ended: narration off (attract mode's own, if any, goes on)."""
@@ -237,8 +238,7 @@ class Narrator:
         parts = self._scripts.get((s.source, language)) or []
         if s.index >= len(parts):
             return None
-        busy = self.player.playing or self._pending_since is not None
-        return (s.source, parts[s.index].end - HOLD_EPSILON_S) if busy else None
+        return (s.source, parts[s.index].end - HOLD_EPSILON_S) if self.speaking else None
 
     def hold_at(self, timeline: Timeline, t: float, language: str) -> float | None:
         """Where attract mode must hold ``timeline`` instead of reaching ``t`` (see

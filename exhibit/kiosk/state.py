@@ -124,6 +124,8 @@ class KioskState:
         self.reduced_motion = reduced_motion
         self.mode = ATTRACT
         self.playlist.restart(now)
+        #: The last moment someone was there without turning anything (present()).
+        self._present_at: float | None = None
         self._blend_from: tuple[ViewState, float, str] | None = None
         #: The zoom and lens shift gliding after a takeover: (from, to, start time).
         self._reframe: tuple | None = None
@@ -269,6 +271,20 @@ class KioskState:
 
     # ------------------------------------------------------------------ the step
 
+    def present(self, now: float) -> None:
+        """Someone is there at ``now`` without turning anything: a listen press, or narration
+        they asked for still speaking. The idle return counts from the later of this and the
+        last real input, so a visitor who listens is not taken for an empty room."""
+        if self._present_at is None or now > self._present_at:
+            self._present_at = now
+
+    def idle_for(self, now: float) -> float:
+        """Seconds since the last real input or presence (inf if neither ever came)."""
+        idle = self.mapper.activity.idle_for(now)
+        if self._present_at is not None:
+            idle = min(idle, max(0.0, now - self._present_at))
+        return idle
+
     def update(self, events: list[Event], now: float) -> Frame:
         previous = self.frame
         frame = self._update(events, now)
@@ -327,7 +343,7 @@ class KioskState:
             self.frame = self._next_scene()
         if switches and self._follow is not None:
             self._follow.stop()
-        if activity.idle_for(now) > self.idle_timeout_s and not switches:
+        if self.idle_for(now) > self.idle_timeout_s and not switches:
             self.mode = ATTRACT
             self._reframe = None
             if self._follow is not None:
