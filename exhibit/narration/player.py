@@ -49,6 +49,38 @@ STALL_S = 2.0
 PERIOD_MS = 20
 
 
+#: ALSA's own error printer, replaced once (_quiet_alsa); kept so the callback lives.
+_ALSA_HANDLER: list[Any] = []
+
+
+def _quiet_alsa() -> None:
+    """On a machine with no sound card every open attempt made libasound print about 35
+    "ALSA lib ... cannot find card '0'" lines to stderr (the journal, each retry). The player
+    says why it has no device in one line of its own (status()), so ALSA's printer is replaced
+    by one that says nothing. Once a process; nothing where libasound is not installed."""
+    if _ALSA_HANDLER:
+        return
+    import ctypes
+    import ctypes.util
+
+    name = ctypes.util.find_library("asound")
+    if name is None:
+        _ALSA_HANDLER.append(None)
+        return
+    try:
+        library = ctypes.CDLL(name)
+        kind = ctypes.CFUNCTYPE(
+            None, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p
+        )
+        handler = kind(lambda *args: None)
+        library.snd_lib_error_set_handler(handler)
+    except (OSError, AttributeError) as exc:
+        log.debug("ALSA's error printer stays: %s", exc)
+        _ALSA_HANDLER.append(None)
+        return
+    _ALSA_HANDLER.append(handler)
+
+
 def _backends(name: str | None) -> list[Any]:
     """miniaudio backends to try: ``name`` alone ("null", "alsa", "pulseaudio"...), else every
     real one (never the null backend, which would "play" into nothing on a kiosk with no card).
@@ -199,6 +231,8 @@ class Player:
 
     def _start(self) -> tuple[str, str | None, Any, str | None]:
         import miniaudio
+
+        _quiet_alsa()
 
         try:
             backends = _backends(self._backend)

@@ -22,6 +22,9 @@ from exhibit.schema import files
 MAX_BYTES = 50 * 1000 * 1000
 #: The longest recording accepted: narration of one keyframe, not an audio guide.
 MAX_SECONDS = 120.0
+#: The shortest: a single short word takes about a quarter of a second; less is a click or an
+#: export that went wrong (a 1-sample file was once accepted and "played").
+MIN_SECONDS = 0.2
 #: Peak below which a recording counts as silent (-60 dBFS).
 SILENT_PEAK = 33
 
@@ -61,6 +64,11 @@ def load_recording(path: Path, root: Path) -> Sound:
     sound = read_wav_bytes(data, shown, max_seconds=MAX_SECONDS)
     if len(sound.samples) == 0:
         raise NarrationError(f"{shown}: holds no audio")
+    if sound.duration < MIN_SECONDS:
+        raise NarrationError(
+            f"{shown}: {sound.duration * 1000:.0f} ms long, under the {MIN_SECONDS:g} s a word "
+            "takes: not a narration"
+        )
     if sound.duration > MAX_SECONDS:  # a streaming header hides the length until decoded
         raise NarrationError(
             f"{shown}: {sound.duration:.0f} s long, over the {MAX_SECONDS:g} s limit"

@@ -17,6 +17,7 @@ plays is checked first, in exhibit.review.setup.
 from __future__ import annotations
 
 import dataclasses
+import os
 import logging
 import math
 import shutil
@@ -381,10 +382,17 @@ def copy_recordings(timeline: Timeline, source: Path, attract: Path) -> None:
 
     for keyframe in timeline.keyframes:
         for _code, path in keyframe.recordings:
+            named = Path(path)
             try:
-                relative = Path(path).resolve().relative_to(source.resolve())
-                data = read_regular(path, MAX_BYTES)
-            except (OSError, ValueError, ExhibitError):
+                # Where the timeline names it (a link inside the folder keeps its own name; read
+                # from where it leads, which must lie inside the folder too, as for the kiosk).
+                relative = Path(os.path.relpath(named.absolute(), source.absolute()))
+                real = named.resolve(strict=True)
+                real.relative_to(source.resolve())
+                if relative.parts[:1] == ("..",):
+                    continue
+                data = read_regular(real, MAX_BYTES)
+            except (OSError, ValueError, RuntimeError, ExhibitError):
                 continue
             target = attract / relative
             target.parent.mkdir(parents=True, exist_ok=True)

@@ -238,3 +238,22 @@ def test_a_process_with_a_player_left_open_still_exits():
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120
     )
     assert result.returncode == 0 and "playing" in result.stdout, result.stderr
+
+
+def test_alsa_says_nothing_of_its_own_when_no_card_opens():
+    """Each open attempt on a machine without a sound card made libasound print about 35
+    "ALSA lib ... cannot find card" lines (the journal, at every retry); the player's own
+    status line says why in one."""
+    import ctypes.util
+    import subprocess
+    import sys
+
+    if ctypes.util.find_library("asound") is None:
+        pytest.skip("libasound is not installed (Debian: libasound2)")
+    probe = (
+        "from exhibit.narration import Player\n"
+        "p = Player(backend='alsa'); p.close(); p = Player(backend='alsa'); p.close()\n"
+    )
+    result = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True)
+    assert result.returncode == 0, result.stderr[-2000:]
+    assert "ALSA lib" not in result.stderr, result.stderr[:2000]

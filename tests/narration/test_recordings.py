@@ -130,3 +130,11 @@ def test_silent(root):
 def test_empty(root):
     (root / "empty.wav").write_bytes(pcm_wav(np.zeros(0), 22050))
     refused(root / "empty.wav", root, "no audio")
+
+
+def test_shorter_than_a_word(root):
+    """A 1-sample file (an export gone wrong) was accepted and "played"."""
+    (root / "click.wav").write_bytes(pcm_wav(np.full(1, 20000), 22050))
+    refused(root / "click.wav", root, "under the 0.2 s a word takes")
+    (root / "word.wav").write_bytes(pcm_wav(sine(440, 0.25, 22050), 22050))
+    assert load_recording(root / "word.wav", root).duration == pytest.approx(0.25, abs=1e-3)
