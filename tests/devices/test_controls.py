@@ -260,8 +260,8 @@ def test_the_staff_viewer_loop_takes_keys_from_the_window():
         def set_input(self, handler):
             self.handler = handler
 
-        def draw(self, gpu, view, options, hud):
-            drawn.append((view, options.depth_colour))
+        def draw(self, request):
+            drawn.append((request.view, request.options.depth_colour))
 
         def swap(self):
             for event in script.get(len(drawn), ()):
