@@ -3,6 +3,7 @@ as gone), the pids fake tools write to a file, and waiting, boundedly, for one t
 
 from __future__ import annotations
 
+import subprocess
 import time
 from pathlib import Path
 
@@ -34,3 +35,18 @@ def gone(pid: int, within: float = 10.0) -> bool:
             return True
         time.sleep(0.02)
     return False
+
+
+def outlived(caller: subprocess.Popen, record: Path, sig: int, within: float = 60.0) -> int | None:
+    """Stop ``caller`` with ``sig`` once its fake tool has written its pid to ``record``: the
+    tool's pid if it is still alive after that, else None. The caller is killed whatever
+    happens, so a failing test leaves nothing running."""
+    try:
+        (pid,) = pids(record, within=within)
+        caller.send_signal(sig)
+        caller.wait(timeout=30)
+        return None if gone(pid) else pid
+    finally:
+        if caller.poll() is None:
+            caller.kill()
+            caller.wait()

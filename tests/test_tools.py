@@ -19,7 +19,7 @@ from pathlib import Path
 import pytest
 
 from exhibit import tools
-from tests.processes import alive, gone, pids
+from tests.processes import alive, gone, outlived, pids
 
 
 @pytest.fixture
@@ -108,15 +108,8 @@ def test_no_tool_outlives_the_process_that_started_it(fake, sig):
     """The caller killed while its tool hangs (SIGKILL runs no handler): the tool goes too."""
     tool = fake("exec sleep 1000")
     caller = subprocess.Popen([sys.executable, "-c", CALLER, str(tool)], stderr=subprocess.DEVNULL)
-    try:
-        (pid,) = pids(fake.pids)
-        caller.send_signal(sig)
-        caller.wait(timeout=20)
-        assert gone(pid), f"the tool outlived its caller ({sig.name})"
-    finally:
-        if caller.poll() is None:
-            caller.kill()
-            caller.wait()
+    left = outlived(caller, fake.pids, sig, within=20)
+    assert left is None, f"the tool outlived its caller ({sig.name})"
 
 
 def test_a_clean_exit_with_a_tool_on_a_daemon_thread_kills_it(fake):

@@ -48,6 +48,7 @@ from tests.deploy.bundles import make_bundle
 from tests.deploy.machine import Machine, machine, why_not
 from tests.deploy.unit_mounts import confined
 from tests.deploy.unitfile import environment, sandbox_options, units, yes
+from tests.processes import alive
 
 pytestmark = [pytest.mark.slow, pytest.mark.serial]
 
@@ -330,7 +331,7 @@ def processes_of(uid: int) -> dict[int, str]:
         try:
             if entry.stat().st_uid != uid:
                 continue
-            if "\nState:\tZ" in (entry / "status").read_text():
+            if not alive(int(entry.name)):
                 continue
             found[int(entry.name)] = (
                 (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode(errors="replace")

@@ -20,7 +20,7 @@ import pytest
 
 from exhibit import tools
 from exhibit.cli import main
-from tests.processes import alive, gone, pids
+from tests.processes import alive, outlived
 
 CONFIGS = Path(__file__).resolve().parents[2] / "configs"
 TIMELINE = """scene = "clifford-torus"
@@ -164,15 +164,8 @@ def test_no_espeak_outlives_the_kiosk_or_the_command(site, sig, who):
     root = Path(__file__).resolve().parents[2]
     env = {**os.environ, "PYTHONPATH": str(root)}
     process = subprocess.Popen(command, env=env, stdout=subprocess.DEVNULL, cwd=root)
-    try:
-        (pid,) = pids(site.parents[1] / "pids", within=60)
-        process.send_signal(sig)
-        process.wait(timeout=30)
-        assert gone(pid), f"espeak-ng (pid {pid}) outlived {who} ({sig.name})"
-    finally:
-        if process.poll() is None:
-            process.kill()
-            process.wait()
+    left = outlived(process, site.parents[1] / "pids", sig)
+    assert left is None, f"espeak-ng (pid {left}) outlived {who} ({sig.name})"
 
 
 def test_a_review_has_a_total_and_the_kiosk_none(site):

@@ -11,20 +11,15 @@ from exhibit import scenes
 from exhibit.narration import load_recording
 from exhibit.review.player import copy_recordings
 from exhibit.timelines.file import load_timeline
+from tests.kiosk.support import TIMELINE as KIOSK_TIMELINE
 from tests.narration.support import pcm_wav, sine
 
-TIMELINE = """
-scene = "hopf"
-[[keyframe]]
-t = 0
-angles = [0, 0, 0, 0, 0, 0]
-sensor_distance = "inf"
-caption = "far"
-narration = { en = "audio/far-en.wav", de = "audio/far-de.wav" }
-[[keyframe]]
-t = 10
-angles = [90, 0, 0, 0, 0, 0]
-"""
+#: The kiosk tests' timeline, its first caption recorded in English and German.
+TIMELINE = KIOSK_TIMELINE.replace(
+    'caption = "far"\n',
+    'caption = "far"\nnarration = { en = "audio/far-en.wav", de = "audio/far-de.wav" }\n',
+    1,
+)
 
 
 def test_recordings_are_copied_under_the_names_the_timeline_gives(tmp_path):

@@ -28,6 +28,7 @@ from exhibit.kiosk.reporting import Reporter
 from exhibit.operations import health, health_file, prometheus, storage
 from exhibit.operations.health import HealthError, read_health, write_health
 from exhibit.schema import files
+from tests.operations.support import fresh_fields
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -44,16 +45,7 @@ def sample(**changes) -> dict:
         "frame_errors": 0,
         "problems": [],
         "scenes_failed": [],
-        "last_frame": time.time(),
-        "version": "0.1.0",
-        "release": "0.1.0-20250601T120000Z",
-        "storage": {
-            "folder": "/var/lib/exhibit",
-            "free_bytes": 5 << 30,
-            "free_inodes": 1000,
-            "problem": None,
-            "errors": {},
-        },
+        **fresh_fields(),
     }
     data.update(changes)
     return data

@@ -29,6 +29,7 @@ from exhibit.devices.base import State
 from exhibit.operations import prometheus as metrics
 from exhibit.operations.health import write_health
 from tests.hypothesis_profiles import examples
+from tests.operations.support import fresh_fields
 
 REPO = Path(__file__).resolve().parents[2]
 SYSTEMD = REPO / "systemd"
@@ -74,16 +75,7 @@ def sample(**changes) -> dict:
         "frame_errors": 2,
         "problems": ["scene veronese skipped: boom"],
         "scenes_failed": [{"scene": "veronese", "reason": "boom"}],
-        "last_frame": time.time(),
-        "version": "0.1.0",
-        "release": "0.1.0-20250601T120000Z",
-        "storage": {
-            "folder": "/var/lib/exhibit",
-            "free_bytes": 5 << 30,
-            "free_inodes": 1000,
-            "problem": None,
-            "errors": {},
-        },
+        **fresh_fields(),
         "frame_passes": {
             "level": "direct",
             "age_s": 3.0,

@@ -21,7 +21,7 @@ from PIL import Image
 from exhibit import tools
 from exhibit.commands._media import encode_mp4, ffmpeg_limit_s
 from exhibit.errors import ExhibitError
-from tests.processes import alive, gone, pids
+from tests.processes import alive, gone, outlived, pids
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -145,12 +145,4 @@ def test_no_ffmpeg_outlives_the_export(ffmpeg, frames, tmp_path, sig):
         cwd=ROOT,
         stderr=subprocess.DEVNULL,
     )
-    try:
-        (pid,) = pids(record, within=60)
-        caller.send_signal(sig)
-        caller.wait(timeout=30)
-        assert gone(pid), f"ffmpeg outlived the export ({sig.name})"
-    finally:
-        if caller.poll() is None:
-            caller.kill()
-            caller.wait()
+    assert outlived(caller, record, sig) is None, f"ffmpeg outlived the export ({sig.name})"
