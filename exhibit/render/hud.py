@@ -29,6 +29,7 @@ import numpy as np
 from exhibit.geometry.occlusion import hidden
 from exhibit.geometry.view import ViewState
 from exhibit.render.gpu import GpuMesh
+from exhibit.render.hud_cover import HudCover
 from exhibit.render.hud_draw import HudDrawing
 from exhibit.render.hud_info import HudInfo
 from exhibit.render.object_tags import TagAnchors, picture_box
@@ -129,6 +130,11 @@ class Hud:
         self.texts: list[TextMark] = []
         #: The latest object tags drawn: (words, Rect, point (x, y), hidden), for checks.
         self.tags: list[tuple[str, Rect, tuple[float, float], bool]] = []
+        #: The object name each of ``tags`` was asked for (HudInfo.tags), in the same order.
+        self.tag_objects: list[str] = []
+        #: What the latest HUD covers of the picture (panels, text, lines, discs), so a claim
+        #: counts only what a visitor sees of an object (exhibit.render.hud_cover).
+        self.cover = HudCover()
         #: Paces the tags' anchor checks (each mesh keeps its own anchors).
         self._anchors = TagAnchors()
         #: False: every glyph is left out (halos and panels stay), so a check can see what
@@ -215,6 +221,7 @@ class Hud:
         d = self.drawing
         alpha = min(max(float(alpha), 0.0), 1.0)
         self.texts = []
+        self.cover = HudCover()
         if alpha == 0.0:
             return
         sizes = sizes or TextSizes()
@@ -228,10 +235,12 @@ class Hud:
         body, pad = layout.body_px, layout.pad
 
         texture, block_w, block_h, block_lines = self._title_block(layout)
+        title_rect = None
         if texture is not None:
             block = layout.title_block
             assert block is not None  # a texture means lines, and lines a title block
             x, y = round(block.x0 + dx), round(block.y0 + dy)
+            title_rect = Rect(x, y, x + block_w, y + block_h)
             if self.ink:
                 d.quads(
                     "image",
@@ -306,6 +315,7 @@ class Hud:
         d.overlay(items, viewport)
         d.atlas_quads(rows, viewport)
         d.overlay(key_items, viewport)  # on its panel, which the glyph quads drew
+        self.cover = HudCover.of(title_rect, rows, items + key_items)
         d.ctx.disable(moderngl.BLEND)
 
     def _gizmo(
@@ -396,7 +406,7 @@ class Hud:
         start of names, words in the language on screen)): words, not colour alone. The tag
         sits off the panels and, where there is room, off the picture, with a leader line to
         a point of the object that is in front (exhibit.render.object_tags)."""
-        self.tags = []
+        self.tags, self.tag_objects = [], []
         if not tags:
             return []
         width, height = size
@@ -427,6 +437,7 @@ class Hud:
                 "object tag", words, "bold", body, label.x0 + 0.25 * body, label.y0, INK, rows
             )
             self.tags.append((words, label, (float(x), float(y)), bool(covered)))
+            self.tag_objects.append(name)
         return items
 
     def _text(self, kind, text, style, px, x, y, color, rows) -> None:

@@ -80,3 +80,25 @@ def test_the_pinch_points_key_stands_under_the_numbers_in_the_language_shown(gl)
     assert status.x0 <= box.x0 and box.x1 <= status.x1 and status.y0 <= box.y0
     assert box.y1 <= status.y1
     assert none == []
+
+
+def test_the_hud_cover_is_what_the_hud_drew_over_the_picture(gl):
+    """The cover mask (exhibit.render.hud_cover) marks the pixels the HUD changed: drawn with
+    and without the HUD, the frames differ only where the mask says (and nearly everywhere it
+    says), at the screen's size and at the id pass's smaller one."""
+    gpu, view = _hopf(gl)
+    try:
+        bare = gl.image(gpu, view, SIZE, RenderOptions(), None, samples=0).astype(int)
+        hud = HudInfo(title="Hopf tori", caption="Three doughnuts.", tags=TAGS)
+        drawn = gl.image(gpu, view, SIZE, RenderOptions(), hud, samples=0).astype(int)
+        cover = gl.renderer.hud.cover
+        assert gl.renderer.hud.tag_objects == [name for name, _ in TAGS]
+    finally:
+        gpu.release()
+    changed = np.abs(drawn[..., :3] - bare[..., :3]).max(axis=2) > 8
+    mask = cover.mask(SIZE, SIZE)
+    assert changed.sum() > 0.1 * changed.size  # the panels alone are that much
+    assert (changed & ~mask).sum() <= 0.002 * changed.size
+    assert (mask & ~changed).sum() <= 0.2 * mask.sum()  # dark halos on dark ground
+    small = cover.mask(SIZE, (SIZE[0] // 3, SIZE[1] // 3))
+    assert abs(small.mean() - mask.mean()) < 0.01
