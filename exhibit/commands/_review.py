@@ -135,9 +135,11 @@ def _verify(args, size, config) -> int:
     for line in verdict.problems or []:
         print(line)
     played = f"{', '.join(languages)}, with and without reduced motion"
+    found = verdict.found
     print(
         f"{verdict.path}: {verdict.captions_with_claims} of {verdict.captions} captions make "
-        f"{verdict.claims} claims; {verdict.holding} of {verdict.checked} checks hold ({played})"
+        f"{verdict.claims} claims; {verdict.holding} of {verdict.checked} checks hold; "
+        f"{len(found.marks)} unexplained marks, {len(found.tags)} tag faults ({played})"
     )
     return 2 if verdict.problems else 0
 

@@ -27,8 +27,10 @@ from typing import TYPE_CHECKING
 
 from exhibit.kiosk.config import KioskConfig
 from exhibit.render.passes.ids import object_names
+from exhibit.review.marks_named import FrameWords, unexplained_problems
 from exhibit.review.player import KioskPlayer, caption_spans
 from exhibit.review.setup import read_timeline
+from exhibit.review.tags_seen import tag_faults, tag_problems
 from exhibit.timelines.captions import caption_runs
 from exhibit.timelines.claims.base import EVERY_MOMENT, STAGES, Sample, Seen, matching
 from exhibit.timelines.model import Condition, Timeline
@@ -47,7 +49,8 @@ ID_HEIGHT = 360
 
 @dataclass(frozen=True)
 class Run:
-    """A caption with a condition and when it is on screen (its stating keyframe first)."""
+    """A caption and when it is on screen (its stating keyframe first), with its condition
+    (empty when it states none: its marks and tags are still checked)."""
 
     first: int
     start: float
@@ -63,11 +66,15 @@ class Run:
         return [t0 + (t1 - t0) * j / n for j in range(n + 1)]
 
 
-def claim_runs(timeline: Timeline) -> list[Run]:
-    """Each stretch of a timeline whose caption states a condition."""
+def claim_runs(timeline: Timeline, every: bool = False) -> list[Run]:
+    """Each stretch of a timeline whose caption states a condition (``every``: each stretch
+    with a caption)."""
     out = []
     for first, t0, t1 in caption_runs(timeline, lambda k: (k.caption_from, k.condition)):
-        condition = timeline.keyframes[first].condition
+        keyframe = timeline.keyframes[first]
+        condition = keyframe.condition
+        if condition is None and every and keyframe.caption:
+            condition = Condition()
         if condition is not None and t1 > t0:
             out.append(Run(first, t0, t1, condition))
     return out
@@ -86,48 +93,104 @@ def id_size(size: tuple[int, int]) -> tuple[int, int]:
     return max(1, round(size[0] * height / size[1])), height
 
 
-def measure(player: KioskPlayer, fps: float, runs: list[Run]) -> dict[float, Sample]:
-    """Play ``player``'s timeline at ``fps`` and measure each run's samples: {t: Sample}."""
+def measure(
+    player: KioskPlayer, fps: float, runs: list[Run]
+) -> tuple[dict[float, Sample], dict[float, FrameWords]]:
+    """Play ``player``'s timeline at ``fps`` and measure each run's samples: {t: Sample} (each
+    object's pixels as a visitor sees them: in front, and under no part of the HUD) and
+    {t: FrameWords} (what the words on screen name, and the tags' faults)."""
     times = sorted({t for run in runs for t in run.times()})
     footprinted = {n for run in runs for c in run.condition.claims for n in c.footprints()}
     samples: dict[float, Sample] = {}
+    words: dict[float, FrameWords] = {}
     ids = None
-    size = id_size(player.config.size)
+    screen = player.config.size
+    size = id_size(screen)
     for frame in player.play(fps, times=times):
         shown = player.kiosk.shown
         if shown is None:
             continue
         gpu, view = shown
+        hud = player.headless.renderer.hud
         if ids is None:
             ids = player.headless.renderer.ids
             player.headless.activate()
         objects = tuple(object_names(gpu))
         named = {o for n in footprinted for o in matching(n, objects)}
         surfaces = tuple(i for i, s in enumerate(gpu.surfaces) if s.name in named)
-        coverage = ids.objects(gpu, view, size)
+        image = ids.image(gpu, view, size)
+        covered = hud.cover.mask(screen, size)
+        coverage = ids.objects(gpu, view, size, covered=covered, image=image)
+        pixels = dict(coverage.pixels)
+        # a labelled marker's disc is drawn by the HUD: there the HUD is the object, not a cover
+        drawn = {m.name for m in gpu.mesh.markers if m.label}
+        if drawn:
+            whole = ids.objects(gpu, view, size, image=image).pixels
+            pixels.update({n: whole[n] for n in drawn})
         footprint = ids.footprints(gpu, view, size, surfaces=surfaces) if named else {}
-        samples[frame.t] = Sample(frame.t, view, coverage.pixels, coverage.size, objects, footprint)
-    return samples
+        samples[frame.t] = Sample(frame.t, view, pixels, coverage.size, objects, footprint)
+        panels = hud.layout.panels if hud.layout is not None else []
+        tagged = {o for n in hud.tag_objects for o in matching(n, objects)}
+        explained = {o for n in getattr(hud, "explained", ()) for o in matching(n, objects)}
+        words[frame.t] = FrameWords(
+            frozenset(tagged | explained), tag_faults(hud, image, objects, screen, panels)
+        )
+    return samples, words
+
+
+@dataclass
+class Found:
+    """What one play of a timeline contradicts, by check: the captions' claims, the marks no
+    word names, the tags' faults (one line each)."""
+
+    claims: list[str] = field(default_factory=list)
+    marks: list[str] = field(default_factory=list)
+    tags: list[str] = field(default_factory=list)
+
+    def __iadd__(self, other: Found) -> Found:
+        self.claims += other.claims
+        self.marks += other.marks
+        self.tags += other.tags
+        return self
+
+    @property
+    def lines(self) -> list[str]:
+        return self.claims + self.marks + self.tags
 
 
 def problems(
-    timeline: Timeline, runs: list[Run], samples: dict[float, Sample], where: str = ""
-) -> list[str]:
-    """Every claim of ``runs`` the measured ``samples`` contradict; ``where`` ("en, reduced
-    motion") ends each line."""
-    out = []
+    timeline: Timeline,
+    runs: list[Run],
+    samples: dict[float, Sample],
+    where: str = "",
+    words: dict[float, FrameWords] | None = None,
+    stepped: bool = False,
+) -> Found:
+    """Every claim of ``runs`` the measured ``samples`` contradict, and with ``words`` every
+    unexplained mark and tag fault; ``where`` ("en, reduced motion") ends each line;
+    ``stepped``: played in reduced motion."""
+    found = Found()
     suffix = f" ({where})" if where else ""
     for run in runs:
         wanted = [min(samples, key=lambda s: abs(s - t)) for t in run.times()] if samples else []
-        seen = [samples[t] for t in dict.fromkeys(wanted)]
+        times = list(dict.fromkeys(wanted))
+        seen = [samples[t] for t in times]
         if len(seen) < 1:
             continue
         head = f"{timeline.path}: keyframe {run.first}"
-        out += [line + suffix for line in judge(run, seen, head)]
-    return out
+        found.claims += [line + suffix for line in judge(run, seen, head, stepped)]
+        if words is None:
+            continue
+        frames = [words[t] for t in times]
+        labels = [name for name, _ in timeline.keyframes[run.first].labels]
+        marks = unexplained_problems(run.condition, labels, seen, frames, head)
+        found.marks += [line + suffix for line in marks]
+        tags = tag_problems(head, times, [f.tag_faults for f in frames])
+        found.tags += [line + suffix for line in tags]
+    return found
 
 
-def judge(run: Run, samples: list[Sample], head: str) -> list[str]:
+def judge(run: Run, samples: list[Sample], head: str, stepped: bool = False) -> list[str]:
     """Each claim of ``run`` held to the ``samples``, kind by kind as exhibit.timelines.claims
     lists them, stage by stage (the view conditions, what shows at every moment, what changes
     from start to end); a name no object of the scene has is reported once, before the
@@ -136,7 +199,7 @@ def judge(run: Run, samples: list[Sample], head: str) -> list[str]:
     objects = samples[0].objects
     named = list(dict.fromkeys(n for claim in claims for n in claim.names()))
     matched = {name: matching(name, objects) for name in named}
-    seen = Seen(samples, run.first, f"{head}: while", head, matched)
+    seen = Seen(samples, run.first, f"{head}: while", head, matched, stepped)
     out = []
     for stage in STAGES:
         if stage == EVERY_MOMENT:  # the names, before what shows of them
@@ -155,18 +218,23 @@ def judge(run: Run, samples: list[Sample], head: str) -> list[str]:
 @dataclass
 class Verdict:
     """What verifying one timeline found: its captions, those with claims, the claims checked
-    (once per language and motion played) and the problems."""
+    (once per language and motion played), and what failed (:class:`Found`): the claims, the
+    marks no word names and the tags' faults."""
 
     path: str
     captions: int = 0
     captions_with_claims: int = 0
     claims: int = 0
     checked: int = 0
-    problems: list[str] = field(default_factory=list)
+    found: Found = field(default_factory=Found)
+
+    @property
+    def problems(self) -> list[str]:
+        return self.found.lines
 
     @property
     def holding(self) -> int:
-        return self.checked - len(self.problems)
+        return self.checked - len(self.found.claims)
 
 
 def verify(
@@ -183,10 +251,10 @@ def verify(
     False, True or both) on ``config``'s kiosk at ``size``, and hold every caption to its
     claims. ``headless`` (exhibit.render.Headless) is shared by the plays when given."""
     timeline = read_timeline(path)
-    runs = claim_runs(timeline)
+    runs = claim_runs(timeline, every=True)
     verdict = Verdict(str(path))
     verdict.captions = len({s.text for s in caption_spans(timeline)})
-    with_claims = {timeline.keyframes[r.first].caption for r in runs}
+    with_claims = {timeline.keyframes[r.first].caption for r in runs if r.condition.claims}
     verdict.captions_with_claims = len(with_claims - {""})
     verdict.claims = sum(count_claims(r.condition) for r in runs)
     if not runs:
@@ -200,7 +268,7 @@ def verify(
             with KioskPlayer(
                 size, timeline=path, language=language, config=played, headless=headless
             ) as player:
-                samples = measure(player, fps, runs)
+                samples, words = measure(player, fps, runs)
             verdict.checked += verdict.claims
-            verdict.problems += problems(timeline, runs, samples, where)
+            verdict.found += problems(timeline, runs, samples, where, words, stepped)
     return verdict

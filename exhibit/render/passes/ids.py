@@ -104,11 +104,17 @@ class ObjectIdPass:
         view: ViewState,
         size: tuple[int, int],
         options: RenderOptions = RenderOptions(),
+        covered: np.ndarray | None = None,
+        image: np.ndarray | None = None,
     ) -> ObjectCoverage:
         """Each object's pixels in front at ``view`` and ``size`` (curves and markers as wide
-        as ``options`` draws them at that size)."""
+        as ``options`` draws them at that size), leaving out those ``covered`` marks (a
+        (height, width) boolean mask: what the HUD covers, exhibit.render.hud_cover);
+        ``image``: the id image of that view and size when already read."""
         names = object_names(gpu)
-        counts = np.bincount(self.image(gpu, view, size, options).ravel(), minlength=len(names) + 1)
+        ids = self.image(gpu, view, size, options) if image is None else image
+        shown = ids if covered is None else ids[~covered]
+        counts = np.bincount(shown.ravel(), minlength=len(names) + 1)
         pixels: dict[str, int] = {}
         for i, name in enumerate(names):
             pixels[name] = pixels.get(name, 0) + int(counts[i + 1])

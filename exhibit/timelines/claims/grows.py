@@ -1,5 +1,6 @@
 """``grows = [...]``: the object's area on screen at the caption's end is at least x GROWTH its
-area at the start ("the green doughnut grows")."""
+area at the start, and it never falls back on the way by more than GROWTH_DIP ("the green
+doughnut grows")."""
 
 from __future__ import annotations
 
@@ -15,6 +16,4 @@ class Grows(ObjectsClaim):
     example = 'grows = ["torus Z=-√2/2"]'
 
     def problems(self, seen: Seen) -> list[str]:
-        return growth_problems(
-            seen, self.objects, self.key, lambda g: g >= GROWTH, f"x{GROWTH:g} or more"
-        )
+        return growth_problems(seen, self.objects, self.key, 1, f"x{GROWTH:g} or more")

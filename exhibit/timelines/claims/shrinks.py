@@ -1,5 +1,5 @@
 """``shrinks = [...]``: the object's area on screen at the caption's end is at most / GROWTH
-its area at the start."""
+its area at the start, and it never rises back on the way by more than GROWTH_DIP."""
 
 from __future__ import annotations
 
@@ -15,6 +15,4 @@ class Shrinks(ObjectsClaim):
     example = 'shrinks = ["slice"]'
 
     def problems(self, seen: Seen) -> list[str]:
-        return growth_problems(
-            seen, self.objects, self.key, lambda g: g <= 1 / GROWTH, f"x{1 / GROWTH:.2f} or less"
-        )
+        return growth_problems(seen, self.objects, self.key, -1, f"x{1 / GROWTH:.2f} or less")
