@@ -284,6 +284,17 @@ def _write_metrics(target: Path, data: Health | None, verdict: Assessment) -> in
     return 0
 
 
+def preparing_rows(data: Health) -> list[tuple[str, str]]:
+    """The scene being prepared, and how long a visitor has waited for it, if one does."""
+    if data.preparing is None:
+        return []
+    waited = data.waiting_s
+    line = printable(data.preparing)
+    return [
+        ("preparing", line if waited is None else f"{line} (a visitor has waited {waited:.0f} s)")
+    ]
+
+
 def summary(
     data: Health,
     path: Path,
@@ -304,6 +315,7 @@ def summary(
     rows = [
         ("mode", get("mode")),
         ("scene", get("scene")),
+        *preparing_rows(data),
         (
             "fps",
             f"{get('fps', '{:.1f}')} (95% of frames within {get('frame_ms_p95', '{:.1f}')} ms)",

@@ -35,7 +35,6 @@ words and drift, warm-up, frame errors and the reports."""
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import os
 import time
@@ -52,6 +51,7 @@ from exhibit.kiosk.config import KioskConfig
 from exhibit.kiosk.content import Content, nearest_level
 from exhibit.kiosk.frame_errors import FrameErrors, FrameStats
 from exhibit.kiosk.frame_loop import run_frames
+from exhibit.preparing.held import Held, on_screen
 from exhibit.preparing.jobs import Framers
 from exhibit.kiosk.language import PREPARING, Translator
 from exhibit.kiosk.narrator import Narrator
@@ -67,6 +67,7 @@ from exhibit.render.frame_request import FrameRequest
 from exhibit.render.gpu import GpuMesh
 from exhibit.render.options import RenderOptions
 from exhibit.render.target import RenderTarget
+from exhibit.timelines.model import Params
 
 if TYPE_CHECKING:
     from exhibit.render.window import Window
@@ -116,6 +117,9 @@ class Kiosk:
         self._fade_start: float | None = None
         #: While a visitor waits for a scene being prepared: (scene, when the wait began).
         self._waiting: tuple[str, float] | None = None
+        #: The scene of the picture drawn last, and that picture while held (preparing.held).
+        self._shown_key: tuple[str, Params] | None = None
+        self._held: Held | None = None
         self.input = WindowInput(window, self.devices, config.quit_keys)
         #: Start-up work left for after the first frame, one piece per frame.
         self.warm = WarmUp(Chores(self.parts, window, config.hud, self._fading).all())
@@ -168,10 +172,13 @@ class Kiosk:
     def _update(self, state: KioskState, events: list[Event], now: float) -> None:
         """The state stepped with the frame's events, what follows from it, and the frame
         drawn."""
-        mode, scene = state.mode, state.frame.scene
+        mode, scene, before = state.mode, state.frame.scene, state.frame
         events = self.parts.cues.listen(state, events, now)  # a listen press takes nothing over
         self.parts.cues.hold(state, now)
         frame = state.update(events, now)
+        if self._held is not None:  # the visitor turns the picture held while they wait
+            home = state.start_view(*self._held.key) if state.home_pressed(events) else None
+            self._held.follow(before, frame, state.mapper.config, home)
         self.parts.visits.after(state, mode, frame, events, now, self.sessions)
         self.parts.cues.speak(state, frame, now)
         self.screen_log.changed(mode, scene, frame)
@@ -186,6 +193,7 @@ class Kiosk:
             errors=self.errors,
             state=self.state,
             sessions=self.sessions,
+            screen=on_screen(self.state, self._waiting, self._held, self.content.preparer, now),
             **self.parts.health(now),
         )
 
@@ -251,24 +259,21 @@ class Kiosk:
 
     def _hold(self, frame: Frame, title: str, now: float) -> None:
         """A visitor chose a scene still being prepared: it is prepared first, and until it
-        comes the picture on screen stays, with a notice in the caption panel (in the
-        visitor's language) saying what comes. Only with nothing shown yet, the notice
-        screen."""
+        comes the picture on screen stays, turned by the visitor (_update), its caption the
+        notice (in the visitor's language) saying what comes (exhibit.preparing.held). Only
+        with nothing shown yet, the notice screen."""
         if self._waiting is None or self._waiting[0] != frame.scene:
             log.info("scene %s is being prepared: the picture on screen is held", frame.scene)
             self._waiting = (frame.scene, now)
         self.content.wanted((frame.scene, frame.params))
         words = self.translate(PREPARING).replace("{title}", title)
-        if self._shown is None:
+        if self._shown is None or self._shown_key is None:
             self.window.notice([words], self.drift(now))
             self._fade_start = None
             return
-        shown = self._shown
-        options = dataclasses.replace(shown.options, hud=True, hud_drift=self.drift(now))
-        hud = None if shown.hud is None else dataclasses.replace(shown.hud, note=words)
-        held = FrameRequest(shown.gpu, shown.view, options, hud, fade=self._fade(now))
-        self.window.draw(held)
-        self._shown = held
+        self._held = self._held or Held(self._shown_key, self._shown)
+        self._shown = self._held.picture(words, self.drift(now), self._fade(now))
+        self.window.draw(self._shown)
 
     def _draw(self, frame: Frame, now: float) -> None:
         hud = self.parts.words(frame.title, frame.caption, frame.scene, tags=frame.tags)
@@ -284,13 +289,9 @@ class Kiosk:
             return
         gpu = nearest_level(levels, quality.mesh)
         arrived = self._waiting is not None
-        if arrived:
-            assert self._waiting is not None
-            log.info(
-                "scene %s shown after %.1f s of preparing",
-                frame.scene,
-                now - self._waiting[1],
-            )
+        if self._waiting is not None:
+            waited = now - self._waiting[1]
+            log.info("scene %s shown after %.1f s of preparing", frame.scene, waited)
             self._waiting = None
         if (frame.cut or arrived) and self._shown is not None:
             # Crossfade: the outgoing picture (the held one, with its notice, when a visitor
@@ -306,7 +307,7 @@ class Kiosk:
         )
         request = FrameRequest(gpu, frame.view, options, hud, fade=fade, inset=inset)
         self.window.draw(request)
-        self._shown = request
+        self._shown, self._shown_key, self._held = request, (frame.scene, frame.params), None
         governor.adapt(self.window.frame_ms, now)
 
     @property
@@ -322,7 +323,7 @@ class Kiosk:
         self.content.release()
         self.parts.inset.release()
         self.narrator.close()
-        self._shown = None
+        self._shown = self._shown_key = self._held = None
         # a shared headless pipeline's crossfade snapshot keeps the outgoing frame's mesh
         self.window.release_snapshot()
 

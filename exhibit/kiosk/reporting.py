@@ -22,6 +22,7 @@ from exhibit.operations.notify import Notifier
 
 if TYPE_CHECKING:
     from exhibit.kiosk.governor import Governor
+    from exhibit.preparing.held import OnScreen
     from exhibit.operations.sessions import SessionLog
     from exhibit.kiosk.state import KioskState
 
@@ -79,9 +80,11 @@ class Reporter:
         governor: Governor,
         narration: dict | None = None,
         frame_passes: dict | None = None,
+        screen: OnScreen | None = None,
     ) -> None:
         """The frame times since the last report (``stats`` is emptied), the devices' states
-        and seconds missing, what is on screen, and every problem, the frames' failing too."""
+        and seconds missing, what is on screen (``screen``; None: the state's scene) and being
+        prepared, and every problem, the frames' failing too."""
         count = len(stats.times)
         elapsed = now - self._since
         fps = count / elapsed if elapsed > 0 else 0.0
@@ -100,9 +103,11 @@ class Reporter:
             }
             for s in devices
         ]
-        mode = scene = None
+        mode = scene = preparing = waiting_s = None
         if state is not None:
             mode, scene = state.mode, state.frame.scene
+            if screen is not None:
+                scene, preparing, waiting_s = screen.scene, screen.preparing, screen.waiting_s
         wall = time.time()
         if frames > self._frames_seen:
             self._frames_seen, self.last_frame = frames, wall
@@ -115,6 +120,7 @@ class Reporter:
         if self.notifier is not None:
             states = ", ".join(f"{d['url']} {d['state']}" for d in rows)
             what = f"{mode}, {scene}" if state is not None else "notice (no scene)"
+            what += f", preparing {preparing}" if preparing is not None else ""
             self.notifier.status(
                 f"{fps:.0f} fps, {what}; {states}"
                 + (f"; {len(problems)} problems" if problems else "")
@@ -140,6 +146,8 @@ class Reporter:
                         "frame_ms_p95": round(p95, 2),
                         "mode": mode,
                         "scene": scene,
+                        "preparing": preparing,
+                        "waiting_s": _round(waiting_s),
                         "devices": rows,
                         "uptime_s": round(now - self.started if uptime is None else uptime, 1),
                         "gl_errors": stats.gl_errors,

@@ -235,7 +235,7 @@ class KioskState:
     def _scene_switches(self, events: list[Event]) -> int:
         return sum(1 for e in events if self.mapper.switches_scene(e))
 
-    def _home_pressed(self, events: list[Event]) -> bool:
+    def home_pressed(self, events: list[Event]) -> bool:
         """A press of a button bound to "home" (the mapping's own home sets fixed angles; the
         kiosk returns to the scene's start view instead)."""
         return any(
@@ -300,7 +300,7 @@ class KioskState:
             cut = (
                 frame.scene != previous.scene
                 or frame.params != previous.params
-                or self._home_pressed(events)
+                or self.home_pressed(events)
                 or self._jumped
             )
         if self.reduced_motion and frame.mode == ATTRACT:
@@ -318,11 +318,11 @@ class KioskState:
         view = self.mapper.apply(self.frame.view, events, now)
         active_now = activity.last_active is not None and activity.last_active != before
         switches = self._scene_switches(events)
-        if self._home_pressed(events):
+        if self.home_pressed(events):
             # The scene's own start view, not the mapping's fixed angles.
             view = self.start_view(self.frame.scene, self.frame.params)
 
-        if self._home_pressed(events):
+        if self.home_pressed(events):
             self._reframe = None
             if self._follow is not None:
                 self._follow.stop()

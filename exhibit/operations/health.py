@@ -194,6 +194,10 @@ class Health(BaseModel):
     frame_ms_p95: Number = None
     mode: Annotated[str | None, PlainValidator(_mode)] = None
     scene: Text = None
+    #: The scene being prepared: the one a visitor chose, waiting "waiting_s" (null: nobody
+    #: waits) while "scene" is still shown, else the preparer's next (null: none).
+    preparing: Text = None
+    waiting_s: Seconds = None
     devices: Annotated[list[DeviceHealth] | None, BeforeValidator(_a_list)] = None
     #: Seconds since the kiosk process started (process_uptime).
     uptime_s: Number = None
