@@ -120,18 +120,20 @@ VERIFY_FPS = 5
 def _verify(args, size, config) -> int:
     """Every caption's claims measured on the frames; problems on stdout, progress on
     stderr, exit 2 when a claim fails."""
-    from exhibit.review.claims import verify
+    from exhibit.review.claims import frames_to_verify, plays, verify
     from exhibit.review.setup import read_timeline
 
-    read_timeline(args.timeline)  # one line if it is not a timeline
+    timeline = read_timeline(args.timeline)  # one line if it is not a timeline
     languages = (args.language,) if args.language else tuple(config.languages)
     fps = args.fps or VERIFY_FPS
+    frames = frames_to_verify(timeline, fps, len(plays(languages, (False, True))))
+    check_job(frames, size, "a lower --fps, one --language, a smaller --size or fewer captions")
 
     def verifying(what: str) -> None:
         report(f"verifying {what} ...")
 
-    with on_terminal(lines=True):
-        verdict = verify(args.timeline, config, size, fps, languages, progress=verifying)
+    with gl_errors(size), Progress(frames, "verifying") as step, on_terminal(lines=True):
+        verdict = verify(args.timeline, config, size, fps, languages, progress=verifying, step=step)
     for line in verdict.problems or []:
         print(line)
     played = f"{', '.join(languages)}, with and without reduced motion"

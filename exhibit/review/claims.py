@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 from exhibit.kiosk.config import KioskConfig
 from exhibit.render.passes.ids import object_names
 from exhibit.review.marks_named import FrameWords, unexplained_problems
-from exhibit.review.player import KioskPlayer, caption_spans
+from exhibit.review.player import KioskPlayer, caption_spans, play_schedule
 from exhibit.review.setup import read_timeline
 from exhibit.review.tags_seen import tag_faults, tag_problems
 from exhibit.timelines.captions import caption_runs
@@ -94,11 +94,12 @@ def id_size(size: tuple[int, int]) -> tuple[int, int]:
 
 
 def measure(
-    player: KioskPlayer, fps: float, runs: list[Run]
+    player: KioskPlayer, fps: float, runs: list[Run], step: Callable[[int], object] | None = None
 ) -> tuple[dict[float, Sample], dict[float, FrameWords]]:
     """Play ``player``'s timeline at ``fps`` and measure each run's samples: {t: Sample} (each
     object's pixels as a visitor sees them: in front, and under no part of the HUD) and
-    {t: FrameWords} (what the words on screen name, and the tags' faults)."""
+    {t: FrameWords} (what the words on screen name, and the tags' faults); ``step(1)`` after
+    each frame drawn."""
     times = sorted({t for run in runs for t in run.times()})
     footprinted = {n for run in runs for c in run.condition.claims for n in c.footprints()}
     samples: dict[float, Sample] = {}
@@ -106,7 +107,7 @@ def measure(
     ids = None
     screen = player.config.size
     size = id_size(screen)
-    for frame in player.play(fps, times=times):
+    for frame in player.play(fps, times=times, progress=step):
         shown = player.kiosk.shown
         if shown is None:
             continue
@@ -237,6 +238,19 @@ class Verdict:
         return self.checked - len(self.found.claims)
 
 
+def plays(languages: tuple[str, ...], reduced: tuple[bool, ...]) -> list[tuple[str, bool]]:
+    """The plays a verification makes: each language, each motion setting."""
+    return [(language, stepped) for language in languages for stepped in reduced]
+
+
+def frames_to_verify(timeline: Timeline, fps: float, played: int) -> int:
+    """How many kiosk frames verifying ``timeline`` draws in ``played`` plays at ``fps`` (each
+    caption's samples and the frames a crossfade into each needs), for the job's bound and the
+    progress bar."""
+    times = sorted({t for run in claim_runs(timeline, every=True) for t in run.times()})
+    return played * len(play_schedule(timeline.duration, fps, times)) if times else 0
+
+
 def verify(
     path: str | Path,
     config: KioskConfig,
@@ -246,10 +260,12 @@ def verify(
     reduced: tuple[bool, ...] = (False, True),
     headless: Headless | None = None,
     progress: Callable[[str], None] | None = None,
+    step: Callable[[int], object] | None = None,
 ) -> Verdict:
     """Play the timeline at ``path`` in each language and each motion setting (``reduced``:
     False, True or both) on ``config``'s kiosk at ``size``, and hold every caption to its
-    claims. ``headless`` (exhibit.render.Headless) is shared by the plays when given."""
+    claims. ``headless`` (exhibit.render.Headless) is shared by the plays when given;
+    ``progress`` is told each play, ``step(n)`` each frame drawn (frames_to_verify in all)."""
     timeline = read_timeline(path)
     runs = claim_runs(timeline, every=True)
     verdict = Verdict(str(path))
@@ -259,16 +275,15 @@ def verify(
     verdict.claims = sum(count_claims(r.condition) for r in runs)
     if not runs:
         return verdict
-    for language in languages:
-        for stepped in reduced:
-            where = language + (", reduced motion" if stepped else "")
-            if progress is not None:
-                progress(f"{timeline.path}: {where}")
-            played = dataclasses.replace(config, reduced_motion=stepped)
-            with KioskPlayer(
-                size, timeline=path, language=language, config=played, headless=headless
-            ) as player:
-                samples, words = measure(player, fps, runs)
-            verdict.checked += verdict.claims
-            verdict.found += problems(timeline, runs, samples, where, words, stepped)
+    for language, stepped in plays(languages, reduced):
+        where = language + (", reduced motion" if stepped else "")
+        if progress is not None:
+            progress(f"{timeline.path}: {where}")
+        played = dataclasses.replace(config, reduced_motion=stepped)
+        with KioskPlayer(
+            size, timeline=path, language=language, config=played, headless=headless
+        ) as player:
+            samples, words = measure(player, fps, runs, step)
+        verdict.checked += verdict.claims
+        verdict.found += problems(timeline, runs, samples, where, words, stepped)
     return verdict

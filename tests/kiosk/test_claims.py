@@ -12,7 +12,7 @@ import pytest
 
 from exhibit import scenes
 from exhibit.timelines.file import load_timeline
-from exhibit.review.claims import claim_runs, count_claims, verify
+from exhibit.review.claims import claim_runs, count_claims, frames_to_verify, verify
 from exhibit.review.setup import base_config
 from exhibit.resources import shipped
 from exhibit.schema import validate
@@ -34,9 +34,9 @@ def _timeline(tmp_path, keyframes: str, head: str = 'scene = "hopf"\npreset = "f
     return path
 
 
-def _verify(path, language="en", reduced=(False,), headless=None):
+def _verify(path, language="en", reduced=(False,), headless=None, step=None):
     config = dataclasses.replace(base_config(), languages=("en", "de"))
-    return verify(path, config, SIZE, FPS, (language,), reduced, headless=headless)
+    return verify(path, config, SIZE, FPS, (language,), reduced, headless=headless, step=step)
 
 
 def test_a_planted_false_claim_fails_with_its_file_and_keyframe(tmp_path, headless):
@@ -61,7 +61,9 @@ while = {{ grows = ["{GREEN}"], visible = ["{WHITE}"] }}
 t = 8
 """,
     )
-    verdict = _verify(path, headless=headless)
+    drawn = []
+    verdict = _verify(path, headless=headless, step=drawn.append)
+    assert sum(drawn) == frames_to_verify(load_timeline(path, scenes.get), FPS, 1)
     assert verdict.claims == 5 and verdict.captions_with_claims == 2
     assert len(verdict.found.claims) == 2, verdict.found.claims
     moon, grows = verdict.found.claims
@@ -291,3 +293,15 @@ def test_a_planted_unregistered_claim_kind_is_found(tmp_path):
         "brightens.py: Brightens is not in KINDS",
         "helpers.py: 0 claim kinds, not one",
     ]
+
+
+def test_verify_refuses_a_job_too_large_before_it_starts(tmp_path, capsys):
+    """A caption held for a day is 170,000 samples: refused at once, with what to change, as
+    render's frame jobs are (no GL is touched)."""
+    from exhibit.cli import main
+
+    path = _timeline(tmp_path, '[[keyframe]]\nt = 0\ncaption = "Held."\n[[keyframe]]\nt = 86400\n')
+    code = main(["render", "--timeline", str(path), "--verify", "--language", "en"])
+    err = capsys.readouterr().err
+    assert code != 0
+    assert "over the limit of 50000 frames" in err and "a lower --fps, one --language" in err
