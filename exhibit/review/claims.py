@@ -25,6 +25,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import numpy as np
+
 from exhibit.kiosk.config import KioskConfig
 from exhibit.render.passes.ids import object_names
 from exhibit.review.marks_named import FrameWords, unexplained_problems
@@ -129,7 +131,8 @@ def measure(
             whole = ids.objects(gpu, view, size, image=image).pixels
             pixels.update({n: whole[n] for n in drawn})
         footprint = ids.footprints(gpu, view, size, surfaces=surfaces) if named else {}
-        samples[frame.t] = Sample(frame.t, view, pixels, coverage.size, objects, footprint)
+        centres = object_centres(image, covered, objects)
+        samples[frame.t] = Sample(frame.t, view, pixels, coverage.size, objects, footprint, centres)
         panels = hud.layout.panels if hud.layout is not None else []
         tagged = {o for n in hud.tag_objects for o in matching(n, objects)}
         explained = {o for n in getattr(hud, "explained", ()) for o in matching(n, objects)}
@@ -137,6 +140,29 @@ def measure(
             frozenset(tagged | explained), tag_faults(hud, image, objects, screen, panels)
         )
     return samples, words
+
+
+def object_centres(
+    image: np.ndarray, covered: np.ndarray, objects: tuple[str, ...]
+) -> dict[str, tuple[float, float]]:
+    """Per object name, the centre of its pixels in ``image`` that ``covered`` leaves
+    visible, as fractions of the frame's width and height (where a description says it is)."""
+    height, width = image.shape
+    ys, xs = np.indices((height, width))
+    keep = ~covered
+    ids = image[keep]
+    n = len(objects) + 1
+    count = np.bincount(ids, minlength=n)
+    sx = np.bincount(ids, weights=(np.asarray(xs)[keep] + 0.5) / width, minlength=n)
+    sy = np.bincount(ids, weights=(np.asarray(ys)[keep] + 0.5) / height, minlength=n)
+    out: dict[str, list[float]] = {}
+    for i, name in enumerate(objects):
+        if count[i + 1]:
+            acc = out.setdefault(name, [0.0, 0.0, 0.0])
+            acc[0] += count[i + 1]
+            acc[1] += sx[i + 1]
+            acc[2] += sy[i + 1]
+    return {name: (x / c, y / c) for name, (c, x, y) in out.items()}
 
 
 @dataclass

@@ -305,3 +305,28 @@ def test_verify_refuses_a_job_too_large_before_it_starts(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code != 0
     assert "over the limit of 50000 frames" in err and "a lower --fps, one --language" in err
+
+
+def test_a_description_is_measured_where_and_how_big(tmp_path, headless):
+    """The spoken description's "at right", "in the middle" and "a thin ring" are claims
+    (`at`, `covers`): the Figure 6 doughnuts are at the right of the screen, so a description
+    that puts green in the middle or at the left fails, and so does a size it does not have."""
+    path = _timeline(
+        tmp_path,
+        f"""
+[[keyframe]]
+t = 0
+sensor_distance = "inf"
+caption = "Three doughnuts."
+describe = "Three doughnuts at right."
+while = {{ at = {{ "{GREEN}" = "right", "{RED}" = "centre" }}, covers = {{ "{RED}" = [0.3, 1] }} }}
+
+[[keyframe]]
+t = 4
+""",
+    )
+    verdict = _verify(path, headless=headless)
+    assert len(verdict.found.claims) == 2, verdict.found.claims
+    at, covers = verdict.found.claims
+    assert at.startswith(f"{path}: keyframe 0: at {RED} = 'centre': its centre at (0.")
+    assert covers.startswith(f"{path}: keyframe 0: covers {RED} = [0.3, 1]: covers 0.0")

@@ -12,7 +12,9 @@ from __future__ import annotations
 
 from exhibit.timelines.claims.absent import Absent
 from exhibit.timelines.claims.angles_within import AnglesWithin
+from exhibit.timelines.claims.at import At
 from exhibit.timelines.claims.base import Claim
+from exhibit.timelines.claims.covers import Covers
 from exhibit.timelines.claims.fills import Fills
 from exhibit.timelines.claims.grows import Grows
 from exhibit.timelines.claims.outgrows import Outgrows
@@ -31,4 +33,6 @@ KINDS: tuple[type[Claim], ...] = (
     Shrinks,
     Outgrows,
     Fills,
+    At,
+    Covers,
 )

@@ -70,6 +70,9 @@ class Sample:
     objects: tuple[str, ...] = ()
     #: pixels of the objects a claim asks footprints of with nothing in front of them
     footprint: Mapping[str, int] = field(default_factory=dict)
+    #: per object name, the centre of its pixels as seen, as fractions of the screen's width
+    #: and height from its top-left corner (where a description says it is)
+    centres: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -106,6 +109,22 @@ class Seen:
         """The share of the screen they cover."""
         size = self.samples[0].size
         return self.area(name, sample) / (size[0] * size[1])
+
+    def centre(self, name: str, sample: Sample) -> tuple[float, float] | None:
+        """The centre of what shows of the objects ``name`` stands for, weighted by their
+        pixels (None when none shows)."""
+        parts = [
+            (sample.pixels.get(n, 0), sample.centres[n])
+            for n in self.matched[name]
+            if sample.pixels.get(n, 0) and n in sample.centres
+        ]
+        total = sum(w for w, _ in parts)
+        if not total:
+            return None
+        return (
+            sum(w * c[0] for w, c in parts) / total,
+            sum(w * c[1] for w, c in parts) / total,
+        )
 
     def growth(self, name: str) -> float:
         """Their area at the caption's end against its start (inf from nothing, 1 for none)."""
@@ -214,8 +233,12 @@ def growth_problems(
 
 
 def matching(name: str, objects: Sequence[str]) -> list[str]:
-    """The objects a claim's ``name`` stands for: that name, or every name it begins."""
-    return [o for o in dict.fromkeys(objects) if o == name or o.startswith(name)]
+    """The objects a claim's ``name`` stands for: that object and its pieces ("NAME 2", ...),
+    by the one rule of exhibit.timelines.object_names (aliases are resolved when the timeline
+    is loaded)."""
+    from exhibit.timelines.object_names import matching as names_matching
+
+    return names_matching(name, objects)
 
 
 def distance(r: float) -> str:
