@@ -154,7 +154,7 @@ t = 20
             "{}",
             "keyframe[0].while",
             "states no condition: give sensor_distance, sensor_motion, angles_within, visible, "
-            "absent, grows, shrinks, outgrows or fills",
+            "absent, grows, shrinks, outgrows, fills, at or covers",
         ),
         ("{ angles_within = -1 }", "keyframe[0].while.angles_within", "must lie in [0, 180]"),
         ('{ angles_within = "start" }', "keyframe[0].while.angles_within", "must be a number"),
@@ -177,7 +177,7 @@ t = 20
         (
             "{ sensor_distans = 2 }",
             "keyframe[0].while.sensor_distans",
-            "unknown key (allowed: absent, angles_within, fills, grows, outgrows, "
+            "unknown key (allowed: absent, angles_within, at, covers, fills, grows, outgrows, "
             "sensor_distance, sensor_motion, shrinks, visible)",
         ),
         ("3", "keyframe[0].while", "must be a table"),
