@@ -20,6 +20,7 @@ import numpy as np
 from exhibit.geometry.occlusion import hidden
 from exhibit.render.gpu import GpuMesh, surface_sample
 from exhibit.render.layout import Rect
+from exhibit.timelines.object_names import stands_for
 
 if TYPE_CHECKING:
     from exhibit.geometry.pipeline import ClipTransform
@@ -36,10 +37,12 @@ CHECK_FRAMES = 8
 
 
 def _parts(mesh, name: str):
-    """The surfaces and curves a tag's ``name`` stands for (that name, or names it begins)."""
-    surfaces = [s for s in mesh.surfaces if s.name == name or s.name.startswith(name)]
-    curves = [c for c in mesh.curves if c.name == name or c.name.startswith(name)]
-    markers = [m for m in mesh.markers if m.name == name or m.name.startswith(name)]
+    """The surfaces, curves and markers a tag's ``name`` stands for: that object and its
+    pieces ("NAME 2", ...: exhibit.timelines.object_names, aliases resolved when the timeline
+    or scene was loaded)."""
+    surfaces = [s for s in mesh.surfaces if stands_for(name, s.name)]
+    curves = [c for c in mesh.curves if stands_for(name, c.name)]
+    markers = [m for m in mesh.markers if stands_for(name, m.name)]
     return surfaces, curves, markers
 
 
