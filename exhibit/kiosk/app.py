@@ -122,12 +122,10 @@ class Kiosk:
         self._held: Held | None = None
         self.input = WindowInput(window, self.devices, config.quit_keys)
         #: Start-up work left for after the first frame, one piece per frame.
-        self.warm = WarmUp(Chores(self.parts, window, config.hud, self._fading).all())
+        fading = lambda: self._fade_start is not None  # noqa: E731
+        self.warm = WarmUp(Chores(self.parts, window, config.hud, fading).all())
         if self.content.preparer is None:
             self.warm.all()
-
-    def _fading(self) -> bool:
-        return self._fade_start is not None
 
     # The parts that readers of a running kiosk (reviews, benchmarks, tests) look at by name.
     @property
@@ -247,6 +245,11 @@ class Kiosk:
         """Whether a visitor waits for a scene still being prepared (the picture is held)."""
         return self._waiting is not None
 
+    @property
+    def holding_back(self) -> bool:
+        """A visitor waits and the held picture stands still: the loop redraws it seldom."""
+        return self.waiting and not (self._held is not None and self._held.moved)
+
     def _fade(self, now: float) -> float:
         """The outgoing picture's opacity in the crossfade under way (0: none)."""
         if self._fade_start is None:
@@ -258,10 +261,9 @@ class Kiosk:
         return 1.0 - u * u * (3.0 - 2.0 * u)
 
     def _hold(self, frame: Frame, title: str, now: float) -> None:
-        """A visitor chose a scene still being prepared: it is prepared first, and until it
-        comes the picture on screen stays, turned by the visitor (_update), its caption the
-        notice (in the visitor's language) saying what comes (exhibit.preparing.held). Only
-        with nothing shown yet, the notice screen."""
+        """A visitor chose a scene still being prepared: it goes first, and until it comes the
+        picture on screen stays, turned by the visitor, its caption the notice saying what
+        comes (exhibit.preparing.held). With nothing shown yet, the notice screen."""
         if self._waiting is None or self._waiting[0] != frame.scene:
             log.info("scene %s is being prepared: the picture on screen is held", frame.scene)
             self._waiting = (frame.scene, now)
@@ -288,11 +290,9 @@ class Kiosk:
             self._hold(frame, hud.title, now)
             return
         gpu = nearest_level(levels, quality.mesh)
-        arrived = self._waiting is not None
-        if self._waiting is not None:
-            waited = now - self._waiting[1]
-            log.info("scene %s shown after %.1f s of preparing", frame.scene, waited)
-            self._waiting = None
+        arrived, self._waiting = self._waiting, None
+        if arrived is not None:
+            log.info("scene %s shown after %.1f s of preparing", frame.scene, now - arrived[1])
         if (frame.cut or arrived) and self._shown is not None:
             # Crossfade: the outgoing picture (the held one, with its notice, when a visitor
             # waited), drawn once more offscreen, fades out over the new one (never a black

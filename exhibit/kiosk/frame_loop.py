@@ -1,5 +1,6 @@
 """The kiosk's loop over time: frames paced (by vsync, else a sleep to fps_limit; a picture held
-for a visitor who waits is redrawn every HOLD_FRAME_S only, leaving the CPU to the preparing),
+for a visitor who waits is redrawn every HOLD_FRAME_S only while they do not turn it, leaving
+the CPU to the preparing),
 the systemd watchdog pinged after every frame, drawn or failed (the loop is alive either way: a
 hung one is what the watchdog is for), the reports about once a second, READY to systemd after
 the first frame drawn, and the end: the maintenance keys, a duration, a
@@ -26,8 +27,8 @@ log = logging.getLogger("exhibit.kiosk")
 #: A run of failed frames this long, with none drawn, ends the process so systemd restarts it.
 FAILING_EXIT_S = 60.0
 FAILING_EXIT = 70  # EX_SOFTWARE
-#: While a visitor waits for a scene still being prepared, the picture on screen is held (it does
-#: not change) and redrawn this often: on software GL a frame takes the CPU the preparing
+#: While a visitor waits for a scene still being prepared and does not turn the picture held on
+#: screen, it is redrawn this often: on software GL a frame takes the CPU the preparing
 #: needs.
 HOLD_FRAME_S = 0.2
 
@@ -46,7 +47,7 @@ class Looped(Protocol):
     def tick(self, start: float) -> bool: ...
     def report(self, now: float) -> None: ...
     @property
-    def waiting(self) -> bool: ...
+    def holding_back(self) -> bool: ...
 
 
 def run_frames(
@@ -97,9 +98,10 @@ def run_frames(
             break
         if until is not None and until():
             break
-        # a failed frame did not wait for vsync: no busy loop; a held picture leaves the CPU to
-        # the scene a visitor waits for
-        spare = (HOLD_FRAME_S if kiosk.waiting else min_frame) - (kiosk.clock() - start)
-        if spare > 0 and (not config.vsync or not drawn or kiosk.waiting):
+        # a failed frame did not wait for vsync: no busy loop; a held picture that stands still
+        # leaves the CPU to the scene a visitor waits for
+        held = kiosk.holding_back
+        spare = (HOLD_FRAME_S if held else min_frame) - (kiosk.clock() - start)
+        if spare > 0 and (not config.vsync or not drawn or held):
             time.sleep(spare)
     return 0

@@ -50,6 +50,8 @@ class Held:
 
     key: tuple[str, Params]
     request: FrameRequest
+    #: Whether the last frame's input turned it (the kiosk's loop then runs at its full rate).
+    moved: bool = False
 
     @property
     def scene(self) -> str:
@@ -65,10 +67,12 @@ class Held:
         """One frame's input took the state from ``before`` to ``after``: "home" pressed
         (``home``: this scene's start view) or the same turn of the held pose. A change of
         scene in the state (another one asked for) is no turn."""
+        pose = self.view
         if home is not None:
             self.turn(home)
         elif (after.scene, after.params) == (before.scene, before.params):
             self.steer(before.view, after.view, mapping)
+        self.moved = self.view != pose
 
     def steer(self, before: ViewState, after: ViewState, mapping: MappingConfig) -> None:
         """The held pose turned as the state's went from ``before`` to ``after`` (angles the

@@ -15,7 +15,7 @@ import pytest
 
 from exhibit import scenes
 from exhibit.cli import main
-from exhibit.kiosk import app
+from exhibit.kiosk import app, frame_loop
 from exhibit.kiosk.config import load_kiosk_config
 from exhibit.kiosk.language import PREPARING
 from exhibit.preparing import jobs as jobs_module
@@ -37,8 +37,13 @@ class Window(FakeWindow):
 
 @pytest.fixture
 def kiosk(tmp_path, monkeypatch):
+    return _kiosk(tmp_path, monkeypatch)
+
+
+def _kiosk(tmp_path, monkeypatch, tick=0.1):
     """A kiosk on keyboards, hopf shown first; the Clifford torus, the next scene, is
-    prepared by an InlinePreparer that runs a job only when the test collects."""
+    prepared by an InlinePreparer that runs a job only when the test collects. Its clock
+    moves ``tick`` s per reading."""
     path = make_config(tmp_path, "")
     shutil.copy(ROOT / "configs" / "attract" / "07-gallery.toml", path.parent / "attract")
     devices = path.parent / "devices" / "default.toml"
@@ -47,7 +52,7 @@ def kiosk(tmp_path, monkeypatch):
         jobs_module, "build_cached", lambda scene, params, res: (f"mesh {scene.name}", None)
     )
     monkeypatch.setattr(jobs_module, "frame", lambda timeline, *rest: timeline)
-    ticks = iter(np.arange(1e6) * 0.1)
+    ticks = iter(np.arange(1e6) * tick)
     return app.Kiosk(
         load_kiosk_config(path),
         Window(),
@@ -152,3 +157,23 @@ def test_health_and_status_name_the_scene_shown_and_the_one_prepared(kiosk, tmp_
     k.report(k.clock())
     health = json.loads((tmp_path / "health.json").read_text())
     assert health["scene"] == "clifford-torus" and health["waiting_s"] is None
+
+
+def test_the_loop_runs_at_full_rate_while_the_held_picture_turns(tmp_path, monkeypatch):
+    """A held picture that stands still is redrawn every HOLD_FRAME_S (the CPU goes to the
+    preparing); one the visitor turns, at the loop's full rate."""
+    k = _kiosk(tmp_path, monkeypatch, tick=0.001)
+    _wait_for_the_next_scene(k)
+    monkeypatch.setattr(k.content, "collect", lambda now, started: None)  # it does not come
+    sleeps = []
+    monkeypatch.setattr(frame_loop.time, "sleep", lambda s: sleeps.append((k.frames, s)))
+
+    def press_q_after_three_frames():
+        if k.frames == 3:
+            k.devices.keyboard.key("q", True)
+        return False
+
+    k.run(max_frames=6, until=press_q_after_three_frames)
+    assert k.waiting and k.window.requests[-1].gpu == "mesh hopf"
+    held_back = [frame for frame, s in sleeps if s > frame_loop.HOLD_FRAME_S / 2]
+    assert held_back == [1, 2, 3], sleeps  # then vsync (or fps_limit) paces it
