@@ -7,7 +7,9 @@ contradicts its ``while`` condition, or too briefly to be read, is a problem her
 kiosk still plays such a timeline (a wrong caption is no reason to show nothing). Likewise a
 text without a translation in a language shown, or with characters the font lacks
 (exhibit.kiosk.language): the kiosk shows the English text instead. And a curator's scene whose
-colours a colour-blind visitor cannot tell apart (exhibit.scenes.colours)."""
+colours a colour-blind visitor cannot tell apart (exhibit.scenes.colours), and a label or claim
+naming an object its scene does not have (exhibit.timelines.object_names: the kiosk skips the
+tag)."""
 
 from __future__ import annotations
 
@@ -46,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
         config = load_kiosk_config(args.config)
         problems = (
             _caption_problems(config.attract_dir)
+            + _name_problems(config)
             + coverage_problems(config)
             + _colour_problems(config)
             + _layout_problems(config)
@@ -86,6 +89,35 @@ def _caption_problems(attract_dir) -> list[str]:
         for path in timeline_paths(attract_dir)
         for p in caption_problems(load_timeline(path, scenes.get))
     ]
+
+
+def _name_problems(config) -> list[str]:
+    """Every label and claim naming an object its scene does not have (exhibit.timelines.
+    object_names): each timeline's keyframes, and the labels of each scene shown (the kiosk
+    draws such a tag nowhere, and a claim about it finds nothing)."""
+    from exhibit.timelines.captions import name_problems
+    from exhibit.timelines.object_names import known, unknown_line
+
+    timelines = []
+    if config.attract_dir is not None:
+        timelines = [load_timeline(p, scenes.get) for p in timeline_paths(config.attract_dir)]
+    out: list[str] = []
+    shown = {}
+    for name in dict.fromkeys([*config.scenes, *(t.scene for t in timelines)]):
+        try:
+            shown[name] = scenes.get(name)
+        except Exception:  # noqa: BLE001 - an unknown scene is reported by the config check
+            continue
+    for timeline in timelines:
+        if timeline.scene in shown:
+            scene = shown[timeline.scene]
+            out += name_problems(timeline, scene.objects, scene.aliases)
+    for scene in shown.values():
+        where = f"{scene.source or f'scene {scene.name}'}: labels"
+        for name in dict.fromkeys(name for name, _ in scene.labels):
+            if not known(name, scene.objects):
+                out.append(unknown_line(where, name, scene.objects, scene.aliases))
+    return out
 
 
 def _narration(config) -> tuple[list[str], list[str]]:

@@ -14,6 +14,7 @@ from exhibit.errors import ExhibitError
 from exhibit.geometry.view import ViewState
 from exhibit.schema.types import MAX_RESOLUTION, MIN_RESOLUTION
 from exhibit.surfaces.mesh import Mesh4D
+from exhibit.timelines.object_names import MARKS, resolve
 
 
 @dataclass(frozen=True)
@@ -80,8 +81,27 @@ class Scene:
     #: or the reason they do not (the collision with nothing moving). Scene.resolve asks it.
     check: Callable[[dict], str | None] | None = None
     #: Objects the scene's caption names, tagged on screen with words in the visitor's language
-    #: (object name or the start of names, English words): words, not colour alone.
+    #: (an object of ``objects`` or an alias, English words): words, not colour alone. Aliases
+    #: are resolved here, when the scene is made; check-config names any other name.
     labels: tuple[tuple[str, str], ...] = ()
+    #: The names of every object the scene may draw (surfaces, curves, markers), each once: a
+    #: curve traced in pieces is one object, "NAME" (its pieces "NAME 2", "NAME 3", ...:
+    #: exhibit.timelines.object_names). The marks the renderer draws live (MARKS: "outline",
+    #: "pinch points", "slice") are always added. What labels and claims may name.
+    objects: tuple[str, ...] = ()
+    #: Short names a curator may write for an object: alias -> the object's name ("offset
+    #: curve" for "offset curve (silhouette along u, v)"), resolved when a timeline or the
+    #: scene is loaded.
+    aliases: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        objects = tuple(dict.fromkeys(self.objects + MARKS))
+        aliases = dict(self.aliases)
+        labels = tuple((resolve(name, aliases), words) for name, words in self.labels)
+        # frozen: set once, here (dataclasses.replace makes a new scene and comes here again)
+        object.__setattr__(self, "objects", objects)
+        object.__setattr__(self, "aliases", aliases)
+        object.__setattr__(self, "labels", labels)
 
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, float]:
         """Defaults with overrides applied; an unknown name or bad value raises ExhibitError

@@ -335,6 +335,17 @@ SCENE = Scene(
             (17, FIGURE_PARAMS[17], "A larger sphere: one piece with a hole."),
         )
     ),
+    # the wire cylinder is two objects in pieces, "cylinder ring 1".."7" and "cylinder line
+    # 1".."12"; the silhouette's pieces and its touching branches, "NAME (touching)", as
+    # exhibit.scenes.implicit_scene.fixed_silhouette names them
+    objects=(
+        "collision surface",
+        "silhouette along x and y",
+        "silhouette along x and y (touching)",
+        "cylinder ring",
+        "cylinder line",
+        "initial colliding point",
+    ),
     axes=AXES,
     default_resolution=48,
     slice_axis=3,

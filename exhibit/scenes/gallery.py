@@ -13,6 +13,15 @@ from exhibit.surfaces.mesh import Curve, Material, Mesh4D
 from exhibit.surfaces.parametric import Interval, tessellate
 
 FULL = Interval(0.0, 2 * math.pi, periodic=True)
+#: The Clifford torus's four circles b = 0, π/2, π and 3π/2: one object drawn in four pieces
+#: ("NAME", "NAME 2", .. "NAME 4": exhibit.timelines.object_names), so that one label or claim
+#: names all four, as a tag "lines drawn on it" means. They were four objects, "circle b = kπ/2"
+#: for k = 0..3, which only the old start-of-name match could name together ("circle b"); a
+#: name for each circle was never used on its own. "circle b", the name the shipped timeline
+#: and the scene's label write, stays an alias of it.
+CIRCLES = "circles b = kπ/2"
+#: The graph of w = z² and the two lines on it.
+SQUARE, REAL, IMAGINARY = "w = z²", "real numbers: w = x²", "imaginary numbers: w = -y²"
 
 
 def _clifford(params: dict, resolution: int) -> Mesh4D:
@@ -42,7 +51,7 @@ def _clifford(params: dict, resolution: int) -> Mesh4D:
     a = np.linspace(0, 2 * math.pi, 4 * resolution, endpoint=False)
     circles = [
         Curve(
-            f"circle b = {k}π/2",
+            CIRCLES if k == 0 else f"{CIRCLES} {k + 1}",
             point(a, np.full_like(a, k * math.pi / 2)),
             Material(color=palette.BLUE, line_width=2.5),
             closed=True,
@@ -66,7 +75,7 @@ def _complex_square(params: dict, resolution: int) -> Mesh4D:
 
     side = Interval(-size, size)
     surface = tessellate(
-        "w = z²",
+        SQUARE,
         point,
         side,
         side,
@@ -76,12 +85,12 @@ def _complex_square(params: dict, resolution: int) -> Mesh4D:
     )
     x = np.linspace(-size, size, 4 * resolution)
     real = Curve(
-        "real numbers: w = x²",
+        REAL,
         point(x, np.zeros_like(x)),
         Material(color=palette.RED, line_width=3.0),
     )
     imaginary = Curve(
-        "imaginary numbers: w = -y²",
+        IMAGINARY,
         point(np.zeros_like(x), x),
         Material(color=palette.BLUE, line_width=3.0),
     )
@@ -96,7 +105,9 @@ CLIFFORD = Scene(
         "sheet of paper rolled up twice, and it lies on a 4D ball. Turn the knobs: it never "
         "stretches, it only looks as if it does."
     ),
-    labels=(("circle b", "lines drawn on it"),),
+    labels=((CIRCLES, "lines drawn on it"),),
+    objects=("Clifford torus", CIRCLES),
+    aliases={"circle b": CIRCLES},
     parameters=(Parameter("radius", 1.0, 0.2, 3.0, "radius of the 3-sphere it lies on"),),
     build_mesh=_clifford,
     view=ViewState(
@@ -130,6 +141,7 @@ COMPLEX_SQUARE = Scene(
         "with its square. Its shadows cross themselves; the surface itself never does."
     ),
     parameters=(Parameter("radius", 1.2, 0.2, 3.0, "largest |Re z| and |Im z| shown"),),
+    objects=(SQUARE, REAL, IMAGINARY),
     build_mesh=_complex_square,
     view=ViewState(
         angles=(0.3, -0.9, -0.6, 0, 0, 0), eye_azimuth=0.5, eye_incidence=-1.1, half_height=1.8

@@ -84,6 +84,7 @@ SCENE = Scene(
         ("fibre Z=1", "circle"),
         ("fibre Z=-1", "circle"),
     ),
+    objects=tuple(name for name, *_ in TORI + FIBRES + AXES),
     parameters=(Parameter("axis_length", 1.6, 0.1, 10.0, "half-length of the drawn axes"),),
     build_mesh=build,
     view=_view(math.inf),

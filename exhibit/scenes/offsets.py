@@ -26,6 +26,18 @@ PIPE_COLOR, OFFSET_COLOR, SINGULAR_COLOR = palette.SKY, palette.RED, palette.YEL
 CURVE_COLOR = (0.1, 0.1, 0.1)
 XYUV = ("x", "y", "u", "v")
 PARAMETERS = (Parameter("r", 1.0, 0.1, 3.0, "offset distance"),)
+#: The objects' names. The silhouettes are traced in pieces ("NAME 2", ...), and a branch
+#: where the silhouette function touches zero is a second object, "NAME (touching)"
+#: (exhibit.scenes.implicit_scene.fixed_silhouette).
+OFFSET = "offset curve (silhouette along u, v)"
+PARABOLA_PIPE, CUSP_PIPE = "pipe of y = x²", "pipe of y² = x³"
+BASE, SINGULAR = "base curve", "circle of singular points"
+TRACED_PIPE, TRACED_OUTLINE = "tracing surface h = 0", "silhouette along t"
+TRACED_BASE = "base curve (t², t³, t)"
+
+
+def _touching(name: str) -> str:
+    return f"{name} (touching)"
 
 
 def _box(u_range, v_range, r):
@@ -39,9 +51,7 @@ def _box(u_range, v_range, r):
 def _base_curve(points_uv: np.ndarray) -> Curve:
     """The curve f = 0 itself, drawn where it lives on the surface's u, v face (x = u, y = v)."""
     u, v = points_uv.T
-    return Curve(
-        "base curve", np.stack([u, v, u, v], -1), Material(color=CURVE_COLOR, line_width=2.0)
-    )
+    return Curve(BASE, np.stack([u, v, u, v], -1), Material(color=CURVE_COLOR, line_width=2.0))
 
 
 def build_pipe(
@@ -61,7 +71,7 @@ def build_pipe(
     mesh.curves += fixed_silhouette(
         part,
         (2, 3),
-        "offset curve (silhouette along u, v)",
+        OFFSET,
         Material(color=OFFSET_COLOR, line_width=3.5),
     )
     mesh.curves.append(_base_curve(base_points))
@@ -71,7 +81,7 @@ def build_pipe(
 def build_parabola(params: dict, resolution: int) -> Mesh4D:
     s = np.linspace(-1.5, 1.5, 200)
     return build_pipe(
-        "pipe of y = x²",
+        PARABOLA_PIPE,
         "v - u^2",
         (-1.5, 1.5),
         (-0.05, 2.3),
@@ -84,7 +94,7 @@ def build_parabola(params: dict, resolution: int) -> Mesh4D:
 def build_cusp(params: dict, resolution: int) -> Mesh4D:
     s = np.linspace(-1.2, 1.2, 201)
     part, mesh = build_pipe(
-        "pipe of y² = x³",
+        CUSP_PIPE,
         "v^2 - u^3",
         (-0.05, 1.45),
         (-1.75, 1.75),
@@ -98,7 +108,7 @@ def build_cusp(params: dict, resolution: int) -> Mesh4D:
     circle = np.stack([r * np.cos(phi), r * np.sin(phi), 0 * phi, 0 * phi], -1)
     mesh.curves.append(
         Curve(
-            "circle of singular points",
+            SINGULAR,
             circle,
             Material(color=SINGULAR_COLOR, line_width=3.0),
             closed=True,
@@ -114,7 +124,7 @@ def build_traced(params: dict, resolution: int) -> Mesh4D:
     lo = [-r * 1.05, -(t_max**3) - 1.05 * r, -t_max, -0.05]
     hi = [t_max**2 + 1.05 * r, t_max**3 + 1.05 * r, t_max, 0.05]
     part = mesh_implicit(
-        "tracing surface h = 0",
+        TRACED_PIPE,
         "(x - t^2)^2 + (y - t^3)^2 - r^2",
         "w",
         ("x", "y", "t", "w"),
@@ -126,12 +136,12 @@ def build_traced(params: dict, resolution: int) -> Mesh4D:
     )
     mesh = Mesh4D([part.surface])
     mesh.curves += fixed_silhouette(
-        part, (2, 3), "silhouette along t", Material(color=OFFSET_COLOR, line_width=3.5)
+        part, (2, 3), TRACED_OUTLINE, Material(color=OFFSET_COLOR, line_width=3.5)
     )
     s = np.linspace(-t_max, t_max, 200)
     mesh.curves.append(
         Curve(
-            "base curve (t², t³, t)",
+            TRACED_BASE,
             np.stack([s**2, s**3, s, 0 * s], -1),
             Material(color=CURVE_COLOR, line_width=2.0),
         )
@@ -171,6 +181,8 @@ PARABOLA = Scene(
         "tube: no corners, no crossing."
     ),
     labels=(("offset curve", "offset curve"),),
+    objects=(PARABOLA_PIPE, OFFSET, _touching(OFFSET), BASE),
+    aliases={"offset curve": OFFSET, "pipe": PARABOLA_PIPE},
     parameters=PARAMETERS,
     build_mesh=build_parabola,
     view=_ortho(),
@@ -190,7 +202,9 @@ CUSP = Scene(
         "red curve, but the tube pinches along a yellow circle of singular points: the "
         "extra circle the usual equations wrongly add to the offset."
     ),
-    labels=(("offset curve", "offset curve"), ("circle of singular points", "singular points")),
+    labels=(("offset curve", "offset curve"), (SINGULAR, "singular points")),
+    objects=(CUSP_PIPE, OFFSET, _touching(OFFSET), BASE, SINGULAR),
+    aliases={"offset curve": OFFSET, "pipe": CUSP_PIPE},
     parameters=PARAMETERS,
     build_mesh=build_cusp,
     view=_ortho(),
@@ -210,7 +224,8 @@ TRACED = Scene(
         "along the time axis its red outline has two kinds of branches: the offset curve, "
         "and the circle at t = 0."
     ),
-    labels=(("silhouette along t", "outline along t"),),
+    labels=((TRACED_OUTLINE, "outline along t"),),
+    objects=(TRACED_PIPE, TRACED_OUTLINE, _touching(TRACED_OUTLINE), TRACED_BASE),
     parameters=PARAMETERS,
     build_mesh=build_traced,
     view=ViewState(eye_azimuth=0.5, eye_incidence=-1.1, eye_r=0.0, half_height=2.2),

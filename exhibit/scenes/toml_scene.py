@@ -224,6 +224,8 @@ def load_scene_file(path: Path) -> Scene:
         view=_view(path, spec.view),
         axes=spec.axes,
         default_resolution=spec.resolution,
+        # what labels and claims may name: the file's surfaces (it draws nothing else)
+        objects=tuple(_surface_name(i, s) for i, s in enumerate(spec.surface)),
         fit=spec.view.fit,
         version=hashlib.sha256(read_bytes(path)).hexdigest()[:16],
         source=path,
@@ -276,10 +278,15 @@ def _check(path, key, text, variables, defaults, box) -> str:
     return text
 
 
+def _surface_name(index: int, surface: SurfaceSpec) -> str:
+    """A [[surface]]'s name: its ``name``, else "surface N" (N from 1, in the file's order)."""
+    return surface.name or f"surface {index + 1}"
+
+
 def _surface_spec(path: Path, index: int, surface: SurfaceSpec, axes, defaults, parameters, checks):
     """How to build one [[surface]]; its formulas, checked at the defaults, join ``checks``."""
     where = f"surface[{index}]"
-    name = surface.name or f"surface {index + 1}"
+    name = _surface_name(index, surface)
     material = Material(color=surface.color, style=surface.style)
     implicit = surface.f1 is not None or surface.f2 is not None or surface.box is not None
     parametric = surface.point is not None or surface.s is not None or surface.t is not None

@@ -18,11 +18,12 @@ from __future__ import annotations
 import bisect
 import dataclasses
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 
 from exhibit.geometry.view import ViewState
 from exhibit.timelines.claims.base import Sample, Seen
 from exhibit.timelines.model import Keyframe, Timeline
+from exhibit.timelines.object_names import known, unknown_line
 
 #: Sampling step (s): a tenth of the shortest stretch anyone would write between keyframes.
 STEP_S = 0.05
@@ -40,6 +41,33 @@ def caption_problems(timeline: Timeline) -> list[str]:
     """Every place in ``timeline`` where a caption is shown outside its ``while`` condition or
     for less than its reading time, as ``file: keyframe[i].key: reason`` lines."""
     return _reading_problems(timeline) + _condition_problems(timeline)
+
+
+def name_problems(
+    timeline: Timeline, objects: Sequence[str], aliases: Mapping[str, str]
+) -> list[str]:
+    """Every label and claim of ``timeline`` naming no object of its scene (``objects``, the
+    scene's Scene.objects; ``aliases`` only for the line, the timeline has them resolved), at
+    the keyframe that writes it: ``file: keyframe N: labels: no object "NAME"; objects are
+    ...`` or ``... keyframe N: while.KEY: ...``."""
+    out: list[str] = []
+    previous: Keyframe | None = None
+    for i, frame in enumerate(timeline.keyframes):
+        head = f"{timeline.path}: keyframe {i}"
+        # carried over from the keyframe before: the same objects, reported where written
+        if previous is None or frame.labels is not previous.labels:
+            for name in dict.fromkeys(name for name, _ in frame.labels):
+                if not known(name, objects):
+                    out.append(unknown_line(f"{head}: labels", name, objects, aliases))
+        condition = frame.condition
+        if condition is not None and (previous is None or condition is not previous.condition):
+            for claim in condition.claims:
+                for name in dict.fromkeys(claim.names()):
+                    if not known(name, objects):
+                        where = f"{head}: while.{claim.key}"
+                        out.append(unknown_line(where, name, objects, aliases))
+        previous = frame
+    return out
 
 
 def reading_time(caption: str) -> float:

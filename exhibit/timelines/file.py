@@ -50,6 +50,12 @@ formulas must be buildable at them), captions up to 2000 characters, slice -1e6.
 (it carries over like the other keys; between two slice values it moves with the keyframes'
 ease, and a keyframe without one holds the previous).
 
+The objects ``labels`` and the claims of ``while`` name are the scene's (exhibit.scenes.base.
+Scene.objects): a name stands for the object of exactly that name and its pieces ("NAME 2", ...:
+exhibit.timelines.object_names), or is a short name the scene declares (Scene.aliases, e.g.
+"offset curve"), written here by its object's name. A name that is neither loads (the kiosk
+skips its tag, a claim about it finds nothing) and `exhibit check-config` names it.
+
 The scene a file names is looked up by the caller (``scene``: exhibit.scenes.get, in the kiosk and
 the commands), so the timeline stays below the scenes and the narration that speaks it.
 """
@@ -81,6 +87,7 @@ from exhibit.schema.types import (
 from exhibit.timelines.claims import KINDS
 from exhibit.timelines.claims.base import MAX_CLAIMED
 from exhibit.timelines.model import Condition, Ease, Keyframe, Timeline
+from exhibit.timelines.object_names import resolve
 
 
 class _While(Model):
@@ -94,16 +101,33 @@ class _While(Model):
             raise ValueError(f"states no condition: give {', '.join(keys[:-1])} or {keys[-1]}")
         return self
 
-    def condition(self, pose: tuple[float, ...]) -> Condition:
+    def condition(
+        self, pose: tuple[float, ...], aliases: Mapping[str, str] | None = None
+    ) -> Condition:
         """The condition, its claims in KINDS' order; ``pose``: the stating keyframe's angles
-        and eye (radians)."""
-        return Condition(
-            tuple(
-                kind.parse(getattr(self, kind.key), pose)
-                for kind in KINDS
-                if getattr(self, kind.key) is not None
-            )
-        )
+        and eye (radians); ``aliases``: the scene's (Scene.aliases), resolved in the objects
+        the claims name."""
+        claims = []
+        for kind in KINDS:
+            value = getattr(self, kind.key)
+            if value is None:
+                continue
+            claim = kind.parse(value, pose)
+            named = set(claim.names()) & set(aliases or ())
+            if named:
+                claim = kind.parse(_renamed(value, named, aliases or {}), pose)
+            claims.append(claim)
+        return Condition(tuple(claims))
+
+
+def _renamed(value: Any, named: set[str], aliases: Mapping[str, str]) -> Any:
+    """A claim's value with the objects in ``named`` written by their names: a list of names,
+    or a table keyed by them (each kind's value is one or the other)."""
+    if isinstance(value, dict):
+        return {resolve(k, aliases) if k in named else k: v for k, v in value.items()}
+    if isinstance(value, list):
+        return [resolve(v, aliases) if isinstance(v, str) and v in named else v for v in value]
+    return value
 
 
 if TYPE_CHECKING:
@@ -155,7 +179,8 @@ class ScenePreset(Protocol):
 
 class TimelineScene(Protocol):
     """What a timeline takes from its scene (exhibit.scenes.base.Scene): the start view, a
-    preset's view and parameters, the parameters checked, and the axes a slice may cut along."""
+    preset's view and parameters, the parameters checked, the axes a slice may cut along, and
+    the short names a curator may write for its objects."""
 
     @property
     def name(self) -> str: ...
@@ -165,6 +190,8 @@ class TimelineScene(Protocol):
     def axes(self) -> tuple[str, ...]: ...
     @property
     def slice_axis(self) -> int | None: ...
+    @property
+    def aliases(self) -> Mapping[str, str]: ...
     def preset(self, name: str) -> ScenePreset: ...
     def resolve(self, overrides: Mapping[str, Any] | None = None) -> dict[str, float]: ...
 
@@ -189,7 +216,9 @@ def load_timeline(path: Path, scene_named: SceneLookup) -> Timeline:
     except ExhibitError as exc:
         problem("scene", str(exc))
     base_view, params = ViewState(), {}
+    aliases: Mapping[str, str] = {}
     if scene is not None:
+        aliases = scene.aliases
         base_view = scene.view
         if spec.preset is not None:
             try:
@@ -259,7 +288,7 @@ def load_timeline(path: Path, scene_named: SceneLookup) -> Timeline:
             previous.half_height if raw.half_height is None else raw.half_height,
             previous.caption if raw.caption is None else raw.caption,
             raw.ease,
-            _condition(previous, raw, angles + eye),
+            _condition(previous, raw, angles + eye, aliases),
             previous.caption_from if raw.caption is None and raw.while_ is None else i,
             previous.slice_at
             if raw.slice is None
@@ -267,7 +296,7 @@ def load_timeline(path: Path, scene_named: SceneLookup) -> Timeline:
             if raw.slice == "off"
             else float(raw.slice),
             raw.hold_framing and i > 0,
-            _labels(previous, raw),
+            _labels(previous, raw, aliases),
             (raw.describe or "").strip(),
             tuple(
                 (code, str(path.parent / relative))
@@ -289,20 +318,24 @@ def load_timeline(path: Path, scene_named: SceneLookup) -> Timeline:
     )
 
 
-def _labels(previous: Keyframe, raw: KeyframeSpec) -> tuple[tuple[str, str], ...]:
-    """The tags in force from this keyframe: its own, else the caption's it keeps (a new
-    caption without ``labels`` has none)."""
+def _labels(
+    previous: Keyframe, raw: KeyframeSpec, aliases: Mapping[str, str]
+) -> tuple[tuple[str, str], ...]:
+    """The tags in force from this keyframe: its own (an alias written by its object's name),
+    else the caption's it keeps (a new caption without ``labels`` has none)."""
     if raw.labels is not None:
-        return tuple(raw.labels.items())
+        return tuple((resolve(name, aliases), words) for name, words in raw.labels.items())
     return previous.labels if raw.caption is None else ()
 
 
-def _condition(previous: Keyframe, raw: KeyframeSpec, pose: tuple[float, ...]) -> Condition | None:
+def _condition(
+    previous: Keyframe, raw: KeyframeSpec, pose: tuple[float, ...], aliases: Mapping[str, str]
+) -> Condition | None:
     """The condition in force from this keyframe: its own (``angles_within`` counted from
-    ``pose``, this keyframe's), else the caption's it keeps (a new caption without ``while``
-    states none)."""
+    ``pose``, this keyframe's; aliases written by their objects' names), else the caption's
+    it keeps (a new caption without ``while`` states none)."""
     if raw.while_ is not None:
-        return raw.while_.condition(pose)
+        return raw.while_.condition(pose, aliases)
     return previous.condition if raw.caption is None else None
 
 
