@@ -161,6 +161,8 @@ class Scene:
             "axes": list(self.axes),
             "parameters": [p.to_json() for p in self.parameters],
             "presets": [p.name for p in self.presets],
+            "objects": list(self.objects),
+            "aliases": dict(self.aliases),
         }
 
 

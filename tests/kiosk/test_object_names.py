@@ -5,6 +5,7 @@ name that is none of these, and every scene declares what it draws."""
 from __future__ import annotations
 
 import dataclasses
+import json
 import shutil
 from pathlib import Path
 
@@ -87,6 +88,13 @@ def test_an_alias_works_in_a_label_and_a_claim(tmp_path):
     assert matching(OFFSET, _names(mesh))  # found by the exact rule at run time
     _, curves, _ = _parts(mesh, OFFSET)
     assert curves and all(c.name.startswith(OFFSET) for c in curves)
+
+
+def test_scenes_json_lists_the_names_a_curator_may_write(capsys):
+    assert main(["scenes", "--json"]) == 0
+    listing = {s["name"]: s for s in json.loads(capsys.readouterr().out)["scenes"]}
+    assert listing["offset-cusp"]["aliases"] == {"offset curve": OFFSET, "pipe": "pipe of y² = x³"}
+    assert listing["hopf"]["objects"][:3] == list(TORI)
 
 
 def test_a_scenes_own_labels_resolve_its_aliases():
