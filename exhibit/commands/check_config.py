@@ -20,7 +20,7 @@ from collections.abc import Mapping
 from exhibit import scenes
 from exhibit.kiosk.config import ConfigError, load_kiosk_config
 from exhibit.kiosk.language import Catalogue, coverage_problems
-from exhibit.render.layout import PINCH_KEY
+from exhibit.render.layout import CONTACT_KEY, KEY_WORDS
 from exhibit.timelines.captions import caption_problems
 from exhibit.timelines.file import load_timeline, timeline_paths
 
@@ -186,7 +186,10 @@ def _layout_problems(config) -> list[str]:
         "sensor": "numbers",
         "eye": "numbers",
         "fov": "numbers",
-        PINCH_KEY: "numbers",
+        # the key's entries widen the numbers panel; the first contact's words are a marker's
+        # label too
+        **{word: "numbers" for word in KEY_WORDS},
+        CONTACT_KEY: "key",
     }
 
     def kind(english: str, where: str) -> str:

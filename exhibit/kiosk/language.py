@@ -37,7 +37,7 @@ from exhibit.errors import ConfigError
 from exhibit.narration.speech import DEFAULT_RATE_WPM, Voice, set_voice
 from exhibit.resources import shipped
 from exhibit.timelines.model import Timeline
-from exhibit.render.layout import PINCH_KEY
+from exhibit.render.layout import KEY_WORDS
 from exhibit.schema import Model, read_toml, validate
 from exhibit.schema.types import Caption, Name, Number, Text
 
@@ -45,9 +45,10 @@ log = logging.getLogger("exhibit.kiosk")
 
 SOURCE = "en"
 #: Words the HUD itself shows, beside the scenes' and timelines' own: the gizmo's caption,
-#: the numbers panel's labels, and the words of marker labels (exhibit.scenes.collision's
-#: "first contact, t = ..."; the formula after the comma is not translated).
-HUD_WORDS = ("4D axes", "sensor", "eye", "fov", "first contact", PINCH_KEY)
+#: the numbers panel's labels, the words of marker labels (exhibit.scenes.collision's
+#: "first contact, t = ..."; the formula after the comma is not translated) and the key's
+#: entries under the numbers (exhibit.render.layout.KEY_WORDS: "first contact" is one).
+HUD_WORDS = tuple(dict.fromkeys(("4D axes", "sensor", "eye", "fov", "first contact", *KEY_WORDS)))
 #: What the screen says while the scene a visitor chose is still being prepared (the kiosk's
 #: first seconds after a cold start); {title} is the scene's title, in the same language.
 PREPARING = "Preparing: {title}…"

@@ -6,13 +6,19 @@ panels drawn here are exactly the ones the picture was fitted around. Text is si
 room (cap heights as a fraction of the screen height, RenderOptions.text).
 
 Marker labels ("first contact, t = ...") are what a caption points at, so they must always be
-readable: the marker is drawn again here, above the surfaces, with a dark halo (a hollow ring
-when the point itself is behind a sheet, exhibit.geometry.occlusion); its label sits in the first
-of a few places around it that is on the screen and off every panel and other label, on a halo
-of its own, with a leader line to the point whenever it is not right beside it.
+readable: the marker is drawn again here, above the surfaces, as a diamond with a dark halo (a
+hollow diamond when the point itself is behind a sheet, exhibit.geometry.occlusion), a shape no
+other mark has: the Lemma 2 points are discs, and a colour-blind visitor tells the two apart by
+their corners. Its label sits in the first of a few places around it that is on the screen and
+off every panel and other label, on a halo of its own, with a leader line to the point whenever
+it is not right beside it.
 
-Three draw calls, as before: the cached title block, the overlay capsules (gizmo, marker discs,
-leader lines) and every other panel and glyph from the atlas.
+The key under the numbers lists every kind of mark the frame has (:meth:`Hud.key_entries`):
+Lemma 2 discs, the first contact, Lemma 3 outlines, the slice, axis lines, each as its shape
+and colour beside its words; ``Hud.explained`` names the id pass's objects it explains.
+
+Draw calls: the cached title block, the overlay capsules (gizmo, leader lines, tags' dots),
+the marker diamonds, every other panel and glyph from the atlas, then the key's swatches.
 
 Why one module of this size: the HUD's panels, gizmo and labels, drawn from one layout."""
 
@@ -32,7 +38,7 @@ from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud_cover import HudCover
 from exhibit.render.hud_draw import HudDrawing
 from exhibit.render.hud_info import HudInfo
-from exhibit.render.object_tags import TagAnchors, picture_box
+from exhibit.render.object_tags import TAGS_APART, TagAnchors, picture_box
 from exhibit.render.passes.shared import Pipeline
 from exhibit.render.layout import (
     HudLayout,
@@ -41,7 +47,12 @@ from exhibit.render.layout import (
     free_rectangles,
     gizmo_caption_rect,
     gizmo_labels,
+    AXES_KEY,
+    CONTACT_KEY,
+    KEY_WORDS,
+    OUTLINE_KEY,
     PINCH_KEY,
+    SLICE_KEY,
     gizmo_tips,
     hud_layout,
     key_swatch,
@@ -51,6 +62,7 @@ from exhibit.render.glyph_atlas import HALO_DIRECTIONS, halo_steps
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 from exhibit.scenes import palette
 from exhibit.scenes.colours import luminance
+from exhibit.surfaces.slice import SLICE_MATERIAL
 
 #: The HUD's panels: nearly opaque, so text stays legible over a bright surface brought close
 #: (a visitor may drive the sensor in until the picture fills the screen).
@@ -104,6 +116,19 @@ class TextMark(NamedTuple):
     rgba: tuple[float, float, float, float]
 
 
+class KeyEntry(NamedTuple):
+    """One entry of the key under the numbers: its English words (layout.KEY_WORDS, or a
+    marker label's words), the words shown, its swatch (``shape``: "disc" for the Lemma 2
+    points, "diamond" for a labelled marker, "ink" for the outlines, "slice", "axes"), the
+    colours the swatch is drawn in, and the id pass's objects it explains (object_names)."""
+
+    english: str
+    text: str
+    shape: str
+    colors: tuple[tuple[float, float, float], ...]
+    objects: tuple[str, ...]
+
+
 class Hud:
     """HUD state of one renderer: the cached title block and the latest layout."""
 
@@ -132,6 +157,12 @@ class Hud:
         self.tags: list[tuple[str, Rect, tuple[float, float], bool]] = []
         #: The object name each of ``tags`` was asked for (HudInfo.tags), in the same order.
         self.tag_objects: list[str] = []
+        #: The latest key's entries (KeyEntry), in the order drawn.
+        self.key: list[KeyEntry] = []
+        #: The id pass's objects (exhibit.render.passes.ids.object_names) the latest key
+        #: explains, each once: the marks' "pinch points", "outline", "slice", a labelled
+        #: marker's name ("initial colliding point"), axis lines' names ("x axis").
+        self.explained: list[str] = []
         #: What the latest HUD covers of the picture (panels, text, lines, discs), so a claim
         #: counts only what a visitor sees of an object (exhibit.render.hud_cover).
         self.cover = HudCover()
@@ -141,12 +172,20 @@ class Hud:
         #: lies behind the text; never in a kiosk.
         self.ink = True
 
-    def layout_for(self, size: tuple[int, int], hud: HudInfo, sizes: TextSizes) -> HudLayout:
-        key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words)
+    def layout_for(
+        self,
+        size: tuple[int, int],
+        hud: HudInfo,
+        sizes: TextSizes,
+        entries: tuple[str, ...] | None = None,
+    ) -> HudLayout:
+        """The layout of ``hud`` with the key ``entries`` (their words; None: every entry its
+        words carry)."""
+        key = (tuple(size), hud.title, hud.caption, hud.note, sizes, hud.words, entries)
         layout = self._layouts.get(key)
         if layout is None:
             layout = self._layouts[key] = hud_layout(
-                size, hud.title, (hud.caption, hud.note), sizes, words=hud.words
+                size, hud.title, (hud.caption, hud.note), sizes, words=hud.words, key=entries
             )
             while len(self._layouts) > self.CACHED:
                 self._layouts.popitem(last=False)
@@ -222,6 +261,7 @@ class Hud:
         alpha = min(max(float(alpha), 0.0), 1.0)
         self.texts = []
         self.cover = HudCover()
+        self.key, self.explained = [], []
         if alpha == 0.0:
             return
         sizes = sizes or TextSizes()
@@ -231,7 +271,9 @@ class Hud:
         d.ctx.enable(moderngl.BLEND)
         dx, dy = drift
         viewport = (float(width), float(height))
-        layout = self.layout_for(size, hud, sizes)
+        ct = self.pipeline.clip_transform(view, size)
+        entries = self.key_entries(gpu, view, hud, ct, size)
+        layout = self.layout_for(size, hud, sizes, tuple(e.text for e in entries))
         body, pad = layout.body_px, layout.pad
 
         texture, block_w, block_h, block_lines = self._title_block(layout)
@@ -282,30 +324,30 @@ class Hud:
                 rows,
             )
 
-        key = hud.word(PINCH_KEY) if PINCH_KEY in dict(hud.words) else ""
-        key_items = []
-        if key:  # the key under the numbers: a yellow disc, then what it means
-            key_y = status.y0 - dy + pad + 3 * mono_h
-            swatch = key_swatch(body)
-            h = line_height("sans", body)
-            centre = (status.x0 + dx + pad + 0.45 * swatch, key_y + 0.55 * h)
-            key_items = [
-                (centre, centre, HALO, 0.62 * body + 3.0),
-                (centre, centre, (*PINCH_COLOR, 1.0), 0.62 * body),
-            ]
-            self._text("key", key, "sans", body, status.x0 + dx + pad + swatch, key_y, INK, rows)
+        # The key under the numbers: each kind of mark's shape and colour, then its words.
+        key_items: list[tuple] = []
+        key_diamonds: list[tuple] = []
+        for entry, (text, kx, ky) in zip(entries, layout.key):
+            left, top = status.x0 + dx + kx, status.y0 - dy + ky
+            centre = (left + 0.45 * key_swatch(body), top + 0.55 * line_height("sans", body))
+            key_items += key_swatch_items(entry, centre, body, key_diamonds)
+            self._text("key", text, "sans", body, left + key_swatch(body), top, INK, rows)
+        self.key = list(entries)
+        self.explained = list(dict.fromkeys(name for e in entries for name in e.objects))
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         # Labels keep off the picture where there is room (wire frames would cross them).
-        ct = self.pipeline.clip_transform(view, size)
         self._anchors.tick(ct)
         labelled = hud.tags or any(m.label for m in gpu.mesh.markers)
         picture = picture_box(gpu, ct, size) if labelled else None
-        items += self._marker_labels(gpu, view, size, layout, rows, hud.word, picture)
+        diamonds: list[tuple] = []
+        items += self._marker_labels(gpu, view, size, layout, rows, hud.word, picture, diamonds)
         items += self._object_tags(gpu, view, size, layout, rows, hud.tags, picture)
         if alpha < 1.0:
             rows = [(*row[:11], row[11] * alpha) for row in rows]
-            items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in items]
-            key_items = [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in key_items]
+            items, key_items, diamonds, key_diamonds = (
+                [(a, b, (*rgba[:3], rgba[3] * alpha), w) for a, b, rgba, w in capsules]
+                for capsules in (items, key_items, diamonds, key_diamonds)
+            )
             self.texts = [
                 t
                 if t.kind in ("title", "caption")
@@ -313,10 +355,60 @@ class Hud:
                 for t in self.texts
             ]
         d.overlay(items, viewport)
+        d.overlay(diamonds, viewport, "diamond")
         d.atlas_quads(rows, viewport)
         d.overlay(key_items, viewport)  # on its panel, which the glyph quads drew
-        self.cover = HudCover.of(title_rect, rows, items + key_items)
+        d.overlay(key_diamonds, viewport, "diamond")
+        # A diamond lies inside the disc of its width: recorded as that disc.
+        self.cover = HudCover.of(title_rect, rows, items + diamonds + key_items + key_diamonds)
         d.ctx.disable(moderngl.BLEND)
+
+    def key_entries(
+        self, gpu: GpuMesh, view: ViewState, hud: HudInfo, ct, size: tuple[int, int]
+    ) -> list[KeyEntry]:
+        """The key's entries for this frame: only the kinds of mark it has, in KEY_WORDS'
+        order, in the language on screen; none when ``hud.words`` carry no key (a figure
+        rendered for the paper). The Lemma 2 discs and the outlines come with every solid
+        surface (the kiosk always draws them), the slice when the view slices the surfaces
+        within their extent, a labelled marker's entry while the marker is on the screen, the
+        axes' while the mesh has axis lines ("x axis": curves named for an axis)."""
+        shown = dict(hud.words)
+        if not any(word in shown for word in KEY_WORDS):
+            return []
+        mesh = gpu.mesh
+        solid = [s for s in mesh.surfaces if s.material.style != "wire"]
+        out: list[KeyEntry] = []
+
+        def add(english, shape, colors, objects, words=None):
+            if objects and (english in shown or words is not None):
+                text = hud.word(english) if words is None else words
+                out.append(KeyEntry(english, text, shape, tuple(colors), tuple(objects)))
+
+        if solid:
+            add(PINCH_KEY, "disc", [PINCH_COLOR], ["pinch points"])
+        width, height = size
+        kinds: dict[str, list] = {}
+        for m in mesh.markers:
+            if not m.label:
+                continue
+            pixels, ok = ct.to_pixels(m.position[None], width, height)
+            x, y = pixels[0]
+            if bool(ok[0]) and 0 <= x < width and 0 <= y < height:
+                kinds.setdefault(m.label.partition(", ")[0], []).append(m)
+        for english, markers in kinds.items():
+            words = hud.word(english) if english in shown or english == CONTACT_KEY else english
+            add(english, "diamond", [markers[0].material.color], [m.name for m in markers], words)
+        if solid:
+            add(OUTLINE_KEY, "ink", [solid[0].material.color], ["outline"])
+        slices = [c.name for c in mesh.curves if c.material.color == SLICE_MATERIAL.color]
+        if view.slice_axis is not None and any(
+            _spans(s.positions[:, view.slice_axis], view.slice_at) for s in solid
+        ):
+            slices.insert(0, "slice")
+        add(SLICE_KEY, "slice", [SLICE_MATERIAL.color], slices)
+        axes = [c for c in mesh.curves if c.name.endswith(" axis")]
+        add(AXES_KEY, "axes", [c.material.color for c in axes], [c.name for c in axes])
+        return out
 
     def _gizmo(
         self, view, axes, layout: HudLayout, rows: list, axes_label: str = "4D axes"
@@ -360,9 +452,13 @@ class Hud:
         rows: list,
         word=lambda english: english,
         picture: Rect | None = None,
+        diamonds: list | None = None,
     ) -> list[tuple]:
         """Labelled markers above the surfaces, labels placed on screen and off the panels;
-        ``word`` translates their words (HudInfo.word)."""
+        ``word`` translates their words (HudInfo.word). Returns the leaders' capsules; the
+        markers' diamonds go to ``diamonds`` (a, a, rgba, tip-to-tip width)."""
+        if diamonds is None:
+            diamonds = []
         self.labels = []
         markers = [m for m in gpu.mesh.markers if m.label]
         if not markers:
@@ -380,7 +476,7 @@ class Hud:
             if not visible:
                 continue
             color = (*m.material.color, 1.0)
-            disc = max(9.0, 11.0 * scale)
+            tips = marker_diamond(scale)
             text = marker_text(m.label, word)
             label = place_beside(text, (x, y), body, layout, taken, picture)
             taken.append(label.grow(0.3 * body))
@@ -389,10 +485,11 @@ class Hud:
             if covered or math.hypot(nx - x, ny - y) > 0.9 * body:
                 items.append(((x, y), (nx, ny), HALO, max(4.0, 5.0 * scale)))
                 items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
-            items.append(((x, y), (x, y), HALO, disc + max(4.0, 4.0 * scale)))
-            items.append(((x, y), (x, y), color, disc))
-            if covered:  # behind a sheet: a ring, the halo showing through its middle
-                items.append(((x, y), (x, y), HALO, 0.5 * disc))
+            # a dark rim about 2 px wide along its edges (tip to tip: 2 x 2 x sqrt 2 more)
+            diamonds.append(((x, y), (x, y), HALO, tips + max(5.6, 5.6 * scale)))
+            diamonds.append(((x, y), (x, y), color, tips))
+            if covered:  # behind a sheet: hollow, the halo showing through its middle
+                diamonds.append(((x, y), (x, y), HALO, 0.5 * tips))
             self._halo_text(
                 "marker label", text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows
             )
@@ -417,11 +514,14 @@ class Hud:
             rect.grow(0.3 * body) for _, rect, _, _ in self.labels
         ]
         items: list[tuple] = []
+        ends: list[tuple[str, tuple[float, float]]] = []
         for name, words in tags:
-            anchor = self._anchors.anchor(gpu, name, ct, size, taken)
+            avoid = [p for other, p in ends if other != name]
+            anchor = self._anchors.anchor(gpu, name, ct, size, taken, avoid, TAGS_APART * scale)
             if anchor is None:
                 continue
             (x, y), rgb, covered = anchor
+            ends.append((name, (x, y)))
             color = (*legible(rgb), 1.0)
             label = place_beside(words, (x, y), body, layout, taken, picture)
             taken.append(label.grow(0.3 * body))
@@ -459,6 +559,64 @@ class Hud:
                 texture.release()
         self._blocks.clear()
         self._layouts.clear()
+
+
+def marker_diamond(scale: float) -> float:
+    """A labelled marker's diamond, tip to tip in pixels (``scale``: the screen height / 720):
+    as much area as the disc it was (11 px across at 720 lines), so it covers the picture's
+    own disc of the marker (exhibit.render.gpu.MARKER_SCALE) with its halo."""
+    return max(13.0, 15.5 * scale)
+
+
+def _spans(values: np.ndarray, at: float) -> bool:
+    """Whether ``at`` lies within the range of ``values`` (a surface's coordinates along the
+    slicing axis): the slice of the surface there is not empty."""
+    return bool(len(values)) and float(values.min()) <= at <= float(values.max())
+
+
+def key_swatch_items(
+    entry: KeyEntry, centre: tuple[float, float], body: int, diamonds: list
+) -> list[tuple]:
+    """The capsules of a key entry's swatch, centred on ``centre`` (within key_swatch(body)):
+    the mark's shape and colour as the picture draws it. A diamond goes to ``diamonds``."""
+    cx, cy = centre
+    reach = 0.42 * body  # half the swatch's length
+    rgb = entry.colors
+    if entry.shape == "disc":  # a Lemma 2 point, yellow, on a dark rim
+        return [
+            (centre, centre, HALO, 0.62 * body + 3.0),
+            (centre, centre, (*rgb[0], 1.0), 0.62 * body),
+        ]
+    if entry.shape == "diamond":  # a labelled marker, as drawn over the picture
+        diamonds.append((centre, centre, HALO, 0.95 * body + 4.0))
+        diamonds.append((centre, centre, (*rgb[0], 1.0), 0.95 * body))
+        return []
+    if entry.shape == "ink":  # a dark outline along a patch of the surface it bounds
+        from exhibit.render.passes.silhouettes import darker
+
+        a, b = (cx - 0.3 * reach, cy), (cx + 0.3 * reach, cy)
+        return [
+            (a, b, (*rgb[0], 1.0), 0.62 * body),
+            (
+                (a[0], cy + 0.1 * body),
+                (b[0], cy + 0.1 * body),
+                (*darker(rgb[0]), 1.0),
+                max(2.0, 0.12 * body),
+            ),
+        ]
+    if entry.shape == "slice":  # the bright, wide slice line
+        a, b = (cx - reach, cy + 0.3 * reach), (cx + reach, cy - 0.3 * reach)
+        return [
+            (a, b, HALO, max(3.0, 0.2 * body) + 3.0),
+            (a, b, (*rgb[0], 1.0), max(3.0, 0.2 * body)),
+        ]
+    # axis lines: one short line per axis, in its colour, crossing like the gizmo's
+    out = []
+    for i, color in enumerate(rgb[:4]):
+        angle = math.pi * i / max(len(rgb[:4]), 1)
+        ux, uy = math.cos(angle) * reach, math.sin(angle) * reach
+        out.append(((cx - ux, cy - uy), (cx + ux, cy + uy), (*color, 1.0), max(2.0, 0.1 * body)))
+    return out
 
 
 def halo_rows(

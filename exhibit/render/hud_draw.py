@@ -3,8 +3,9 @@ the top-left, over the current framebuffer at the screen's full resolution.
 
 Instanced quads from the glyph atlas (glyphs.glsl: glyphs and solid panels; RGBA_TEXTURE: an
 image such as the cached title block or the inset's picture), 2D capsules (overlay.glsl: the
-gizmo, marker discs, leader lines) and a line of text as its own texture (text.glsl: the notice
-screen). Kept apart from the picture's passes: they never touch the 4D scene.
+gizmo, leader lines, discs; its DIAMOND variant: the first-contact marker) and a line of text
+as its own texture (text.glsl: the notice screen). Kept apart from the picture's passes: they
+never touch the 4D scene.
 """
 
 from __future__ import annotations
@@ -37,16 +38,20 @@ class HudDrawing:
         p = shaders.program
         self.programs = {
             "overlay": p(ctx, "overlay.glsl"),
+            "diamond": p(ctx, "overlay.glsl", ("DIAMOND",)),
             "text": p(ctx, "text.glsl"),
             "glyphs": p(ctx, "glyphs.glsl"),
             "image": p(ctx, "glyphs.glsl", ("RGBA_TEXTURE",)),
         }
         self._text_vao = ctx.vertex_array(self.programs["text"], [])
         self._overlay_buffer = ctx.buffer(reserve=64 * OVERLAY_FLOATS * 4, dynamic=True)
-        self._overlay_vao = ctx.vertex_array(
-            self.programs["overlay"],
-            [(self._overlay_buffer, "2f 2f 4f 1f/i", "in_a", "in_b", "in_color", "in_width")],
-        )
+        self._overlay_vaos = {
+            name: ctx.vertex_array(
+                self.programs[name],
+                [(self._overlay_buffer, "2f 2f 4f 1f/i", "in_a", "in_b", "in_color", "in_width")],
+            )
+            for name in ("overlay", "diamond")
+        }
         self._glyph_buffer = ctx.buffer(reserve=256 * GLYPH_FLOATS * 4, dynamic=True)
         self._glyph_vaos = {
             name: ctx.vertex_array(
@@ -98,8 +103,9 @@ class HudDrawing:
         self._text_vao.render(moderngl.TRIANGLE_STRIP, vertices=4)
         return item.width, item.height
 
-    def overlay(self, items: Sequence[Capsule], viewport: Viewport) -> None:
-        """Draw 2D capsules (a, b, rgba, width) given in pixels from the top-left."""
+    def overlay(self, items: Sequence[Capsule], viewport: Viewport, shape: str = "overlay") -> None:
+        """Draw 2D capsules (a, b, rgba, width) given in pixels from the top-left; ``shape``
+        "diamond": each a filled diamond at a, ``width`` from tip to tip."""
         if not items:
             return
         rows = np.array(
@@ -113,11 +119,11 @@ class HudDrawing:
         if len(data) > self._overlay_buffer.size:
             self._overlay_buffer.orphan(len(data))
         self._overlay_buffer.write(data)
-        prog = self.programs["overlay"]
+        prog = self.programs[shape]
         prog["u_viewport"] = viewport
         prog["u_pass"] = 1
         self.ctx.blend_func = BLEND_OVER  # type: ignore[assignment]  # stubs: 2 ints; 4 are valid
-        self._overlay_vao.render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
+        self._overlay_vaos[shape].render(moderngl.TRIANGLE_STRIP, vertices=4, instances=len(rows))
 
     def quads(
         self,
@@ -171,7 +177,8 @@ class HudDrawing:
     def release(self) -> None:
         self.text.release()
         self.atlas.release()
-        for vao in [self._text_vao, self._overlay_vao, *self._glyph_vaos.values()]:
+        vaos = [self._text_vao, *self._overlay_vaos.values(), *self._glyph_vaos.values()]
+        for vao in vaos:
             vao.release()
         self._overlay_buffer.release()
         self._glyph_buffer.release()

@@ -39,10 +39,23 @@ INFINITY_BEYOND = 1000.0
 CAPTION_MEASURE = 28
 #: The tallest check-config lets a title or caption make that panel (exhibit check-config).
 PANEL_LIMIT = 0.4
-#: The key's line under the numbers (the kiosk shows it; HudInfo.words carries it in the
-#: language on screen): the live Lemma 2 points are yellow discs in every scene with a surface,
-#: and a visitor must be told what they are, in words and with a disc beside them.
-PINCH_KEY = "pinch point of the 3D picture (Lemma 2)"
+#: The key under the numbers (the kiosk shows it; HudInfo.words carries its words in the
+#: language on screen): every kind of mark the picture draws, each by its shape and colour
+#: beside its words, only the kinds the frame has (exhibit.render.hud.Hud.key_entries).
+#: The live Lemma 2 points are yellow discs on every solid surface. The words are short (the
+#: paper's lemmas are for its readers, not for a visitor), so the hypersphere's key (discs,
+#: outlines, axes) and the collision's without a slice take one line.
+PINCH_KEY = "pinch point"
+#: A labelled marker (exhibit.scenes.collision's first contact): a diamond, never a disc.
+CONTACT_KEY = "first contact"
+#: The live Lemma 3 outlines: a dark line along a surface, in the surface's colour darkened.
+OUTLINE_KEY = "outline"
+#: The glowing slice of the surfaces at one value of an axis (ViewState.slice_axis).
+SLICE_KEY = "slice"
+#: Coordinate axis lines drawn in the picture (the hypersphere's x, y, z, w axes).
+AXES_KEY = "axes"
+#: The key's entries in the order the key lists them (English; HudInfo.words translates).
+KEY_WORDS = (PINCH_KEY, CONTACT_KEY, OUTLINE_KEY, SLICE_KEY, AXES_KEY)
 #: The widest check-config lets a word of the numbers panel make it (the English panel is 45 %
 #: of a 1280x720 screen, the German 55 %).
 NUMBERS_LIMIT = 0.6
@@ -183,8 +196,39 @@ def widest_status(
 
 
 def key_swatch(body_px: int) -> float:
-    """The room the key's yellow disc takes before its words."""
+    """The room a key entry's swatch (its mark's shape) takes before its words."""
     return 1.2 * body_px
+
+
+def key_entry_width(text: str, body_px: int) -> float:
+    """A key entry's width: its swatch and its words."""
+    return key_swatch(body_px) + text_width(text, "sans", body_px)
+
+
+def key_lines(entries: Sequence[str], body_px: int, room: float) -> list[list[tuple[int, float]]]:
+    """The key's entries flowed into lines ``room`` pixels wide, in order, as many on a line
+    as fit (a gap of one font size between them), so the panel stays small: per line, each
+    entry's index and its left edge from the panel's inner left. Leaving entries out never
+    makes more lines (a line starting no earlier holds fewer or the same words)."""
+    gap = float(body_px)
+    lines: list[list[tuple[int, float]]] = []
+    x = 0.0
+    for i, text in enumerate(entries):
+        w = key_entry_width(text, body_px)
+        if lines and x > 0.0 and x + gap + w <= room:
+            lines[-1].append((i, x + gap))
+            x += gap + w
+        else:
+            lines.append([(i, 0.0)])
+            x = w
+    return lines
+
+
+def key_texts(words: tuple[tuple[str, str], ...]) -> tuple[str, ...]:
+    """Every key entry ``words`` (HudInfo.words) carry, in the language on screen: the most the
+    key may show (what the framing keeps the picture clear of)."""
+    shown = dict(words)
+    return tuple(shown[k] for k in KEY_WORDS if k in shown)
 
 
 def caption_wrap(paragraph: str, px: int, measure: float, room: float) -> list[str]:
@@ -216,6 +260,9 @@ class HudLayout:
     gizmo_radius: float
     gizmo_block: Rect
     drift: float
+    #: The key under the numbers: each entry's words and its swatch's top-left corner, in
+    #: pixels from the numbers panel's top-left (exhibit.render.hud draws the swatches).
+    key: tuple[tuple[str, float, float], ...] = ()
 
     @property
     def panels(self) -> list[Rect]:
@@ -257,10 +304,15 @@ def hud_layout(
     drift: float = 0.0,
     words: tuple[tuple[str, str], ...] = (),
     clip: bool = True,
+    key: tuple[str, ...] | None = None,
 ) -> HudLayout:
     """The panels for ``title`` and the caption paragraphs ``captions`` (the caption and a
     note, each wrapped on its own) on a ``size`` screen; ``words``: the numbers panel's words
-    in the language on screen (HudInfo.words), which set its width.
+    in the language on screen (HudInfo.words), which set its width; ``key``: the key entries
+    the frame shows, in the language on screen (None: every one ``words`` carry, the largest
+    the panel gets, as the framing lays it out). The panel is as wide for any ``key`` as for
+    all of ``words``' entries, and so at most as tall: the picture framed clear of the largest
+    key is clear of every smaller one.
 
     A word wider than the panel's room is broken by characters, and with ``clip`` the lines
     that would make the title and caption panel reach the numbers panel are left out ("…"):
@@ -300,9 +352,23 @@ def hud_layout(
     lines = [(t, "bold", title_px) for t in title_lines] + [
         (t, "sans", body_px) for t in caption_lines
     ]
-    key = dict(words).get(PINCH_KEY, "")
-    key_h = line_height("sans", body_px) if key else 0
-    status_h = 3 * line_height("mono", body_px) + key_h + 2 * pad
+    # The numbers, bottom left, in a fixed-width font, the key under them.
+    advance = text_width("0", "mono", body_px)
+    widest = widest_status(words, sizes.infinity_beyond)
+    status_w = max(len(t) for t in widest) * advance + 2 + 2 * pad
+    every = key_texts(words)
+    entries = every if key is None else tuple(key)
+    for text in dict.fromkeys((*every, *entries)):
+        status_w = max(status_w, key_entry_width(text, body_px) + 2 * pad)
+    flowed = key_lines(entries, body_px, status_w - 2 * pad)
+    mono_h, sans_h = line_height("mono", body_px), line_height("sans", body_px)
+    key_h = len(flowed) * sans_h
+    status_h = 3 * mono_h + key_h + 2 * pad
+    placed = tuple(
+        (entries[i], pad + x, pad + 3 * mono_h + row * sans_h)
+        for row, line in enumerate(flowed)
+        for i, x in line
+    )
     if clip:  # never over the numbers panel
         lines = _clip(lines, height - 3 * margin - status_h - 2 * pad, room)
         title_lines = tuple(t for t, s, _ in lines if s == "bold")
@@ -313,12 +379,6 @@ def hud_layout(
         h = sum(line_height(s, px) for _, s, px in lines) + 2 * pad
         block = Rect(margin, margin, margin + w, margin + h)
 
-    # The numbers, bottom left, in a fixed-width font.
-    advance = text_width("0", "mono", body_px)
-    widest = widest_status(words, sizes.infinity_beyond)
-    status_w = max(len(t) for t in widest) * advance + 2 + 2 * pad
-    if key:
-        status_w = max(status_w, key_swatch(body_px) + text_width(key, "sans", body_px) + 2 * pad)
     status = Rect(margin, height - margin - status_h, margin + status_w, height - margin)
     return HudLayout(
         (width, height),
@@ -334,6 +394,7 @@ def hud_layout(
         radius,
         gizmo,
         drift,
+        placed,
     )
 
 
@@ -353,8 +414,13 @@ def text_problems(
 ) -> list[str]:
     """Why ``text`` cannot be laid out in its place on a ``size`` screen (empty when it can):
     ``kind`` is "title", "caption", "gizmo" (the line under the 4D axes), "numbers" (``word``
-    of the numbers panel: "sensor", "eye" or "fov", the others in English) or "label" (a
-    marker label's words)."""
+    of the numbers panel: "sensor", "eye", "fov" or an entry of the key, KEY_WORDS, the others
+    in English), "label" (a marker label's words) or "key" (words that are both: the first
+    contact's)."""
+    if kind == "key":
+        return text_problems("numbers", text, sizes, size, word) + text_problems(
+            "label", text, sizes, size, word
+        )
     width, height = size
     if kind in ("title", "caption"):
         layout = hud_layout(
@@ -397,7 +463,7 @@ def text_problems(
             sizes=sizes,
             words=tuple(
                 (english, text if english == word else english)
-                for english in ("sensor", "eye", "fov", PINCH_KEY)
+                for english in ("sensor", "eye", "fov", *KEY_WORDS)
             ),
         ).status_block
         if panel.width > NUMBERS_LIMIT * width:

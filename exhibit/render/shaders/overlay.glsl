@@ -1,4 +1,6 @@
 // HUD lines and discs (the 4D axes gizmo), given in pixels (GL window coordinates, y up).
+// DIAMOND: each instance is a filled diamond (a square on its corner) at in_a, in_width from
+// tip to tip: the first-contact marker's shape, told from a Lemma 2 disc by its corners.
 uniform vec2 u_viewport;
 
 #if defined VERTEX_SHADER
@@ -26,5 +28,22 @@ void main() {
 #endif
 
 #if defined FRAGMENT_SHADER
+#if defined DIAMOND
+flat in vec4 v_ends;
+flat in vec4 v_color;
+flat in float v_half_width;
+uniform int u_pass;
+out vec4 f_color;
+
+void main() {
+    vec2 d = abs(gl_FragCoord.xy - v_ends.xy);
+    // the distance to the nearest edge, |x| + |y| = half width, along its normal
+    float dist = (d.x + d.y - v_half_width) * 0.70710678;
+    float coverage = clamp(0.5 - dist, 0.0, 1.0);
+    if (coverage <= 0.0) discard;
+    f_color = vec4(v_color.rgb, v_color.a * (u_pass == 0 ? 1.0 : coverage));
+}
+#else
 #include "line_fragment.glsl"
+#endif
 #endif
