@@ -38,7 +38,7 @@ from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud_cover import HudCover
 from exhibit.render.hud_draw import HudDrawing
 from exhibit.render.hud_info import HudInfo
-from exhibit.render.object_tags import TAGS_APART, TagAnchors, picture_box
+from exhibit.render.object_tags import TagAnchors, picture_box
 from exhibit.render.passes.shared import Pipeline
 from exhibit.render.layout import (
     HudLayout,
@@ -514,14 +514,11 @@ class Hud:
             rect.grow(0.3 * body) for _, rect, _, _ in self.labels
         ]
         items: list[tuple] = []
-        ends: list[tuple[str, tuple[float, float]]] = []
         for name, words in tags:
-            avoid = [p for other, p in ends if other != name]
-            anchor = self._anchors.anchor(gpu, name, ct, size, taken, avoid, TAGS_APART * scale)
+            anchor = self._anchors.anchor(gpu, name, ct, size, taken)
             if anchor is None:
                 continue
             (x, y), rgb, covered = anchor
-            ends.append((name, (x, y)))
             color = (*legible(rgb), 1.0)
             label = place_beside(words, (x, y), body, layout, taken, picture)
             taken.append(label.grow(0.3 * body))
