@@ -66,7 +66,7 @@ def test_the_pinch_points_key_stands_under_the_numbers_in_the_language_shown(gl)
     panel; without them (a figure rendered for the paper) there is no key."""
     gpu, view = _hopf(gl, 12)
     try:
-        german = "Zwickelpunkt des 3D-Bildes (Lemma 2)"
+        german = "Zwickelpunkt"
         hud = HudInfo(caption="Drei Donuts.", words=((PINCH_KEY, german),))
         gl.image(gpu, view, SIZE, RenderOptions(), hud, samples=0)
         keys = [t for t in gl.renderer.hud.texts if t.kind == "key"]
