@@ -21,7 +21,10 @@ import numpy as np
 
 from exhibit.geometry.pipeline import ClipTransform
 
-#: A point this close in NDC depth behind a triangle through it counts as on it, not behind it.
+#: A point this close behind a triangle through it counts as on it, not behind it: a share of
+#: the surface's depth range in NDC (a curve on a surface lies a chord's sag off its triangles).
+#: A share, not an NDC distance: with a distant sensor the whole scene may lie within 0.02 of
+#: NDC depth, where a fixed 2e-3 let a doughnut's tag end on the doughnut in front of it.
 DEPTH_TOLERANCE = 2e-3
 
 
@@ -55,6 +58,8 @@ def hidden(points: np.ndarray, surfaces: Iterable[Triangles], ct: ClipTransform)
         vc = surface.positions @ ct.matrix[:, :4].T + ct.matrix[:, 4]
         front = vc[:, 3] > 0
         v = vc[:, :3] / np.where(front, vc[:, 3], 1.0)[:, None]
+        depths = v[front, 2]
+        tolerance = DEPTH_TOLERANCE * float(np.ptp(depths)) if len(depths) else 0.0
         for i in np.flatnonzero(valid & ~out):
             x, y, z = p[i]
             # Vertex-level sides first (cheap): a triangle can cover the point only if its
@@ -87,5 +92,5 @@ def hidden(points: np.ndarray, surfaces: Iterable[Triangles], ct: ClipTransform)
             t = (e1[:, 0] * dy - e1[:, 1] * dx) / det
             covers = good & (s >= 0) & (t >= 0) & (s + t <= 1)
             depth = ta[:, 2] + s * e1[:, 2] + t * e2[:, 2]
-            out[i] = bool(np.any(covers & (depth < z - DEPTH_TOLERANCE)))
+            out[i] = bool(np.any(covers & (depth < z - tolerance)))
     return out

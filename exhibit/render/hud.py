@@ -13,7 +13,7 @@ their corners. Its label sits in the first of a few places around it that is on 
 off every panel and other label, on a halo of its own, with a leader line to the point whenever
 it is not right beside it.
 
-The key under the numbers lists every kind of mark the frame has (:meth:`Hud.key_entries`):
+The key under the numbers lists every kind of mark the frame has (exhibit.render.hud_key):
 Lemma 2 discs, the first contact, Lemma 3 outlines, the slice, axis lines, each as its shape
 and colour beside its words; ``Hud.explained`` names the id pass's objects it explains.
 
@@ -26,17 +26,20 @@ from __future__ import annotations
 
 import math
 from collections import OrderedDict
-from collections.abc import Callable, Iterable, Sequence
-from typing import NamedTuple, cast
+from collections.abc import Iterable
+from typing import NamedTuple
 
 import moderngl
 import numpy as np
 
-from exhibit.geometry.occlusion import hidden
 from exhibit.geometry.view import ViewState
 from exhibit.render.gpu import GpuMesh
 from exhibit.render.hud_cover import HudCover
+from exhibit.render.gizmo_layout import gizmo_caption_rect, gizmo_labels, gizmo_tips
 from exhibit.render.hud_draw import HudDrawing
+from exhibit.render.hud_labels import marker_labels, object_tags
+from exhibit.render.hud_key import KeyEntry, key_entries, key_swatch_items
+from exhibit.render.marks import HALO, INK, legible
 from exhibit.render.hud_info import HudInfo
 from exhibit.render.object_tags import TagAnchors, picture_box
 from exhibit.render.passes.shared import Pipeline
@@ -44,16 +47,6 @@ from exhibit.render.layout import (
     HudLayout,
     Rect,
     TextSizes,
-    free_rectangles,
-    gizmo_caption_rect,
-    gizmo_labels,
-    AXES_KEY,
-    CONTACT_KEY,
-    KEY_WORDS,
-    OUTLINE_KEY,
-    PINCH_KEY,
-    SLICE_KEY,
-    gizmo_tips,
     hud_layout,
     key_swatch,
     status_lines,
@@ -61,43 +54,14 @@ from exhibit.render.layout import (
 from exhibit.render.glyph_atlas import HALO_DIRECTIONS, halo_steps
 from exhibit.render.text import block_image, has_greek, line_height, text_width
 from exhibit.scenes import palette
-from exhibit.scenes.colours import luminance
-from exhibit.surfaces.slice import SLICE_MATERIAL
 
 #: The HUD's panels: nearly opaque, so text stays legible over a bright surface brought close
 #: (a visitor may drive the sensor in until the picture fills the screen).
 PANEL = (0.0, 0.0, 0.0, 0.88)
-INK = (0.96, 0.96, 0.93, 1.0)
 DIM = (0.8, 0.82, 0.86, 1.0)
-HALO = (0.02, 0.02, 0.03, 0.85)
-#: The live Lemma 2 points' discs (silhouette.glsl's u_pinch) and the key's disc beside its
-#: words.
-PINCH_COLOR = (1.0, 0.93, 0.2)
 #: The axis colours of Figures 6-8's scene (x red, y amber, z green, w blue), from the palette
 #: every visitor can tell apart (exhibit.scenes.palette).
 AXIS_COLORS = (palette.RED, palette.AMBER, palette.LAVENDER, palette.BLUE)
-#: The relative luminance (WCAG) every coloured word is lifted to: 7:1 (AAA) against the panel
-#: over white (0.12 grey, luminance 0.014) needs 0.40; this leaves a margin.
-LEGIBLE = 0.45
-
-
-def legible(rgb: Sequence[float], minimum: float = LEGIBLE) -> tuple[float, float, float]:
-    """``rgb`` mixed toward white just enough to reach the luminance ``minimum`` (itself when
-    it does): the same hue, light enough for text on the HUD's dark panels."""
-    # (r, g, b): the casts only tell the type checker the length it cannot count.
-    rgb = cast("tuple[float, float, float]", tuple(float(c) for c in rgb[:3]))
-    if luminance(rgb) >= minimum:
-        return rgb
-    lo, hi = 0.0, 1.0
-    for _ in range(24):
-        mid = 0.5 * (lo + hi)
-        if luminance([c + mid * (1.0 - c) for c in rgb]) >= minimum:
-            hi = mid
-        else:
-            lo = mid
-    return cast("tuple[float, float, float]", tuple(c + hi * (1.0 - c) for c in rgb))
-
-
 #: The gizmo's letters: the axis colours lifted to LEGIBLE (the lines keep AXIS_COLORS).
 AXIS_LETTERS = tuple(legible(c) for c in AXIS_COLORS)
 #: The "4D axes" line under the gizmo.
@@ -114,19 +78,6 @@ class TextMark(NamedTuple):
     text: str
     rect: Rect
     rgba: tuple[float, float, float, float]
-
-
-class KeyEntry(NamedTuple):
-    """One entry of the key under the numbers: its English words (layout.KEY_WORDS, or a
-    marker label's words), the words shown, its swatch (``shape``: "disc" for the Lemma 2
-    points, "diamond" for a labelled marker, "ink" for the outlines, "slice", "axes"), the
-    colours the swatch is drawn in, and the id pass's objects it explains (object_names)."""
-
-    english: str
-    text: str
-    shape: str
-    colors: tuple[tuple[float, float, float], ...]
-    objects: tuple[str, ...]
 
 
 class Hud:
@@ -167,7 +118,7 @@ class Hud:
         #: counts only what a visitor sees of an object (exhibit.render.hud_cover).
         self.cover = HudCover()
         #: Paces the tags' anchor checks (each mesh keeps its own anchors).
-        self._anchors = TagAnchors()
+        self.anchors = TagAnchors()
         #: False: every glyph is left out (halos and panels stay), so a check can see what
         #: lies behind the text; never in a kiosk.
         self.ink = True
@@ -272,7 +223,7 @@ class Hud:
         dx, dy = drift
         viewport = (float(width), float(height))
         ct = self.pipeline.clip_transform(view, size)
-        entries = self.key_entries(gpu, view, hud, ct, size)
+        entries = key_entries(gpu, view, hud, ct, size)
         layout = self.layout_for(size, hud, sizes, tuple(e.text for e in entries))
         body, pad = layout.body_px, layout.pad
 
@@ -336,12 +287,12 @@ class Hud:
         self.explained = list(dict.fromkeys(name for e in entries for name in e.objects))
         items = self._gizmo(view, hud.axes, layout, rows, hud.axes_label)
         # Labels keep off the picture where there is room (wire frames would cross them).
-        self._anchors.tick(ct)
+        self.anchors.tick(ct)
         labelled = hud.tags or any(m.label for m in gpu.mesh.markers)
         picture = picture_box(gpu, ct, size) if labelled else None
         diamonds: list[tuple] = []
-        items += self._marker_labels(gpu, view, size, layout, rows, hud.word, picture, diamonds)
-        items += self._object_tags(gpu, view, size, layout, rows, hud.tags, picture)
+        items += marker_labels(self, gpu, view, size, layout, rows, hud.word, picture, diamonds)
+        items += object_tags(self, gpu, view, size, layout, rows, hud.tags, picture)
         if alpha < 1.0:
             rows = [(*row[:11], row[11] * alpha) for row in rows]
             items, key_items, diamonds, key_diamonds = (
@@ -363,59 +314,12 @@ class Hud:
         self.cover = HudCover.of(title_rect, rows, items + diamonds + key_items + key_diamonds)
         d.ctx.disable(moderngl.BLEND)
 
-    def key_entries(
-        self, gpu: GpuMesh, view: ViewState, hud: HudInfo, ct, size: tuple[int, int]
-    ) -> list[KeyEntry]:
-        """The key's entries for this frame: only the kinds of mark it has, in KEY_WORDS'
-        order, in the language on screen; none when ``hud.words`` carry no key (a figure
-        rendered for the paper). The Lemma 2 discs and the outlines come with every solid
-        surface (the kiosk always draws them), the slice when the view slices the surfaces
-        within their extent, a labelled marker's entry while the marker is on the screen, the
-        axes' while the mesh has axis lines ("x axis": curves named for an axis)."""
-        shown = dict(hud.words)
-        if not any(word in shown for word in KEY_WORDS):
-            return []
-        mesh = gpu.mesh
-        solid = [s for s in mesh.surfaces if s.material.style != "wire"]
-        out: list[KeyEntry] = []
-
-        def add(english, shape, colors, objects, words=None):
-            if objects and (english in shown or words is not None):
-                text = hud.word(english) if words is None else words
-                out.append(KeyEntry(english, text, shape, tuple(colors), tuple(objects)))
-
-        if solid:
-            add(PINCH_KEY, "disc", [PINCH_COLOR], ["pinch points"])
-        width, height = size
-        kinds: dict[str, list] = {}
-        for m in mesh.markers:
-            if not m.label:
-                continue
-            pixels, ok = ct.to_pixels(m.position[None], width, height)
-            x, y = pixels[0]
-            if bool(ok[0]) and 0 <= x < width and 0 <= y < height:
-                kinds.setdefault(m.label.partition(", ")[0], []).append(m)
-        for english, markers in kinds.items():
-            words = hud.word(english) if english in shown or english == CONTACT_KEY else english
-            add(english, "diamond", [markers[0].material.color], [m.name for m in markers], words)
-        if solid:
-            add(OUTLINE_KEY, "ink", [solid[0].material.color], ["outline"])
-        slices = [c.name for c in mesh.curves if c.material.color == SLICE_MATERIAL.color]
-        if view.slice_axis is not None and any(
-            _spans(s.positions[:, view.slice_axis], view.slice_at) for s in solid
-        ):
-            slices.insert(0, "slice")
-        add(SLICE_KEY, "slice", [SLICE_MATERIAL.color], slices)
-        axes = [c for c in mesh.curves if c.name.endswith(" axis")]
-        add(AXES_KEY, "axes", [c.material.color for c in axes], [c.name for c in axes])
-        return out
-
     def _gizmo(
         self, view, axes, layout: HudLayout, rows: list, axes_label: str = "4D axes"
     ) -> list[tuple]:
         """Where the scene's x, y, z, w axes point on screen; the end disc grows for an axis
         pointing towards the sensor (out of the 3D image, into the 4th dimension). Returns its
-        capsules; its letters (placed apart: exhibit.render.layout.gizmo_labels) go to
+        capsules; its letters (placed apart: exhibit.render.gizmo_layout.gizmo_labels) go to
         ``rows``, and to ``gizmo_labels`` for checks."""
         body = layout.body_px
         radius = layout.gizmo_radius
@@ -443,100 +347,6 @@ class Hud:
         )
         return items
 
-    def _marker_labels(
-        self,
-        gpu,
-        view,
-        size,
-        layout: HudLayout,
-        rows: list,
-        word=lambda english: english,
-        picture: Rect | None = None,
-        diamonds: list | None = None,
-    ) -> list[tuple]:
-        """Labelled markers above the surfaces, labels placed on screen and off the panels;
-        ``word`` translates their words (HudInfo.word). Returns the leaders' capsules; the
-        markers' diamonds go to ``diamonds`` (a, a, rgba, tip-to-tip width)."""
-        if diamonds is None:
-            diamonds = []
-        self.labels = []
-        markers = [m for m in gpu.mesh.markers if m.label]
-        if not markers:
-            return []
-        width, height = size
-        ct = self.pipeline.clip_transform(view, size)
-        positions = np.array([m.position for m in markers])
-        pixels, ok = ct.to_pixels(positions, width, height)
-        behind = hidden(positions, gpu.mesh.surfaces, ct)
-        body = layout.body_px
-        scale = height / 720.0
-        taken = [p.grow(0.3 * body) for p in layout.panels]
-        items: list[tuple] = []
-        for m, (x, y), visible, covered in zip(markers, pixels, ok, behind):
-            if not visible:
-                continue
-            color = (*m.material.color, 1.0)
-            tips = marker_diamond(scale)
-            text = marker_text(m.label, word)
-            label = place_beside(text, (x, y), body, layout, taken, picture)
-            taken.append(label.grow(0.3 * body))
-            # The leader: from the point to the label's nearest edge, when not right beside it.
-            nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
-            if covered or math.hypot(nx - x, ny - y) > 0.9 * body:
-                items.append(((x, y), (nx, ny), HALO, max(4.0, 5.0 * scale)))
-                items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
-            # a dark rim about 2 px wide along its edges (tip to tip: 2 x 2 x sqrt 2 more)
-            diamonds.append(((x, y), (x, y), HALO, tips + max(5.6, 5.6 * scale)))
-            diamonds.append(((x, y), (x, y), color, tips))
-            if covered:  # behind a sheet: hollow, the halo showing through its middle
-                diamonds.append(((x, y), (x, y), HALO, 0.5 * tips))
-            self._halo_text(
-                "marker label", text, "bold", body, label.x0 + 0.25 * body, label.y0, color, rows
-            )
-            self.labels.append((text, label, (float(x), float(y)), bool(covered)))
-        return items
-
-    def _object_tags(
-        self, gpu, view, size, layout: HudLayout, rows: list, tags, picture: Rect | None
-    ) -> list[tuple]:
-        """A short label for each object a caption names (``tags``: (object name, or the
-        start of names, words in the language on screen)): words, not colour alone. The tag
-        sits off the panels and, where there is room, off the picture, with a leader line to
-        a point of the object that is in front (exhibit.render.object_tags)."""
-        self.tags, self.tag_objects = [], []
-        if not tags:
-            return []
-        width, height = size
-        ct = self.pipeline.clip_transform(view, size)
-        body = layout.body_px
-        scale = height / 720.0
-        taken = [p.grow(0.3 * body) for p in layout.panels] + [
-            rect.grow(0.3 * body) for _, rect, _, _ in self.labels
-        ]
-        items: list[tuple] = []
-        for name, words in tags:
-            anchor = self._anchors.anchor(gpu, name, ct, size, taken)
-            if anchor is None:
-                continue
-            (x, y), rgb, covered = anchor
-            color = (*legible(rgb), 1.0)
-            label = place_beside(words, (x, y), body, layout, taken, picture)
-            taken.append(label.grow(0.3 * body))
-            nx, ny = min(max(x, label.x0), label.x1), min(max(y, label.y0), label.y1)
-            items.append(((x, y), (nx, ny), HALO, max(4.0, 5.0 * scale)))
-            items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
-            dot = max(7.0, 8.0 * scale)
-            items.append(((x, y), (x, y), HALO, dot + max(4.0, 4.0 * scale)))
-            items.append(((x, y), (x, y), color, dot))
-            if covered:
-                items.append(((x, y), (x, y), HALO, 0.5 * dot))
-            self._halo_text(
-                "object tag", words, "bold", body, label.x0 + 0.25 * body, label.y0, INK, rows
-            )
-            self.tags.append((words, label, (float(x), float(y)), bool(covered)))
-            self.tag_objects.append(name)
-        return items
-
     def _text(self, kind, text, style, px, x, y, color, rows) -> None:
         """One line of glyphs in ``color`` (none when ``ink`` is off), kept in ``texts``."""
         if self.ink:
@@ -556,64 +366,6 @@ class Hud:
                 texture.release()
         self._blocks.clear()
         self._layouts.clear()
-
-
-def marker_diamond(scale: float) -> float:
-    """A labelled marker's diamond, tip to tip in pixels (``scale``: the screen height / 720):
-    as much area as the disc it was (11 px across at 720 lines), so it covers the picture's
-    own disc of the marker (exhibit.render.gpu.MARKER_SCALE) with its halo."""
-    return max(13.0, 15.5 * scale)
-
-
-def _spans(values: np.ndarray, at: float) -> bool:
-    """Whether ``at`` lies within the range of ``values`` (a surface's coordinates along the
-    slicing axis): the slice of the surface there is not empty."""
-    return bool(len(values)) and float(values.min()) <= at <= float(values.max())
-
-
-def key_swatch_items(
-    entry: KeyEntry, centre: tuple[float, float], body: int, diamonds: list
-) -> list[tuple]:
-    """The capsules of a key entry's swatch, centred on ``centre`` (within key_swatch(body)):
-    the mark's shape and colour as the picture draws it. A diamond goes to ``diamonds``."""
-    cx, cy = centre
-    reach = 0.42 * body  # half the swatch's length
-    rgb = entry.colors
-    if entry.shape == "disc":  # a Lemma 2 point, yellow, on a dark rim
-        return [
-            (centre, centre, HALO, 0.62 * body + 3.0),
-            (centre, centre, (*rgb[0], 1.0), 0.62 * body),
-        ]
-    if entry.shape == "diamond":  # a labelled marker, as drawn over the picture
-        diamonds.append((centre, centre, HALO, 0.95 * body + 4.0))
-        diamonds.append((centre, centre, (*rgb[0], 1.0), 0.95 * body))
-        return []
-    if entry.shape == "ink":  # a dark outline along a patch of the surface it bounds
-        from exhibit.render.passes.silhouettes import darker
-
-        a, b = (cx - 0.3 * reach, cy), (cx + 0.3 * reach, cy)
-        return [
-            (a, b, (*rgb[0], 1.0), 0.62 * body),
-            (
-                (a[0], cy + 0.1 * body),
-                (b[0], cy + 0.1 * body),
-                (*darker(rgb[0]), 1.0),
-                max(2.0, 0.12 * body),
-            ),
-        ]
-    if entry.shape == "slice":  # the bright, wide slice line
-        a, b = (cx - reach, cy + 0.3 * reach), (cx + reach, cy - 0.3 * reach)
-        return [
-            (a, b, HALO, max(3.0, 0.2 * body) + 3.0),
-            (a, b, (*rgb[0], 1.0), max(3.0, 0.2 * body)),
-        ]
-    # axis lines: one short line per axis, in its colour, crossing like the gizmo's
-    out = []
-    for i, color in enumerate(rgb[:4]):
-        angle = math.pi * i / max(len(rgb[:4]), 1)
-        ux, uy = math.cos(angle) * reach, math.sin(angle) * reach
-        out.append(((cx - ux, cy - uy), (cx + ux, cy + uy), (*color, 1.0), max(2.0, 0.1 * body)))
-    return out
 
 
 def halo_rows(
@@ -638,72 +390,3 @@ def halo_rows(
             (x + dx, y - reach, halo.width, halo.height, halo.u, halo.v, halo.width, halo.height)
             + (r, g, b, 1.0)
         )
-
-
-def marker_text(label: str, word: Callable[[str], str]) -> str:
-    """A marker's label in the language on screen: labels are words, then a formula after a
-    comma ("first contact, t = 0.123", exhibit.scenes.collision); ``word`` translates the
-    words, the formula reads the same in every language."""
-    words, comma, formula = label.partition(", ")
-    return word(words) + comma + formula
-
-
-def place_beside(
-    text: str,
-    point: tuple[float, float],
-    px: int,
-    layout: HudLayout,
-    taken: list[Rect],
-    picture: Rect | None,
-) -> Rect:
-    """:func:`place_label` off the ``picture`` too, where there is room for it; else on the
-    picture (it fills the screen), still off everything in ``taken``."""
-    if picture is None:
-        return place_label(text, point, px, layout, taken)
-    label = place_label(text, point, px, layout, [*taken, picture])
-    if any(label.overlaps(t) for t in (*taken, picture)):
-        label = place_label(text, point, px, layout, taken)
-    return label
-
-
-def place_label(
-    text: str, point: tuple[float, float], px: int, layout: HudLayout, taken: list[Rect]
-) -> Rect:
-    """Where a marker's label goes: the first of a few places around the point, nearest first,
-    that lies on the screen (inside the margin) and clear of every rectangle in ``taken``
-    (panels, other labels); else the place in the free area nearest the point."""
-    width, height = layout.size
-    w = text_width(text, "bold", px) + 0.5 * px
-    h = line_height("bold", px)
-    x, y = point
-    screen = Rect(layout.margin, layout.margin, width - layout.margin, height - layout.margin)
-    candidates = []
-    for d in (0.6, 2.0, 4.0, 7.0):
-        gap = d * px
-        candidates += [
-            (x + gap, y - h - 0.3 * gap),
-            (x + gap, y + 0.3 * gap),
-            (x - gap - w, y - h - 0.3 * gap),
-            (x - gap - w, y + 0.3 * gap),
-            (x - w / 2, y - h - gap),
-            (x - w / 2, y + gap),
-        ]
-    for cx, cy in candidates:
-        rect = Rect(cx, cy, cx + w, cy + h)
-        if screen.contains(rect) and not any(rect.overlaps(t) for t in taken):
-            return rect
-    # Everything near is taken: the nearest spot of the largest free rectangles.
-    best, best_d = None, math.inf
-    for area in free_rectangles(layout.size, taken, layout.margin / 2):
-        if area.width < w or area.height < h:
-            continue
-        cx = min(max(x - w / 2, area.x0), area.x1 - w)
-        cy = min(max(y - h / 2, area.y0), area.y1 - h)
-        d = math.hypot(cx + w / 2 - x, cy + h / 2 - y)
-        if d < best_d:
-            best, best_d = Rect(cx, cy, cx + w, cy + h), d
-    if best is not None:
-        return best
-    cx = min(max(x, screen.x0), screen.x1 - w)
-    cy = min(max(y, screen.y0), screen.y1 - h)
-    return Rect(cx, cy, cx + w, cy + h)

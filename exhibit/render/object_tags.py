@@ -12,6 +12,7 @@ while the view turns and the occlusion test costs little per frame.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -32,8 +33,22 @@ Anchor = tuple[tuple[float, float], tuple[float, float, float], bool]
 #: the occlusion test looks at.
 SAMPLE = 300
 CANDIDATES = 6
-#: A kept anchor is tested for being in front again every this many frames.
+#: ... and how many more when none of those is in front.
+MORE_CANDIDATES = 24
+#: A candidate's neighbours on the screen (pixels at 720 lines) must be in front too.
+NEIGHBOURS_PX = 12.0
+#: Two tags for different objects end at least this far apart, in pixels of a 720-line screen
+#: (two leaders ending where two rings meet tell a visitor nothing; `--verify` checks it).
+TAGS_APART = 24.0
+#: The outermost share of an object's points left out of the candidates: its rim.
+RIM = 0.15
+#: A kept anchor is tested for being in front again every this many frames, or as soon as the
+#: view has moved it this many pixels (at 720 lines) since it was last tested.
+MOVED_PX = 8.0
 CHECK_FRAMES = 8
+#: ... which is about this long at the kiosk's frame rate (a review drawing fewer frames a
+#: second checks as often in time: TagAnchors.pace).
+CHECK_S = 0.25
 
 
 def _parts(mesh, name: str):
@@ -72,7 +87,13 @@ class TagAnchors:
 
     def __init__(self) -> None:
         self._frame = 0
+        self.check_frames = CHECK_FRAMES
         self._last_ct: ClipTransform | None = None
+
+    def pace(self, fps: float) -> None:
+        """Frames drawn ``fps`` a second: check kept anchors every CHECK_S seconds (a review
+        at 5 fps checks every frame, as the kiosk does within a quarter second)."""
+        self.check_frames = max(1, min(CHECK_FRAMES, round(CHECK_S * fps)))
 
     def tick(self, ct: ClipTransform) -> None:
         """Once a frame. A view drawn again (a crossfade's capture, a check's redraw) is not
@@ -88,10 +109,13 @@ class TagAnchors:
         ct: ClipTransform,
         size: tuple[int, int],
         panels: Sequence[Rect] = (),
+        avoid: Sequence[tuple[float, float]] = (),
+        apart: float = 0.0,
     ) -> Anchor | None:
         """((x, y) pixels, rgb, hidden) for the object ``name`` in this frame, None when no
         part of it is on the screen off the ``panels`` (a leader from under a panel would cross
-        its words)."""
+        its words); where it can, at least ``apart`` pixels from the points ``avoid`` (other
+        objects' tags)."""
         entry = gpu.tag_anchors.get(name)
         if entry is None:
             surfaces, curves, markers = _parts(gpu.mesh, name)
@@ -104,19 +128,22 @@ class TagAnchors:
             entry = gpu.tag_anchors[name] = {
                 "points": _sample(np.concatenate(arrays), SAMPLE),
                 "rgb": tuple(float(c) for c in first.material.color),
-                "kept": None,  # (4D point, the frame it was chosen or checked)
+                "kept": None,  # (4D point, the frame it was chosen or tested, its pixel then)
             }
         points, rgb = entry["points"], entry["rgb"]
         width, height = size
         kept = entry["kept"]
         if kept is not None:
-            point, since = kept
+            point, since, (cx, cy) = kept
             (x, y), ok = (v[0] for v in ct.to_pixels(point[None], width, height))
             on_screen = ok and 0 <= x < width and 0 <= y < height
             on_screen = on_screen and not any(_inside(x, y, p) for p in panels)
-            if on_screen and (self._frame - since) % CHECK_FRAMES:
+            on_screen = on_screen and all(math.hypot(x - u, y - v) >= apart for u, v in avoid)
+            still = math.hypot(x - cx, y - cy) < MOVED_PX * height / 720.0
+            if on_screen and still and (self._frame - since) % self.check_frames:
                 return (float(x), float(y)), rgb, False
             if on_screen and not hidden(point[None], gpu.mesh.surfaces, ct)[0]:
+                entry["kept"] = (point, self._frame, (x, y))
                 return (float(x), float(y)), rgb, False
         pixels, ok = ct.to_pixels(points, width, height)
         ok &= (pixels[:, 0] >= 0) & (pixels[:, 0] < width)
@@ -132,12 +159,37 @@ class TagAnchors:
             entry["kept"] = None
             return None
         on = np.flatnonzero(ok)
+        for x, y in avoid:  # another object's tag ends there: two leaders a visitor can tell
+            far = np.hypot(pixels[on, 0] - x, pixels[on, 1] - y) >= apart
+            on = on[far] if far.any() else on
         centre = pixels[on].mean(axis=0)
         order = on[np.argsort(-np.linalg.norm(pixels[on] - centre, axis=1))]
+        # Outer points first, so the tag can sit outside the object, but off its very rim,
+        # where the outline is drawn over it and the eye grazes it.
+        order = order[int(RIM * len(order)) :] if len(order) > 4 else order
+        reach = NEIGHBOURS_PX * height / 720.0
+
+        def in_front(candidates: np.ndarray) -> np.ndarray:
+            """Those candidates in front whose nearest sampled neighbours on the screen are
+            in front too: inside what shows of the object, not on the edge of what hides it."""
+            out = []
+            for k in np.flatnonzero(~hidden(points[candidates], gpu.mesh.surfaces, ct)):
+                d = np.hypot(*(pixels[on] - pixels[candidates[k]]).T)
+                near = on[(d > 0) & (d < reach)][:2]
+                if not len(near) or not hidden(points[near], gpu.mesh.surfaces, ct).any():
+                    out.append(k)
+            return np.array(out, dtype=int)
+
         candidates = order[:: max(1, len(order) // (4 * CANDIDATES))][:CANDIDATES]
-        covered = hidden(points[candidates], gpu.mesh.surfaces, ct)
-        front = np.flatnonzero(~covered)
-        pick = candidates[front[0]] if len(front) else candidates[0]
-        entry["kept"] = (points[pick], self._frame)
+        front = in_front(candidates)
+        if not len(front):  # a thin curve mostly behind: look further before giving up
+            more = order[:: max(1, len(order) // (4 * MORE_CANDIDATES))][:MORE_CANDIDATES]
+            front = in_front(more)
+            candidates = more
+        if not len(front):  # no point in front: no tag (a leader must end on its object)
+            entry["kept"] = None
+            return None
+        pick = candidates[front[0]]
         x, y = pixels[pick]
-        return (float(x), float(y)), rgb, not len(front)
+        entry["kept"] = (points[pick], self._frame, (x, y))
+        return (float(x), float(y)), rgb, False

@@ -115,6 +115,7 @@ def measure(
             continue
         gpu, view = shown
         hud = player.headless.renderer.hud
+        hud.anchors.pace(fps)
         if ids is None:
             ids = player.headless.renderer.ids
             player.headless.activate()
@@ -125,20 +126,22 @@ def measure(
         covered = hud.cover.mask(screen, size)
         coverage = ids.objects(gpu, view, size, covered=covered, image=image)
         pixels = dict(coverage.pixels)
+        whole = ids.objects(gpu, view, size, image=image).pixels
         # a labelled marker's disc is drawn by the HUD: there the HUD is the object, not a cover
-        drawn = {m.name for m in gpu.mesh.markers if m.label}
-        if drawn:
-            whole = ids.objects(gpu, view, size, image=image).pixels
-            pixels.update({n: whole[n] for n in drawn})
+        pixels.update({m.name: whole[m.name] for m in gpu.mesh.markers if m.label})
         footprint = ids.footprints(gpu, view, size, surfaces=surfaces) if named else {}
         centres = object_centres(image, covered, objects)
-        samples[frame.t] = Sample(frame.t, view, pixels, coverage.size, objects, footprint, centres)
+        samples[frame.t] = Sample(
+            frame.t, view, pixels, coverage.size, objects, footprint, whole, centres
+        )
         panels = hud.layout.panels if hud.layout is not None else []
         tagged = {o for n in hud.tag_objects for o in matching(n, objects)}
         explained = {o for n in getattr(hud, "explained", ()) for o in matching(n, objects)}
-        words[frame.t] = FrameWords(
-            frozenset(tagged | explained), tag_faults(hud, image, objects, screen, panels)
-        )
+        # Mid-crossfade (reduced motion's steps, a cut) the screen blends two pictures and the
+        # tags fade with them: they are held to the settled frames.
+        fading = player.kiosk._fade(player.clock()) > 0.0
+        faults = () if fading else tag_faults(hud, image, objects, screen, panels)
+        words[frame.t] = FrameWords(frozenset(tagged | explained), faults)
     return samples, words
 
 

@@ -19,10 +19,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from exhibit.render.layout import Rect
+from exhibit.render.leaders import crosses as _crosses
+from exhibit.render.leaders import leader as _leader
+from exhibit.render.object_tags import TAGS_APART
 from exhibit.timelines.claims.base import matching, time_spans
 
-#: Two tags for different objects end at least this far apart, in pixels of a 720-line screen.
-NEAR_PX = 24.0
+#: Two tags for different objects end at least this far apart, in pixels of a 720-line screen
+#: (the HUD keeps them so: exhibit.render.object_tags).
+NEAR_PX = TAGS_APART
 #: A leader ends on its object when the object shows under the dot drawn at its end: within
 #: this many pixels (at 720 lines: the dot's radius), and one pixel of the id pass (read at a
 #: lower resolution, where an outline drawn over the object's rim is relatively wider).
@@ -97,15 +101,6 @@ def tag_problems(head: str, times: list[float], faults: Sequence[Sequence[TagFau
     return out
 
 
-Segment = tuple[tuple[float, float], tuple[float, float]]
-
-
-def _leader(point: tuple[float, float], rect: Rect) -> Segment:
-    """The leader as the HUD draws it: from the point to the label's nearest edge."""
-    x, y = point
-    return (x, y), (min(max(x, rect.x0), rect.x1), min(max(y, rect.y0), rect.y1))
-
-
 def _obstacles(hud, panels: list[Rect], i: int, tags) -> list[tuple[str, Rect]]:
     """What tag ``i`` must keep off: the panels and every piece of text but its own words."""
     own = tags[i][0]
@@ -117,23 +112,3 @@ def _obstacles(hud, panels: list[Rect], i: int, tags) -> list[tuple[str, Rect]]:
             continue  # the tags and panels are held to their own rectangles
         out.append((f"the words {mark.text!r} ({mark.kind})", mark.rect))
     return out
-
-
-def _crosses(segment: Segment, rect: Rect) -> bool:
-    """Whether the segment passes through the rectangle's inside (Liang-Barsky clipping)."""
-    (x0, y0), (x1, y1) = segment
-    dx, dy = x1 - x0, y1 - y0
-    lo, hi = 0.0, 1.0
-    for p, q in ((-dx, x0 - rect.x0), (dx, rect.x1 - x0), (-dy, y0 - rect.y0), (dy, rect.y1 - y0)):
-        if p == 0:
-            if q <= 0:
-                return False
-            continue
-        u = q / p
-        if p < 0:
-            lo = max(lo, u)
-        else:
-            hi = min(hi, u)
-        if lo >= hi:
-            return False
-    return hi - lo > 1e-9

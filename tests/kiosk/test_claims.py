@@ -175,8 +175,8 @@ def test_the_shipped_timelines_hold_their_claims_everywhere(path, language, redu
 
 
 def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
-    """01-hypersphere's first caption names three doughnuts: in German their tags say so in
-    German, and the key under the numbers too; the next caption tags only green and red."""
+    """01-hypersphere's captions name three doughnuts and two circles: in German their tags
+    say so in German, and the key under the numbers too (every mark on screen is named)."""
     from exhibit.review.player import KioskPlayer
 
     path = shipped("configs", "attract", "01-hypersphere.toml")
@@ -186,9 +186,9 @@ def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
         keys = [t.text for t in headless.renderer.hud.texts if t.kind == "key"]
         player.run_to(10.0, FPS)
         second = [words for words, *_ in headless.renderer.hud.tags]
-    assert first == ["grüner Donut", "weißer Donut", "roter Donut"]
-    assert keys == ["Zwickelpunkt des 3D-Bildes (Lemma 2)"]
-    assert second == ["grüner Donut", "roter Donut"]
+    tagged = ["grüner Donut", "weißer Donut", "roter Donut", "Kreis", "Kreis"]
+    assert first == tagged and second == tagged
+    assert keys == ["Zwickelpunkt", "Umriss", "Achsen"]
 
 
 def test_tags_keep_off_the_panels_when_the_picture_fills_the_world(headless):

@@ -135,7 +135,7 @@ def test_tags_cross_no_panel_no_words_no_other_tag_and_keep_apart():
     [
         (frozenset(), (), (), ["'wire pipe'", "'outline'"]),
         (frozenset({"outline"}), ("wire pipe",), (), []),  # the key names outlines
-        (frozenset(), (), (Grows(("wire",)),), ["'outline'"]),  # a claim names the pipe
+        (frozenset(), (), (Grows(("wire pipe",)),), ["'outline'"]),  # a claim names the pipe
     ],
 )
 def test_every_mark_a_visitor_notices_is_named_by_some_word(named, labels, claims, found):

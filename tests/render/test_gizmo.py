@@ -11,7 +11,8 @@ from hypothesis import strategies as st
 from exhibit import scenes
 from exhibit.geometry.view import ViewState
 from exhibit.render import HudInfo, RenderOptions
-from exhibit.render.layout import gizmo_caption_rect, gizmo_labels, gizmo_tips, hud_layout
+from exhibit.render.gizmo_layout import gizmo_caption_rect, gizmo_labels, gizmo_tips
+from exhibit.render.layout import hud_layout
 from exhibit.surfaces.mesh import Mesh4D
 from tests.hypothesis_profiles import examples
 

@@ -7,7 +7,7 @@ import numpy as np
 
 from exhibit.geometry.view import ViewState
 from exhibit.render import HudInfo, RenderOptions
-from exhibit.render.hud import marker_text
+from exhibit.render.label_places import marker_text
 from exhibit.render.layout import TextSizes, hud_layout, status_lines
 from exhibit.render.text import text_width
 from exhibit.surfaces.mesh import Marker, Mesh4D

@@ -26,7 +26,7 @@ import numpy as np
 from exhibit.geometry.view import ViewState
 from exhibit.render import shaders
 from exhibit.render.gpu import LINE_BIAS, SLICE_WIDTH, GpuSurface, silhouette_key
-from exhibit.render.hud import PINCH_COLOR
+from exhibit.render.marks import PINCH_COLOR, darker
 from exhibit.render.passes.shared import (
     BLEND_OVER,
     FrameInputs,
@@ -38,12 +38,6 @@ from exhibit.surfaces.slice import SLICE_MATERIAL
 
 #: The slice curve drawn live: the slice's colour (its width: gpu.SLICE_WIDTH).
 SLICE_COLOR = SLICE_MATERIAL.color
-
-
-def darker(color: tuple[float, float, float], factor: float = 0.32) -> tuple[float, float, float]:
-    """A surface's outline ink: its colour, darker."""
-    r, g, b = color
-    return (float(r) * factor, float(g) * factor, float(b) * factor)
 
 
 class _SilhouettePass:

@@ -70,6 +70,9 @@ class Sample:
     objects: tuple[str, ...] = ()
     #: pixels of the objects a claim asks footprints of with nothing in front of them
     footprint: Mapping[str, int] = field(default_factory=dict)
+    #: per object name, the pixels where it is in front, under the HUD too (what growth is
+    #: measured on: a tag moving over an object does not shrink it); empty: as ``pixels``
+    drawn: Mapping[str, int] = field(default_factory=dict)
     #: per object name, the centre of its pixels as seen, as fractions of the screen's width
     #: and height from its top-left corner (where a description says it is)
     centres: Mapping[str, tuple[float, float]] = field(default_factory=dict)
@@ -126,9 +129,15 @@ class Seen:
             sum(w * c[1] for w, c in parts) / total,
         )
 
+    def size(self, name: str, sample: Sample) -> int:
+        """Pixels of the objects ``name`` stands for in front, whatever of the HUD lies over
+        them (Sample.drawn): how big they are drawn, for growth."""
+        drawn = sample.drawn or sample.pixels
+        return sum(drawn.get(n, 0) for n in self.matched[name])
+
     def growth(self, name: str) -> float:
-        """Their area at the caption's end against its start (inf from nothing, 1 for none)."""
-        a, b = self.area(name, self.samples[0]), self.area(name, self.samples[-1])
+        """Their size at the caption's end against its start (inf from nothing, 1 for none)."""
+        a, b = self.size(name, self.samples[0]), self.size(name, self.samples[-1])
         return (b / a) if a else (math.inf if b else 1.0)
 
     @property
@@ -209,13 +218,13 @@ def growth_problems(
             continue
         g = seen.growth(name)
         if not (g >= GROWTH if sign > 0 else g <= 1.0 / GROWTH):
-            a, b = seen.area(name, first), seen.area(name, last)
+            a, b = seen.size(name, first), seen.size(name, last)
             out.append(
                 f"{seen.head}: {key} {name}: its area on screen went from {a} to {b} px "
                 f"(x{g:.2f}, {seen.span}), not {wanted}"
             )
             continue
-        areas = [sign * seen.area(name, s) for s in seen.samples]
+        areas = [sign * seen.size(name, s) for s in seen.samples]
         best, back = areas[0], []
         for j, x in enumerate(areas):
             best = max(best, x)
