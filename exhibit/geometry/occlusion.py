@@ -21,11 +21,13 @@ import numpy as np
 
 from exhibit.geometry.pipeline import ClipTransform
 
-#: A point this close behind a triangle through it counts as on it, not behind it: a share of
-#: the surface's depth range in NDC (a curve on a surface lies a chord's sag off its triangles).
-#: A share, not an NDC distance: with a distant sensor the whole scene may lie within 0.02 of
-#: NDC depth, where a fixed 2e-3 let a doughnut's tag end on the doughnut in front of it.
+#: A point this close in NDC depth behind a triangle through it counts as on it, not behind it
+#: (a marker or curve on a surface lies a chord's sag off its triangles).
 DEPTH_TOLERANCE = 2e-3
+#: For points that are vertices of the surfaces (no sag): this share of the surface's NDC depth
+#: range instead, where less. With a distant sensor a whole scene may lie within 0.02 of NDC
+#: depth, where 2e-3 let a doughnut's tag end on the doughnut in front of it.
+VERTEX_SHARE = 1e-2
 
 
 class Triangles(Protocol):
@@ -38,10 +40,17 @@ class Triangles(Protocol):
     def triangles(self) -> np.ndarray: ...
 
 
-def hidden(points: np.ndarray, surfaces: Iterable[Triangles], ct: ClipTransform) -> np.ndarray:
+def hidden(
+    points: np.ndarray,
+    surfaces: Iterable[Triangles],
+    ct: ClipTransform,
+    vertices: bool = False,
+) -> np.ndarray:
     """For each 4D point (n, 4), whether some triangle of ``surfaces`` (objects with
     ``positions`` (m, 4) and ``triangles`` (k, 3)) covers it nearer to the eye. Points that are
-    themselves clipped or behind a centre count as not hidden (they are not drawn at all)."""
+    themselves clipped or behind a centre count as not hidden (they are not drawn at all).
+    ``vertices``: the points are vertices of the surfaces (a tag's anchor), so the tolerance
+    can be tighter (VERTEX_SHARE)."""
     points = np.asarray(points, dtype=float).reshape(-1, 4)
     out = np.zeros(len(points), dtype=bool)
     if not len(points):
@@ -59,7 +68,8 @@ def hidden(points: np.ndarray, surfaces: Iterable[Triangles], ct: ClipTransform)
         front = vc[:, 3] > 0
         v = vc[:, :3] / np.where(front, vc[:, 3], 1.0)[:, None]
         depths = v[front, 2]
-        tolerance = DEPTH_TOLERANCE * float(np.ptp(depths)) if len(depths) else 0.0
+        spread = float(np.ptp(depths)) if len(depths) else 0.0
+        tolerance = min(DEPTH_TOLERANCE, VERTEX_SHARE * spread) if vertices else DEPTH_TOLERANCE
         for i in np.flatnonzero(valid & ~out):
             x, y, z = p[i]
             # Vertex-level sides first (cheap): a triangle can cover the point only if its

@@ -34,7 +34,7 @@ import numpy as np
 
 from exhibit.geometry.view import ViewState
 from exhibit.render.gpu import GpuMesh
-from exhibit.render.hud_cover import HudCover
+from exhibit.render.hud_cover import OPAQUE, HudCover
 from exhibit.render.gizmo_layout import gizmo_caption_rect, gizmo_labels, gizmo_tips
 from exhibit.render.hud_draw import HudDrawing
 from exhibit.render.hud_labels import marker_labels, object_tags
@@ -233,7 +233,7 @@ class Hud:
             block = layout.title_block
             assert block is not None  # a texture means lines, and lines a title block
             x, y = round(block.x0 + dx), round(block.y0 + dy)
-            title_rect = Rect(x, y, x + block_w, y + block_h)
+            title_rect = Rect(x, y, x + block_w, y + block_h) if alpha >= OPAQUE else None
             if self.ink:
                 d.quads(
                     "image",

@@ -18,6 +18,9 @@ from exhibit.render.layout import Rect
 #: A line or disc as the overlay draws it: end points in pixels (x right, y down) and its
 #: full width (a disc: both ends the same point, the width its diameter).
 Capsule = tuple[tuple[float, float], tuple[float, float], float]
+#: What is drawn at least this opaque hides the picture behind it (a word fading in or out
+#: over a crossfade does not, yet).
+OPAQUE = 0.5
 #: The overlay's lines and discs fade out over about a pixel beyond their width.
 EDGE_PX = 1.0
 
@@ -34,10 +37,10 @@ class HudCover:
     def of(cls, title: Rect | None, rows: Sequence[tuple], items: Sequence[tuple]) -> HudCover:
         """From what Hud.draw handed the GPU: the title panel's rectangle, the glyph and panel
         quads ``rows`` (x, y, w, h, ...) and the overlay ``items`` (a, b, rgba, width); what is
-        drawn fully transparent covers nothing."""
+        drawn less than half opaque (a crossfade's fading words) covers nothing."""
         rects = [title] if title is not None else []
-        rects += [Rect(r[0], r[1], r[0] + r[2], r[1] + r[3]) for r in rows if r[11] > 0]
-        capsules = [(a, b, float(w)) for a, b, rgba, w in items if rgba[3] > 0]
+        rects += [Rect(r[0], r[1], r[0] + r[2], r[1] + r[3]) for r in rows if r[11] >= OPAQUE]
+        capsules = [(a, b, float(w)) for a, b, rgba, w in items if rgba[3] >= OPAQUE]
         return cls(tuple(rects), tuple(capsules))
 
     def mask(self, screen: tuple[int, int], size: tuple[int, int]) -> np.ndarray:

@@ -80,13 +80,16 @@ def tag_faults(
 
 def tag_problems(head: str, times: list[float], faults: Sequence[Sequence[TagFault]]) -> list[str]:
     """One line per tag fault found in a caption's frames (``faults[j]``: those of the frame at
-    ``times[j]``), with when."""
+    ``times[j]``), with when; a fault in no two samples in a row is left out (a kept anchor is
+    re-tested every quarter second, so a tag may lag its object that long)."""
     when: dict[TagFault, list[int]] = {}
     for j, frame in enumerate(faults):
         for fault in frame:
             when.setdefault(fault, []).append(j)
     out = []
     for fault, frames in when.items():
+        if not any(b == a + 1 for a, b in zip(frames, frames[1:])):
+            continue  # one sample at a time: the anchor's re-test lag (object_tags.CHECK_S)
         at = f"at t = {time_spans(times, frames)}"
         if fault.kind == "off its object":
             what = f"its leader ends off {fault.what!r} (the id pass has none of it there)"

@@ -204,8 +204,8 @@ def test_unknown_keyframe_keys_list_while_as_written(tmp_path):
 #: A caption about one pose ("in the plane ...") left on screen while the view turns away: the
 #: shipped 02-offset-parabola.toml as it was, with the condition its first caption states.
 PLANE = (
-    "In the plane, the points at distance 1 from a parabola form a curve with corners and a "
-    "loop; in 4D, this smooth tube."
+    "Lifted into 4D, the points at distance 1 from a parabola form this smooth tube; its red "
+    "outline is their offset curve."
 )
 PLANE_CAPTION = """
 scene = "offset-parabola"
@@ -219,7 +219,7 @@ while = { angles_within = 5 }
 [[keyframe]]
 t = 10
 angles = [60, -40, -30, 0, 0, 0]
-caption = "In 4D the red curve is the smooth outline of a tube – no corners, no loop."
+caption = "Now the tube turns in 4D."
 [[keyframe]]
 t = 20
 """.replace("{PLANE}", PLANE)
@@ -239,7 +239,7 @@ angles""",
         """[[keyframe]]
 t = 10
 eye = [4, -10]
-caption = "In 4D the red curve is the smooth outline of a tube – no corners, no loop."
+caption = "Now the tube turns in 4D."
 [[keyframe]]
 t = 16
 angles""",
@@ -295,9 +295,9 @@ def test_shipped_timelines_keep_their_captions_true():
     for caption, condition in stated.items():
         if "distance 2" in caption:
             assert condition.claim("sensor_distance").written == (1.9, 2.1)
-    # a caption about the plane view states that it holds only near that pose
+    # the caption about Figure 9's view (its outline is the offset curve) holds only near it
     parabola = next(t for t in timelines if t.scene == "offset-parabola")
-    plane = [k for k in parabola.keyframes if "in the plane" in k.caption.lower()]
+    plane = [k for k in parabola.keyframes if "offset curve" in k.caption.lower()]
     assert plane and all(
         k.condition and k.condition.claim("angles_within").degrees <= 5 for k in plane
     )

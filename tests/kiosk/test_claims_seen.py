@@ -124,6 +124,8 @@ def test_tags_cross_no_panel_no_words_no_other_tag_and_keep_apart():
     assert TagFault("disc", "crosses", "the words 'first contact' (marker label)") in faults
     assert TagFault("ring", "near", "disc") in faults
     assert not any(f.kind == "near" and f.words == "ring too" for f in faults)  # same object
+    # one sample at a time is the anchors' re-test lag, not a misplaced tag
+    assert tag_problems("f: keyframe 2", [1.0, 1.5, 2.0], [faults, (), faults]) == []
     lines = tag_problems("f: keyframe 2", [1.0, 1.5, 2.0], [faults, faults, ()])
     assert "f: keyframe 2: tag 'ring too': its words or leader cross a panel at t = 1.0..1.5 s" in (
         lines
