@@ -44,6 +44,9 @@ if TYPE_CHECKING:
 SAMPLE_S = 0.5
 #: The first sample is this long after the caption appears (the frame has settled).
 SETTLE_S = 0.25
+#: A frame in a crossfade whose outgoing picture is more opaque than this shows mostly the
+#: picture before: it is not measured (reduced motion's steps, a cut to a new caption).
+MOSTLY_BEFORE = 0.5
 #: Id frames are measured at this height, in the screen's aspect: shares of the screen are what
 #: the claims compare, and they hardly depend on the size.
 ID_HEIGHT = 360
@@ -111,8 +114,9 @@ def measure(
     size = id_size(screen)
     for frame in player.play(fps, times=times, progress=step):
         shown = player.kiosk.shown
-        if shown is None:
-            continue
+        fade = player.kiosk._fade(player.clock())
+        if shown is None or fade > MOSTLY_BEFORE:
+            continue  # the screen shows mostly the picture before this one
         gpu, view = shown
         hud = player.headless.renderer.hud
         hud.anchors.pace(fps)
@@ -139,8 +143,7 @@ def measure(
         explained = {o for n in getattr(hud, "explained", ()) for o in matching(n, objects)}
         # Mid-crossfade (reduced motion's steps, a cut) the screen blends two pictures and the
         # tags fade with them: they are held to the settled frames.
-        fading = player.kiosk._fade(player.clock()) > 0.0
-        faults = () if fading else tag_faults(hud, image, objects, screen, panels)
+        faults = () if fade > 0.0 else tag_faults(hud, image, objects, screen, panels)
         words[frame.t] = FrameWords(frozenset(tagged | explained), faults)
     return samples, words
 
@@ -202,7 +205,8 @@ def problems(
     found = Found()
     suffix = f" ({where})" if where else ""
     for run in runs:
-        wanted = [min(samples, key=lambda s: abs(s - t)) for t in run.times()] if samples else []
+        mine = [s for s in samples if run.start <= s <= run.end]
+        wanted = [min(mine, key=lambda s: abs(s - t)) for t in run.times()] if mine else []
         times = list(dict.fromkeys(wanted))
         seen = [samples[t] for t in times]
         if len(seen) < 1:

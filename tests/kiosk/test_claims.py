@@ -160,8 +160,9 @@ QUICK = [p for p in SHIPPED if p.stem in ("05-collision-16", "07-gallery")]
 
 @pytest.mark.parametrize("path", QUICK, ids=[p.stem for p in QUICK])
 def test_the_shipped_timelines_hold_their_claims_in_english(path, headless):
+    """Claims, marks and tags: all of it."""
     verdict = _verify(path, "en", (False,), headless=headless)
-    assert verdict.found.claims == []
+    assert verdict.problems == []
 
 
 @pytest.mark.slow
@@ -169,9 +170,11 @@ def test_the_shipped_timelines_hold_their_claims_in_english(path, headless):
 @pytest.mark.parametrize("language", ["en", "de"])
 @pytest.mark.parametrize("path", SHIPPED, ids=[p.stem for p in SHIPPED])
 def test_the_shipped_timelines_hold_their_claims_everywhere(path, language, reduced, headless):
-    """Every shipped timeline, in English and German, with and without reduced motion (CI)."""
+    """Every shipped timeline, in English and German, with and without reduced motion (CI):
+    every claim holds and every mark is named. Tag faults are reported by --verify; two remain
+    in reduced motion's held steps (docs/KIOSK.md), so CI holds the claims and marks."""
     verdict = _verify(path, language, (reduced,), headless=headless)
-    assert verdict.found.claims == []
+    assert verdict.found.claims + verdict.found.marks == []
 
 
 def test_a_timelines_labels_are_tagged_in_the_visitors_language(headless):
