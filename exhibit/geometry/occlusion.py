@@ -83,15 +83,23 @@ def hidden(
             ).astype(np.uint8)
             either = code[tris[:, 0]] | code[tris[:, 1]] | code[tris[:, 2]]
             near = either == 15  # both sides in x and y, no vertex behind the eye
+            if straddling(
+                vc,
+                tris[~front[tris].all(axis=1) & front[tris].any(axis=1)],
+                ct,
+                surface.positions,
+                (x, y, z),
+                tolerance,
+            ):
+                out[i] = True
+                continue
             if not near.any():
                 continue
             cand = tris[near]
-            ok = (
-                np.all(ct.clip_distances(surface.positions[cand].reshape(-1, 4)) >= 0, axis=1)
-                .reshape(-1, 3)
-                .all(axis=1)
+            # each vertex's clip distances (front plane, ...): (k, 3, planes)
+            dist = ct.clip_distances(surface.positions[cand].reshape(-1, 4)).reshape(
+                len(cand), 3, -1
             )
-            cand = cand[ok]
             ta, tb, tc = v[cand[:, 0]], v[cand[:, 1]], v[cand[:, 2]]
             e1, e2 = tb - ta, tc - ta
             det = e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0]
@@ -101,6 +109,43 @@ def hidden(
             s = (dx * e2[:, 1] - dy * e2[:, 0]) / det
             t = (e1[:, 0] * dy - e1[:, 1] * dx) / det
             covers = good & (s >= 0) & (t >= 0) & (s + t <= 1)
+            # A triangle the clip planes cut covers the point only where it is kept: its clip
+            # distances at the point (interpolated on the screen: near enough for a test that
+            # a whole surface near the sensor, cut by the tilted front plane, is in front).
+            at = dist[:, 0] + s[:, None] * (dist[:, 1] - dist[:, 0])
+            at = at + t[:, None] * (dist[:, 2] - dist[:, 0])
+            covers &= np.all(at >= 0, axis=1)
             depth = ta[:, 2] + s * e1[:, 2] + t * e2[:, 2]
             out[i] = bool(np.any(covers & (depth < z - tolerance)))
     return out
+
+
+def straddling(
+    vc: np.ndarray,
+    tris: np.ndarray,
+    ct: ClipTransform,
+    positions: np.ndarray,
+    point: tuple[float, float, float],
+    tolerance: float,
+) -> bool:
+    """Whether one of ``tris``, triangles with a vertex behind the eye (a sheet passing by the
+    sensor, drawn huge: the GPU clips it at the eye and draws the rest), covers the NDC
+    ``point`` nearer to the eye. Homogeneous rasterisation (Olano and Greer 1997): with the
+    vertices' clip coordinates (X, Y, W) as the columns of A, the point is inside where the
+    weights u = A^-1 (x, y, 1) are all >= 0; its depth is then sum(u Z) and its clip distances
+    sum(u d), each in front of the eye (sum(u W) = 1)."""
+    if not len(tris):
+        return False
+    x, y, z = point
+    corners = vc[tris]  # (k, 3, 4): X, Y, Z, W of each vertex
+    a = np.stack([corners[:, :, 0], corners[:, :, 1], corners[:, :, 3]], axis=1)  # (k, 3, 3)
+    good = np.abs(np.linalg.det(a)) > 1e-14
+    if not good.any():
+        return False
+    u = np.linalg.solve(a[good], np.broadcast_to([x, y, 1.0], (int(good.sum()), 3))[..., None])
+    u = u[..., 0]
+    inside = np.all(u >= 0, axis=1)
+    depth = np.sum(u * corners[good][:, :, 2], axis=1)
+    dist = ct.clip_distances(positions[tris[good]].reshape(-1, 4)).reshape(len(u), 3, -1)
+    kept = np.all(np.sum(u[:, :, None] * dist, axis=1) >= 0, axis=1)
+    return bool(np.any(inside & kept & (depth < z - tolerance)))

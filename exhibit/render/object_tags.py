@@ -131,8 +131,12 @@ class TagAnchors:
                 "kept": None,  # (4D point, the frame it was chosen or tested, its pixel then)
                 # points of the mesh itself (no marker): the occlusion test can be tight
                 "vertices": not markers,
+                # what may hide it: the other objects' surfaces (where one part of a surface
+                # lies behind another part of it, the pixel still shows the object)
+                "others": [s for s in gpu.mesh.surfaces if s not in surfaces],
             }
         points, rgb, vertices = entry["points"], entry["rgb"], entry["vertices"]
+        others = entry["others"]
         width, height = size
         kept = entry["kept"]
         if kept is not None:
@@ -144,7 +148,7 @@ class TagAnchors:
             still = math.hypot(x - cx, y - cy) < MOVED_PX * height / 720.0
             if on_screen and still and (self._frame - since) % self.check_frames:
                 return (float(x), float(y)), rgb, False
-            if on_screen and not hidden(point[None], gpu.mesh.surfaces, ct, vertices)[0]:
+            if on_screen and not hidden(point[None], others, ct, vertices)[0]:
                 entry["kept"] = (point, self._frame, (x, y))
                 return (float(x), float(y)), rgb, False
         pixels, ok = ct.to_pixels(points, width, height)
@@ -175,10 +179,10 @@ class TagAnchors:
             """Those candidates in front whose nearest sampled neighbours on the screen are
             in front too: inside what shows of the object, not on the edge of what hides it."""
             out = []
-            for k in np.flatnonzero(~hidden(points[candidates], gpu.mesh.surfaces, ct, vertices)):
+            for k in np.flatnonzero(~hidden(points[candidates], others, ct, vertices)):
                 d = np.hypot(*(pixels[on] - pixels[candidates[k]]).T)
                 near = on[(d > 0) & (d < reach)][:2]
-                if not len(near) or not hidden(points[near], gpu.mesh.surfaces, ct, vertices).any():
+                if not len(near) or not hidden(points[near], others, ct, vertices).any():
                     out.append(k)
             return np.array(out, dtype=int)
 

@@ -102,3 +102,31 @@ def test_the_hud_cover_is_what_the_hud_drew_over_the_picture(gl):
     assert (mask & ~changed).sum() <= 0.2 * mask.sum()  # dark halos on dark ground
     small = cover.mask(SIZE, (SIZE[0] // 3, SIZE[1] // 3))
     assert abs(small.mean() - mask.mean()) < 0.01
+
+
+def test_no_tag_points_into_the_sheet_that_passes_the_sensor(headless):
+    """01-hypersphere in reduced motion, held at distance 2 as the viewpoint moves back out:
+    the green doughnut passes by the sensor, drawn huge from triangles with a vertex behind the
+    eye, and hides the white one. The white doughnut's tag pointed into the green (the
+    occlusion test skipped those triangles); now every tag's leader ends on its own object in
+    the id pass, or the tag is left out."""
+    import dataclasses
+
+    from exhibit.resources import shipped
+    from exhibit.review.player import KioskPlayer
+    from exhibit.review.setup import base_config
+
+    size = (1280, 720)
+    path = shipped("configs", "attract", "01-hypersphere.toml")
+    config = dataclasses.replace(base_config(), reduced_motion=True)
+    with KioskPlayer(size, timeline=path, config=config, headless=headless) as player:
+        player.run_to(38.6, 5)
+        gpu, view = player.kiosk.shown
+        hud = headless.renderer.hud
+        tags = list(zip(hud.tags, hud.tag_objects))
+        image = headless.renderer.ids.image(gpu, view, size)
+        names = object_names(gpu)
+    assert tags and WHITE not in [name for _, name in tags]
+    for (words, _, (x, y), _), name in tags:
+        near = image[int(y) - 3 : int(y) + 4, int(x) - 3 : int(x) + 4]
+        assert name in {names[k - 1] for k in np.unique(near) if k}, words
