@@ -108,6 +108,9 @@ class Hud:
         self.tags: list[tuple[str, Rect, tuple[float, float], bool]] = []
         #: The object name each of ``tags`` was asked for (HudInfo.tags), in the same order.
         self.tag_objects: list[str] = []
+        #: Where each tag's dot sits on its object: the dot marks the object in its own colour,
+        #: so it is not counted as covering it (HudCover).
+        self.tag_dots: list[tuple] = []
         #: The latest key's entries (KeyEntry), in the order drawn.
         self.key: list[KeyEntry] = []
         #: The id pass's objects (exhibit.render.passes.ids.object_names) the latest key
@@ -311,7 +314,8 @@ class Hud:
         d.overlay(key_items, viewport)  # on its panel, which the glyph quads drew
         d.overlay(key_diamonds, viewport, "diamond")
         # A diamond lies inside the disc of its width: recorded as that disc.
-        self.cover = HudCover.of(title_rect, rows, items + diamonds + key_items + key_diamonds)
+        marks = [c for c in items if c[:2] not in self.tag_dots]
+        self.cover = HudCover.of(title_rect, rows, marks + diamonds + key_items + key_diamonds)
         d.ctx.disable(moderngl.BLEND)
 
     def _gizmo(

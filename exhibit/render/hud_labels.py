@@ -83,7 +83,7 @@ def object_tags(
     start of names, words in the language on screen)): words, not colour alone. The tag
     sits off the panels and, where there is room, off the picture, with a leader line to
     a point of the object that is in front (exhibit.render.object_tags)."""
-    hud.tags, hud.tag_objects = [], []
+    hud.tags, hud.tag_objects, hud.tag_dots = [], [], []
     if not tags:
         return []
     width, height = size
@@ -121,8 +121,9 @@ def object_tags(
         items.append(((x, y), (nx, ny), HALO, max(4.0, 5.0 * scale)))
         items.append(((x, y), (nx, ny), color, max(2.0, 2.2 * scale)))
         dot = max(7.0, 8.0 * scale)
-        items.append(((x, y), (x, y), HALO, dot + max(4.0, 4.0 * scale)))
-        items.append(((x, y), (x, y), color, dot))
+        ring = ((x, y), (x, y), HALO, dot + max(4.0, 4.0 * scale))
+        items += [ring, ((x, y), (x, y), color, dot)]
+        hud.tag_dots.append(ring[:2])
         if covered:
             items.append(((x, y), (x, y), HALO, 0.5 * dot))
         hud._halo_text(

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from exhibit.geometry.occlusion import hidden
+from exhibit.geometry.rims import on_rim
 from exhibit.render.gpu import GpuMesh, surface_sample
 from exhibit.render.layout import Rect
 from exhibit.timelines.object_names import stands_for
@@ -119,14 +120,24 @@ class TagAnchors:
         entry = gpu.tag_anchors.get(name)
         if entry is None:
             surfaces, curves, markers = _parts(gpu.mesh, name)
-            arrays = [s.positions for s in surfaces] + [c.points for c in curves]
-            arrays += [m.position[None] for m in markers]
-            arrays = [a for a in arrays if len(a)]
+            sheets = [s for s in surfaces if len(s.positions)]
+            lines = [c.points for c in curves if len(c.points)] + [
+                m.position[None] for m in markers
+            ]
+            arrays = [s.positions for s in sheets] + lines
             if not arrays:
                 return None
             first = (surfaces or curves or markers)[0]
+            # which of ``sheets`` each point is a vertex of (-1: a curve's or marker's), which
+            step = max(1, sum(len(a) for a in arrays) // SAMPLE)
+            part = [np.full(len(s.positions), k) for k, s in enumerate(sheets)]
+            part += [np.full(len(a), -1) for a in lines]
+            index = [np.arange(len(a)) for a in arrays]
             entry = gpu.tag_anchors[name] = {
                 "points": _sample(np.concatenate(arrays), SAMPLE),
+                "part": np.concatenate(part)[::step],
+                "index": np.concatenate(index)[::step],
+                "surfaces": sheets,
                 "rgb": tuple(float(c) for c in first.material.color),
                 "kept": None,  # (4D point, the frame it was chosen or tested, its pixel then)
                 # points of the mesh itself (no marker): the occlusion test can be tight
@@ -175,11 +186,23 @@ class TagAnchors:
         order = order[int(RIM * len(order)) :] if len(order) > 4 else order
         reach = NEIGHBOURS_PX * height / 720.0
 
+        part, index, own = entry["part"], entry["index"], entry["surfaces"]
+
+        def rim(k: int) -> bool:
+            """A surface's vertex where it turns away from the eye (geometry.rims)."""
+            if part[k] < 0:
+                return False
+            surface = own[part[k]]
+            return bool(on_rim(surface.positions, surface.triangles, index[k : k + 1], ct)[0])
+
         def in_front(candidates: np.ndarray) -> np.ndarray:
-            """Those candidates in front whose nearest sampled neighbours on the screen are
-            in front too: inside what shows of the object, not on the edge of what hides it."""
+            """Those candidates in front, off their object's rims, whose nearest sampled
+            neighbours on the screen are in front too: inside what shows of the object, not
+            on the edge of what hides it."""
             out = []
             for k in np.flatnonzero(~hidden(points[candidates], others, ct, vertices)):
+                if rim(candidates[k]):
+                    continue
                 d = np.hypot(*(pixels[on] - pixels[candidates[k]]).T)
                 near = on[(d > 0) & (d < reach)][:2]
                 if not len(near) or not hidden(points[near], others, ct, vertices).any():
