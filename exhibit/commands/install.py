@@ -43,6 +43,9 @@ USER = "exhibit"
 HOME = "/var/lib/exhibit"
 #: exhibit.service's CacheDirectory=, made for USER before `exhibit prepare` fills it
 CACHE_ROOT = "/var/cache/exhibit"
+#: Run by the venv's Python as USER: makes the speech cache's secret key in the state folder
+#: (mode 0600) when there is none; exits 1 naming a key file it refuses.
+SPEECH_KEY_MODULE = "exhibit.narration.make_cache_key"
 #: exhibit.service's EnvironmentFile=, relative to the root
 SITE_ENVIRONMENT = "etc/exhibit/environment"
 #: the most the site's environment file may hold (a FIFO or a device there is refused)
@@ -296,10 +299,13 @@ def steps(
 ) -> list[list[str]]:
     """The commands that finish an installation on the target, in order: first the groups of
     the unit's SupplementaryGroups= the machine lacks (as systemd-sysusers would make them: a
-    minimal Debian without udev's rules has no `render`), the user; the last ones build the
-    mesh cache with ``site_env`` (the site's /etc/exhibit/environment) over the unit's
-    (``prepare`` False: not, for an update that built it)."""
+    minimal Debian without udev's rules has no `render`), the user; the last ones make the state
+    folder and the speech cache's secret key in it (as the user, mode 0600, kept when there is
+    one) and build the mesh cache, with ``site_env`` (the site's /etc/exhibit/environment) over
+    the unit's (``prepare`` False: not, for an update that built it; a kiosk without a key
+    makes one at its first narration)."""
     unit = render((source / "exhibit.service").read_text(encoding="utf-8"), prefix)
+    env = service_environment(unit, site_env)
     commands: list[list[str]] = [["groupadd", "--system", group] for group in missing_groups]
     if need_user:
         commands.append(
@@ -333,9 +339,11 @@ def steps(
         ["systemctl", "enable", *ENABLE],
     ]
     if prepare:
-        commands += prepare_steps(
-            f"{prefix}/.venv/bin/exhibit", service_environment(unit, site_env)
-        )
+        commands += [
+            ["install", "-d", "-o", USER, "-g", USER, "-m", "0755", HOME],
+            as_service(f"{prefix}/.venv/bin/python", ["-I", "-m", SPEECH_KEY_MODULE], env),
+            *prepare_steps(f"{prefix}/.venv/bin/exhibit", env),
+        ]
     return commands
 
 

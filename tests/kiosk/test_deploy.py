@@ -612,6 +612,8 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
         ["udevadm", "trigger"],
         ["systemctl", "daemon-reload"],
         ["systemctl", "enable"],
+        ["install", "-d"],  # the state folder
+        ["runuser", "-u"],  # the speech cache's key in it
         ["install", "-d"],
         ["chown", "-R"],
         ["runuser", "-u"],
