@@ -4,7 +4,8 @@ A timeline names its recordings; the name may be a symlink out of the tree, a FI
 hang the kiosk), /dev/zero (never ends), a 4 GB export, or a file that only says it is a WAV.
 Each is refused with "FILE: why", and a good file in any rate and channel count the decoder
 accepts is converted to the exhibit's format. A recording that is silent is refused too: a
-visitor who pressed "listen" and hears nothing has been failed quietly.
+visitor who pressed "listen" and hears nothing has been failed quietly. What is accepted is
+brought to narration's loudness (exhibit.narration.loudness), as synthesised speech is.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
+from exhibit.narration import loudness
 from exhibit.narration.errors import NarrationError
 from exhibit.narration.sound import Sound, read_wav_bytes
 from exhibit.schema import files
@@ -35,7 +37,24 @@ def _inside(path: Path, root: Path) -> bool:
 
 def load_recording(path: Path, root: Path) -> Sound:
     """The recording at ``path``, which must lie under ``root`` once symbolic links are
-    resolved, as a Sound. NarrationError "PATH: why" otherwise."""
+    resolved, as a Sound at narration's loudness (exhibit.narration.loudness.normalise).
+    NarrationError "PATH: why" otherwise."""
+    return loudness.normalise(_read(path, root))
+
+
+def level_note(path: Path, root: Path) -> str | None:
+    """A warning line naming the recording at ``path`` when, as recorded, it is far off
+    narration's loudness (exhibit.narration.loudness.far_off); None when it is near, or when it
+    cannot be read (that is reported by :func:`load_recording`)."""
+    try:
+        sound = _read(path, root)
+    except NarrationError:
+        return None
+    return loudness.far_off(os.fspath(path), loudness.measure(sound))
+
+
+def _read(path: Path, root: Path) -> Sound:
+    """The recording at ``path``, checked and converted, as recorded (not yet normalised)."""
     shown = os.fspath(path)
     try:
         real_root = Path(root).resolve(strict=True)

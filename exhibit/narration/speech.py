@@ -13,7 +13,8 @@ begins with "-" is not an option), the WAV comes back on stdout, with a cap on i
 process group of its own that is killed when the call ends or the exhibit does
 (exhibit.tools). Its time is a :class:`SpeechBudget`: each call at most
 exhibit.tools.ESPEAK_CALL_S, a command's calls together at most SPEECH_TOTAL_S, and once the
-engine has hung every later call of the same run fails at once with the same reason.
+engine has hung every later call of the same run fails at once with the same reason. What it
+says is brought to narration's loudness (exhibit.narration.loudness), as a recording is.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ import time
 from dataclasses import dataclass
 
 from exhibit import tools
+from exhibit.narration import loudness
 from exhibit.narration.errors import NarrationError
 from exhibit.narration.sound import Sound, read_wav_bytes
 
@@ -171,13 +173,20 @@ def _version(binary: str, budget: SpeechBudget | None = None) -> str:
     return _versions[binary]
 
 
+#: How synthesised speech is made after espeak-ng: its loudness target and true-peak ceiling
+#: (exhibit.narration.loudness). Part of :func:`engine_version`, so speech cached at another
+#: level (or before it was measured at all) misses and is made again.
+PROCESSING = f"bs1770 {loudness.TARGET_LUFS:g} LUFS {loudness.CEILING_DBTP:g} dBTP"
+
+
 def engine_version(budget: SpeechBudget | None = None) -> str:
-    """espeak-ng's version ("1.51"); part of the speech cache's key. ``budget``: the run's
+    """What makes the speech, by version: espeak-ng's ("1.51") and :data:`PROCESSING`
+    ("1.51; bs1770 -23 LUFS -1 dBTP"); part of the speech cache's key. ``budget``: the run's
     (default: one call's limit)."""
     binary = _binary()
     if binary is None:
         raise NarrationError(f"{ENGINE} is not installed: {INSTALL_HINT}")
-    return _version(binary, budget)
+    return f"{_version(binary, budget)}; {PROCESSING}"
 
 
 def _env() -> dict[str, str]:
@@ -259,4 +268,4 @@ def synthesise(
     if done.code != 0 or not done.out:
         why = " ".join(tools.text(done.err).split())[:200] or f"exit status {done.code}"
         raise NarrationError(f"{ENGINE} failed to speak {shown}: {why}")
-    return read_wav_bytes(done.out, f"{ENGINE} output for {shown}")
+    return loudness.normalise(read_wav_bytes(done.out, f"{ENGINE} output for {shown}"))
