@@ -142,6 +142,13 @@ def _narration(config) -> tuple[list[str], list[str]]:
                 f"{where} takes {p.seconds:.1f} s, its caption is shown {p.segment.window:.1f} s: "
                 f"held {p.overrun:.1f} s longer while narration is on"
             )
+        if p.error is None and p.segment.recording is not None:  # far off the loudness target
+            from pathlib import Path
+
+            from exhibit.narration.recordings import level_note
+
+            note = level_note(Path(p.segment.recording), Path(p.segment.root or "."))
+            notes += [note] if note else []
     return report_lines(failures), notes
 
 
