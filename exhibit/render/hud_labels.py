@@ -98,6 +98,7 @@ def object_tags(
     # What a new tag's leader must not run through, and the leaders it must not lie on.
     solid = list(layout.panels) + [rect for _, rect, _, _ in hud.labels]
     segments: list[Segment] = []
+    lines = np.zeros((0, 2))  # the named curves' points: words would hide a thin line
     for name, words in tags:
         avoid = [p for other, p in ends if other != name]
         anchor = hud.anchors.anchor(gpu, name, ct, size, taken, avoid, TAGS_APART * scale)
@@ -106,11 +107,19 @@ def object_tags(
         (x, y), rgb, covered = anchor
         ends.append((name, (x, y)))
         color = (*legible(rgb), 1.0)
+        lines = np.concatenate([lines, hud.anchors.line_points(gpu, name, ct, size)])
 
-        def clear(rect: Rect, point: tuple[float, float] = (x, y)) -> bool:
+        def clear(
+            rect: Rect, point: tuple[float, float] = (x, y), named: np.ndarray = lines
+        ) -> bool:
             line = leader(point, rect)
-            return not any(crosses(s, rect) for s in segments) and not any(
-                crosses(line, t) for t in solid
+            off = rect.grow(0.2 * body)
+            on_line = (named[:, 0] >= off.x0) & (named[:, 0] <= off.x1)
+            on_line &= (named[:, 1] >= off.y0) & (named[:, 1] <= off.y1)
+            return (
+                not on_line.any()
+                and not any(crosses(s, rect) for s in segments)
+                and not any(crosses(line, t) for t in solid)
             )
 
         label = place_beside(words, (x, y), body, layout, taken, picture, clear)

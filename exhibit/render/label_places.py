@@ -56,7 +56,7 @@ def place_label(
     x, y = point
     screen = Rect(layout.margin, layout.margin, width - layout.margin, height - layout.margin)
     candidates = []
-    for d in (0.6, 2.0, 4.0, 7.0):
+    for d in (0.6, 2.0, 4.0, 7.0, 11.0):
         gap = d * px
         candidates += [
             (x + gap, y - h - 0.3 * gap),
@@ -71,18 +71,21 @@ def place_label(
         free = screen.contains(rect) and not any(rect.overlaps(t) for t in taken)
         if free and (clear is None or clear(rect)):
             return rect
-    # Everything near is taken: the nearest spot of the largest free rectangles.
-    best, best_d = None, math.inf
+    # Everything near is taken: the nearest spot of the largest free rectangles (one that is
+    # ``clear`` where there is one).
+    spots = []
     for area in free_rectangles(layout.size, taken, layout.margin / 2):
         if area.width < w or area.height < h:
             continue
         cx = min(max(x - w / 2, area.x0), area.x1 - w)
         cy = min(max(y - h / 2, area.y0), area.y1 - h)
-        d = math.hypot(cx + w / 2 - x, cy + h / 2 - y)
-        if d < best_d:
-            best, best_d = Rect(cx, cy, cx + w, cy + h), d
-    if best is not None:
-        return best
+        spots.append((math.hypot(cx + w / 2 - x, cy + h / 2 - y), Rect(cx, cy, cx + w, cy + h)))
+    spots.sort(key=lambda spot: spot[0])
+    for _, rect in spots:
+        if clear is None or clear(rect):
+            return rect
+    if spots:
+        return spots[0][1]
     cx = min(max(x, screen.x0), screen.x1 - w)
     cy = min(max(y, screen.y0), screen.y1 - h)
     return Rect(cx, cy, cx + w, cy + h)

@@ -91,6 +91,18 @@ class TagAnchors:
         self.check_frames = CHECK_FRAMES
         self._last_ct: ClipTransform | None = None
 
+    def line_points(
+        self, gpu: GpuMesh, name: str, ct: ClipTransform, size: tuple[int, int]
+    ) -> np.ndarray:
+        """(n, 2) pixels of the sampled points of the curves ``name`` stands for (after its
+        anchor was asked for): thin lines a tag's words would hide, so they keep off them."""
+        entry = gpu.tag_anchors.get(name)
+        if entry is None:
+            return np.zeros((0, 2))
+        lines = entry["points"][entry["part"] < 0]
+        pixels, ok = ct.to_pixels(lines, *size)
+        return pixels[ok]
+
     def pace(self, fps: float) -> None:
         """Frames drawn ``fps`` a second: check kept anchors every CHECK_S seconds (a review
         at 5 fps checks every frame, as the kiosk does within a quarter second)."""

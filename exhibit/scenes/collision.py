@@ -105,19 +105,25 @@ def cylinder_at_rest(params: dict, length: float) -> list[Curve]:
     """The cylinder at t = 0 as a green wire mesh: circles along x and lines along its side."""
     rc = params["rc"]
     wire = Material(color=WIRE_COLOR, style="wire", line_width=1.5)
-    curves = []
+    curves: list[Curve] = []
+
+    def piece() -> str:
+        """One object, the wire pipe, in pieces: "wire pipe", "wire pipe 2", ... (a tag or a
+        claim names it once, exhibit.timelines.object_names)."""
+        return "wire pipe" if not curves else f"wire pipe {len(curves) + 1}"
+
     phi = np.linspace(0, 2 * math.pi, 48, endpoint=False)
-    for i, x in enumerate(np.linspace(-length, length, 7)):
+    for x in np.linspace(-length, length, 7):
         ring = np.stack([np.full_like(phi, x), rc * np.cos(phi), rc * np.sin(phi), 0 * phi], -1)
-        curves.append(Curve(f"cylinder ring {i + 1}", ring, wire, closed=True))
-    for i, angle in enumerate(np.linspace(0, 2 * math.pi, 12, endpoint=False)):
+        curves.append(Curve(piece(), ring, wire, closed=True))
+    for angle in np.linspace(0, 2 * math.pi, 12, endpoint=False):
         line = np.array(
             [
                 [-length, rc * math.cos(angle), rc * math.sin(angle), 0.0],
                 [length, rc * math.cos(angle), rc * math.sin(angle), 0.0],
             ]
         )
-        curves.append(Curve(f"cylinder line {i + 1}", line, wire))
+        curves.append(Curve(piece(), line, wire))
     return curves
 
 
@@ -335,15 +341,14 @@ SCENE = Scene(
             (17, FIGURE_PARAMS[17], "A larger sphere: one piece with a hole."),
         )
     ),
-    # the wire cylinder is two objects in pieces, "cylinder ring 1".."7" and "cylinder line
-    # 1".."12"; the silhouette's pieces and its touching branches, "NAME (touching)", as
+    # the wire cylinder is one object in pieces, "wire pipe" .. "wire pipe 19" (7 rings, then 12
+    # lines); the silhouette's pieces and its touching branches, "NAME (touching)", as
     # exhibit.scenes.implicit_scene.fixed_silhouette names them
     objects=(
         "collision surface",
         "silhouette along x and y",
         "silhouette along x and y (touching)",
-        "cylinder ring",
-        "cylinder line",
+        "wire pipe",
         "initial colliding point",
     ),
     axes=AXES,

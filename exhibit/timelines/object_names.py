@@ -4,8 +4,8 @@ scene: the one rule, used by the tags on screen (exhibit.render.object_tags), th
 
 A name stands for the object of exactly that name, and for its pieces: a traced curve drawn in
 pieces is named "NAME", "NAME 2", "NAME 3", ... (a space and a whole number written in 0-9,
-e.g. "silhouette along x and y 7"; the wire cylinder's "cylinder ring 1" .. "cylinder ring 7"
-are pieces of "cylinder ring"). Nothing else: "torus" is no torus, so a name that is a mistake
+e.g. "silhouette along x and y 7"; the wire cylinder's "wire pipe 2" .. "wire pipe 19" are
+pieces of "wire pipe"). Nothing else: "torus" is no torus, so a name that is a mistake
 finds nothing rather than the wrong objects, and check-config says so.
 
 A scene lists its objects' names (exhibit.scenes.base.Scene.objects, with the marks the
