@@ -156,7 +156,7 @@ LINKED = [
         "attract/01-hypersphere.toml",
         'caption = "Closer still."',
         'caption = "Closer still."\nease = "bounce"',
-        "keyframe[4].ease",
+        "keyframe[5].ease",
         "'smooth', 'linear' or 'hold'",
     ),
     (
