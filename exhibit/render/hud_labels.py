@@ -12,6 +12,7 @@ import numpy as np
 
 from exhibit.geometry.occlusion import hidden
 from exhibit.render.hud_key import marker_diamond
+from exhibit.render.inset import inset_rect
 from exhibit.render.label_places import marker_text, place_beside
 from exhibit.render.layout import HudLayout, Rect
 from exhibit.render.leaders import Segment, crosses, leader
@@ -49,7 +50,7 @@ def marker_labels(
     behind = hidden(positions, gpu.mesh.surfaces, ct)
     body = layout.body_px
     scale = height / 720.0
-    taken = [p.grow(0.3 * body) for p in layout.panels]
+    taken = [p.grow(0.3 * body) for p in boxes(view, size, layout)]
     items: list[tuple] = []
     for m, (x, y), visible, covered in zip(markers, pixels, ok, behind):
         if not visible:
@@ -90,13 +91,13 @@ def object_tags(
     ct = hud.pipeline.clip_transform(view, size)
     body = layout.body_px
     scale = height / 720.0
-    taken = [p.grow(0.3 * body) for p in layout.panels] + [
+    taken = [p.grow(0.3 * body) for p in boxes(view, size, layout)] + [
         rect.grow(0.3 * body) for _, rect, _, _ in hud.labels
     ]
     items: list[tuple] = []
     ends: list[tuple[str, tuple[float, float]]] = []
     # What a new tag's leader must not run through, and the leaders it must not lie on.
-    solid = list(layout.panels) + [rect for _, rect, _, _ in hud.labels]
+    solid = boxes(view, size, layout) + [rect for _, rect, _, _ in hud.labels]
     segments: list[Segment] = []
     lines = np.zeros((0, 2))  # the named curves' points: words would hide a thin line
     for name, words in tags:
@@ -141,3 +142,12 @@ def object_tags(
         hud.tags.append((words, label, (float(x), float(y)), bool(covered)))
         hud.tag_objects.append(name)
     return items
+
+
+def boxes(view, size: tuple[int, int], layout: HudLayout) -> list[Rect]:
+    """What labels keep off: the panels, and with a slice the inset of the 3D world at that
+    moment in the bottom-right corner (exhibit.render.inset)."""
+    out = list(layout.panels)
+    if view.slice_axis is not None:
+        out.append(inset_rect(size, layout.margin))
+    return out

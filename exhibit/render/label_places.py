@@ -56,7 +56,7 @@ def place_label(
     x, y = point
     screen = Rect(layout.margin, layout.margin, width - layout.margin, height - layout.margin)
     candidates = []
-    for d in (0.6, 2.0, 4.0, 7.0, 11.0):
+    for d in (0.6, 2.0, 4.0, 7.0):
         gap = d * px
         candidates += [
             (x + gap, y - h - 0.3 * gap),
