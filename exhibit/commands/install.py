@@ -341,6 +341,9 @@ def steps(
     if prepare:
         commands += [
             ["install", "-d", "-o", USER, "-g", USER, "-m", "0755", HOME],
+            # a check-config or an update run as root before the user existed may have made
+            # the key there as root: the service's user could not read it
+            ["chown", "-R", f"{USER}:{USER}", HOME],
             as_service(f"{prefix}/.venv/bin/python", ["-I", "-m", SPEECH_KEY_MODULE], env),
             *prepare_steps(f"{prefix}/.venv/bin/exhibit", env),
         ]

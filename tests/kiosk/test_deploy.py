@@ -613,6 +613,7 @@ def test_perform_runs_the_steps_in_order(tmp_path, prefix):
         ["systemctl", "daemon-reload"],
         ["systemctl", "enable"],
         ["install", "-d"],  # the state folder
+        ["chown", "-R"],  # ... the user's, whatever root made there before it existed
         ["runuser", "-u"],  # the speech cache's key in it
         ["install", "-d"],
         ["chown", "-R"],
