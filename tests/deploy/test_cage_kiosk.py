@@ -667,7 +667,7 @@ def test_the_kiosk_starts_on_cage_and_reports_ready(kiosk_on_cage):
     assert seen["cage_alive"], seen["cage_log"][-2000:]
     assert seen["t_ready"] < 45
     status = [m for m in seen["messages"] if m.startswith("STATUS=")]
-    assert status and " fps, attract, hopf; " in status[0]
+    assert status and " fps, attract, hopf" in status[0]  # ", preparing ..." may follow
     # Natively on Wayland: cage starts Xwayland only for an X client, and none came.
     assert "cannot start GLFW" not in seen["log"]
     assert "cage" in seen["running"] and "Xwayland" not in seen["running"], seen["running"]
