@@ -70,6 +70,8 @@ def hidden(
         depths = v[front, 2]
         spread = float(np.ptp(depths)) if len(depths) else 0.0
         tolerance = min(DEPTH_TOLERANCE, VERTEX_SHARE * spread) if vertices else DEPTH_TOLERANCE
+        # triangles with a vertex behind the eye and one in front: tested apart (straddling)
+        across = tris[~front[tris].all(axis=1) & front[tris].any(axis=1)]
         for i in np.flatnonzero(valid & ~out):
             x, y, z = p[i]
             # Vertex-level sides first (cheap): a triangle can cover the point only if its
@@ -83,14 +85,7 @@ def hidden(
             ).astype(np.uint8)
             either = code[tris[:, 0]] | code[tris[:, 1]] | code[tris[:, 2]]
             near = either == 15  # both sides in x and y, no vertex behind the eye
-            if straddling(
-                vc,
-                tris[~front[tris].all(axis=1) & front[tris].any(axis=1)],
-                ct,
-                surface.positions,
-                (x, y, z),
-                tolerance,
-            ):
+            if straddling(vc, across, ct, surface.positions, (x, y, z), tolerance):
                 out[i] = True
                 continue
             if not near.any():
